@@ -1,0 +1,1 @@
+//! Planar Euler–Bernoulli finite-element beam (filled by issue 4).

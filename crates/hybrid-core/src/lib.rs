@@ -1,0 +1,1 @@
+//! Coupled beam + mechanism + generator (filled by issue 5).

@@ -1,0 +1,3 @@
+//! Symbolic multibody modelling of rigid tree mechanisms.
+
+pub mod model;
