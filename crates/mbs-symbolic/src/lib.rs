@@ -1,3 +1,11 @@
 //! Symbolic multibody modelling of rigid tree mechanisms.
 
+pub mod constraints;
+pub mod dynamics;
+pub mod emit;
+pub mod expr;
+pub mod interp;
 pub mod model;
+pub mod numeric;
+pub mod runtime;
+pub mod samples;

@@ -192,11 +192,16 @@ impl Scalar {
 pub struct Parameter {
     /// Name as written in the model file.
     pub name: String,
-    /// Default value (parameter expressions are evaluated when the model is loaded).
+    /// Default value. For a derived parameter, the value of its expression at the defaults
+    /// (for display only: fields that use it hold its expression).
     pub value: f64,
     /// `true`: kept as a run-time field of the generated code (changing it needs no
     /// regeneration). `false`: folded into the equations at generation time.
     pub runtime: bool,
+    /// `true` when the value was written as an expression of earlier parameters: every
+    /// reference to it is replaced by that expression, so it follows the parameters it uses
+    /// and cannot be set on its own.
+    pub derived: bool,
 }
 
 /// One joint: the connection of a body to its parent.

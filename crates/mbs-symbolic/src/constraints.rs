@@ -1,0 +1,159 @@
+//! Point kinematics ("sensors") and constraints `h(q) = 0` (eqs. 14–16 and 45–50).
+//!
+//! For a point fixed on a body, the position `p(q) = x_Oi + T^i r` comes from the forward
+//! recursion (eq. 1). Its velocity `v = J q'` is the derivative of `p` along `q'`; the
+//! Jacobian `J = dp/dq` is read off `v` as `dv/dq'` (eq. 49), and the bias
+//! `A = d(J q')/dq q'` (eq. 50) is the derivative of `v` along `q'` with `q'` held fixed —
+//! all symbolic, on the same DAG as the dynamics, so the trigonometric leaves and the
+//! rotation products are shared.
+//!
+//! Constraint rows are stacked in declaration order (eq. 14); `J = dh/dq` (eq. 15) and
+//! `A = J' q'` (eq. 16) follow the same rows and signs.
+
+use crate::dynamics::Symbolic;
+use crate::dynamics::vec3::V3;
+use crate::expr::{Id, Var};
+use crate::model::{Constraint, JointKind, Model};
+
+/// Symbolic kinematics of one named point.
+#[derive(Clone, Debug)]
+pub struct PointExprs {
+    /// The point's name.
+    pub name: String,
+    /// Position in the ground frame.
+    pub p: V3,
+    /// Jacobian `dp/dq`, 3 rows of `n`.
+    pub j: [Vec<Id>; 3],
+    /// Bias `J' q'`.
+    pub a: V3,
+}
+
+/// Symbolic constraint quantities.
+#[derive(Clone, Debug, Default)]
+pub struct ConstraintExprs {
+    /// Row names: `"<constraint>.<component>"` (`.x`, `.y`, `.z`) or the constraint name for
+    /// an angle closure.
+    pub names: Vec<String>,
+    /// `h(q)` (eq. 14).
+    pub h: Vec<Id>,
+    /// `J = dh/dq`, one row of `n` per constraint row (eq. 15).
+    pub j: Vec<Vec<Id>>,
+    /// `A = J' q'` (eq. 16).
+    pub a: Vec<Id>,
+}
+
+/// Given position-level expressions, returns (Jacobian rows, bias).
+fn jacobian_and_bias(sym: &mut Symbolic, pos: &[Id]) -> (Vec<Vec<Id>>, Vec<Id>) {
+    let n = sym.n;
+    let vel = sym.dag.velocity_derivative_many(pos);
+    let bias = sym.dag.velocity_derivative_many(&vel);
+    let mut rows = vec![Vec::with_capacity(n); pos.len()];
+    for j in 0..n {
+        let col = sym.dag.diff_many(&vel, Var::Qd(j as u32));
+        for (r, c) in rows.iter_mut().zip(col) {
+            r.push(c);
+        }
+    }
+    (rows, bias)
+}
+
+/// Point kinematics of every named point of the model, in declaration order.
+pub fn points(model: &Model, sym: &mut Symbolic) -> Vec<PointExprs> {
+    model
+        .points
+        .iter()
+        .map(|pt| {
+            let r = [0, 1, 2].map(|c| sym.dag.scalar(&pt.position[c], &model.parameters));
+            let p = sym.point_position(pt.body, r);
+            let (j, a) = jacobian_and_bias(sym, &p);
+            let [j0, j1, j2]: [Vec<Id>; 3] = j.try_into().unwrap_or_else(|_| unreachable!());
+            PointExprs {
+                name: pt.name.clone(),
+                p,
+                j: [j0, j1, j2],
+                a: [a[0], a[1], a[2]],
+            }
+        })
+        .collect()
+}
+
+/// Path of bodies from `body` up to the root (inclusive of `body`, exclusive of ground).
+fn chain_to_root(model: &Model, mut body: Option<usize>) -> Vec<usize> {
+    let mut out = vec![];
+    while let Some(b) = body {
+        out.push(b);
+        body = model.bodies[b].parent;
+    }
+    out
+}
+
+/// The constraint rows of the model.
+pub fn constraints(model: &Model, sym: &mut Symbolic) -> ConstraintExprs {
+    let mut out = ConstraintExprs::default();
+    let point_pos = |sym: &mut Symbolic, k: usize| {
+        let pt = &model.points[k];
+        let r = [0, 1, 2].map(|c| sym.dag.scalar(&pt.position[c], &model.parameters));
+        sym.point_position(pt.body, r)
+    };
+    for c in &model.constraints {
+        match c {
+            Constraint::Loop {
+                name,
+                a,
+                b,
+                components,
+            } => {
+                let pa = point_pos(sym, *a);
+                let pb = point_pos(sym, *b);
+                for ax in components {
+                    let k = ax.index();
+                    out.h.push(sym.dag.sub(pb[k], pa[k]));
+                    out.names.push(format!("{name}.{ax}"));
+                }
+            }
+            Constraint::Fixed {
+                name,
+                point,
+                position,
+                components,
+            } => {
+                let p = point_pos(sym, *point);
+                for ax in components {
+                    let k = ax.index();
+                    let target = sym.dag.scalar(&position[k], &model.parameters);
+                    out.h.push(sym.dag.sub(p[k], target));
+                    out.names.push(format!("{name}.{ax}"));
+                }
+            }
+            Constraint::Angle {
+                name, a, b, offset, ..
+            } => {
+                // Angle of b relative to a = sum of the revolute coordinates from the common
+                // ancestor down to b minus those down to a (validated: all about `axis`).
+                let pa = chain_to_root(model, *a);
+                let pb = chain_to_root(model, *b);
+                let mut h = sym.dag.zero();
+                for &k in pb.iter().filter(|k| !pa.contains(k)) {
+                    if model.bodies[k].joint.kind == JointKind::Revolute {
+                        let q = sym.dag.q(k);
+                        h = sym.dag.add(h, q);
+                    }
+                }
+                for &k in pa.iter().filter(|k| !pb.contains(k)) {
+                    if model.bodies[k].joint.kind == JointKind::Revolute {
+                        let q = sym.dag.q(k);
+                        h = sym.dag.sub(h, q);
+                    }
+                }
+                let off = sym.dag.scalar(offset, &model.parameters);
+                out.h.push(sym.dag.sub(h, off));
+                out.names.push(name.clone());
+            }
+        }
+    }
+    let h = out.h.clone();
+    let (j, a) = jacobian_and_bias(sym, &h);
+    out.j = j;
+    out.a = a;
+    out
+}

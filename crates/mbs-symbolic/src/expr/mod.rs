@@ -1,0 +1,809 @@
+//! The expression DAG: a hash-consed arena of scalar expressions.
+//!
+//! Nodes live in one flat vector addressed by [`Id`]; a node's children always have smaller
+//! ids than the node (children before parents), so evaluating the arena in order evaluates
+//! every node after its operands. Building a node that already exists returns the existing
+//! id (hash-consing), so shared subexpressions stay shared and nothing is ever expanded: the
+//! recursive Newton–Euler formulation (eqs. 1–13) becomes a DAG whose size grows with the
+//! recursion, not with the expanded closed form.
+//!
+//! Leaves are constants, named run-time parameters, joint coordinates `q_i`, velocities `q'_i`,
+//! accelerations `q''_i` and time. Sines and cosines of joint angles (and of sums of angles of
+//! consecutive parallel revolute joints) are function nodes of a coordinate expression: this
+//! is ROBOTRAN's trigonometric substitution, each evaluated once and then reused.
+//!
+//! Construction folds constants and eliminates `0` and `±1` (`x + 0 = x`, `x * 1 = x`,
+//! `x * 0 = 0`, `-(-x) = x`, `c1 * (c2 * x) = (c1 c2) * x`, ...), and orders the operands of
+//! commutative operations by id so that `a + b` and `b + a` are the same node.
+//!
+//! Submodules: [`diff`] (symbolic differentiation, time derivatives along the motion),
+//! [`eval`] (the interpreter), [`count`] (operation counts), and s-expression display.
+
+use std::collections::HashMap;
+use std::fmt;
+
+pub mod count;
+pub mod diff;
+pub mod eval;
+
+pub use count::OpCount;
+pub use eval::{EvalInput, Tape};
+
+/// Index of a node in a [`Dag`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Id(pub u32);
+
+impl Id {
+    /// The node index as `usize`.
+    pub fn index(self) -> usize {
+        self.0 as usize
+    }
+}
+
+/// A unary function node.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Fun {
+    /// `sin`
+    Sin,
+    /// `cos`
+    Cos,
+    /// `tan`
+    Tan,
+    /// `sqrt`
+    Sqrt,
+    /// `exp`
+    Exp,
+    /// `ln`
+    Ln,
+    /// `abs`
+    Abs,
+}
+
+impl Fun {
+    /// Applies the function to a number.
+    pub fn apply(self, x: f64) -> f64 {
+        match self {
+            Fun::Sin => x.sin(),
+            Fun::Cos => x.cos(),
+            Fun::Tan => x.tan(),
+            Fun::Sqrt => x.sqrt(),
+            Fun::Exp => x.exp(),
+            Fun::Ln => x.ln(),
+            Fun::Abs => x.abs(),
+        }
+    }
+
+    /// The function's name (also its name as an `f64` method in Rust).
+    pub fn name(self) -> &'static str {
+        match self {
+            Fun::Sin => "sin",
+            Fun::Cos => "cos",
+            Fun::Tan => "tan",
+            Fun::Sqrt => "sqrt",
+            Fun::Exp => "exp",
+            Fun::Ln => "ln",
+            Fun::Abs => "abs",
+        }
+    }
+
+    fn from_model(f: crate::model::Func) -> Fun {
+        use crate::model::Func as F;
+        match f {
+            F::Sin => Fun::Sin,
+            F::Cos => Fun::Cos,
+            F::Tan => Fun::Tan,
+            F::Sqrt => Fun::Sqrt,
+            F::Exp => Fun::Exp,
+            F::Ln => Fun::Ln,
+            F::Abs => Fun::Abs,
+        }
+    }
+}
+
+/// A variable (leaf) of the DAG.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Var {
+    /// Joint coordinate `q_i`.
+    Q(u32),
+    /// Joint velocity `q'_i`.
+    Qd(u32),
+    /// Joint acceleration `q''_i`.
+    Qdd(u32),
+    /// Time `t`.
+    Time,
+    /// Run-time parameter number `k` (index into the model's parameter list).
+    Param(u32),
+}
+
+/// One node of the DAG.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Node {
+    /// A constant; stored as the bits of a finite `f64` (`-0.0` is normalised to `0.0`).
+    Const(u64),
+    /// A leaf variable.
+    Var(Var),
+    /// `-a`
+    Neg(Id),
+    /// `a + b`, operands ordered by id.
+    Add(Id, Id),
+    /// `a - b`
+    Sub(Id, Id),
+    /// `a * b`, operands ordered by id.
+    Mul(Id, Id),
+    /// `a / b`
+    Div(Id, Id),
+    /// `a ^ b` for a non-integer or non-constant exponent (`f64::powf`).
+    Pow(Id, Id),
+    /// `f(a)`
+    Fun(Fun, Id),
+}
+
+impl Node {
+    /// The node's operands (zero, one or two ids).
+    pub fn children(&self) -> impl Iterator<Item = Id> {
+        let (a, b) = match *self {
+            Node::Const(_) | Node::Var(_) => (None, None),
+            Node::Neg(a) | Node::Fun(_, a) => (Some(a), None),
+            Node::Add(a, b)
+            | Node::Sub(a, b)
+            | Node::Mul(a, b)
+            | Node::Div(a, b)
+            | Node::Pow(a, b) => (Some(a), Some(b)),
+        };
+        a.into_iter().chain(b)
+    }
+}
+
+/// A hash-consed expression arena. See the module documentation.
+#[derive(Clone, Default)]
+pub struct Dag {
+    nodes: Vec<Node>,
+    index: HashMap<Node, Id>,
+}
+
+impl fmt::Debug for Dag {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "Dag({} nodes)", self.nodes.len())
+    }
+}
+
+impl Dag {
+    /// An empty DAG.
+    pub fn new() -> Dag {
+        Dag::default()
+    }
+
+    /// Number of nodes in the arena.
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// True when the arena holds no node.
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    /// The node with this id.
+    pub fn node(&self, id: Id) -> Node {
+        self.nodes[id.index()]
+    }
+
+    /// All nodes, children before parents.
+    pub fn nodes(&self) -> &[Node] {
+        &self.nodes
+    }
+
+    fn intern(&mut self, node: Node) -> Id {
+        if let Some(&id) = self.index.get(&node) {
+            return id;
+        }
+        let id = Id(u32::try_from(self.nodes.len()).expect("expression DAG exceeds 2^32 nodes"));
+        self.nodes.push(node);
+        self.index.insert(node, id);
+        id
+    }
+
+    /// The constant value of a node, if it is a constant.
+    pub fn as_const(&self, id: Id) -> Option<f64> {
+        match self.node(id) {
+            Node::Const(bits) => Some(f64::from_bits(bits)),
+            _ => None,
+        }
+    }
+
+    /// True when the node is the constant `v`.
+    pub fn is_const(&self, id: Id, v: f64) -> bool {
+        self.as_const(id) == Some(v)
+    }
+
+    /// A constant. Non-finite values are kept as they are (they only arise from user data the
+    /// model validation rejects).
+    pub fn constant(&mut self, v: f64) -> Id {
+        let v = if v == 0.0 { 0.0 } else { v };
+        self.intern(Node::Const(v.to_bits()))
+    }
+
+    /// The constant 0.
+    pub fn zero(&mut self) -> Id {
+        self.constant(0.0)
+    }
+
+    /// The constant 1.
+    pub fn one(&mut self) -> Id {
+        self.constant(1.0)
+    }
+
+    /// A leaf variable.
+    pub fn var(&mut self, v: Var) -> Id {
+        self.intern(Node::Var(v))
+    }
+
+    /// `q_i`
+    pub fn q(&mut self, i: usize) -> Id {
+        self.var(Var::Q(i as u32))
+    }
+
+    /// `q'_i`
+    pub fn qd(&mut self, i: usize) -> Id {
+        self.var(Var::Qd(i as u32))
+    }
+
+    /// `q''_i`
+    pub fn qdd(&mut self, i: usize) -> Id {
+        self.var(Var::Qdd(i as u32))
+    }
+
+    /// `-a`, folded.
+    pub fn neg(&mut self, a: Id) -> Id {
+        match self.node(a) {
+            Node::Const(bits) => self.constant(-f64::from_bits(bits)),
+            Node::Neg(x) => x,
+            Node::Sub(x, y) => self.intern(Node::Sub(y, x)),
+            _ => self.intern(Node::Neg(a)),
+        }
+    }
+
+    /// `a + b`, folded.
+    pub fn add(&mut self, a: Id, b: Id) -> Id {
+        match (self.node(a), self.node(b)) {
+            (Node::Const(x), Node::Const(y)) => {
+                return self.constant(f64::from_bits(x) + f64::from_bits(y));
+            }
+            (Node::Const(x), _) if f64::from_bits(x) == 0.0 => return b,
+            (_, Node::Const(y)) if f64::from_bits(y) == 0.0 => return a,
+            (Node::Neg(x), Node::Neg(y)) => {
+                let s = self.add(x, y);
+                return self.neg(s);
+            }
+            (_, Node::Neg(y)) => return self.sub(a, y),
+            (Node::Neg(x), _) => return self.sub(b, x),
+            _ => {}
+        }
+        if a == b {
+            let two = self.constant(2.0);
+            return self.mul(two, a);
+        }
+        // c1 + (c2 + y) = (c1 + c2) + y: constants of nested sums merge.
+        for (c, other) in [(a, b), (b, a)] {
+            if let Some(c1) = self.as_const(c) {
+                if let Node::Add(y1, y2) = self.node(other) {
+                    for (k, y) in [(y1, y2), (y2, y1)] {
+                        if let Some(c2) = self.as_const(k) {
+                            let s = self.constant(c1 + c2);
+                            return self.add(s, y);
+                        }
+                    }
+                }
+            }
+        }
+        let (a, b) = if a <= b { (a, b) } else { (b, a) };
+        self.intern(Node::Add(a, b))
+    }
+
+    /// `a - b`, folded.
+    pub fn sub(&mut self, a: Id, b: Id) -> Id {
+        if a == b {
+            return self.zero();
+        }
+        match (self.node(a), self.node(b)) {
+            (Node::Const(x), Node::Const(y)) => {
+                self.constant(f64::from_bits(x) - f64::from_bits(y))
+            }
+            (_, Node::Const(y)) if f64::from_bits(y) == 0.0 => a,
+            (Node::Const(x), _) if f64::from_bits(x) == 0.0 => self.neg(b),
+            (_, Node::Neg(y)) => self.add(a, y),
+            (Node::Neg(x), _) => {
+                let s = self.add(x, b);
+                self.neg(s)
+            }
+            _ => self.intern(Node::Sub(a, b)),
+        }
+    }
+
+    /// `a * b`, folded: constants multiplied out, `0`, `1` and `-1` eliminated, negations
+    /// pulled out, and a constant factor merged into a product that already has one.
+    pub fn mul(&mut self, a: Id, b: Id) -> Id {
+        // Constant first.
+        let (a, b) = if self.as_const(b).is_some() && self.as_const(a).is_none() {
+            (b, a)
+        } else {
+            (a, b)
+        };
+        match (self.node(a), self.node(b)) {
+            (Node::Const(x), Node::Const(y)) => {
+                return self.constant(f64::from_bits(x) * f64::from_bits(y));
+            }
+            (Node::Const(x), _) => {
+                let c = f64::from_bits(x);
+                if c == 0.0 {
+                    return self.zero();
+                }
+                if c == 1.0 {
+                    return b;
+                }
+                if c == -1.0 {
+                    return self.neg(b);
+                }
+                if c < 0.0 {
+                    let p = self.constant(-c);
+                    let m = self.mul(p, b);
+                    return self.neg(m);
+                }
+                match self.node(b) {
+                    Node::Neg(y) => {
+                        let m = self.mul(a, y);
+                        return self.neg(m);
+                    }
+                    // c1 * (c2 * y) = (c1 c2) * y
+                    Node::Mul(y1, y2) if self.as_const(y1).is_some() => {
+                        let c2 = self.as_const(y1).unwrap_or(1.0);
+                        let k = self.constant(c * c2);
+                        return self.mul(k, y2);
+                    }
+                    _ => {}
+                }
+            }
+            (Node::Neg(x), Node::Neg(y)) => return self.mul(x, y),
+            (Node::Neg(x), _) => {
+                let m = self.mul(x, b);
+                return self.neg(m);
+            }
+            (_, Node::Neg(y)) => {
+                let m = self.mul(a, y);
+                return self.neg(m);
+            }
+            _ => {}
+        }
+        // x * (c * y) = c * (x * y): keep constants outermost so they merge.
+        if self.as_const(a).is_none() {
+            if let Node::Mul(y1, y2) = self.node(b) {
+                if let Some(c) = self.as_const(y1) {
+                    let inner = self.mul(a, y2);
+                    let k = self.constant(c);
+                    return self.mul(k, inner);
+                }
+            }
+            if let Node::Mul(x1, x2) = self.node(a) {
+                if let Some(c) = self.as_const(x1) {
+                    let inner = self.mul(x2, b);
+                    let k = self.constant(c);
+                    return self.mul(k, inner);
+                }
+            }
+        }
+        let (a, b) = if a <= b || self.as_const(a).is_some() {
+            (a, b)
+        } else {
+            (b, a)
+        };
+        self.intern(Node::Mul(a, b))
+    }
+
+    /// `a / b`, folded (`b` a nonzero constant becomes a multiplication by its inverse only
+    /// when the inverse is exact, to keep evaluation bit-faithful).
+    pub fn div(&mut self, a: Id, b: Id) -> Id {
+        match (self.node(a), self.node(b)) {
+            (_, Node::Const(y)) if f64::from_bits(y) == 1.0 => a,
+            (_, Node::Const(y)) if f64::from_bits(y) == -1.0 => self.neg(a),
+            (Node::Const(x), _) if f64::from_bits(x) == 0.0 => self.zero(),
+            (Node::Const(x), Node::Const(y)) if f64::from_bits(y) != 0.0 => {
+                self.constant(f64::from_bits(x) / f64::from_bits(y))
+            }
+            (Node::Neg(x), _) => {
+                let d = self.div(x, b);
+                self.neg(d)
+            }
+            (_, Node::Neg(y)) => {
+                let d = self.div(a, y);
+                self.neg(d)
+            }
+            _ => {
+                if a == b {
+                    return self.one();
+                }
+                self.intern(Node::Div(a, b))
+            }
+        }
+    }
+
+    /// `a ^ b`: a small non-negative integer constant exponent becomes multiplications,
+    /// `0.5` a square root; anything else a `powf` node.
+    pub fn pow(&mut self, a: Id, b: Id) -> Id {
+        if let Some(e) = self.as_const(b) {
+            if let Some(x) = self.as_const(a) {
+                return self.constant(x.powf(e));
+            }
+            if e == 0.0 {
+                return self.one();
+            }
+            if e.fract() == 0.0 && (1.0..=16.0).contains(&e) {
+                return self.powi(a, e as u32);
+            }
+            if e.fract() == 0.0 && (-16.0..=-1.0).contains(&e) {
+                let p = self.powi(a, (-e) as u32);
+                let one = self.one();
+                return self.div(one, p);
+            }
+            if e == 0.5 {
+                return self.fun(Fun::Sqrt, a);
+            }
+        }
+        self.intern(Node::Pow(a, b))
+    }
+
+    /// `a ^ n` by repeated squaring.
+    pub fn powi(&mut self, a: Id, n: u32) -> Id {
+        match n {
+            0 => self.one(),
+            1 => a,
+            _ => {
+                let h = self.powi(a, n / 2);
+                let sq = self.mul(h, h);
+                if n % 2 == 1 { self.mul(sq, a) } else { sq }
+            }
+        }
+    }
+
+    /// `f(a)`, folded for constant arguments (and `sin(-x) = -sin x`, `cos(-x) = cos x`).
+    pub fn fun(&mut self, f: Fun, a: Id) -> Id {
+        if let Some(x) = self.as_const(a) {
+            return self.constant(f.apply(x));
+        }
+        if let Node::Neg(x) = self.node(a) {
+            match f {
+                Fun::Sin | Fun::Tan => {
+                    let s = self.fun(f, x);
+                    return self.neg(s);
+                }
+                Fun::Cos | Fun::Abs => return self.fun(f, x),
+                _ => {}
+            }
+        }
+        self.intern(Node::Fun(f, a))
+    }
+
+    /// `sin a`
+    pub fn sin(&mut self, a: Id) -> Id {
+        self.fun(Fun::Sin, a)
+    }
+
+    /// `cos a`
+    pub fn cos(&mut self, a: Id) -> Id {
+        self.fun(Fun::Cos, a)
+    }
+
+    /// Sum of several terms (zero when empty).
+    pub fn sum(&mut self, terms: impl IntoIterator<Item = Id>) -> Id {
+        let mut acc = self.zero();
+        for t in terms {
+            acc = self.add(acc, t);
+        }
+        acc
+    }
+
+    /// Converts a model parameter expression into the DAG. Parameters with
+    /// `runtime == true` become [`Var::Param`] leaves; the others are folded to their value.
+    pub fn scalar(&mut self, s: &crate::model::Scalar, params: &[crate::model::Parameter]) -> Id {
+        use crate::model::{BinOp, Scalar};
+        match s {
+            Scalar::Num(v) => self.constant(*v),
+            Scalar::Param(k) => {
+                let p = &params[*k];
+                if p.runtime {
+                    self.var(Var::Param(*k as u32))
+                } else {
+                    self.constant(p.value)
+                }
+            }
+            Scalar::Neg(a) => {
+                let a = self.scalar(a, params);
+                self.neg(a)
+            }
+            Scalar::Bin(op, a, b) => {
+                let a = self.scalar(a, params);
+                let b = self.scalar(b, params);
+                match op {
+                    BinOp::Add => self.add(a, b),
+                    BinOp::Sub => self.sub(a, b),
+                    BinOp::Mul => self.mul(a, b),
+                    BinOp::Div => self.div(a, b),
+                    BinOp::Pow => self.pow(a, b),
+                }
+            }
+            Scalar::Call(f, a) => {
+                let a = self.scalar(a, params);
+                self.fun(Fun::from_model(*f), a)
+            }
+        }
+    }
+
+    /// Ids of all nodes reachable from `roots` (each once), in increasing order — the
+    /// evaluation order.
+    pub fn reachable(&self, roots: &[Id]) -> Vec<Id> {
+        let mut mark = vec![false; self.nodes.len()];
+        let mut stack: Vec<Id> = roots.to_vec();
+        while let Some(id) = stack.pop() {
+            if mark[id.index()] {
+                continue;
+            }
+            mark[id.index()] = true;
+            stack.extend(self.node(id).children());
+        }
+        mark.iter()
+            .enumerate()
+            .filter(|(_, m)| **m)
+            .map(|(i, _)| Id(i as u32))
+            .collect()
+    }
+
+    /// Writes the expression as an s-expression, e.g. `(+ q0 (* 2 qd1))`. Variables print as
+    /// `q0`, `qd0`, `qdd0`, `t`, `p0`.
+    pub fn sexpr(&self, id: Id) -> String {
+        let mut s = String::new();
+        self.write_sexpr(id, &mut s);
+        s
+    }
+
+    fn write_sexpr(&self, id: Id, out: &mut String) {
+        use std::fmt::Write;
+        let bin = |op: &str, a: Id, b: Id, out: &mut String| {
+            out.push('(');
+            out.push_str(op);
+            out.push(' ');
+            self.write_sexpr(a, out);
+            out.push(' ');
+            self.write_sexpr(b, out);
+            out.push(')');
+        };
+        match self.node(id) {
+            Node::Const(bits) => {
+                let _ = write!(out, "{}", f64::from_bits(bits));
+            }
+            Node::Var(v) => {
+                let _ = write!(out, "{v}");
+            }
+            Node::Neg(a) => {
+                out.push_str("(- ");
+                self.write_sexpr(a, out);
+                out.push(')');
+            }
+            Node::Add(a, b) => bin("+", a, b, out),
+            Node::Sub(a, b) => bin("-", a, b, out),
+            Node::Mul(a, b) => bin("*", a, b, out),
+            Node::Div(a, b) => bin("/", a, b, out),
+            Node::Pow(a, b) => bin("^", a, b, out),
+            Node::Fun(f, a) => {
+                out.push('(');
+                out.push_str(f.name());
+                out.push(' ');
+                self.write_sexpr(a, out);
+                out.push(')');
+            }
+        }
+    }
+}
+
+impl fmt::Display for Var {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Var::Q(i) => write!(f, "q{i}"),
+            Var::Qd(i) => write!(f, "qd{i}"),
+            Var::Qdd(i) => write!(f, "qdd{i}"),
+            Var::Time => write!(f, "t"),
+            Var::Param(k) => write!(f, "p{k}"),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(build: impl FnOnce(&mut Dag) -> Id, expected: &str) {
+        let mut d = Dag::new();
+        let id = build(&mut d);
+        assert_eq!(d.sexpr(id), expected);
+    }
+
+    #[test]
+    fn folding_table() {
+        check(
+            |d| {
+                let x = d.q(0);
+                let z = d.zero();
+                d.add(x, z)
+            },
+            "q0",
+        );
+        check(
+            |d| {
+                let x = d.q(0);
+                let o = d.one();
+                d.mul(o, x)
+            },
+            "q0",
+        );
+        check(
+            |d| {
+                let x = d.q(0);
+                let z = d.zero();
+                d.mul(x, z)
+            },
+            "0",
+        );
+        check(
+            |d| {
+                let x = d.q(0);
+                let m = d.constant(-1.0);
+                d.mul(x, m)
+            },
+            "(- q0)",
+        );
+        check(
+            |d| {
+                let x = d.q(0);
+                let n = d.neg(x);
+                d.neg(n)
+            },
+            "q0",
+        );
+        check(
+            |d| {
+                let a = d.constant(2.0);
+                let b = d.constant(3.0);
+                d.add(a, b)
+            },
+            "5",
+        );
+        check(
+            |d| {
+                let x = d.q(0);
+                d.sub(x, x)
+            },
+            "0",
+        );
+        check(
+            |d| {
+                let x = d.q(0);
+                let y = d.qd(1);
+                let n = d.neg(y);
+                d.add(x, n)
+            },
+            "(- q0 qd1)",
+        );
+        check(
+            |d| {
+                let x = d.q(0);
+                let c2 = d.constant(2.0);
+                let c3 = d.constant(3.0);
+                let m = d.mul(c3, x);
+                d.mul(c2, m)
+            },
+            "(* 6 q0)",
+        );
+        check(
+            |d| {
+                let x = d.q(0);
+                let y = d.q(1);
+                let c3 = d.constant(3.0);
+                let m = d.mul(c3, x);
+                d.mul(y, m)
+            },
+            "(* 3 (* q0 q1))",
+        );
+        check(
+            |d| {
+                let x = d.q(0);
+                let c = d.constant(-2.0);
+                d.mul(c, x)
+            },
+            "(- (* 2 q0))",
+        );
+        check(
+            |d| {
+                let x = d.q(0);
+                let c = d.constant(0.0);
+                d.sin(c);
+                let s = d.neg(x);
+                d.cos(s)
+            },
+            "(cos q0)",
+        );
+        check(
+            |d| {
+                let x = d.q(0);
+                let n = d.neg(x);
+                d.sin(n)
+            },
+            "(- (sin q0))",
+        );
+        check(
+            |d| {
+                let x = d.q(0);
+                let c = d.constant(2.0);
+                d.pow(x, c)
+            },
+            "(* q0 q0)",
+        );
+        check(
+            |d| {
+                let x = d.q(0);
+                let c = d.constant(0.5);
+                d.pow(x, c)
+            },
+            "(sqrt q0)",
+        );
+        check(
+            |d| {
+                let x = d.q(0);
+                let o = d.one();
+                d.div(x, o)
+            },
+            "q0",
+        );
+        check(
+            |d| {
+                let x = d.q(0);
+                let (c1, c2) = (d.constant(1.5), d.constant(2.0));
+                let s = d.add(c1, x);
+                d.add(c2, s)
+            },
+            "(+ q0 3.5)",
+        );
+    }
+
+    #[test]
+    fn hash_consing_shares_and_commutes() {
+        let mut d = Dag::new();
+        let x = d.q(0);
+        let y = d.qd(0);
+        let a = d.add(x, y);
+        let b = d.add(y, x);
+        assert_eq!(a, b);
+        let m1 = d.mul(a, x);
+        let m2 = d.mul(x, b);
+        assert_eq!(m1, m2);
+        let n = d.len();
+        let _ = d.mul(x, a);
+        assert_eq!(
+            d.len(),
+            n,
+            "rebuilding an existing node must not grow the arena"
+        );
+    }
+
+    #[test]
+    fn children_precede_parents() {
+        let mut d = Dag::new();
+        let x = d.q(0);
+        let s = d.sin(x);
+        let c = d.cos(x);
+        let p = d.mul(s, c);
+        let _ = d.add(p, x);
+        for (i, n) in d.nodes().iter().enumerate() {
+            for c in n.children() {
+                assert!(c.index() < i);
+            }
+        }
+    }
+}

@@ -1,0 +1,79 @@
+//! Entry points: read a model file or a string, parse it and validate it into a [`Model`].
+
+use std::path::Path;
+
+use super::error::{ModelError, ModelErrors};
+use super::source::{fnv1a_hex, json_to_node, toml_to_node};
+use super::types::{Model, SourceInfo};
+use super::validate::validate;
+
+/// The text format of a model file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Format {
+    /// TOML (`.toml`), the preferred format for hand-written models.
+    Toml,
+    /// JSON (`.json`), same structure as the TOML format.
+    Json,
+}
+
+impl Format {
+    /// The format given by a file extension (`.toml` or `.json`, any letter case).
+    pub fn from_path(path: &Path) -> Option<Format> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        match ext.as_str() {
+            "toml" => Some(Format::Toml),
+            "json" => Some(Format::Json),
+            _ => None,
+        }
+    }
+}
+
+/// Reads and validates a model file (format from the extension: `.toml` or `.json`).
+///
+/// Every problem is reported at once, each with the file, the line and the entity.
+pub fn load(path: &Path) -> Result<Model, ModelErrors> {
+    let file = path.display().to_string();
+    let single = |message: String| {
+        ModelErrors(vec![ModelError {
+            file: file.clone(),
+            line: None,
+            entity: None,
+            message,
+        }])
+    };
+    let Some(format) = Format::from_path(path) else {
+        return Err(single(
+            "unknown model file extension (expected .toml or .json)".into(),
+        ));
+    };
+    let src = std::fs::read_to_string(path)
+        .map_err(|e| single(format!("cannot read the model file: {e}")))?;
+    parse_str(&src, &file, format)
+}
+
+/// Parses and validates model text; `file` is the name used in messages and in
+/// [`SourceInfo::path`].
+pub fn parse_str(src: &str, file: &str, format: Format) -> Result<Model, ModelErrors> {
+    let tree = match format {
+        Format::Toml => toml_to_node(src),
+        Format::Json => json_to_node(src),
+    };
+    let root = tree.map_err(|errors| {
+        ModelErrors(
+            errors
+                .into_iter()
+                .map(|(line, message)| ModelError {
+                    file: file.to_string(),
+                    line,
+                    entity: None,
+                    message: format!("syntax error: {message}"),
+                })
+                .collect(),
+        )
+    })?;
+    let source = SourceInfo {
+        path: file.to_string(),
+        hash: fnv1a_hex(src.as_bytes()),
+    };
+    validate(&root, file, source).map_err(ModelErrors)
+}

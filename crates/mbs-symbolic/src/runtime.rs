@@ -1,0 +1,67 @@
+//! The runtime trait shared by generated code, the numeric reference and the interpreter.
+//!
+//! Sizes are const generics — `N` joint coordinates, `NC` constraint rows — so every output is
+//! a caller-owned fixed-size array: evaluations allocate nothing and cannot index out of
+//! bounds. The equations follow the paper's convention `M q'' + F + Q + J^T lambda = 0`
+//! (eqs. 10 and 17).
+
+/// Position, Jacobian and bias of a named point (eqs. 49–50).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointKinematics<const N: usize> {
+    /// Position in the ground frame.
+    pub p: [f64; 3],
+    /// Jacobian `dp/dq` (3 rows of `N`).
+    pub j: [[f64; N]; 3],
+    /// Bias `J' q'` (the point's acceleration when `q'' = 0`).
+    pub a: [f64; 3],
+}
+
+impl<const N: usize> Default for PointKinematics<N> {
+    fn default() -> Self {
+        PointKinematics {
+            p: [0.0; 3],
+            j: [[0.0; N]; 3],
+            a: [0.0; 3],
+        }
+    }
+}
+
+/// The equations of a mechanism with `N` coordinates and `NC` constraint rows.
+pub trait Mechanism<const N: usize, const NC: usize> {
+    /// Names of the run-time parameters, in the model's order.
+    fn param_names(&self) -> &[&'static str];
+
+    /// Sets a run-time parameter by name; `false` when there is no such parameter.
+    fn set_param(&mut self, name: &str, value: f64) -> bool;
+
+    /// Names of the named points, in the model's order.
+    fn point_names(&self) -> &[&'static str];
+
+    /// `M^b(q)` (eq. 11).
+    fn mass_matrix(&self, q: &[f64; N], m: &mut [[f64; N]; N]);
+
+    /// `F^b(q, q')`: velocity terms and gravity (eq. 12).
+    fn f_vector(&self, q: &[f64; N], qd: &[f64; N], f: &mut [f64; N]);
+
+    /// `Q^b(q, q', t)`: force elements, paper sign (eq. 13).
+    fn q_vector(&self, q: &[f64; N], qd: &[f64; N], t: f64, out: &mut [f64; N]);
+
+    /// `h(q)` (eq. 14).
+    fn constraints(&self, q: &[f64; N], h: &mut [f64; NC]);
+
+    /// `J(q) = dh/dq` (eq. 15).
+    fn constraint_jacobian(&self, q: &[f64; N], j: &mut [[f64; N]; NC]);
+
+    /// `A(q, q') = J' q'` (eq. 16).
+    fn constraint_bias(&self, q: &[f64; N], qd: &[f64; N], a: &mut [f64; NC]);
+
+    /// Kinematics of point `k` (index into [`Mechanism::point_names`]); `false` when there is
+    /// no such point (the output is then left unchanged).
+    fn point_kinematics(
+        &self,
+        k: usize,
+        q: &[f64; N],
+        qd: &[f64; N],
+        out: &mut PointKinematics<N>,
+    ) -> bool;
+}

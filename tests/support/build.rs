@@ -1,0 +1,24 @@
+//! Generates the fixture mechanisms at build time, exactly as a user's `build.rs` would
+//! (prost-build style): each model file becomes `OUT_DIR/<name>.rs`, rewritten only when its
+//! content changes, with `cargo:rerun-if-changed` on the model.
+
+use std::path::PathBuf;
+
+use mbs_symbolic::emit::{EmitOptions, compile_model};
+
+fn main() {
+    let root = PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("CARGO_MANIFEST_DIR"));
+    let out = PathBuf::from(std::env::var_os("OUT_DIR").expect("OUT_DIR"));
+    for (file, out_name) in [
+        ("models/double_bar.toml", "double_bar.rs"),
+        ("models/four_bar.toml", "four_bar.rs"),
+        ("models/slider_crank.toml", "slider_crank.rs"),
+        ("tests/fixtures/spatial_arm.toml", "spatial_arm.rs"),
+    ] {
+        if let Err(e) = compile_model(&root.join(file), &out, out_name, &EmitOptions::default()) {
+            // A build script reports errors by failing with the message.
+            eprintln!("{e}");
+            std::process::exit(1);
+        }
+    }
+}
