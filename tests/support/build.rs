@@ -1,10 +1,12 @@
 //! Generates the fixture mechanisms at build time, exactly as a user's `build.rs` would
 //! (prost-build style): each model file becomes `OUT_DIR/<name>.rs`, rewritten only when its
-//! content changes, with `cargo:rerun-if-changed` on the model.
+//! content changes, with `cargo:rerun-if-changed` on the model. The 16-body spatial chain
+//! of the benchmarks is built in code (`mbs_symbolic::samples::spatial_chain(16)`) and
+//! emitted into `OUT_DIR/chain16.rs` the same way.
 
 use std::path::PathBuf;
 
-use mbs_symbolic::emit::{EmitOptions, compile_model};
+use mbs_symbolic::emit::{EmitOptions, compile_model, generate, write_if_changed};
 
 fn main() {
     let root = PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("CARGO_MANIFEST_DIR"));
@@ -20,5 +22,16 @@ fn main() {
             eprintln!("{e}");
             std::process::exit(1);
         }
+    }
+    let chain = mbs_symbolic::samples::spatial_chain(16);
+    let opts = EmitOptions {
+        struct_name: Some("Chain16".into()),
+        ..EmitOptions::default()
+    };
+    let written =
+        generate(&chain, &opts).and_then(|g| write_if_changed(&out.join("chain16.rs"), &g.source));
+    if let Err(e) = written {
+        eprintln!("spatial_chain(16): {e}");
+        std::process::exit(1);
     }
 }

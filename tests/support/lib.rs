@@ -26,4 +26,9 @@ pub mod fixtures {
     pub mod spatial_arm {
         include!(concat!(env!("OUT_DIR"), "/spatial_arm.rs"));
     }
+    /// `mbs_symbolic::samples::spatial_chain(16)` (struct `Chain16`): the 16-body spatial
+    /// chain of the benchmarks.
+    pub mod chain16 {
+        include!(concat!(env!("OUT_DIR"), "/chain16.rs"));
+    }
 }

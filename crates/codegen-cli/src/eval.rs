@@ -1,18 +1,35 @@
-//! `damper eval`: evaluate the equations of motion of a mechanism model at one state.
+//! `damper eval`: evaluate the equations of a mechanism model at one state.
 //!
-//! Prints one JSON object: the model name, the backend, the state, `M` (row-major array of
-//! rows, eq. 11), `F` (eq. 12), `Q` (eq. 13), and the operation counts of the symbolic `M`
-//! and `F`.
+//! Prints one JSON object (keys in alphabetical order):
+//!
+//! - `model`, `backend`, the state `q`, `qd`, `t`;
+//! - `M` (array of rows, eq. 11), `F` (eq. 12), `Q` (eq. 13);
+//! - `constraint_names` (one per row: `"<constraint>.<component>"` or the constraint's name
+//!   for an angle closure), `h` (eq. 14), `J` (one row of `n` per constraint row, eq. 15) and
+//!   `A = J' q'` (eq. 16);
+//! - `points`: for every named point, `{"p": [x, y, z], "J": [[row x], [row y], [row z]],
+//!   "A": [x, y, z]}` — ground position, Jacobian `dp/dq` (3 rows of `n`) and bias `J' q'`
+//!   (the point's acceleration when `q'' = 0`, eqs. 49–50);
+//! - `op_count`: operation counts of the symbolic `M`, `F` and `M+F`.
+//!
+//! Three backends compute the same numbers: the symbolic equations evaluated by the DAG
+//! interpreter (`interp`, default), the independent numeric recursive Newton–Euler
+//! (`numeric`), and the Rust code generated at build time for the bundled models
+//! (`generated`; see [`crate::compiled`]).
 
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
+use mbs_symbolic::constraints;
 use mbs_symbolic::dynamics::Symbolic;
-use mbs_symbolic::expr::OpCount;
+use mbs_symbolic::expr::{EvalInput, Id, OpCount, Tape};
 use mbs_symbolic::interp::Interpreter;
 use mbs_symbolic::model::{self, Model};
 use mbs_symbolic::numeric::NumericModel;
-use serde_json::{Value, json};
+use mbs_symbolic::runtime::{Mechanism, PointKinematics};
+use serde_json::{Map, Value, json};
+
+use crate::compiled::{self, Bundled};
 
 /// Which implementation evaluates the equations.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -21,6 +38,19 @@ pub enum Backend {
     Interp,
     /// The independent numeric recursive Newton–Euler reference.
     Numeric,
+    /// The Rust code generated at build time (bundled models only: double_bar, four_bar,
+    /// slider_crank, unedited).
+    Generated,
+}
+
+impl Backend {
+    fn name(self) -> &'static str {
+        match self {
+            Backend::Interp => "interp",
+            Backend::Numeric => "numeric",
+            Backend::Generated => "generated",
+        }
+    }
 }
 
 /// Arguments of `damper eval`.
@@ -37,7 +67,8 @@ pub struct Args {
     /// Time (for time-dependent force elements).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub t: f64,
-    /// Override a parameter: NAME=VALUE (repeatable).
+    /// Override a parameter: NAME=VALUE (repeatable). With `--backend generated` only
+    /// run-time parameters can be set (folded ones are baked into the generated code).
     #[arg(long = "param", value_name = "NAME=VALUE")]
     pub params: Vec<String>,
     /// Implementation used for the evaluation.
@@ -45,8 +76,10 @@ pub struct Args {
     pub backend: Backend,
 }
 
-/// Applies `NAME=VALUE` overrides to the model's parameter values.
-fn apply_params(model: &mut Model, overrides: &[String]) -> Result<()> {
+/// Applies `NAME=VALUE` overrides to the model's parameter values; returns the indices of
+/// the overridden parameters (into [`Model::parameters`]), in command-line order.
+fn apply_params(model: &mut Model, overrides: &[String]) -> Result<Vec<usize>> {
+    let mut applied = Vec::with_capacity(overrides.len());
     for o in overrides {
         let Some((name, value)) = o.split_once('=') else {
             bail!("--param {o:?}: expected NAME=VALUE");
@@ -72,8 +105,9 @@ fn apply_params(model: &mut Model, overrides: &[String]) -> Result<()> {
             bail!("--param {name}: parameter is derived from other parameters; set those instead");
         }
         model.parameters[k].value = value;
+        applied.push(k);
     }
-    Ok(())
+    Ok(applied)
 }
 
 fn state(name: &str, v: &[f64], n: usize) -> Result<Vec<f64>> {
@@ -103,57 +137,276 @@ fn finite(name: &str, v: &[f64]) -> Result<()> {
     Ok(())
 }
 
+/// Kinematics of one named point, backend-independent.
+struct PointOut {
+    /// Ground position.
+    p: [f64; 3],
+    /// `dp/dq`, row-major 3 x n.
+    j: Vec<f64>,
+    /// `J' q'`.
+    a: [f64; 3],
+}
+
+/// Everything one evaluation computes; matrices row-major.
+struct Outputs {
+    /// `M`, n x n (eq. 11).
+    m: Vec<f64>,
+    /// `F` (eq. 12).
+    f: Vec<f64>,
+    /// `Q` (eq. 13).
+    q: Vec<f64>,
+    /// `h` (eq. 14).
+    h: Vec<f64>,
+    /// `J`, nc x n (eq. 15).
+    j: Vec<f64>,
+    /// `A = J' q'` (eq. 16).
+    a: Vec<f64>,
+    /// In the model's point order.
+    points: Vec<PointOut>,
+}
+
+/// The symbolic equations evaluated by the DAG interpreter (`cons` and `pts` were derived
+/// on `sym`'s DAG).
+fn eval_interp(
+    model: &Model,
+    sym: &Symbolic,
+    cons: &constraints::ConstraintExprs,
+    pts: &[constraints::PointExprs],
+    q: &[f64],
+    qd: &[f64],
+    t: f64,
+) -> Outputs {
+    let params = model.default_params();
+    let it = Interpreter::from_symbolic(sym, params.clone());
+    let input = EvalInput {
+        q,
+        qd,
+        qdd: &[],
+        t,
+        params: &params,
+    };
+    let eval = |roots: &[Id]| Tape::new(&sym.dag, roots).eval_vec(&input);
+    let flat = |rows: &[Vec<Id>]| -> Vec<Id> { rows.iter().flatten().copied().collect() };
+    Outputs {
+        m: it.mass_matrix(q),
+        f: it.f_vector(q, qd),
+        q: it.q_vector(q, qd, t),
+        h: eval(&cons.h),
+        j: eval(&flat(&cons.j)),
+        a: eval(&cons.a),
+        points: pts
+            .iter()
+            .map(|pt| {
+                let (p, a) = (eval(&pt.p), eval(&pt.a));
+                PointOut {
+                    p: [p[0], p[1], p[2]],
+                    j: eval(&flat(&pt.j)),
+                    a: [a[0], a[1], a[2]],
+                }
+            })
+            .collect(),
+    }
+}
+
+/// The independent numeric reference.
+fn eval_numeric(model: &Model, q: &[f64], qd: &[f64], t: f64) -> Outputs {
+    let n = model.dof();
+    let nm = NumericModel::new(model, &model.default_params());
+    let mm = nm.mass_matrix(q);
+    let jm = nm.constraint_jacobian(q);
+    Outputs {
+        m: (0..n * n).map(|k| mm[(k / n, k % n)]).collect(),
+        f: nm.f_vector(q, qd).as_slice().to_vec(),
+        q: nm.q_vector(q, qd, t).as_slice().to_vec(),
+        h: nm.constraints(q).as_slice().to_vec(),
+        j: (0..jm.nrows() * n).map(|k| jm[(k / n, k % n)]).collect(),
+        a: nm.constraint_bias(q, qd).as_slice().to_vec(),
+        points: (0..model.points.len())
+            .map(|k| {
+                let (p, a) = (nm.point_position(k, q), nm.point_bias(k, q, qd));
+                let jp = nm.point_jacobian(k, q);
+                PointOut {
+                    p: [p[0], p[1], p[2]],
+                    j: (0..3 * n).map(|i| jp[(i / n, i % n)]).collect(),
+                    a: [a[0], a[1], a[2]],
+                }
+            })
+            .collect(),
+    }
+}
+
+/// The code generated at build time for a bundled model, through the [`Mechanism`] trait.
+/// `overrides` are the run-time parameters set on the command line (indices into
+/// [`Model::parameters`], values already in `model`).
+fn eval_generated<const N: usize, const NC: usize>(
+    mut mech: impl Mechanism<N, NC>,
+    model: &Model,
+    overrides: &[usize],
+    q: &[f64],
+    qd: &[f64],
+    t: f64,
+) -> Result<Outputs> {
+    for &k in overrides {
+        let p = &model.parameters[k];
+        if !mech.set_param(&p.name, p.value) {
+            bail!(
+                "internal error: the compiled-in `{}` has no run-time parameter `{}`",
+                model.name,
+                p.name
+            );
+        }
+    }
+    let sizes = || {
+        format!(
+            "internal error: the compiled-in `{}` has {N} coordinates, the model {}",
+            model.name,
+            model.dof()
+        )
+    };
+    let q: &[f64; N] = q.try_into().ok().with_context(sizes)?;
+    let qd: &[f64; N] = qd.try_into().ok().with_context(sizes)?;
+    let (mut m, mut f, mut qv) = ([[0.0; N]; N], [0.0; N], [0.0; N]);
+    let (mut h, mut j, mut a) = ([0.0; NC], [[0.0; N]; NC], [0.0; NC]);
+    mech.mass_matrix(q, &mut m);
+    mech.f_vector(q, qd, &mut f);
+    mech.q_vector(q, qd, t, &mut qv);
+    mech.constraints(q, &mut h);
+    mech.constraint_jacobian(q, &mut j);
+    mech.constraint_bias(q, qd, &mut a);
+    let mut points = Vec::with_capacity(model.points.len());
+    for k in 0..model.points.len() {
+        let mut pk = PointKinematics::<N>::default();
+        if !mech.point_kinematics(k, q, qd, &mut pk) {
+            bail!(
+                "internal error: the compiled-in `{}` has no point {k}",
+                model.name
+            );
+        }
+        points.push(PointOut {
+            p: pk.p,
+            j: pk.j.iter().flatten().copied().collect(),
+            a: pk.a,
+        });
+    }
+    Ok(Outputs {
+        m: m.iter().flatten().copied().collect(),
+        f: f.to_vec(),
+        q: qv.to_vec(),
+        h: h.to_vec(),
+        j: j.iter().flatten().copied().collect(),
+        a: a.to_vec(),
+        points,
+    })
+}
+
+/// Picks the compiled-in mechanism for `model` (by content hash) and evaluates it.
+fn dispatch_generated(
+    args: &Args,
+    model: &Model,
+    overrides: &[usize],
+    q: &[f64],
+    qd: &[f64],
+) -> Result<Outputs> {
+    let Some(bundled) = Bundled::from_hash(&model.source.hash) else {
+        let names: Vec<&str> = Bundled::ALL.iter().map(|b| b.name()).collect();
+        bail!(
+            "model {} is not compiled into this binary (compiled in: {}); use --backend interp or numeric, or rebuild",
+            args.model.display(),
+            names.join(", ")
+        );
+    };
+    for &k in overrides {
+        let p = &model.parameters[k];
+        if !p.runtime {
+            bail!(
+                "--param {}: parameter is folded into the generated code (not `runtime = true` in the model), so it cannot be changed with --backend generated; use --backend interp or numeric",
+                p.name
+            );
+        }
+    }
+    let t = args.t;
+    match bundled {
+        Bundled::DoubleBar => eval_generated(
+            compiled::double_bar::DoubleBar::default(),
+            model,
+            overrides,
+            q,
+            qd,
+            t,
+        ),
+        Bundled::FourBar => eval_generated(
+            compiled::four_bar::FourBar::default(),
+            model,
+            overrides,
+            q,
+            qd,
+            t,
+        ),
+        Bundled::SliderCrank => eval_generated(
+            compiled::slider_crank::SliderCrank::default(),
+            model,
+            overrides,
+            q,
+            qd,
+            t,
+        ),
+    }
+}
+
 /// Runs `damper eval`.
 pub fn run(args: Args) -> Result<()> {
     let mut model = model::load(&args.model).map_err(|e| anyhow::anyhow!("{e}"))?;
-    apply_params(&mut model, &args.params)?;
+    let overrides = apply_params(&mut model, &args.params)?;
     let n = model.dof();
     let q = state("q", &args.q, n)?;
     let qd = state("qd", &args.qd, n)?;
-    let params = model.default_params();
-    let sym = Symbolic::derive(&model);
-    let (m, f, qv) = match args.backend {
-        Backend::Interp => {
-            let it = Interpreter::from_symbolic(&sym, params);
-            (
-                it.mass_matrix(&q),
-                it.f_vector(&q, &qd),
-                it.q_vector(&q, &qd, args.t),
-            )
-        }
-        Backend::Numeric => {
-            let nm = NumericModel::new(&model, &params);
-            let mm = nm.mass_matrix(&q);
-            let rows: Vec<f64> = (0..n)
-                .flat_map(|i| (0..n).map(move |j| (i, j)))
-                .map(|(i, j)| mm[(i, j)])
-                .collect();
-            (
-                rows,
-                nm.f_vector(&q, &qd).as_slice().to_vec(),
-                nm.q_vector(&q, &qd, args.t).as_slice().to_vec(),
-            )
-        }
+    // The symbolic derivation gives the operation counts and the constraint row names for
+    // every backend (and the expressions for the interpreter).
+    let mut sym = Symbolic::derive(&model);
+    let pts = constraints::points(&model, &mut sym);
+    let cons = constraints::constraints(&model, &mut sym);
+    let out = match args.backend {
+        Backend::Interp => eval_interp(&model, &sym, &cons, &pts, &q, &qd, args.t),
+        Backend::Numeric => eval_numeric(&model, &q, &qd, args.t),
+        Backend::Generated => dispatch_generated(&args, &model, &overrides, &q, &qd)?,
     };
-    finite("M", &m)?;
-    finite("F", &f)?;
-    finite("Q", &qv)?;
-    let rows: Vec<&[f64]> = m.chunks(n.max(1)).collect();
-    let out = json!({
+    finite("M", &out.m)?;
+    finite("F", &out.f)?;
+    finite("Q", &out.q)?;
+    finite("h", &out.h)?;
+    finite("J", &out.j)?;
+    finite("A", &out.a)?;
+    let rows = |v: &[f64]| -> Vec<Vec<f64>> { v.chunks(n.max(1)).map(<[f64]>::to_vec).collect() };
+    let mut points = Map::new();
+    for (pt, po) in model.points.iter().zip(&out.points) {
+        finite(&format!("point {:?}", pt.name), &po.p)?;
+        finite(&format!("point {:?} J", pt.name), &po.j)?;
+        finite(&format!("point {:?} A", pt.name), &po.a)?;
+        points.insert(
+            pt.name.clone(),
+            json!({"p": po.p, "J": rows(&po.j), "A": po.a}),
+        );
+    }
+    let json = json!({
         "model": model.name,
-        "backend": match args.backend { Backend::Interp => "interp", Backend::Numeric => "numeric" },
+        "backend": args.backend.name(),
         "q": q,
         "qd": qd,
         "t": args.t,
-        "M": rows,
-        "F": f,
-        "Q": qv,
+        "M": rows(&out.m),
+        "F": out.f,
+        "Q": out.q,
+        "constraint_names": cons.names,
+        "h": out.h,
+        "J": rows(&out.j),
+        "A": out.a,
+        "points": points,
         "op_count": {
             "M": count_json(sym.op_count_m()),
             "F": count_json(sym.op_count_f()),
             "M+F": count_json(sym.op_count_mf()),
         },
     });
-    println!("{}", serde_json::to_string_pretty(&out)?);
+    println!("{}", serde_json::to_string_pretty(&json)?);
     Ok(())
 }

@@ -8,8 +8,12 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod compiled;
 mod eval;
+mod generate;
 mod modes;
+mod simulate;
+mod simulate_mechanism;
 
 /// Design and verification of electromagnetic vibration dampers with a mechanism near its
 /// singular position.
@@ -22,10 +26,15 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Evaluate M, F and Q of a mechanism model at one state and print them as JSON.
+    /// Emit the Rust module of a mechanism model (the equations as generated code).
+    Generate(generate::Args),
+    /// Evaluate M, F, Q, h, J, A and point kinematics of a mechanism model at one state and
+    /// print them as JSON.
     Eval(eval::Args),
     /// Natural frequencies of a finite-element beam, with analytic values where known.
     Modes(modes::Args),
+    /// Run a scenario: the damper (beam + mechanism + generator) or a closed-loop mechanism.
+    Simulate(simulate::Args),
 }
 
 fn main() -> ExitCode {
@@ -39,8 +48,10 @@ fn main() -> ExitCode {
         }
     };
     let result = match cli.command {
+        Command::Generate(args) => generate::run(args),
         Command::Eval(args) => eval::run(args),
         Command::Modes(args) => modes::run(args),
+        Command::Simulate(args) => simulate::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

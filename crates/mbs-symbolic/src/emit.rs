@@ -47,6 +47,14 @@ pub enum EmitError {
         /// The identifier.
         ident: String,
     },
+    /// The requested struct name (`EmitOptions::struct_name`) is not a Rust identifier.
+    #[error(
+        "struct name {name:?} is not a Rust identifier (ASCII letters, digits and `_`, not starting with a digit, not a keyword)"
+    )]
+    StructName {
+        /// The rejected name.
+        name: String,
+    },
     /// The emitted tokens did not parse as Rust (a generator bug); carries the tokens.
     #[error("internal error: generated tokens do not parse as Rust ({message}); tokens: {tokens}")]
     Parse {
@@ -386,10 +394,16 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
         dag: &sym.dag,
         params: &param_idents,
     };
-    let struct_name = opts
-        .struct_name
-        .clone()
-        .unwrap_or_else(|| camel_case(&model.name));
+    let struct_name = match &opts.struct_name {
+        // `Ident::new` panics on a string that is no identifier (or a raw `r#` one) and
+        // accepts keywords, which would only fail later as an internal parse error: check
+        // with syn's parser and allow plain ASCII identifiers only.
+        Some(name) => match syn::parse_str::<Ident>(name) {
+            Ok(_) if name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') => name.clone(),
+            _ => return Err(EmitError::StructName { name: name.clone() }),
+        },
+        None => camel_case(&model.name),
+    };
     let sname = Ident::new(&struct_name, Span::call_site());
     let rt: syn::Path = syn::parse_str(&opts.runtime_path).map_err(|e| EmitError::Parse {
         message: e.to_string(),
@@ -576,6 +590,12 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
         runtime_names.push(p.name.clone());
     }
     let npar = Literal::usize_unsuffixed(runtime_names.len());
+    // Without run-time parameters `set_param` never reads the value.
+    let value_arg = if runtime_names.is_empty() {
+        format_ident!("_value")
+    } else {
+        format_ident!("value")
+    };
     let npts = Literal::usize_unsuffixed(model.points.len());
     let point_names: Vec<&str> = model.points.iter().map(|p| p.name.as_str()).collect();
     let coord_names: Vec<&str> = model.bodies.iter().map(|b| b.coordinate.as_str()).collect();
@@ -590,7 +610,10 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
         #[allow(non_snake_case)]
         pub struct #sname { #fields }
 
-        impl Default for #sname {
+        // Fully qualified: a model named `default` gives a struct `Default`, which would
+        // shadow the prelude trait. (Derivable when there are no run-time parameters.)
+        #[allow(clippy::all)]
+        impl ::core::default::Default for #sname {
             fn default() -> Self { Self { #defaults } }
         }
 
@@ -614,7 +637,7 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
         #[allow(clippy::all)]
         impl #rt::Mechanism<#nl, #ncl> for #sname {
             fn param_names(&self) -> &[&'static str] { &Self::PARAM_NAMES }
-            fn set_param(&mut self, name: &str, value: f64) -> bool {
+            fn set_param(&mut self, name: &str, #value_arg: f64) -> bool {
                 match name { #setters _ => return false, }
                 #[allow(unreachable_code)]
                 true
@@ -678,8 +701,12 @@ pub fn write_if_changed(path: &Path, contents: &str) -> Result<bool, EmitError> 
         source: e,
     };
     let tmp = path.with_extension("rs.tmp");
-    std::fs::write(&tmp, contents).map_err(io)?;
-    std::fs::rename(&tmp, path).map_err(io)?;
+    let written = std::fs::write(&tmp, contents).and_then(|()| std::fs::rename(&tmp, path));
+    if let Err(e) = written {
+        // Leave nothing behind: neither a partial output nor the temporary file.
+        let _ = std::fs::remove_file(&tmp);
+        return Err(io(e));
+    }
     Ok(true)
 }
 

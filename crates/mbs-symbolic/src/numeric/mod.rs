@@ -42,7 +42,9 @@ use crate::model::types::{Axis, Constraint, ForceElement, JointKind, Model, Scal
 
 mod constraints;
 mod dynamics;
+mod fixed;
 mod kinematics;
+pub use fixed::{NumericMechanism, SizeMismatch};
 
 pub use kinematics::BodyState;
 

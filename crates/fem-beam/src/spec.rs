@@ -1,0 +1,539 @@
+//! The beam description as written in TOML (serde types), before validation.
+//!
+//! ```toml
+//! name = "damper cantilever"
+//!
+//! [[segment]]              # straight segments along x, in order from x = 0
+//! length = 1.0             # m
+//! youngs_modulus = 210e9   # Pa
+//! density = 7850.0         # kg/m^3
+//! width = 0.040            # rectangular b x h section (I = b h^3 / 12, bending across h) ...
+//! height = 0.008
+//! # area = 3.2e-4          # ... or area (m^2) and second_moment (m^4)
+//! # second_moment = 1.7067e-9
+//! elements = 20
+//!
+//! [[support]]
+//! x = 0.0                  # or node = 0
+//! kind = "clamped"         # "clamped" | "pinned" | "free", or locked = ["transverse", "rotation"]
+//!
+//! [damping]                # Rayleigh damping, eq. (40); omitted = undamped
+//! alpha = 0.1              # 1/s
+//! beta = 1e-5              # s
+//! # or target modal damping ratios on two modes (numbered from 1, counting rigid modes):
+//! # ratios = [{ mode = 1, ratio = 0.01 }, { mode = 2, ratio = 0.01 }]
+//!
+//! [[load]]                 # nodal force (N) and moment (N m); time = constant by default
+//! x = 1.0
+//! force = -10.0
+//! time = { kind = "harmonic", frequency_hz = 6.5, phase = 0.0 }   # or { kind = "step", at = 0.1 }
+//!
+//! [[distributed_load]]     # uniform transverse load on a segment, N/m (consistent nodal loads)
+//! segment = 0
+//! q = -5.0
+//! ```
+//!
+//! Unknown fields are rejected (a typo is an error, not a silently ignored value). The types
+//! implement `Serialize` as well, so a description round-trips and can be embedded in a
+//! larger file (the scenario files of the coupled simulation).
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::BeamError;
+
+/// A whole beam description.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BeamSpec {
+    /// Optional name, for reports.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// Segments along x from x = 0, in order (`[[segment]]`).
+    #[serde(rename = "segment", default, skip_serializing_if = "Vec::is_empty")]
+    pub segments: Vec<SegmentSpec>,
+    /// Supports (`[[support]]`). No support: a free–free beam.
+    #[serde(rename = "support", default, skip_serializing_if = "Vec::is_empty")]
+    pub supports: Vec<SupportSpec>,
+    /// Rayleigh damping (`[damping]`). Omitted: undamped.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub damping: Option<DampingSpec>,
+    /// Nodal loads (`[[load]]`).
+    #[serde(rename = "load", default, skip_serializing_if = "Vec::is_empty")]
+    pub loads: Vec<NodalLoadSpec>,
+    /// Uniformly distributed loads on segments (`[[distributed_load]]`).
+    #[serde(
+        rename = "distributed_load",
+        default,
+        skip_serializing_if = "Vec::is_empty"
+    )]
+    pub distributed_loads: Vec<DistributedLoadSpec>,
+}
+
+/// A straight prismatic segment, meshed into equal elements.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SegmentSpec {
+    /// Length, m.
+    pub length: f64,
+    /// Young's modulus E, Pa.
+    pub youngs_modulus: f64,
+    /// Density rho, kg/m^3.
+    pub density: f64,
+    /// Number of elements.
+    pub elements: usize,
+    /// Cross-section area F, m^2 (with `second_moment`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub area: Option<f64>,
+    /// Second moment of area J about the bending axis, m^4 (with `area`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub second_moment: Option<f64>,
+    /// Width b of a rectangular section, m (with `height`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub width: Option<f64>,
+    /// Height h of a rectangular section (in the bending direction), m (with `width`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub height: Option<f64>,
+}
+
+impl SegmentSpec {
+    /// A segment with a rectangular `width x height` section.
+    pub fn rectangular(
+        length: f64,
+        youngs_modulus: f64,
+        density: f64,
+        width: f64,
+        height: f64,
+        elements: usize,
+    ) -> Self {
+        Self {
+            length,
+            youngs_modulus,
+            density,
+            elements,
+            width: Some(width),
+            height: Some(height),
+            ..Self::default()
+        }
+    }
+
+    /// A segment with a given area and second moment of area.
+    pub fn with_section(
+        length: f64,
+        youngs_modulus: f64,
+        density: f64,
+        area: f64,
+        second_moment: f64,
+        elements: usize,
+    ) -> Self {
+        Self {
+            length,
+            youngs_modulus,
+            density,
+            elements,
+            area: Some(area),
+            second_moment: Some(second_moment),
+            ..Self::default()
+        }
+    }
+}
+
+/// A degree of freedom of a node (two per node, eq. 26).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Dof {
+    /// Transverse displacement q_2 (along y), m.
+    Transverse,
+    /// Rotation q_6 of the cross-section (about z), rad.
+    Rotation,
+}
+
+impl Dof {
+    /// 0 for the transverse displacement, 1 for the rotation (position within a node).
+    pub fn offset(self) -> usize {
+        match self {
+            Dof::Transverse => 0,
+            Dof::Rotation => 1,
+        }
+    }
+}
+
+/// Standard support kinds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SupportKind {
+    /// Displacement and rotation locked.
+    Clamped,
+    /// Displacement locked, rotation free.
+    Pinned,
+    /// Nothing locked (explicitly free end).
+    Free,
+}
+
+impl SupportKind {
+    /// The locked DOFs.
+    pub fn locked(self) -> &'static [Dof] {
+        match self {
+            SupportKind::Clamped => &[Dof::Transverse, Dof::Rotation],
+            SupportKind::Pinned => &[Dof::Transverse],
+            SupportKind::Free => &[],
+        }
+    }
+}
+
+/// A support at one node: where (`node` or `x`) and what (`kind` or `locked`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SupportSpec {
+    /// Node index (0 at x = 0), or
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub node: Option<usize>,
+    /// position along the beam (must coincide with a node), m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x: Option<f64>,
+    /// A standard kind, or
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kind: Option<SupportKind>,
+    /// any set of locked DOFs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub locked: Option<Vec<Dof>>,
+}
+
+impl SupportSpec {
+    /// A support of the given kind at a node.
+    pub fn at_node(node: usize, kind: SupportKind) -> Self {
+        Self {
+            node: Some(node),
+            kind: Some(kind),
+            ..Self::default()
+        }
+    }
+
+    /// A support of the given kind at position `x`.
+    pub fn at_x(x: f64, kind: SupportKind) -> Self {
+        Self {
+            x: Some(x),
+            kind: Some(kind),
+            ..Self::default()
+        }
+    }
+
+    /// Locks the given DOFs at a node.
+    pub fn locked_at_node(node: usize, locked: &[Dof]) -> Self {
+        Self {
+            node: Some(node),
+            locked: Some(locked.to_vec()),
+            ..Self::default()
+        }
+    }
+}
+
+/// Rayleigh damping `B = alpha A + beta C` (40): either the coefficients or two target modal
+/// damping ratios (then `zeta_i = alpha / (2 omega_i) + beta omega_i / 2` is solved for
+/// alpha and beta).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DampingSpec {
+    /// Mass-proportional coefficient, 1/s (default 0 when `beta` is given).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub alpha: Option<f64>,
+    /// Stiffness-proportional coefficient, s (default 0 when `alpha` is given).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub beta: Option<f64>,
+    /// Two target modal damping ratios (instead of alpha and beta).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ratios: Option<Vec<ModalRatioSpec>>,
+}
+
+/// A target damping ratio for one mode.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModalRatioSpec {
+    /// Mode number, from 1 in ascending frequency (rigid-body modes count).
+    pub mode: usize,
+    /// Damping ratio (fraction of critical), e.g. 0.01.
+    pub ratio: f64,
+}
+
+/// Time dependence of a load: the load is `value * f(t)`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum TimeFunction {
+    /// `f(t) = 1`.
+    #[default]
+    Constant,
+    /// `f(t) = sin(2 pi frequency_hz t + phase)`.
+    Harmonic {
+        /// Frequency, Hz.
+        frequency_hz: f64,
+        /// Phase, rad.
+        #[serde(default)]
+        phase: f64,
+    },
+    /// `f(t) = 0` for `t < at`, `1` from `at` on.
+    Step {
+        /// Switch-on time, s.
+        at: f64,
+    },
+}
+
+impl TimeFunction {
+    /// `f(t)`.
+    pub fn value(&self, t: f64) -> f64 {
+        match *self {
+            TimeFunction::Constant => 1.0,
+            TimeFunction::Harmonic {
+                frequency_hz,
+                phase,
+            } => (2.0 * std::f64::consts::PI * frequency_hz * t + phase).sin(),
+            TimeFunction::Step { at } => {
+                if t >= at {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+        }
+    }
+}
+
+/// A nodal force and moment (27), at a node given by index or position.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NodalLoadSpec {
+    /// Node index, or
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub node: Option<usize>,
+    /// position (must coincide with a node), m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x: Option<f64>,
+    /// Transverse force P_2, N.
+    #[serde(default)]
+    pub force: f64,
+    /// Moment P_6, N m.
+    #[serde(default)]
+    pub moment: f64,
+    /// Time dependence (constant by default).
+    #[serde(default)]
+    pub time: TimeFunction,
+}
+
+/// A uniformly distributed transverse load on one segment, turned into consistent nodal
+/// loads element by element.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DistributedLoadSpec {
+    /// Segment index (0-based).
+    pub segment: usize,
+    /// Load per unit length, N/m (positive along +y).
+    pub q: f64,
+    /// Time dependence (constant by default).
+    #[serde(default)]
+    pub time: TimeFunction,
+}
+
+impl BeamSpec {
+    /// Parses TOML text. `origin` (usually the file name) prefixes error messages, which
+    /// carry the line and column of the problem.
+    pub fn from_toml_str(text: &str, origin: &str) -> Result<Self, BeamError> {
+        toml::from_str(text).map_err(|e| {
+            let (line, column) = e
+                .span()
+                .map(|s| line_column(text, s.start))
+                .unwrap_or((1, 1));
+            BeamError::Parse {
+                origin: origin.to_string(),
+                line,
+                column,
+                message: e.message().trim().to_string(),
+            }
+        })
+    }
+
+    /// Serialises to TOML text.
+    pub fn to_toml_string(&self) -> Result<String, toml::ser::Error> {
+        toml::to_string(self)
+    }
+}
+
+/// 1-based line and column of a byte offset.
+pub(crate) fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let offset = offset.min(text.len());
+    let before = &text[..offset];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |s| s.chars().count()) + 1;
+    (line, column)
+}
+
+/// The 1-based line of `[key][index].field` (or the closest enclosing item found) in TOML
+/// text, for error messages. `prefix` is the path of the beam table inside a larger
+/// document (empty for a beam file).
+pub fn locate_line(
+    text: &str,
+    prefix: &[&str],
+    key: &str,
+    index: Option<usize>,
+    field: Option<&str>,
+) -> Option<usize> {
+    use toml::de::{DeTable, DeValue};
+    let root = DeTable::parse(text).ok()?;
+    let root_value = DeValue::Table(root.into_inner());
+    let mut cur = &root_value;
+    let mut span = None;
+    for p in prefix {
+        let v = cur.get(*p)?;
+        span = Some(v.span());
+        cur = v.get_ref();
+    }
+    if let Some(v) = cur.get(key) {
+        span = Some(v.span());
+        cur = v.get_ref();
+        if let Some(i) = index {
+            if let Some(v) = cur.get(i) {
+                span = Some(v.span());
+                cur = v.get_ref();
+                if let Some(f) = field
+                    && let Some(v) = cur.get(f)
+                {
+                    span = Some(v.span());
+                }
+            }
+        } else if let Some(f) = field
+            && let Some(v) = cur.get(f)
+        {
+            span = Some(v.span());
+        }
+    }
+    span.map(|s| line_column(text, s.start).0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SAMPLE: &str = r#"
+name = "x"
+
+[[segment]]
+length = 1.0
+youngs_modulus = 2e11
+density = 7800.0
+width = 0.04
+height = 0.008
+elements = 4
+
+[[segment]]
+length = 0.5
+youngs_modulus = 2e11
+density = 7800.0
+area = 1e-4
+second_moment = 1e-9
+elements = 2
+
+[[support]]
+node = 0
+kind = "clamped"
+
+[[support]]
+x = 1.5
+locked = ["transverse"]
+
+[damping]
+ratios = [{ mode = 1, ratio = 0.01 }, { mode = 2, ratio = 0.02 }]
+
+[[load]]
+x = 1.0
+force = -3.0
+time = { kind = "harmonic", frequency_hz = 5.0 }
+
+[[distributed_load]]
+segment = 1
+q = 2.0
+time = { kind = "step", at = 0.5 }
+"#;
+
+    #[test]
+    fn parses_every_table() {
+        let s = BeamSpec::from_toml_str(SAMPLE, "t.toml").unwrap();
+        assert_eq!(s.segments.len(), 2);
+        assert_eq!(s.segments[0].width, Some(0.04));
+        assert_eq!(
+            s.supports[1].locked.as_deref(),
+            Some(&[Dof::Transverse][..])
+        );
+        assert_eq!(
+            s.damping.as_ref().unwrap().ratios.as_ref().unwrap()[1],
+            ModalRatioSpec {
+                mode: 2,
+                ratio: 0.02
+            }
+        );
+        assert_eq!(
+            s.loads[0].time,
+            TimeFunction::Harmonic {
+                frequency_hz: 5.0,
+                phase: 0.0
+            }
+        );
+        assert_eq!(s.distributed_loads[0].time, TimeFunction::Step { at: 0.5 });
+        // Round trip through the serialiser.
+        let again = BeamSpec::from_toml_str(&s.to_toml_string().unwrap(), "again").unwrap();
+        assert_eq!(again, s);
+    }
+
+    #[test]
+    fn unknown_field_reports_file_line_column() {
+        let text = "[[segment]]\nlength = 1.0\nlenght = 2.0\n";
+        let e = BeamSpec::from_toml_str(text, "bad.toml").unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            msg.starts_with("bad.toml:3:1: unknown field `lenght`"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn wrong_type_reports_line() {
+        let text = "[[segment]]\nlength = \"long\"\n";
+        let msg = BeamSpec::from_toml_str(text, "b.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(msg.starts_with("b.toml:2:"), "{msg}");
+    }
+
+    #[test]
+    fn locates_fields() {
+        assert_eq!(
+            locate_line(SAMPLE, &[], "segment", Some(1), Some("length")),
+            Some(13)
+        );
+        assert_eq!(
+            locate_line(SAMPLE, &[], "support", Some(1), Some("x")),
+            Some(25)
+        );
+        assert_eq!(
+            locate_line(SAMPLE, &[], "damping", None, Some("ratios")),
+            Some(29)
+        );
+        // Field absent: falls back to the table.
+        assert_eq!(
+            locate_line(SAMPLE, &[], "support", Some(0), Some("x")),
+            Some(20)
+        );
+        assert_eq!(locate_line(SAMPLE, &[], "nothing", None, None), None);
+    }
+
+    #[test]
+    fn time_functions() {
+        assert_eq!(TimeFunction::Constant.value(3.0), 1.0);
+        assert_eq!(TimeFunction::Step { at: 1.0 }.value(0.999), 0.0);
+        assert_eq!(TimeFunction::Step { at: 1.0 }.value(1.0), 1.0);
+        let h = TimeFunction::Harmonic {
+            frequency_hz: 2.0,
+            phase: std::f64::consts::FRAC_PI_2,
+        };
+        assert!(
+            (h.value(0.25) - (std::f64::consts::PI + std::f64::consts::FRAC_PI_2).sin()).abs()
+                < 1e-15
+        );
+    }
+}

@@ -1,0 +1,69 @@
+//! Benchmarks of the coupled damper simulation: the whole default scenario (5 s at
+//! dt = 1e-4, 50,000 steps) and the cost of one step at 20, 200 and 2,000 beam elements
+//! (which must grow linearly).
+#![allow(missing_docs)] // criterion's macros generate undocumented items
+
+use std::hint::black_box;
+use std::path::PathBuf;
+
+use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group, criterion_main};
+use hybrid_core::damper::Integrator;
+use hybrid_core::generated::double_bar::DoubleBar;
+use hybrid_core::scenario::Scenario;
+use hybrid_core::study::{build_model, run_scenario};
+
+fn scenario(elements: usize, t_end: f64) -> Scenario {
+    let path = PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenarios/damper.toml"
+    ));
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("elements = 20", &format!("elements = {elements}"))
+        .replace("t_end = 5.0", &format!("t_end = {t_end}"));
+    Scenario::from_str(&text, &path).unwrap()
+}
+
+fn whole_run(c: &mut Criterion) {
+    let mut g = c.benchmark_group("damper_run");
+    g.sample_size(10);
+    let sc = scenario(20, 5.0);
+    g.bench_function("default_5s_dt1e-4", |b| {
+        b.iter(|| {
+            black_box(
+                run_scenario(&sc, DoubleBar::default(), true, &mut |_| {})
+                    .unwrap()
+                    .1
+                    .state
+                    .t,
+            )
+        })
+    });
+    g.finish();
+}
+
+fn step_cost(c: &mut Criterion) {
+    let mut g = c.benchmark_group("step_1000");
+    for elements in [20usize, 200, 2000] {
+        let sc = scenario(elements, 5.0);
+        let (model, guess) = build_model(&sc, DoubleBar::default(), true).unwrap();
+        let state = model.initial_state(1e-3, guess).unwrap();
+        let integ = Integrator::new(&model, sc.method, 1e-4).unwrap();
+        g.bench_with_input(BenchmarkId::from_parameter(elements), &elements, |b, _| {
+            b.iter_batched(
+                || (integ.clone(), state.clone()),
+                |(mut integ, mut state)| {
+                    for _ in 0..1000 {
+                        integ.step(&model, &mut state).unwrap();
+                    }
+                    black_box(state.t)
+                },
+                BatchSize::LargeInput,
+            )
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, whole_run, step_cost);
+criterion_main!(benches);

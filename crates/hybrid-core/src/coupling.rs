@@ -1,0 +1,289 @@
+//! The joint between the beam and the mechanism (paper section 4, THEORY.md sections 5–6).
+//!
+//! A point `p(q^b)` of a planar two-coordinate mechanism (the double bar's `tip`) is pinned
+//! to a point of the beam whose transverse displacement is `y = n . q^c` — a single DOF
+//! (`n = e_j`, pinning at node `j`) or, inside an element, the shape-function row of eq. (35).
+//! With the mechanism's ground frame aligned with the beam's axes:
+//!
+//! ```text
+//! h1 = p_y(q^b) - (y0 + n . q^c)        (45)     h2 = p_x(q^b) - x0        (46)
+//! J^b = [dp_y/dq^b ; dp_x/dq^b]          J^c = [-n^T ; 0]                   (49), (53)–(54)
+//! A^b = [J'_y q^b' ; J'_x q^b']          (50; rows in the order of J^b)
+//! ```
+//!
+//! With all mechanism coordinates dependent (THEORY.md section 6), the mechanism follows the
+//! beam: `q^b` from `h = 0` (Newton with `J^b`), `q^b' = g y'` with `g = J^b^-1 e_1`, and the
+//! reduction (56)–(58) collapses to a rank-one term on the beam:
+//!
+//! ```text
+//! A^cR = A^c + m_eff n n^T,          m_eff = g^T M^b g                              (56)
+//! P^cR = P^c + n f,                  f = g^T (M^b s - F^b - Q^b),  s = J^b^-1 A^b     (58)
+//! ```
+//!
+//! `m_eff` is the mechanism's (and the rotor's) reflected mass at the beam point and `f` the
+//! force the mechanism applies to the beam; `g_1` is the velocity amplification
+//! `q1'/y'`, and the generator's `Q_1 = c_g q1'` reflects as the damping `c_g g_1^2`.
+
+use mbs_symbolic::runtime::{Mechanism, PointKinematics};
+
+/// Where the mechanism point is pinned: its target in the mechanism's ground frame when the
+/// beam is undeformed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Attachment {
+    /// Index of the mechanism point (e.g. `tip`).
+    pub point: usize,
+    /// `x0` of eq. (46).
+    pub x0: f64,
+    /// `y0` of eq. (45): the point's `y` when the beam is undeformed.
+    pub y0: f64,
+}
+
+/// Why the mechanism could not follow the beam.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum KinematicError {
+    /// `J^b` is (nearly) singular: the mechanism is at or near its singular (toggle)
+    /// position.
+    #[error(
+        "mechanism at its singular position: cond(J^b) = {condition:.3e} (smallest singular value {sigma_min:.3e} m) at q^b = [{:.6}, {:.6}] rad",
+        q[0],
+        q[1]
+    )]
+    Singular {
+        /// Condition number of `J^b`.
+        condition: f64,
+        /// Smallest singular value of `J^b` (m/rad): the distance to the singular position.
+        sigma_min: f64,
+        /// Mechanism coordinates.
+        q: [f64; 2],
+    },
+    /// Newton on `h = 0` did not converge: the beam point is out of the mechanism's reach
+    /// (e.g. pushed through the toggle position).
+    #[error("the mechanism cannot reach the beam point: |h| = {residual:.3e} m after {iterations} Newton iterations (q^b = [{:.6}, {:.6}] rad)", q[0], q[1])]
+    NoAssembly {
+        /// Constraint residual norm at the last iterate.
+        residual: f64,
+        /// Iterations made.
+        iterations: usize,
+        /// Last iterate.
+        q: [f64; 2],
+    },
+}
+
+/// 2x2 helpers.
+pub(crate) fn det2(j: &[[f64; 2]; 2]) -> f64 {
+    j[0][0] * j[1][1] - j[0][1] * j[1][0]
+}
+
+/// `J^-1 b` for a 2x2 system (Cramer's rule; the caller checks the conditioning first).
+pub(crate) fn solve2(j: &[[f64; 2]; 2], b: [f64; 2]) -> [f64; 2] {
+    let d = det2(j);
+    [
+        (b[0] * j[1][1] - b[1] * j[0][1]) / d,
+        (j[0][0] * b[1] - j[1][0] * b[0]) / d,
+    ]
+}
+
+/// Singular values (largest, smallest) of a 2x2 matrix.
+pub(crate) fn singular_values2(j: &[[f64; 2]; 2]) -> (f64, f64) {
+    let fro2 = j[0][0].powi(2) + j[0][1].powi(2) + j[1][0].powi(2) + j[1][1].powi(2);
+    let d = det2(j).abs();
+    // sigma_max^2 + sigma_min^2 = |J|_F^2, sigma_max sigma_min = |det J|.
+    let disc = (fro2 * fro2 - 4.0 * d * d).max(0.0).sqrt();
+    let smax = ((fro2 + disc) / 2.0).sqrt();
+    let smin = if smax > 0.0 { d / smax } else { 0.0 };
+    (smax, smin)
+}
+
+/// The mechanism's configuration following a beam point, and the reduced terms it feeds
+/// back (see the module documentation). Filled by [`MechanismLink::follow`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LinkState {
+    /// Mechanism coordinates `q^b`.
+    pub q: [f64; 2],
+    /// Mechanism velocities `q^b' = g y'` (eq. 18).
+    pub qd: [f64; 2],
+    /// `J^b` (rows: y, x).
+    pub jb: [[f64; 2]; 2],
+    /// `g = J^b^-1 e_1 = dq^b/dy`: the kinematic influence of the beam point's motion.
+    pub g: [f64; 2],
+    /// Reflected mass `m_eff = g^T M^b g` (kg).
+    pub m_eff: f64,
+    /// Force of the mechanism on the beam point, `f` of eq. (58) (N).
+    pub force: f64,
+    /// Generator current (A).
+    pub current: f64,
+    /// Condition number of `J^b`.
+    pub condition: f64,
+    /// Smallest singular value of `J^b` (m/rad).
+    pub sigma_min: f64,
+    /// Kinetic energy of the mechanism and rotor, `q^b'^T M^b q^b' / 2` (J).
+    pub kinetic_energy: f64,
+    /// Norm of the position constraint residual `h` after the Newton solve (m).
+    pub residual: f64,
+}
+
+/// A two-coordinate mechanism pinned to a beam point, with the generator on one joint.
+#[derive(Clone, Debug)]
+pub struct MechanismLink<M> {
+    /// The mechanism equations (generated code or the numeric reference).
+    pub mechanism: M,
+    /// Where its point is pinned.
+    pub attachment: Attachment,
+    /// Joint index carrying the generator.
+    pub generator_joint: usize,
+    /// `n^2 J_r` added to `M^b` on the generator joint.
+    pub rotor_inertia: f64,
+    /// Condition number of `J^b` beyond which the run stops (approach of the singular
+    /// position).
+    pub max_condition: f64,
+}
+
+impl<M: Mechanism<2, 0>> MechanismLink<M> {
+    /// Constraint residual `h = [p_y - (y0 + y), p_x - x0]` and `J^b` at `q`.
+    fn residual(
+        &self,
+        q: &[f64; 2],
+        y: f64,
+        pk: &mut PointKinematics<2>,
+    ) -> ([f64; 2], [[f64; 2]; 2]) {
+        self.mechanism
+            .point_kinematics(self.attachment.point, q, &[0.0; 2], pk);
+        let h = [
+            pk.p[1] - (self.attachment.y0 + y),
+            pk.p[0] - self.attachment.x0,
+        ];
+        (h, [pk.j[1], pk.j[0]])
+    }
+
+    /// Solves `h(q^b) = 0` for the beam point at `y` by Newton's method from `guess`
+    /// (the guess selects the assembly branch). Step length limited to 0.3 rad.
+    pub fn solve_positions(&self, y: f64, guess: [f64; 2]) -> Result<[f64; 2], KinematicError> {
+        let mut q = guess;
+        let mut pk = PointKinematics::default();
+        let scale = 1.0 + self.attachment.y0.abs() + self.attachment.x0.abs();
+        for it in 0..60 {
+            let (h, jb) = self.residual(&q, y, &mut pk);
+            let rn = h[0].hypot(h[1]);
+            if !rn.is_finite() {
+                return Err(KinematicError::NoAssembly {
+                    residual: rn,
+                    iterations: it,
+                    q,
+                });
+            }
+            let (smax, smin) = singular_values2(&jb);
+            if smin <= 1e-14 * smax.max(1e-300) {
+                return Err(KinematicError::Singular {
+                    condition: f64::INFINITY,
+                    sigma_min: smin,
+                    q,
+                });
+            }
+            let mut dq = solve2(&jb, h);
+            let len = dq[0].hypot(dq[1]);
+            if len > 0.3 {
+                dq = [dq[0] * 0.3 / len, dq[1] * 0.3 / len];
+            }
+            q = [q[0] - dq[0], q[1] - dq[1]];
+            if len <= 1e-13 * (1.0 + q[0].abs() + q[1].abs()) {
+                let (h, _) = self.residual(&q, y, &mut pk);
+                let r = h[0].hypot(h[1]);
+                if r <= 1e-12 * scale {
+                    return Ok(q);
+                }
+                return Err(KinematicError::NoAssembly {
+                    residual: r,
+                    iterations: it + 1,
+                    q,
+                });
+            }
+        }
+        let (h, _) = self.residual(&q, y, &mut pk);
+        Err(KinematicError::NoAssembly {
+            residual: h[0].hypot(h[1]),
+            iterations: 60,
+            q,
+        })
+    }
+
+    /// Follows the beam point at displacement `y`, velocity `yd`: positions by Newton
+    /// (warm-started from `warm`), velocities by eq. (18), and the reduced terms `m_eff`, `f`
+    /// of eqs. (56), (58), with the generator torque from `current`. Allocates nothing.
+    pub fn follow(
+        &self,
+        y: f64,
+        yd: f64,
+        t: f64,
+        warm: [f64; 2],
+        current: Current<'_>,
+    ) -> Result<LinkState, KinematicError> {
+        let q = self.solve_positions(y, warm)?;
+        let mut pk = PointKinematics::default();
+        let (h, jb) = self.residual(&q, y, &mut pk);
+        let (smax, smin) = singular_values2(&jb);
+        let condition = if smin > 0.0 {
+            smax / smin
+        } else {
+            f64::INFINITY
+        };
+        if condition > self.max_condition {
+            return Err(KinematicError::Singular {
+                condition,
+                sigma_min: smin,
+                q,
+            });
+        }
+        let g = solve2(&jb, [1.0, 0.0]);
+        let qd = [g[0] * yd, g[1] * yd];
+        self.mechanism
+            .point_kinematics(self.attachment.point, &q, &qd, &mut pk);
+        let ab = [pk.a[1], pk.a[0]];
+        let s = solve2(&jb, ab);
+        let mut m = [[0.0; 2]; 2];
+        self.mechanism.mass_matrix(&q, &mut m);
+        m[self.generator_joint][self.generator_joint] += self.rotor_inertia;
+        let (mut f, mut qv) = ([0.0; 2], [0.0; 2]);
+        self.mechanism.f_vector(&q, &qd, &mut f);
+        self.mechanism.q_vector(&q, &qd, t, &mut qv);
+        let (spec, i) = match current {
+            Current::QuasiStatic(spec) => {
+                (spec, spec.quasi_static_current(qd[self.generator_joint]))
+            }
+            Current::State(spec, i) => (spec, i),
+        };
+        qv[self.generator_joint] += spec.q_term(i);
+        let mg = [
+            m[0][0] * g[0] + m[0][1] * g[1],
+            m[1][0] * g[0] + m[1][1] * g[1],
+        ];
+        let ms = [
+            m[0][0] * s[0] + m[0][1] * s[1],
+            m[1][0] * s[0] + m[1][1] * s[1],
+        ];
+        let m_eff = g[0] * mg[0] + g[1] * mg[1];
+        let force = g[0] * (ms[0] - f[0] - qv[0]) + g[1] * (ms[1] - f[1] - qv[1]);
+        let kinetic_energy = 0.5 * yd * yd * m_eff;
+        Ok(LinkState {
+            q,
+            qd,
+            jb,
+            g,
+            m_eff,
+            force,
+            current: i,
+            condition,
+            sigma_min: smin,
+            kinetic_energy,
+            residual: h[0].hypot(h[1]),
+        })
+    }
+}
+
+/// How the generator current is known when following the beam.
+#[derive(Clone, Copy, Debug)]
+pub enum Current<'a> {
+    /// Zero inductance: `i = k_e n q' / R` (0 when disconnected), and its torque is applied.
+    QuasiStatic(&'a crate::generator::GeneratorSpec),
+    /// A current state `i` (inductance > 0), whose torque is applied.
+    State(&'a crate::generator::GeneratorSpec, f64),
+}

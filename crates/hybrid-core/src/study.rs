@@ -1,0 +1,393 @@
+//! Running a damper scenario: building the coupled model from the scenario, integrating it
+//! with samples for the outputs, and the figures of merit (peak amplitude, equivalent
+//! damping ratio of the first mode from the free decay, energy account).
+
+use std::time::{Duration, Instant};
+
+use mbs_symbolic::runtime::{Mechanism, PointKinematics};
+use serde::Serialize;
+
+use crate::coupling::{Attachment, MechanismLink};
+use crate::damper::{DamperModel, Integrator, SimError, State};
+use crate::scenario::{Scenario, ScenarioError};
+
+/// Link lengths `(L1, L2)` of a double bar read off its point kinematics: the point at
+/// `q = (0, 0)` lies at `L1 + L2` along x, at `q = (0, pi)` at `L1 - L2`.
+fn bar_lengths<M: Mechanism<2, 0>>(m: &M, point: usize) -> (f64, f64) {
+    let mut pk = PointKinematics::default();
+    m.point_kinematics(point, &[0.0, 0.0], &[0.0; 2], &mut pk);
+    let s = pk.p[0];
+    m.point_kinematics(point, &[0.0, std::f64::consts::PI], &[0.0; 2], &mut pk);
+    let d = pk.p[0];
+    ((s + d) / 2.0, (s - d) / 2.0)
+}
+
+/// The coupled model of a scenario and the initial guess of the mechanism coordinates.
+pub fn build_model<M: Mechanism<2, 0>>(
+    sc: &Scenario,
+    mut mechanism: M,
+    connected: bool,
+) -> Result<(DamperModel<M>, [f64; 2]), ScenarioError> {
+    let spec = &sc.spec;
+    let ms = &spec.mechanism;
+    for (name, value) in &ms.parameters {
+        if !mechanism.set_param(name, *value) {
+            let known = mechanism.param_names().join(", ");
+            return Err(sc.error_at("mechanism", "parameters", "[mechanism] parameters", format!("{name:?} is not a run-time parameter of the model (run-time parameters: {known})")));
+        }
+    }
+    let point = mechanism
+        .point_names()
+        .iter()
+        .position(|p| *p == ms.point)
+        .ok_or_else(|| {
+            sc.error_at(
+                "mechanism",
+                "point",
+                "[mechanism] point",
+                format!(
+                    "no point {:?} in the model (points: {})",
+                    ms.point,
+                    mechanism.point_names().join(", ")
+                ),
+            )
+        })?;
+    let model = mbs_symbolic::model::load(&sc.model_path).map_err(|e| {
+        sc.error_at(
+            "mechanism",
+            "model",
+            "[mechanism] model",
+            e.to_string().replace('\n', "; "),
+        )
+    })?;
+    let generator_joint = model.body_index(&ms.generator_joint).ok_or_else(|| {
+        sc.error_at(
+            "mechanism",
+            "generator_joint",
+            "[mechanism] generator_joint",
+            format!("no body {:?} in the model", ms.generator_joint),
+        )
+    })?;
+    let (l1, l2) = bar_lengths(&mechanism, point);
+    if !(l1 > 0.0 && l2 > 0.0) {
+        return Err(sc.error_at(
+            "mechanism",
+            "point",
+            "[mechanism] point",
+            format!("the point is not at the end of a two-bar chain (bar lengths {l1}, {l2})"),
+        ));
+    }
+    // Target of the point in the mechanism frame (pivot at the origin) and the initial guess.
+    let (x0, y0, alpha) = match (ms.half_angle_deg, ms.pivot) {
+        (Some(deg), _) => {
+            let a = deg.to_radians();
+            let rad = l2 * l2 - (l1 * a.sin()).powi(2);
+            if rad < 0.0 {
+                return Err(sc.error_at(
+                    "mechanism",
+                    "half_angle_deg",
+                    "[mechanism] half_angle_deg",
+                    format!("{deg} degrees cannot be reached with bars {l1} m and {l2} m"),
+                ));
+            }
+            (0.0, l1 * a.cos() + rad.sqrt(), a)
+        }
+        (None, Some(p)) => {
+            let (x0, y0) = (-p[0], -p[1]);
+            let d = x0.hypot(y0);
+            let c = (l1 * l1 + d * d - l2 * l2) / (2.0 * l1 * d);
+            if !(-1.0..=1.0).contains(&c) {
+                return Err(sc.error_at("mechanism", "pivot", "[mechanism] pivot", format!("the beam point is {d} m from the pivot, out of the reach of bars {l1} m and {l2} m")));
+            }
+            (x0, y0, c.acos())
+        }
+        (None, None) => unreachable!("checked when the scenario was loaded"),
+    };
+    let d = x0.hypot(y0);
+    let theta = y0.atan2(x0);
+    let knee = ((l1 * l1 + l2 * l2 - d * d) / (2.0 * l1 * l2))
+        .clamp(-1.0, 1.0)
+        .acos();
+    let guess = [theta - alpha, std::f64::consts::PI - knee];
+
+    let beam = sc.beam_model()?;
+    let shape = beam
+        .shape_at(ms.x)
+        .map_err(|e| sc.error_at("mechanism", "x", "[mechanism] x", e.to_string()))?;
+    let coupling: Vec<(usize, f64)> = (0..4)
+        .filter_map(|k| shape.dofs[k].map(|i| (i, shape.weights[0][k])))
+        .filter(|&(_, w)| w != 0.0)
+        .collect();
+    if coupling.is_empty() {
+        return Err(sc.error_at(
+            "mechanism",
+            "x",
+            "[mechanism] x",
+            format!(
+                "the beam cannot move transversely at x = {} (a support locks it)",
+                ms.x
+            ),
+        ));
+    }
+    let mut generator = spec.generator.clone();
+    generator.connected = generator.connected && connected;
+    let link = MechanismLink {
+        mechanism,
+        attachment: Attachment { point, x0, y0 },
+        generator_joint,
+        rotor_inertia: generator.reflected_inertia(),
+        max_condition: ms.max_condition,
+    };
+    Ok((
+        DamperModel {
+            beam,
+            link,
+            generator,
+            coupling,
+        },
+        guess,
+    ))
+}
+
+/// One output row.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Sample {
+    /// Time (s).
+    pub t: f64,
+    /// Beam point displacement (m).
+    pub tip_displacement: f64,
+    /// Beam point velocity (m/s).
+    pub tip_velocity: f64,
+    /// Crank angle q1 (rad).
+    pub crank_angle: f64,
+    /// Coupler angle q2 relative to the crank (rad).
+    pub coupler_angle: f64,
+    /// Crank rate q1' (rad/s).
+    pub crank_rate: f64,
+    /// Coupler rate q2' (rad/s).
+    pub coupler_rate: f64,
+    /// Velocity amplification q1'/y' = g_1 (rad/m).
+    pub amplification: f64,
+    /// Generator current (A).
+    pub current: f64,
+    /// Electrical power (R_a + R_L) i^2 (W).
+    pub generator_power: f64,
+    /// Power in the load R_L i^2 (W).
+    pub load_power: f64,
+    /// Beam kinetic energy (J).
+    pub beam_kinetic_energy: f64,
+    /// Beam strain energy (J).
+    pub beam_potential_energy: f64,
+    /// Mechanism + rotor kinetic energy (J).
+    pub mechanism_kinetic_energy: f64,
+    /// Stored energy (J).
+    pub total_energy: f64,
+    /// Energy dissipated by the structure (J).
+    pub dissipated_structure: f64,
+    /// Energy dissipated in the generator circuit (J).
+    pub dissipated_generator: f64,
+    /// `(E0 + W) - (E + D)` (J).
+    pub energy_balance_error: f64,
+    /// Constraint residual |h| (m).
+    pub constraint_residual: f64,
+    /// cond(J^b).
+    pub jacobian_condition: f64,
+}
+
+impl Sample {
+    fn of<M>(model: &DamperModel<M>, s: &State, e0: f64) -> Sample
+    where
+        M: Mechanism<2, 0>,
+    {
+        let g = &model.generator;
+        let e = &s.energy;
+        let y = model.point_value(&s.q);
+        let yd = model.point_value(&s.v);
+        Sample {
+            t: s.t,
+            tip_displacement: y,
+            tip_velocity: yd,
+            crank_angle: s.link.q[0],
+            coupler_angle: s.link.q[1],
+            crank_rate: s.link.qd[0],
+            coupler_rate: s.link.qd[1],
+            amplification: s.link.g[model.link.generator_joint],
+            current: s.current,
+            generator_power: g.resistance() * s.current * s.current,
+            load_power: g.load_resistance * s.current * s.current,
+            beam_kinetic_energy: e.beam_kinetic,
+            beam_potential_energy: e.beam_potential,
+            mechanism_kinetic_energy: e.mechanism_kinetic,
+            total_energy: e.total(),
+            dissipated_structure: e.dissipated_structure,
+            dissipated_generator: e.dissipated_armature + e.dissipated_load,
+            energy_balance_error: (e0 + e.external_work) - (e.total() + e.dissipated()),
+            constraint_residual: s.link.residual,
+            jacobian_condition: s.link.condition,
+        }
+    }
+}
+
+/// The outcome of one run.
+#[derive(Clone, Debug)]
+pub struct Run {
+    /// Rows every `every` steps (and the last state).
+    pub samples: Vec<Sample>,
+    /// The final state.
+    pub state: State,
+    /// Stored energy at t = 0.
+    pub initial_energy: f64,
+    /// Largest |energy balance error| / initial energy over the run.
+    pub energy_balance_rel_error: f64,
+    /// Wall-clock time of the integration.
+    pub wall: Duration,
+}
+
+/// Integrates `model` from `state` to `t_end` with step `dt`, sampling every `every` steps.
+/// `progress` receives the fraction done from time to time.
+pub fn run<M: Mechanism<2, 0>>(
+    model: &DamperModel<M>,
+    integrator: &mut Integrator,
+    mut state: State,
+    t_end: f64,
+    every: usize,
+    progress: &mut dyn FnMut(f64),
+) -> Result<Run, SimError> {
+    let e0 = state.energy.total();
+    let steps = (t_end / integrator.step_size()).round() as u64;
+    let mut samples = Vec::with_capacity((steps as usize) / every.max(1) + 2);
+    samples.push(Sample::of(model, &state, e0));
+    let mut worst: f64 = 0.0;
+    let start = Instant::now();
+    let report = (steps / 200).max(1);
+    for k in 1..=steps {
+        integrator.step(model, &mut state)?;
+        let e = &state.energy;
+        let err = ((e0 + e.external_work) - (e.total() + e.dissipated())).abs();
+        worst = worst.max(err);
+        if k % every as u64 == 0 || k == steps {
+            samples.push(Sample::of(model, &state, e0));
+        }
+        if k % report == 0 {
+            progress(k as f64 / steps as f64);
+        }
+    }
+    let wall = start.elapsed();
+    Ok(Run {
+        samples,
+        state,
+        initial_energy: e0,
+        energy_balance_rel_error: if e0 > 0.0 { worst / e0 } else { worst },
+        wall,
+    })
+}
+
+/// Positive peaks of `y(t)`, one per cycle: cycles are delimited by upward zero crossings
+/// with hysteresis (the signal must first drop below -5 % of the last peak), so ripple of
+/// higher modes near zero does not split a cycle. Each peak is the largest sample of its
+/// cycle, refined by a parabola through its neighbours.
+pub fn peaks(samples: &[Sample]) -> Vec<(f64, f64)> {
+    let y: Vec<f64> = samples.iter().map(|s| s.tip_displacement).collect();
+    let t: Vec<f64> = samples.iter().map(|s| s.t).collect();
+    peaks_of(&t, &y)
+}
+
+/// [`peaks`] of a sampled signal `y(t)`.
+pub fn peaks_of(t: &[f64], y: &[f64]) -> Vec<(f64, f64)> {
+    let mut out = vec![];
+    let mut best: Option<usize> = None;
+    let mut armed = false;
+    let mut threshold = 0.0;
+    for k in 0..y.len() {
+        if y[k] < -threshold {
+            if !armed {
+                if let Some(b) = best.take() {
+                    out.push(refine(t, y, b));
+                    threshold = 0.05 * out.last().map_or(0.0, |p: &(f64, f64)| p.1);
+                }
+            }
+            armed = true;
+        } else if y[k] > 0.0 {
+            armed = false;
+            if best.is_none_or(|b| y[k] > y[b]) {
+                best = Some(k);
+            }
+        }
+    }
+    out
+}
+
+fn refine(t: &[f64], y: &[f64], k: usize) -> (f64, f64) {
+    if k == 0 || k + 1 >= y.len() {
+        return (t[k], y[k]);
+    }
+    let (a, b, c) = (y[k - 1], y[k], y[k + 1]);
+    let denom = a - 2.0 * b + c;
+    if denom >= 0.0 {
+        return (t[k], b);
+    }
+    let x = 0.5 * (a - c) / denom;
+    (t[k] + x * (t[k + 1] - t[k]), b - 0.25 * (a - c) * x)
+}
+
+/// Equivalent viscous damping ratio of the dominant mode from the free decay: a
+/// least-squares fit of `ln(peak_k) = c - delta k` (logarithmic decrement `delta`) over the
+/// positive peaks above 1e-3 of the first, `zeta = delta / sqrt(4 pi^2 + delta^2)`. `None`
+/// with fewer than three peaks.
+pub fn damping_ratio(samples: &[Sample]) -> Option<f64> {
+    let pk = peaks(samples);
+    let first = pk.first()?.1;
+    let used: Vec<f64> = pk
+        .iter()
+        .map(|p| p.1)
+        .take_while(|&p| p > 1e-3 * first)
+        .collect();
+    if used.len() < 3 {
+        return None;
+    }
+    let n = used.len() as f64;
+    let (mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0);
+    for (k, p) in used.iter().enumerate() {
+        let (x, y) = (k as f64, p.ln());
+        sx += x;
+        sy += y;
+        sxx += x * x;
+        sxy += x * y;
+    }
+    let slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
+    let delta = -slope;
+    Some(delta / (4.0 * std::f64::consts::PI.powi(2) + delta * delta).sqrt())
+}
+
+/// Prepares model, integrator and initial state of a scenario and runs it.
+pub fn run_scenario<M: Mechanism<2, 0>>(
+    sc: &Scenario,
+    mechanism: M,
+    connected: bool,
+    progress: &mut dyn FnMut(f64),
+) -> Result<(DamperModel<M>, Run), RunError> {
+    let (model, guess) = build_model(sc, mechanism, connected)?;
+    let ig = &sc.spec.integrator;
+    let state = model.initial_state(sc.spec.initial.displacement, guess)?;
+    let mut integrator = Integrator::new(&model, sc.method, ig.dt)?;
+    let run = run(
+        &model,
+        &mut integrator,
+        state,
+        ig.t_end,
+        sc.spec.output.every,
+        progress,
+    )?;
+    Ok((model, run))
+}
+
+/// A scenario that could not be set up or run.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The scenario is invalid.
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+    /// The simulation stopped.
+    #[error(transparent)]
+    Sim(#[from] SimError),
+}
