@@ -1,38 +1,12 @@
 //! The generated evaluators allocate nothing: a counting global allocator observes a loop of
 //! evaluations of every generated function. (This test binary has its own global allocator.)
 
-// The counting allocator is the only unsafe code in the workspace: it forwards to `System`.
-#![allow(unsafe_code)]
-
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
-
+use damper_e2e::alloc_counter::{CountingAllocator, allocations};
 use damper_e2e::fixtures::{double_bar::DoubleBar, four_bar::FourBar, spatial_arm::SpatialArm};
 use mbs_symbolic::runtime::{Mechanism, PointKinematics};
 
-struct Counting;
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
-// SAFETY: forwards to the system allocator unchanged; only counts calls.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
-        // SAFETY: same contract as the caller's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: same contract as the caller's.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
-        // SAFETY: same contract as the caller's.
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: CountingAllocator = CountingAllocator;
 
 fn exercise<const N: usize, const NC: usize>(m: &impl Mechanism<N, NC>) -> f64 {
     let mut acc = 0.0;
@@ -65,9 +39,9 @@ fn generated_evaluations_do_not_allocate() {
         FourBar::default(),
         SpatialArm::default(),
     );
-    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    let before = allocations();
     let acc = exercise(&db) + exercise(&fb) + exercise(&arm);
-    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    let after = allocations();
     assert!(acc.is_finite());
     assert_eq!(
         after - before,

@@ -32,3 +32,44 @@ pub mod fixtures {
         include!(concat!(env!("OUT_DIR"), "/chain16.rs"));
     }
 }
+
+/// A global allocator that counts allocations, for the tests that prove hot paths
+/// allocation-free. A test binary installs it with
+/// `#[global_allocator] static GLOBAL: CountingAllocator = CountingAllocator;` and compares
+/// [`alloc_counter::allocations`] before and after the loop under test.
+pub mod alloc_counter {
+    // The only unsafe code of the workspace: forwarding to the system allocator.
+    #![allow(unsafe_code)]
+
+    use std::alloc::{GlobalAlloc, Layout, System};
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+    /// Forwards to [`System`] and counts `alloc` and `realloc` calls.
+    pub struct CountingAllocator;
+
+    // SAFETY: every call is forwarded unchanged to the system allocator; only a counter is
+    // added.
+    unsafe impl GlobalAlloc for CountingAllocator {
+        unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+            ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+            // SAFETY: the caller upholds `GlobalAlloc::alloc`'s contract.
+            unsafe { System.alloc(layout) }
+        }
+        unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+            // SAFETY: the caller upholds `GlobalAlloc::dealloc`'s contract.
+            unsafe { System.dealloc(ptr, layout) }
+        }
+        unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+            ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+            // SAFETY: the caller upholds `GlobalAlloc::realloc`'s contract.
+            unsafe { System.realloc(ptr, layout, new_size) }
+        }
+    }
+
+    /// Allocations (and reallocations) counted so far in this process.
+    pub fn allocations() -> usize {
+        ALLOCATIONS.load(Ordering::SeqCst)
+    }
+}

@@ -1,35 +1,13 @@
-//! The bundled mechanisms compiled into this binary by `build.rs` (from
-//! `models/double_bar.toml`, `models/four_bar.toml` and `models/slider_crank.toml`), for
+//! The bundled mechanisms compiled into this binary (hybrid-core generates them at build time
+//! from `models/double_bar.toml`, `models/four_bar.toml` and `models/slider_crank.toml`), for
 //! `damper eval --backend generated`.
 //!
 //! A model file given on the command line is matched against them by its FNV-1a content
 //! hash ([`mbs_symbolic::model::SourceInfo::hash`]): only a byte-identical copy of a bundled
 //! model uses the compiled code, so an edited model can never be evaluated with stale
 //! equations.
-//!
-//! The generated modules define more than the binary uses (size constants, name lists),
-//! hence their `allow(dead_code)`.
 
-/// `models/double_bar.toml`, generated at build time.
-#[allow(dead_code)]
-pub mod double_bar {
-    include!(concat!(env!("OUT_DIR"), "/double_bar.rs"));
-}
-/// `models/four_bar.toml`, generated at build time.
-#[allow(dead_code)]
-pub mod four_bar {
-    include!(concat!(env!("OUT_DIR"), "/four_bar.rs"));
-}
-/// `models/slider_crank.toml`, generated at build time.
-#[allow(dead_code)]
-pub mod slider_crank {
-    include!(concat!(env!("OUT_DIR"), "/slider_crank.rs"));
-}
-
-/// Content hashes recorded by the build script.
-mod hashes {
-    include!(concat!(env!("OUT_DIR"), "/compiled_hashes.rs"));
-}
+pub use hybrid_core::generated::{double_bar, four_bar, slider_crank};
 
 /// One of the mechanisms compiled into the binary.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -58,9 +36,9 @@ impl Bundled {
     /// FNV-1a 64 hash of the model file the code was generated from.
     pub fn hash(self) -> &'static str {
         match self {
-            Bundled::DoubleBar => hashes::DOUBLE_BAR_HASH,
-            Bundled::FourBar => hashes::FOUR_BAR_HASH,
-            Bundled::SliderCrank => hashes::SLIDER_CRANK_HASH,
+            Bundled::DoubleBar => double_bar::SOURCE_HASH,
+            Bundled::FourBar => four_bar::SOURCE_HASH,
+            Bundled::SliderCrank => slider_crank::SOURCE_HASH,
         }
     }
 

@@ -81,13 +81,20 @@ fn bar(multi: &MultiProgress, label: &str, show: bool) -> ProgressBar {
     pb
 }
 
+/// The coupled model and its runs with and without the generator.
+struct Pair<M> {
+    model: DamperModel<M>,
+    with: Run,
+    without: Option<Run>,
+}
+
 /// Both runs (with and without the generator) in parallel threads; the results do not depend
 /// on the thread schedule (each run is independent and deterministic).
 fn run_pair<M: Mechanism<2, 0> + Clone + Send + Sync>(
     sc: &Scenario,
     mech: M,
     progress: bool,
-) -> Result<((DamperModel<M>, Run), Option<Run>)> {
+) -> Result<Pair<M>> {
     let multi = MultiProgress::new();
     let compare = sc.spec.output.compare_without_generator;
     let (pa, pb) = (
@@ -107,13 +114,17 @@ fn run_pair<M: Mechanism<2, 0> + Clone + Send + Sync>(
         let without = other.map(|h| h.join());
         (with, without)
     });
-    let with = with?;
+    let (model, with) = with?;
     let without = match without {
         None => None,
         Some(Ok(r)) => Some(r?.1),
         Some(Err(_)) => bail!("the comparison run without generator panicked"),
     };
-    Ok((with, without))
+    Ok(Pair {
+        model,
+        with,
+        without,
+    })
 }
 
 fn damper(path: &Path, out: &Path, progress: bool) -> Result<()> {
@@ -151,7 +162,11 @@ fn report<M: Mechanism<2, 0>>(
     sc: &Scenario,
     model_file: &mbs_symbolic::model::Model,
     backend: &str,
-    ((model, with), without): ((DamperModel<M>, Run), Option<Run>),
+    Pair {
+        model,
+        with,
+        without,
+    }: Pair<M>,
 ) -> Result<()> {
     let zeta_with = damping_ratio(&with.samples);
     let zeta_without = without.as_ref().and_then(|r| damping_ratio(&r.samples));

@@ -129,6 +129,7 @@ fn four_bar_scenario_writes_csv_and_summary() {
         .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
         .collect();
     assert!(leftovers.is_empty());
+    let _ = std::fs::remove_dir_all(&out);
 }
 
 /// A model file that is not byte-identical to a compiled-in one (here: the four-bar with an
@@ -193,6 +194,7 @@ fn model_not_compiled_in_uses_the_interpreter_with_the_same_result() {
             );
         }
     }
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// A parallelogram linkage assembled with all links on one line is a singular
@@ -233,6 +235,7 @@ fn singular_configuration_fails_with_a_clear_error() {
     );
     assert!(!err.contains("NaN"), "{err}");
     assert!(!out.join("par.csv").exists());
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Mistakes in the scenario are reported with the file and the line; an unreachable
@@ -297,4 +300,5 @@ fn bad_scenarios_are_reported_with_file_line_and_entity() {
         err.contains("cannot be satisfied") && err.contains("pin."),
         "{err}"
     );
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -68,6 +68,49 @@ fn bench_backend<S: System>(
         })
     });
     group.finish();
+    // The backend's share alone (same states, no reduction).
+    let mut group = c.benchmark_group("closed_loop_evaluate");
+    group.throughput(Throughput::Elements(1));
+    group.bench_function(name, |b| {
+        b.iter(|| {
+            let (q, qd) = &states[k % states.len()];
+            k += 1;
+            sys.evaluate(black_box(q), black_box(qd), 0.0, &mut ws);
+            black_box(ws.f[0])
+        })
+    });
+    group.finish();
+}
+
+/// The reduction (23)–(25) and the solve of (22) alone, on one evaluated state.
+fn bench_reduction<S: System>(c: &mut Criterion, sys: &S, states: &[(Vec<f64>, Vec<f64>)]) {
+    let p = Partition::from_independent(3, &[0]).unwrap();
+    let mut ws = sys.workspace();
+    let (q, qd) = &states[5];
+    sys.evaluate(q, qd, 0.0, &mut ws);
+    let mut rws = ReduceWorkspace::new();
+    let mut red = Reduced::empty();
+    let mut udd = DVector::zeros(1);
+    let mut group = c.benchmark_group("closed_loop_reduce");
+    group.throughput(Throughput::Elements(1));
+    group.bench_function("reduce_and_solve", |b| {
+        b.iter(|| {
+            reduce_into(
+                black_box(&ws.m),
+                &ws.f,
+                &ws.q,
+                &ws.j,
+                &ws.a,
+                &p,
+                &mut rws,
+                &mut red,
+            )
+            .unwrap();
+            red.accelerations_into(&mut rws, &mut udd).unwrap();
+            black_box(udd[0])
+        })
+    });
+    group.finish();
 }
 
 fn closed_loop_rhs(c: &mut Criterion) {
@@ -85,6 +128,7 @@ fn closed_loop_rhs(c: &mut Criterion) {
     bench_backend(c, "generated", &generated, &states);
     bench_backend(c, "interpreter", &interpreter, &states);
     bench_backend(c, "numeric", &numeric, &states);
+    bench_reduction(c, &generated, &states);
 }
 
 criterion_group! {

@@ -39,7 +39,8 @@ pub fn json_bytes<T: Serialize>(value: &T) -> Result<Vec<u8>, String> {
     Ok(v)
 }
 
-/// SVG plot of the tip displacement (mm) against time for each labelled series.
+/// SVG plot of the tip displacement (mm) against time for each labelled series (the first
+/// on top).
 pub fn plot_svg(title: &str, series: &[(&str, &[Sample])]) -> Result<Vec<u8>, String> {
     let mut svg = String::new();
     {
@@ -74,7 +75,8 @@ pub fn plot_svg(title: &str, series: &[(&str, &[Sample])]) -> Result<Vec<u8>, St
             RGBColor(30, 80, 200),
             RGBColor(20, 140, 60),
         ];
-        for (k, (label, samples)) in series.iter().enumerate() {
+        // Drawn last to first, so that the first series is on top.
+        for (k, (label, samples)) in series.iter().enumerate().rev() {
             let color = colors[k % colors.len()];
             chart
                 .draw_series(LineSeries::new(

@@ -20,7 +20,7 @@
 //! columns of `[I; B]`, which removes the multipliers `lambda`.
 //!
 //! [`choose_partition`] picks the dependent coordinates as the pivot columns of an LU
-//! factorisation of `J` with full (rook-free, complete) pivoting: the best-conditioned
+//! factorisation of `J` with full (complete) pivoting: the best-conditioned
 //! square block it can find greedily, the usual automatic choice (Wehage–Haug). It also
 //! finds the rank of `J` and the constraint rows that depend on the others (redundant
 //! closures). [`reduce`] evaluates eqs. (23)–(25) for a given partition;
@@ -91,21 +91,36 @@ impl Partition {
                 found: self.len(),
             });
         }
-        let mut seen = vec![false; n];
+        // Both lists sorted: a merge walk checks that together they are exactly 0..n,
+        // without allocating (this runs on every reduction).
         for list in [&self.independent, &self.dependent] {
             for w in list.windows(2) {
                 if w[0] >= w[1] {
                     return Err(PartitionError::Unsorted);
                 }
             }
-            for &i in list.iter() {
-                if i >= n {
-                    return Err(PartitionError::IndexOutOfRange { index: i, n });
+            if let Some(&i) = list.last().filter(|&&i| i >= n) {
+                return Err(PartitionError::IndexOutOfRange { index: i, n });
+            }
+        }
+        let (mut a, mut b) = (0, 0);
+        for k in 0..n {
+            let in_a = self.independent.get(a) == Some(&k);
+            let in_b = self.dependent.get(b) == Some(&k);
+            match (in_a, in_b) {
+                (true, true) => return Err(PartitionError::DuplicateIndex { index: k }),
+                (true, false) => a += 1,
+                (false, true) => b += 1,
+                // Missing index k: with the total length n, some other index repeats.
+                (false, false) => {
+                    let dup = self
+                        .independent
+                        .iter()
+                        .find(|i| self.dependent.contains(i))
+                        .copied()
+                        .unwrap_or(k);
+                    return Err(PartitionError::DuplicateIndex { index: dup });
                 }
-                if seen[i] {
-                    return Err(PartitionError::DuplicateIndex { index: i });
-                }
-                seen[i] = true;
             }
         }
         Ok(())

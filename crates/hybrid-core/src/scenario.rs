@@ -219,15 +219,12 @@ impl Scenario {
     /// Reads and checks a scenario file. Every error names the file, the line when known and
     /// the entity.
     pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
-        let file = path.display().to_string();
-        let err = |line: Option<usize>, entity: &str, message: String| ScenarioError {
-            file: file.clone(),
-            line,
-            entity: entity.to_string(),
-            message,
-        };
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| err(None, "file", format!("cannot read: {e}")))?;
+        let text = std::fs::read_to_string(path).map_err(|e| ScenarioError {
+            file: path.display().to_string(),
+            line: None,
+            entity: "file".into(),
+            message: format!("cannot read: {e}"),
+        })?;
         Scenario::from_str(&text, path)
     }
 

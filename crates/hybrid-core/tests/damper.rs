@@ -3,13 +3,13 @@
 //! eqs. 51–54), fem-beam's modal analysis, energy conservation and the energy account, the
 //! numeric recursive implementation of the mechanism, and the singular position.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use fem_beam::BandedFactor;
-use hybrid_core::damper::{DamperModel, Integrator, SimError, State, full};
+use hybrid_core::damper::{DamperModel, Integrator, full};
 use hybrid_core::generated::double_bar::DoubleBar;
 use hybrid_core::scenario::Scenario;
-use hybrid_core::study::{build_model, damping_ratio, peaks, run, run_scenario};
+use hybrid_core::study::{build_model, damping_ratio, run_scenario};
 use mbs_symbolic::numeric::NumericMechanism;
 use mbs_symbolic::runtime::Mechanism;
 
@@ -454,11 +454,6 @@ fn runs_are_deterministic() {
     let (_, a) = run_scenario(&sc, DoubleBar::default(), true, &mut |_| {}).unwrap();
     let (_, b) = run_scenario(&sc, DoubleBar::default(), true, &mut |_| {}).unwrap();
     assert_eq!(a.state, b.state);
-}
-
-#[allow(dead_code)]
-fn _types(_: &SimError, _: &State, _: &Integrator, _: &Path) {
-    let _ = run::<DoubleBar>;
 }
 
 /// The structured fast path (rank-one update of the beam matrices) == the general

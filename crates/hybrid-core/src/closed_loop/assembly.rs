@@ -251,6 +251,37 @@ pub fn assemble_positions<S: System + ?Sized>(
             return Err(AssemblyError::NonFinite { q });
         }
     }
+    // Polish: a few undamped Gauss–Newton steps while they still pay off (quadratic
+    // convergence takes a residual just below `tol` to rounding level).
+    for _ in 0..3 {
+        if cost == 0.0 || free.is_empty() {
+            break;
+        }
+        let scale = jz
+            .iter()
+            .fold(0.0f64, |m, x| m.max(x * x))
+            .max(f64::MIN_POSITIVE);
+        let Some(dz) = lm_step(&jz, &h, 1e-14 * scale) else {
+            break;
+        };
+        let mut trial = q.clone();
+        for (k, &i) in free.iter().enumerate() {
+            trial[i] += dz[k];
+        }
+        sys.evaluate_positions(&trial, ws);
+        let trial_cost = ws.h.norm_squared();
+        if trial_cost.is_nan() || trial_cost >= 0.25 * cost {
+            break;
+        }
+        q = trial;
+        h.copy_from(&ws.h);
+        for r in 0..rows {
+            for (c, &i) in free.iter().enumerate() {
+                jz[(r, c)] = ws.j[(r, i)];
+            }
+        }
+        cost = trial_cost;
+    }
     Ok(Assembly {
         residual: max_abs(&h),
         q,

@@ -65,7 +65,7 @@ pub struct SingularReport {
     pub rank: usize,
     /// Rank expected (the number of independent constraint rows).
     pub expected_rank: usize,
-    /// Condition number of the best `J_v` available.
+    /// Condition number of the best `J_v` available (infinite when `J` has lost rank).
     pub best_condition: f64,
 }
 

@@ -11,10 +11,10 @@
 //! - chooses the independent coordinates `u` (by the user, or automatically by LU with full
 //!   pivoting of `J`, [`crate::partition::choose_partition`]), diagnoses redundant
 //!   constraint rows by name, and monitors `cond(J_v)`, changing the partition when it
-//!   degrades ([`simulate`]);
+//!   degrades ([`mod@simulate`]);
 //! - integrates `M^R u'' + F^R + Q^R = 0` (eqs. 22–25) with Dormand–Prince 5(4) or fixed-step
 //!   RK4, recovering `v` by Newton projection on `h(u, v) = 0` and `v'` from eq. (18), and
-//!   recording energy and constraint residuals ([`simulate`]);
+//!   recording energy and constraint residuals ([`mod@simulate`]);
 //! - reads the plain-mechanism scenario file ([`scenario`]).
 //!
 //! Everything is written against the small dynamic-size trait [`System`], implemented for

@@ -287,7 +287,7 @@ pub struct Stats {
     pub max_kinetic_energy: f64,
     /// Time reached.
     pub final_time: f64,
-    /// Smallest and largest accepted step.
+    /// Smallest accepted step.
     pub min_step: f64,
     /// Largest accepted step.
     pub max_step: f64,
@@ -421,6 +421,11 @@ fn singular_range(j: &DMatrix<f64>) -> (f64, f64) {
     (lo, hi)
 }
 
+/// The name of constraint row `r` (a placeholder if the system names fewer rows).
+fn row_name(names: &[String], r: usize) -> String {
+    names.get(r).cloned().unwrap_or_else(|| format!("row {r}"))
+}
+
 /// Names the redundant rows of `j` and the combinations of kept rows they equal.
 fn redundancy_report(
     j: &DMatrix<f64>,
@@ -445,13 +450,13 @@ fn redundancy_report(
                         .iter()
                         .zip(c.iter())
                         .filter(|(_, c)| c.abs() > 1e-8)
-                        .map(|(&k, &c)| (names[k].clone(), c))
+                        .map(|(&k, &c)| (row_name(names, k), c))
                         .collect(),
                     Err(_) => vec![],
                 }
             };
             RedundantRow {
-                name: names[r].clone(),
+                name: row_name(names, r),
                 combination,
             }
         })
@@ -529,7 +534,7 @@ impl<'s, S: System + ?Sized> Simulator<'s, S> {
             dropped = choice
                 .redundant_rows
                 .iter()
-                .map(|&r| sys.constraint_names()[r].clone())
+                .map(|&r| row_name(sys.constraint_names(), r))
                 .collect();
         }
         let rank = choice.rank;
@@ -689,8 +694,9 @@ impl<'s, S: System + ?Sized> Simulator<'s, S> {
     }
 
     fn names_of(&self, idx: &[usize]) -> Vec<String> {
+        let names = self.sys.coordinate_names();
         idx.iter()
-            .map(|&i| self.sys.coordinate_names()[i].clone())
+            .map(|&i| names.get(i).cloned().unwrap_or_else(|| format!("q[{i}]")))
             .collect()
     }
 

@@ -40,65 +40,8 @@ impl Id {
     }
 }
 
-/// A unary function node.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Fun {
-    /// `sin`
-    Sin,
-    /// `cos`
-    Cos,
-    /// `tan`
-    Tan,
-    /// `sqrt`
-    Sqrt,
-    /// `exp`
-    Exp,
-    /// `ln`
-    Ln,
-    /// `abs`
-    Abs,
-}
-
-impl Fun {
-    /// Applies the function to a number.
-    pub fn apply(self, x: f64) -> f64 {
-        match self {
-            Fun::Sin => x.sin(),
-            Fun::Cos => x.cos(),
-            Fun::Tan => x.tan(),
-            Fun::Sqrt => x.sqrt(),
-            Fun::Exp => x.exp(),
-            Fun::Ln => x.ln(),
-            Fun::Abs => x.abs(),
-        }
-    }
-
-    /// The function's name (also its name as an `f64` method in Rust).
-    pub fn name(self) -> &'static str {
-        match self {
-            Fun::Sin => "sin",
-            Fun::Cos => "cos",
-            Fun::Tan => "tan",
-            Fun::Sqrt => "sqrt",
-            Fun::Exp => "exp",
-            Fun::Ln => "ln",
-            Fun::Abs => "abs",
-        }
-    }
-
-    fn from_model(f: crate::model::Func) -> Fun {
-        use crate::model::Func as F;
-        match f {
-            F::Sin => Fun::Sin,
-            F::Cos => Fun::Cos,
-            F::Tan => Fun::Tan,
-            F::Sqrt => Fun::Sqrt,
-            F::Exp => Fun::Exp,
-            F::Ln => Fun::Ln,
-            F::Abs => Fun::Abs,
-        }
-    }
-}
+/// A unary function node: the same functions as the model's parameter expressions.
+pub use crate::model::Func as Fun;
 
 /// A variable (leaf) of the DAG.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -532,7 +475,7 @@ impl Dag {
             }
             Scalar::Call(f, a) => {
                 let a = self.scalar(a, params);
-                self.fun(Fun::from_model(*f), a)
+                self.fun(*f, a)
             }
         }
     }
