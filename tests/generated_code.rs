@@ -15,7 +15,7 @@ use mbs_symbolic::dynamics::Symbolic;
 use mbs_symbolic::expr::{EvalInput, Id, Tape};
 use mbs_symbolic::model::{self, Model};
 use mbs_symbolic::numeric::NumericModel;
-use mbs_symbolic::runtime::{Mechanism, PointKinematics};
+use mbs_symbolic::runtime::{Evaluation, Mechanism, PointKinematics};
 
 /// SplitMix64: a tiny deterministic generator for test states.
 struct Rng(u64);
@@ -129,6 +129,23 @@ fn compare<const N: usize, const NC: usize>(
             num.constraint_bias(&q, &qd).as_slice(),
         );
         assert_close(&format!("{rel} A interp"), &a, &interp(&cons.a));
+
+        // The fused evaluation is bit-identical to the separate methods (same DAG nodes,
+        // same operations in the same order).
+        let mut all = Evaluation::<N, NC>::default();
+        generated.evaluate(&q, &qd, t, &mut all);
+        assert_eq!(
+            all,
+            Evaluation {
+                mass: m,
+                f,
+                q: qv,
+                h,
+                j,
+                a
+            },
+            "{rel}: fused evaluate"
+        );
 
         for k in 0..pts.len() {
             let mut pk = PointKinematics::<N>::default();

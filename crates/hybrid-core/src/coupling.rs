@@ -24,7 +24,7 @@
 //! force the mechanism applies to the beam; `g_1` is the velocity amplification
 //! `q1'/y'`, and the generator's `Q_1 = c_g q1'` reflects as the damping `c_g g_1^2`.
 
-use mbs_symbolic::runtime::{Mechanism, PointKinematics};
+use mbs_symbolic::runtime::{Evaluation, Mechanism, PointKinematics};
 
 /// Where the mechanism point is pinned: its target in the mechanism's ground frame when the
 /// beam is undeformed.
@@ -239,12 +239,11 @@ impl<M: Mechanism<2, 0>> MechanismLink<M> {
             .point_kinematics(self.attachment.point, &q, &qd, &mut pk);
         let ab = [pk.a[1], pk.a[0]];
         let s = solve2(&jb, ab);
-        let mut m = [[0.0; 2]; 2];
-        self.mechanism.mass_matrix(&q, &mut m);
+        // M, F, Q from one fused generated body (shared trigonometric leaves).
+        let mut e = Evaluation::<2, 0>::default();
+        self.mechanism.evaluate(&q, &qd, t, &mut e);
+        let (mut m, f, mut qv) = (e.mass, e.f, e.q);
         m[self.generator_joint][self.generator_joint] += self.rotor_inertia;
-        let (mut f, mut qv) = ([0.0; 2], [0.0; 2]);
-        self.mechanism.f_vector(&q, &qd, &mut f);
-        self.mechanism.q_vector(&q, &qd, t, &mut qv);
         let (spec, i) = match current {
             Current::QuasiStatic(spec) => {
                 (spec, spec.quasi_static_current(qd[self.generator_joint]))

@@ -534,6 +534,47 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
         /// Constraint bias `A(q, q') = J' q'` (eq. 16).
         pub fn constraint_bias(&self, #q: &[f64; #nl], #qd: &[f64; #nl], #a: &mut [f64; #ncl]) { #body }
     });
+    // Everything at once (Mechanism::evaluate): one body, every intermediate computed once.
+    let (mass_id, qf_id) = (format_ident!("mass"), format_ident!("qf"));
+    let mut outs: Vec<(Id, Dest)> = vec![];
+    for i in 0..n {
+        for j in i..n {
+            outs.push((sym.mass[i * n + j], Dest::Mat(mass_id.clone(), i, j)));
+        }
+    }
+    outs.extend(vec_fn(&sym.f, &f_id));
+    outs.extend(vec_fn(&sym.q, &qf_id));
+    outs.extend(vec_fn(&cons.h, &h_id));
+    for (r, row) in cons.j.iter().enumerate() {
+        for (c, &e) in row.iter().enumerate() {
+            outs.push((e, Dest::Mat(j_id.clone(), r, c)));
+        }
+    }
+    outs.extend(vec_fn(&cons.a, &a_id));
+    record(
+        "evaluate",
+        &outs.iter().map(|o| o.0).collect::<Vec<_>>(),
+        &sym.dag,
+    );
+    let (body, inputs) = em.body(&outs);
+    let (q, qd, t) = (arg(&inputs, "q"), arg(&inputs, "qd"), arg(&inputs, "t"));
+    let mut mirror = TokenStream::new();
+    for i in 0..n {
+        for j in 0..i {
+            let (il, jl) = (Literal::usize_unsuffixed(i), Literal::usize_unsuffixed(j));
+            mirror.extend(quote! { mass[#il][#jl] = mass[#jl][#il]; });
+        }
+    }
+    methods.extend(quote! {
+        /// `M^b`, `F^b`, `Q^b`, `h`, `J` and `A` at once (eqs. 11–16): one body in which every
+        /// intermediate is computed once; bit-identical to the separate methods.
+        #[allow(unused_variables)]
+        pub fn evaluate(&self, #q: &[f64; #nl], #qd: &[f64; #nl], #t: f64, out: &mut #rt::Evaluation<#nl, #ncl>) {
+            let #rt::Evaluation { mass, f, q: qf, h, j, a } = out;
+            #body
+            #mirror
+        }
+    });
     // Points
     let mut point_arms = TokenStream::new();
     for (k, (pt, fname)) in pts.iter().zip(&point_fns).enumerate() {
@@ -649,6 +690,7 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
             fn constraints(&self, q: &[f64; #nl], h: &mut [f64; #ncl]) { #sname::constraints(self, q, h) }
             fn constraint_jacobian(&self, q: &[f64; #nl], j: &mut [[f64; #nl]; #ncl]) { #sname::constraint_jacobian(self, q, j) }
             fn constraint_bias(&self, q: &[f64; #nl], qd: &[f64; #nl], a: &mut [f64; #ncl]) { #sname::constraint_bias(self, q, qd, a) }
+            fn evaluate(&self, q: &[f64; #nl], qd: &[f64; #nl], t: f64, out: &mut #rt::Evaluation<#nl, #ncl>) { #sname::evaluate(self, q, qd, t, out) }
             fn point_kinematics(&self, k: usize, q: &[f64; #nl], qd: &[f64; #nl], out: &mut #rt::PointKinematics<#nl>) -> bool {
                 match k { #point_arms _ => return false, }
                 #[allow(unreachable_code)]

@@ -26,6 +26,37 @@ impl<const N: usize> Default for PointKinematics<N> {
     }
 }
 
+/// All equations of a mechanism at one state: `M^b`, `F^b`, `Q^b` (eqs. 11–13) and `h`, `J`,
+/// `A` (eqs. 14–16).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Evaluation<const N: usize, const NC: usize> {
+    /// `M^b(q)`.
+    pub mass: [[f64; N]; N],
+    /// `F^b(q, q')`.
+    pub f: [f64; N],
+    /// `Q^b(q, q', t)`.
+    pub q: [f64; N],
+    /// `h(q)`.
+    pub h: [f64; NC],
+    /// `J(q)`.
+    pub j: [[f64; N]; NC],
+    /// `A(q, q')`.
+    pub a: [f64; NC],
+}
+
+impl<const N: usize, const NC: usize> Default for Evaluation<N, NC> {
+    fn default() -> Self {
+        Evaluation {
+            mass: [[0.0; N]; N],
+            f: [0.0; N],
+            q: [0.0; N],
+            h: [0.0; NC],
+            j: [[0.0; N]; NC],
+            a: [0.0; NC],
+        }
+    }
+}
+
 /// The equations of a mechanism with `N` coordinates and `NC` constraint rows.
 pub trait Mechanism<const N: usize, const NC: usize> {
     /// Names of the run-time parameters, in the model's order.
@@ -54,6 +85,19 @@ pub trait Mechanism<const N: usize, const NC: usize> {
 
     /// `A(q, q') = J' q'` (eq. 16).
     fn constraint_bias(&self, q: &[f64; N], qd: &[f64; N], a: &mut [f64; NC]);
+
+    /// `M^b`, `F^b`, `Q^b`, `h`, `J` and `A` at once. The default calls the separate
+    /// methods; generated code overrides it with one fused body in which every intermediate
+    /// (trigonometric leaves, rotation products) is computed once. Results are bit-identical
+    /// to the separate methods'.
+    fn evaluate(&self, q: &[f64; N], qd: &[f64; N], t: f64, out: &mut Evaluation<N, NC>) {
+        self.mass_matrix(q, &mut out.mass);
+        self.f_vector(q, qd, &mut out.f);
+        self.q_vector(q, qd, t, &mut out.q);
+        self.constraints(q, &mut out.h);
+        self.constraint_jacobian(q, &mut out.j);
+        self.constraint_bias(q, qd, &mut out.a);
+    }
 
     /// Kinematics of point `k` (index into [`Mechanism::point_names`]); `false` when there is
     /// no such point (the output is then left unchanged).

@@ -7,7 +7,7 @@ use mbs_symbolic::dynamics::Symbolic;
 use mbs_symbolic::expr::{EvalInput, Tape};
 use mbs_symbolic::model::{Constraint, Model};
 use mbs_symbolic::numeric::NumericModel;
-use mbs_symbolic::runtime::Mechanism;
+use mbs_symbolic::runtime::{Evaluation, Mechanism};
 
 use super::system::{System, Workspace};
 
@@ -146,30 +146,21 @@ impl<T: Mechanism<N, NC>, const N: usize, const NC: usize> System for GeneratedS
 
     fn evaluate(&self, q: &[f64], qd: &[f64], t: f64, ws: &mut Workspace) {
         let (q, qd) = (array::<N>(q), array::<N>(qd));
-        let mut m = [[0.0; N]; N];
-        let mut f = [0.0; N];
-        let mut qv = [0.0; N];
-        self.mech.mass_matrix(&q, &mut m);
-        self.mech.f_vector(&q, &qd, &mut f);
-        self.mech.q_vector(&q, &qd, t, &mut qv);
+        // One fused generated body: trigonometric leaves and rotations computed once.
+        let mut e = Evaluation::<N, NC>::default();
+        self.mech.evaluate(&q, &qd, t, &mut e);
         for r in 0..N {
             for c in 0..N {
-                ws.m[(r, c)] = m[r][c];
+                ws.m[(r, c)] = e.mass[r][c];
             }
-            ws.f[r] = f[r];
-            ws.q[r] = qv[r];
+            ws.f[r] = e.f[r];
+            ws.q[r] = e.q[r];
         }
-        let mut h = [0.0; NC];
-        let mut j = [[0.0; N]; NC];
-        let mut a = [0.0; NC];
-        self.mech.constraints(&q, &mut h);
-        self.mech.constraint_jacobian(&q, &mut j);
-        self.mech.constraint_bias(&q, &qd, &mut a);
         for r in 0..NC {
-            ws.h[r] = h[r];
-            ws.a[r] = a[r];
+            ws.h[r] = e.h[r];
+            ws.a[r] = e.a[r];
             for c in 0..N {
-                ws.j[(r, c)] = j[r][c];
+                ws.j[(r, c)] = e.j[r][c];
             }
         }
     }
