@@ -29,7 +29,7 @@ use mbs_symbolic::dynamics::Symbolic;
 use mbs_symbolic::expr::{EvalInput, Id, Tape};
 use mbs_symbolic::model::Model;
 use mbs_symbolic::numeric::NumericModel;
-use mbs_symbolic::runtime::{Mechanism, PointKinematics};
+use mbs_symbolic::runtime::{Evaluation, Mechanism, PointKinematics};
 
 /// SplitMix64 values in [-scale, scale).
 fn seeded<const N: usize>(seed: u64, scale: f64) -> [f64; N] {
@@ -98,6 +98,21 @@ fn generated_all<const N: usize, const NC: usize>(
     mech.constraint_jacobian(q, &mut out.j);
     mech.constraint_bias(q, qd, &mut out.a);
     mech.point_kinematics(tip, q, qd, &mut out.tip);
+}
+
+/// (a') The generated code's fused `evaluate` (M, F, Q, h, J, A in one body) plus the tip.
+#[inline(never)]
+fn generated_fused<const N: usize, const NC: usize>(
+    mech: &impl Mechanism<N, NC>,
+    tip: usize,
+    q: &[f64; N],
+    qd: &[f64; N],
+    t: f64,
+    all: &mut Evaluation<N, NC>,
+    pk: &mut PointKinematics<N>,
+) {
+    mech.evaluate(q, qd, t, all);
+    mech.point_kinematics(tip, q, qd, pk);
 }
 
 /// (b) The numeric reference, allocating its results as its API does.
@@ -222,6 +237,30 @@ fn bench_model<const N: usize, const NC: usize>(
         b.iter(|| {
             generated_all(mech, tip, black_box(&q), black_box(&qd), t, &mut bufs);
             black_box(&bufs.m);
+        })
+    });
+    let (mut all, mut pk) = (
+        Evaluation::<N, NC>::default(),
+        PointKinematics::<N>::default(),
+    );
+    generated_fused(mech, tip, &q, &qd, t, &mut all, &mut pk);
+    assert_eq!(
+        (all.mass, all.f, all.q),
+        (bufs.m, bufs.f, bufs.q),
+        "{name}: fused evaluate"
+    );
+    group.bench_function(BenchmarkId::new("generated_fused", name), |b| {
+        b.iter(|| {
+            generated_fused(
+                mech,
+                tip,
+                black_box(&q),
+                black_box(&qd),
+                t,
+                &mut all,
+                &mut pk,
+            );
+            black_box(&all.mass);
         })
     });
     group.bench_function(BenchmarkId::new("numeric", name), |b| {
