@@ -58,6 +58,8 @@ pub struct BodyKinematics {
     /// Origin acceleration remainder (`q'' = 0`, including the base acceleration `-g`) in the
     /// body frame.
     pub accel: V3,
+    /// The same without gravity (base acceleration zero).
+    pub accel_no_gravity: V3,
 }
 
 /// The symbolic equations of motion `M q'' + F + Q = 0` of a tree (eq. 10) and the
@@ -124,7 +126,19 @@ impl Symbolic {
         let bodies = forward_kinematics(&mut b);
         let n = model.dof();
         let mass = mass_matrix(&mut b, &bodies);
-        let f = velocity_and_gravity_terms(&mut b, &bodies);
+        // Both ways of bringing in gravity are exact; keep the one that needs fewer
+        // operations together with M (the other's nodes are never emitted).
+        let f_base = velocity_and_gravity_terms(&mut b, &bodies, Gravity::BaseAcceleration);
+        let f_forces = velocity_and_gravity_terms(&mut b, &bodies, Gravity::BodyForces);
+        let cost = |f: &[Id], dag: &Dag| {
+            let roots: Vec<Id> = mass.iter().chain(f).copied().collect();
+            dag.op_count(&roots).total()
+        };
+        let f = if cost(&f_forces, &b.dag) < cost(&f_base, &b.dag) {
+            f_forces
+        } else {
+            f_base
+        };
         let q = applied_terms(&mut b, &bodies);
         Symbolic {
             dag: b.dag,
@@ -220,15 +234,22 @@ fn forward_kinematics(b: &mut Builder<'_>) -> Vec<BodyKinematics> {
                 (r0, vec3::add(&mut b.dag, anchor, uq), Some(u))
             }
         };
-        let (parent_rot, parent_pos, w_p, al_p, a_p) = match body.parent {
+        let (parent_rot, parent_pos, w_p, al_p, a_p, a0_p) = match body.parent {
             None => {
                 let id = vec3::identity(&mut b.dag);
                 let z = vec3::zero(&mut b.dag);
-                (id, z, z, z, a_ground)
+                (id, z, z, z, a_ground, z)
             }
             Some(p) => {
                 let pk = &out[p];
-                (pk.ground_rot, pk.ground_pos, pk.omega, pk.alpha, pk.accel)
+                (
+                    pk.ground_rot,
+                    pk.ground_pos,
+                    pk.omega,
+                    pk.alpha,
+                    pk.accel,
+                    pk.accel_no_gravity,
+                )
             }
         };
         // Orientation with angle grouping.
@@ -264,12 +285,12 @@ fn forward_kinematics(b: &mut Builder<'_>) -> Vec<BodyKinematics> {
             }
             JointKind::Prismatic => (w_in, al_in),
         };
-        let mut acc_p = a_p;
-        let t1 = vec3::cross(&mut b.dag, al_p, offset);
-        acc_p = vec3::add(&mut b.dag, acc_p, t1);
+        // a_i = R_i^T (a_p + al_p x d + w_p x (w_p x d) + 2 w_p x u q'_i), with and without
+        // the base acceleration -g.
+        let mut rel = vec3::cross(&mut b.dag, al_p, offset);
         let wxd = vec3::cross(&mut b.dag, w_p, offset);
         let t2 = vec3::cross(&mut b.dag, w_p, wxd);
-        acc_p = vec3::add(&mut b.dag, acc_p, t2);
+        rel = vec3::add(&mut b.dag, rel, t2);
         if let Some(u) = u {
             let two_qd = {
                 let two = b.dag.constant(2.0);
@@ -277,9 +298,12 @@ fn forward_kinematics(b: &mut Builder<'_>) -> Vec<BodyKinematics> {
             };
             let uq = vec3::scale(&mut b.dag, two_qd, u);
             let cor = vec3::cross(&mut b.dag, w_p, uq);
-            acc_p = vec3::add(&mut b.dag, acc_p, cor);
+            rel = vec3::add(&mut b.dag, rel, cor);
         }
-        let accel = vec3::mat_t_vec(&mut b.dag, &rel_rot, acc_p);
+        let with_g = vec3::add(&mut b.dag, a_p, rel);
+        let accel = vec3::mat_t_vec(&mut b.dag, &rel_rot, with_g);
+        let without_g = vec3::add(&mut b.dag, a0_p, rel);
+        let accel_no_gravity = vec3::mat_t_vec(&mut b.dag, &rel_rot, without_g);
         out.push(BodyKinematics {
             rel_rot,
             offset,
@@ -288,6 +312,7 @@ fn forward_kinematics(b: &mut Builder<'_>) -> Vec<BodyKinematics> {
             omega,
             alpha,
             accel,
+            accel_no_gravity,
         });
     }
     out
@@ -426,23 +451,46 @@ fn mass_matrix(b: &mut Builder<'_>, kin: &[BodyKinematics]) -> Vec<Id> {
     mass
 }
 
-/// `F^b` (eq. 12): inertial wrenches with `q'' = 0` (the `D` terms of eq. 9), gravity
-/// included through the base acceleration.
-fn velocity_and_gravity_terms(b: &mut Builder<'_>, kin: &[BodyKinematics]) -> Vec<Id> {
+/// How gravity enters `F^b`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Gravity {
+    /// As the base acceleration `-g` of the forward recursion (ROBOTRAN's way).
+    BaseAcceleration,
+    /// As forces `m g` at the centres of mass, expressed in body frames through the ground
+    /// orientations `T^i` (which use angle sums of parallel revolute joints).
+    BodyForces,
+}
+
+/// `F^b` (eq. 12): inertial wrenches with `q'' = 0` (the `D` terms of eq. 9) and gravity.
+fn velocity_and_gravity_terms(
+    b: &mut Builder<'_>,
+    kin: &[BodyKinematics],
+    gravity: Gravity,
+) -> Vec<Id> {
     let model = b.model;
     let n = model.dof();
+    let g = b.v(&model.gravity);
     let mut wrench: Vec<(V3, V3)> = Vec::with_capacity(n);
     for (body, k) in model.bodies.iter().zip(kin) {
         let m = b.s(&body.mass);
         let c = b.v(&body.com);
         let ic = b.inertia(&body.inertia);
         let d = &mut b.dag;
+        let a_o = match gravity {
+            Gravity::BaseAcceleration => k.accel,
+            Gravity::BodyForces => k.accel_no_gravity,
+        };
         // a_C = a_O + al x c + w x (w x c)
         let axc = vec3::cross(d, k.alpha, c);
         let wxc = vec3::cross(d, k.omega, c);
         let wwxc = vec3::cross(d, k.omega, wxc);
-        let t = vec3::add(d, k.accel, axc);
-        let a_c = vec3::add(d, t, wwxc);
+        let t = vec3::add(d, a_o, axc);
+        let mut a_c = vec3::add(d, t, wwxc);
+        if gravity == Gravity::BodyForces {
+            // The inertial force m (a_C - g): -g expressed in the body frame, T^i^T (-g).
+            let gb = vec3::mat_t_vec(d, &k.ground_rot, g);
+            a_c = vec3::sub(d, a_c, gb);
+        }
         let f = vec3::scale(d, m, a_c);
         // n = I al + w x (I w) + c x f
         let ia = vec3::mat_vec(d, &ic, k.alpha);

@@ -159,3 +159,58 @@ fn planar_chain_operation_counts() {
         );
     }
 }
+
+/// Both ways of bringing gravity into `F^b` (base acceleration, body forces) give the same
+/// values; `derive` keeps the cheaper one, so both must be right.
+#[test]
+fn gravity_as_base_acceleration_or_body_forces_agree() {
+    for model in [
+        crate::samples::planar_chain(3),
+        crate::samples::spatial_chain(5),
+        double_pendulum(0.7, 1.3, 0.31, 0.05, 0.9, 0.42, 0.03),
+    ] {
+        let mut b = Builder {
+            model: &model,
+            dag: Dag::new(),
+        };
+        let kin = forward_kinematics(&mut b);
+        let fa = velocity_and_gravity_terms(&mut b, &kin, Gravity::BaseAcceleration);
+        let fb = velocity_and_gravity_terms(&mut b, &kin, Gravity::BodyForces);
+        let n = model.dof();
+        let params: Vec<f64> = model
+            .parameters
+            .iter()
+            .map(|p| if p.name == "gx" { 2.5 } else { p.value })
+            .collect();
+        for s in 0..5 {
+            let q: Vec<f64> = (0..n)
+                .map(|i| ((i * 7 + s * 3) as f64 * 0.37).sin())
+                .collect();
+            let qd: Vec<f64> = (0..n).map(|i| ((i * 5 + s) as f64 * 0.91).cos()).collect();
+            let input = EvalInput {
+                q: &q,
+                qd: &qd,
+                qdd: &[],
+                t: 0.0,
+                params: &params,
+            };
+            let (va, vb) = (
+                Tape::new(&b.dag, &fa).eval_vec(&input),
+                Tape::new(&b.dag, &fb).eval_vec(&input),
+            );
+            let scale = va.iter().fold(1.0f64, |m, x| m.max(x.abs()));
+            for (x, y) in va.iter().zip(&vb) {
+                assert!((x - y).abs() <= 1e-13 * scale, "{}: {x} vs {y}", model.name);
+            }
+        }
+    }
+}
+
+#[test]
+#[ignore = "prints the expressions of a 2-link planar chain"]
+fn show_planar_two_link() {
+    let s = Symbolic::derive(&crate::samples::planar_chain(2));
+    for r in s.mf_roots() {
+        eprintln!("{}", s.dag.sexpr(r));
+    }
+}
