@@ -130,6 +130,10 @@ fn compare<const N: usize, const NC: usize>(
         );
         assert_close(&format!("{rel} A interp"), &a, &interp(&cons.a));
 
+        let v = [generated.potential_energy(&q)];
+        assert_close(&format!("{rel} V"), &v, &[num.potential_energy(&q)]);
+        assert_close(&format!("{rel} V interp"), &v, &interp(&[sym.potential]));
+
         // The fused evaluation is bit-identical to the separate methods (same DAG nodes,
         // same operations in the same order).
         let mut all = Evaluation::<N, NC>::default();

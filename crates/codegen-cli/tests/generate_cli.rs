@@ -161,6 +161,7 @@ fn stats_prints_one_row_per_function_and_the_sums() {
             "constraints",
             "constraint_jacobian",
             "constraint_bias",
+            "potential_energy",
             "evaluate",
             "point_tip"
         ]

@@ -118,6 +118,8 @@ pub struct LinkState {
     pub sigma_min: f64,
     /// Kinetic energy of the mechanism and rotor, `q^b'^T M^b q^b' / 2` (J).
     pub kinetic_energy: f64,
+    /// Potential energy of the mechanism (gravity, springs), `V(q^b)` (J).
+    pub potential_energy: f64,
     /// Norm of the position constraint residual `h` after the Newton solve (m).
     pub residual: f64,
 }
@@ -262,6 +264,7 @@ impl<M: Mechanism<2, 0>> MechanismLink<M> {
         let m_eff = g[0] * mg[0] + g[1] * mg[1];
         let force = g[0] * (ms[0] - f[0] - qv[0]) + g[1] * (ms[1] - f[1] - qv[1]);
         let kinetic_energy = 0.5 * yd * yd * m_eff;
+        let potential_energy = self.mechanism.potential_energy(&q);
         Ok(LinkState {
             q,
             qd,
@@ -273,6 +276,7 @@ impl<M: Mechanism<2, 0>> MechanismLink<M> {
             condition,
             sigma_min: smin,
             kinetic_energy,
+            potential_energy,
             residual: h[0].hypot(h[1]),
         })
     }

@@ -137,6 +137,8 @@ pub struct Energy {
     pub beam_potential: f64,
     /// Mechanism and rotor kinetic energy `q^b'^T M^b q^b' / 2`.
     pub mechanism_kinetic: f64,
+    /// Mechanism potential energy `V(q^b)` (gravity, springs).
+    pub mechanism_potential: f64,
     /// `L i^2 / 2`.
     pub magnetic: f64,
     /// Dissipated by the beam's Rayleigh damping, `integral v^T B v dt`.
@@ -150,9 +152,14 @@ pub struct Energy {
 }
 
 impl Energy {
-    /// Stored energy: kinetic + potential + magnetic.
+    /// Stored energy: kinetic + potential (beam strain, mechanism gravity and springs) +
+    /// magnetic.
     pub fn total(&self) -> f64 {
-        self.beam_kinetic + self.beam_potential + self.mechanism_kinetic + self.magnetic
+        self.beam_kinetic
+            + self.beam_potential
+            + self.mechanism_kinetic
+            + self.mechanism_potential
+            + self.magnetic
     }
 
     /// Energy dissipated so far (structure + generator).
@@ -266,6 +273,7 @@ impl<M: Mechanism<2, 0>> DamperModel<M> {
             beam_kinetic: 0.5 * self.beam.mass().quadratic_form(&v),
             beam_potential: 0.5 * self.beam.stiffness().quadratic_form(&q),
             mechanism_kinetic: link.kinetic_energy,
+            mechanism_potential: link.potential_energy,
             ..Energy::default()
         };
         energy.magnetic = 0.5 * self.generator.inductance * current * current;
@@ -527,6 +535,7 @@ impl Integrator {
         e.beam_kinetic = 0.5 * model.beam.mass().quadratic_form(&state.v);
         e.beam_potential = 0.5 * model.beam.stiffness().quadratic_form(&state.q);
         e.mechanism_kinetic = link.kinetic_energy;
+        e.mechanism_potential = link.potential_energy;
         e.magnetic = 0.5 * gspec.inductance * i1 * i1;
         state.current = i1;
         state.link = link;

@@ -180,6 +180,8 @@ pub struct Sample {
     pub beam_potential_energy: f64,
     /// Mechanism + rotor kinetic energy (J).
     pub mechanism_kinetic_energy: f64,
+    /// Mechanism potential energy (gravity, springs) (J).
+    pub mechanism_potential_energy: f64,
     /// Stored energy (J).
     pub total_energy: f64,
     /// Energy dissipated by the structure (J).
@@ -218,6 +220,7 @@ impl Sample {
             beam_kinetic_energy: e.beam_kinetic,
             beam_potential_energy: e.beam_potential,
             mechanism_kinetic_energy: e.mechanism_kinetic,
+            mechanism_potential_energy: e.mechanism_potential,
             total_energy: e.total(),
             dissipated_structure: e.dissipated_structure,
             dissipated_generator: e.dissipated_armature + e.dissipated_load,

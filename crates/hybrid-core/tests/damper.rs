@@ -249,6 +249,29 @@ fn energy_account_balances_with_dissipation() {
     );
 }
 
+/// With in-plane gravity on the mechanism (a run-time parameter of the double bar), its
+/// potential energy enters the account, which still balances (1e-6 at dt = 2.5e-5): the
+/// mechanism's weight also shifts the beam's equilibrium.
+#[test]
+fn energy_account_balances_with_gravity_on_the_mechanism() {
+    let sc = scenario(&[
+        ("t_end = 5.0", "t_end = 1.0"),
+        ("dt = 1e-4", "dt = 2.5e-5"),
+        (
+            "max_condition = 1e4",
+            "max_condition = 1e4\nparameters = { gx = 3.0, gy = -9.81 }",
+        ),
+    ]);
+    let (_, r) = run_scenario(&sc, DoubleBar::default(), true, &mut |_| {}).unwrap();
+    let e = r.state.energy;
+    assert!(e.mechanism_potential != 0.0);
+    assert!(
+        r.energy_balance_rel_error < 1e-6,
+        "energy balance error {:e}",
+        r.energy_balance_rel_error
+    );
+}
+
 /// With massless bars, no rotor and the generator off, the mechanism exerts no force: the
 /// beam vibrates at fem-beam's first natural frequency (0.1 %). The first modal coordinate
 /// `phi_1^T A q` filters out the higher modes excited by the initial shape.

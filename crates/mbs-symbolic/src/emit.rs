@@ -144,6 +144,8 @@ fn camel_case(name: &str) -> String {
 
 /// Where a function's output value goes.
 enum Dest {
+    /// `name`
+    Scalar(Ident),
     /// `name[i]`
     Vec(Ident, usize),
     /// `name[i][j]`
@@ -224,6 +226,7 @@ impl FnEmitter<'_> {
         for (id, dest) in outputs {
             let e = self.expr(*id, &named);
             stmts.extend(match dest {
+                Dest::Scalar(name) => quote! { #name = #e; },
                 Dest::Vec(name, i) => {
                     let i = Literal::usize_unsuffixed(*i);
                     quote! { #name[#i] = #e; }
@@ -534,6 +537,19 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
         /// Constraint bias `A(q, q') = J' q'` (eq. 16).
         pub fn constraint_bias(&self, #q: &[f64; #nl], #qd: &[f64; #nl], #a: &mut [f64; #ncl]) { #body }
     });
+    // V(q)
+    record("potential_energy", &[sym.potential], &sym.dag);
+    let v_id = format_ident!("v");
+    let (body, inputs) = em.body(&[(sym.potential, Dest::Scalar(v_id.clone()))]);
+    let q = arg(&inputs, "q");
+    methods.extend(quote! {
+        /// Potential energy `V(q)`: gravity and the springs of the force elements.
+        pub fn potential_energy(&self, #q: &[f64; #nl]) -> f64 {
+            let v: f64;
+            #body
+            v
+        }
+    });
     // Everything at once (Mechanism::evaluate): one body, every intermediate computed once.
     let (mass_id, qf_id) = (format_ident!("mass"), format_ident!("qf"));
     let mut outs: Vec<(Id, Dest)> = vec![];
@@ -691,6 +707,7 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
             fn constraint_jacobian(&self, q: &[f64; #nl], j: &mut [[f64; #nl]; #ncl]) { #sname::constraint_jacobian(self, q, j) }
             fn constraint_bias(&self, q: &[f64; #nl], qd: &[f64; #nl], a: &mut [f64; #ncl]) { #sname::constraint_bias(self, q, qd, a) }
             fn evaluate(&self, q: &[f64; #nl], qd: &[f64; #nl], t: f64, out: &mut #rt::Evaluation<#nl, #ncl>) { #sname::evaluate(self, q, qd, t, out) }
+            fn potential_energy(&self, q: &[f64; #nl]) -> f64 { #sname::potential_energy(self, q) }
             fn point_kinematics(&self, k: usize, q: &[f64; #nl], qd: &[f64; #nl], out: &mut #rt::PointKinematics<#nl>) -> bool {
                 match k { #point_arms _ => return false, }
                 #[allow(unreachable_code)]

@@ -86,6 +86,10 @@ pub trait Mechanism<const N: usize, const NC: usize> {
     /// `A(q, q') = J' q'` (eq. 16).
     fn constraint_bias(&self, q: &[f64; N], qd: &[f64; N], a: &mut [f64; NC]);
 
+    /// Potential energy `V(q)`: gravity and the springs of the force elements (the gravity
+    /// part of `F^b` and the spring part of `Q^b` are its gradient).
+    fn potential_energy(&self, q: &[f64; N]) -> f64;
+
     /// `M^b`, `F^b`, `Q^b`, `h`, `J` and `A` at once. The default calls the separate
     /// methods; generated code overrides it with one fused body in which every intermediate
     /// (trigonometric leaves, rotation products) is computed once. Results are bit-identical

@@ -78,6 +78,10 @@ pub struct Symbolic {
     pub f: Vec<Id>,
     /// `Q^b`: force elements, paper sign.
     pub q: Vec<Id>,
+    /// Potential energy `V(q)`: gravity `-sum m_i g . x_Ci` plus the springs of the force
+    /// elements, `k (q - rest)^2 / 2` and `k (l - l0)^2 / 2`. The gravity part of `F^b` and the
+    /// spring part of `Q^b` are its gradient.
+    pub potential: Id,
 }
 
 struct Builder<'m> {
@@ -140,6 +144,7 @@ impl Symbolic {
             f_base
         };
         let q = applied_terms(&mut b, &bodies);
+        let potential = potential_energy(&mut b, &bodies);
         Symbolic {
             dag: b.dag,
             n,
@@ -147,6 +152,7 @@ impl Symbolic {
             mass,
             f,
             q,
+            potential,
         }
     }
 
@@ -628,6 +634,62 @@ fn applied_terms(b: &mut Builder<'_>, kin: &[BodyKinematics]) -> Vec<Id> {
             b.dag.add(neg, joint_terms[i])
         })
         .collect()
+}
+
+/// `V(q)`: gravity and the springs of the force elements (see [`Symbolic::potential`]).
+fn potential_energy(b: &mut Builder<'_>, kin: &[BodyKinematics]) -> Id {
+    let model = b.model;
+    let g = b.v(&model.gravity);
+    let mut v = b.dag.zero();
+    for (i, body) in model.bodies.iter().enumerate() {
+        let m = b.s(&body.mass);
+        let c = b.v(&body.com);
+        let x = ground_point(b, kin, Some(i), c);
+        let gx = vec3::dot(&mut b.dag, g, x);
+        let mgx = b.dag.mul(m, gx);
+        v = b.dag.sub(v, mgx);
+    }
+    let half = b.dag.constant(0.5);
+    for fe in &model.forces {
+        let stretch_and_k = match fe {
+            ForceElement::Joint {
+                body,
+                stiffness,
+                rest,
+                ..
+            } => {
+                let (k, q0) = (b.s(stiffness), b.s(rest));
+                let q = b.dag.q(*body);
+                Some((b.dag.sub(q, q0), k))
+            }
+            ForceElement::PointSpring {
+                a,
+                b: pb,
+                stiffness,
+                rest_length,
+                ..
+            } => {
+                let (pa, pbb) = (&model.points[*a], &model.points[*pb]);
+                let ra = b.v(&pa.position);
+                let rb = b.v(&pbb.position);
+                let xa = ground_point(b, kin, pa.body, ra);
+                let xb = ground_point(b, kin, pbb.body, rb);
+                let d = vec3::sub(&mut b.dag, xb, xa);
+                let dd = vec3::dot(&mut b.dag, d, d);
+                let l = b.dag.fun(crate::expr::Fun::Sqrt, dd);
+                let (k, l0) = (b.s(stiffness), b.s(rest_length));
+                Some((b.dag.sub(l, l0), k))
+            }
+            ForceElement::External { .. } => None,
+        };
+        if let Some((s, k)) = stretch_and_k {
+            let s2 = b.dag.mul(s, s);
+            let ks2 = b.dag.mul(k, s2);
+            let e = b.dag.mul(half, ks2);
+            v = b.dag.add(v, e);
+        }
+    }
+    v
 }
 
 fn ground_point(b: &mut Builder<'_>, kin: &[BodyKinematics], body: Option<usize>, r: V3) -> V3 {

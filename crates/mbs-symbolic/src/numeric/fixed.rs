@@ -126,6 +126,10 @@ impl<const N: usize, const NC: usize> Mechanism<N, NC> for NumericMechanism<N, N
         a.copy_from_slice(self.numeric.constraint_bias(q, qd).as_slice());
     }
 
+    fn potential_energy(&self, q: &[f64; N]) -> f64 {
+        self.numeric.potential_energy(q)
+    }
+
     fn point_kinematics(
         &self,
         k: usize,
