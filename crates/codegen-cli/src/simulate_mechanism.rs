@@ -32,7 +32,6 @@ use hybrid_core::closed_loop::{
 use hybrid_core::generated::{double_bar, four_bar, slider_crank};
 use indicatif::{ProgressBar, ProgressStyle};
 use mbs_symbolic::model::{self, Model};
-use mbs_symbolic::numeric::NumericModel;
 use serde_json::{Value, json};
 
 /// Runs a `kind = "mechanism"` scenario and writes `<stem>.csv` and `<stem>_summary.json`
@@ -164,7 +163,6 @@ pub fn run(scenario_path: &Path, out_dir: &Path, progress: bool) -> Result<()> {
 /// comes from the numeric reference of the same model in both cases.
 fn build_system(model: &Model) -> Result<(Box<dyn System>, String)> {
     let hash = model.source.hash.as_str();
-    let energy = || NumericModel::with_default_params(model);
     let generated =
         |name: &str| format!("backend: generated code (compiled-in `{name}`, hash {hash})");
     if hash == four_bar::SOURCE_HASH {
@@ -172,8 +170,7 @@ fn build_system(model: &Model) -> Result<(Box<dyn System>, String)> {
             four_bar::FourBar::default(),
             &four_bar::FourBar::COORDINATE_NAMES,
             &four_bar::FourBar::CONSTRAINT_NAMES,
-        )?
-        .with_potential_energy(energy());
+        )?;
         return Ok((Box::new(s), generated("four_bar")));
     }
     if hash == slider_crank::SOURCE_HASH {
@@ -181,8 +178,7 @@ fn build_system(model: &Model) -> Result<(Box<dyn System>, String)> {
             slider_crank::SliderCrank::default(),
             &slider_crank::SliderCrank::COORDINATE_NAMES,
             &slider_crank::SliderCrank::CONSTRAINT_NAMES,
-        )?
-        .with_potential_energy(energy());
+        )?;
         return Ok((Box::new(s), generated("slider_crank")));
     }
     if hash == double_bar::SOURCE_HASH {
@@ -190,8 +186,7 @@ fn build_system(model: &Model) -> Result<(Box<dyn System>, String)> {
             double_bar::DoubleBar::default(),
             &double_bar::DoubleBar::COORDINATE_NAMES,
             &double_bar::DoubleBar::CONSTRAINT_NAMES,
-        )?
-        .with_potential_energy(energy());
+        )?;
         return Ok((Box::new(s), generated("double_bar")));
     }
     Ok((

@@ -18,7 +18,6 @@ use hybrid_core::generated::four_bar::FourBar;
 use hybrid_core::generated::slider_crank::SliderCrank;
 use hybrid_core::partition::{Partition, choose_partition, dependent_accelerations, reduce};
 use mbs_symbolic::model::{self, Format, Model};
-use mbs_symbolic::numeric::NumericModel;
 use nalgebra::{DMatrix, DVector};
 
 // ---------------------------------------------------------------------------------------
@@ -56,9 +55,6 @@ fn four_bar() -> GeneratedSystem<FourBar, 3, 2> {
         &FourBar::CONSTRAINT_NAMES,
     )
     .unwrap()
-    .with_potential_energy(NumericModel::with_default_params(&load(
-        "models/four_bar.toml",
-    )))
 }
 
 fn slider_crank() -> GeneratedSystem<SliderCrank, 3, 2> {
@@ -68,9 +64,6 @@ fn slider_crank() -> GeneratedSystem<SliderCrank, 3, 2> {
         &SliderCrank::CONSTRAINT_NAMES,
     )
     .unwrap()
-    .with_potential_energy(NumericModel::with_default_params(&load(
-        "models/slider_crank.toml",
-    )))
 }
 
 /// Four-bar geometry of `models/four_bar.toml`: crank a, coupler b, rocker c, ground d.

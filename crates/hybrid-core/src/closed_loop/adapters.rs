@@ -63,15 +63,12 @@ pub fn coordinate_names(model: &Model) -> Vec<String> {
 /// Generated code (any [`Mechanism`] with `N` coordinates and `NC` constraint rows) as a
 /// [`System`]: the fixed-size outputs are copied into the workspace buffers.
 ///
-/// Generated code does not know the potential energy; attach the numeric model of the same
-/// model file with [`GeneratedSystem::with_potential_energy`] for energy bookkeeping (its
-/// parameter values must match the mechanism's run-time parameters).
+/// The potential energy comes from the generated `potential_energy` (gravity, springs).
 #[derive(Clone, Debug)]
 pub struct GeneratedSystem<T, const N: usize, const NC: usize> {
     mech: T,
     coords: Vec<String>,
     cons: Vec<String>,
-    energy: Option<NumericModel>,
 }
 
 impl<T: Mechanism<N, NC>, const N: usize, const NC: usize> GeneratedSystem<T, N, NC> {
@@ -100,14 +97,7 @@ impl<T: Mechanism<N, NC>, const N: usize, const NC: usize> GeneratedSystem<T, N,
             mech,
             coords: coordinate_names.iter().map(|s| s.to_string()).collect(),
             cons: constraint_names.iter().map(|s| s.to_string()).collect(),
-            energy: None,
         })
-    }
-
-    /// Uses `model` for [`System::potential_energy`].
-    pub fn with_potential_energy(mut self, model: NumericModel) -> Self {
-        self.energy = Some(model);
-        self
     }
 
     /// The wrapped mechanism.
@@ -180,7 +170,7 @@ impl<T: Mechanism<N, NC>, const N: usize, const NC: usize> System for GeneratedS
     }
 
     fn potential_energy(&self, q: &[f64]) -> Option<f64> {
-        self.energy.as_ref().map(|m| m.potential_energy(q))
+        Some(self.mech.potential_energy(&array::<N>(q)))
     }
 }
 

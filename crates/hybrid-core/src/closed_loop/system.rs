@@ -92,62 +92,39 @@ pub trait System {
     }
 }
 
-impl<S: System + ?Sized> System for &S {
-    fn dof(&self) -> usize {
-        (**self).dof()
-    }
-    fn rows(&self) -> usize {
-        (**self).rows()
-    }
-    fn coordinate_names(&self) -> &[String] {
-        (**self).coordinate_names()
-    }
-    fn constraint_names(&self) -> &[String] {
-        (**self).constraint_names()
-    }
-    fn backend(&self) -> &'static str {
-        (**self).backend()
-    }
-    fn scratch_len(&self) -> usize {
-        (**self).scratch_len()
-    }
-    fn evaluate(&self, q: &[f64], qd: &[f64], t: f64, ws: &mut Workspace) {
-        (**self).evaluate(q, qd, t, ws)
-    }
-    fn evaluate_positions(&self, q: &[f64], ws: &mut Workspace) {
-        (**self).evaluate_positions(q, ws)
-    }
-    fn potential_energy(&self, q: &[f64]) -> Option<f64> {
-        (**self).potential_energy(q)
-    }
+/// `System` for references and boxes: every method forwards to the pointee.
+macro_rules! forward_system {
+    ($($ty:ty),*) => {$(
+        impl<S: System + ?Sized> System for $ty {
+            fn dof(&self) -> usize {
+                (**self).dof()
+            }
+            fn rows(&self) -> usize {
+                (**self).rows()
+            }
+            fn coordinate_names(&self) -> &[String] {
+                (**self).coordinate_names()
+            }
+            fn constraint_names(&self) -> &[String] {
+                (**self).constraint_names()
+            }
+            fn backend(&self) -> &'static str {
+                (**self).backend()
+            }
+            fn scratch_len(&self) -> usize {
+                (**self).scratch_len()
+            }
+            fn evaluate(&self, q: &[f64], qd: &[f64], t: f64, ws: &mut Workspace) {
+                (**self).evaluate(q, qd, t, ws)
+            }
+            fn evaluate_positions(&self, q: &[f64], ws: &mut Workspace) {
+                (**self).evaluate_positions(q, ws)
+            }
+            fn potential_energy(&self, q: &[f64]) -> Option<f64> {
+                (**self).potential_energy(q)
+            }
+        }
+    )*};
 }
 
-impl<S: System + ?Sized> System for Box<S> {
-    fn dof(&self) -> usize {
-        (**self).dof()
-    }
-    fn rows(&self) -> usize {
-        (**self).rows()
-    }
-    fn coordinate_names(&self) -> &[String] {
-        (**self).coordinate_names()
-    }
-    fn constraint_names(&self) -> &[String] {
-        (**self).constraint_names()
-    }
-    fn backend(&self) -> &'static str {
-        (**self).backend()
-    }
-    fn scratch_len(&self) -> usize {
-        (**self).scratch_len()
-    }
-    fn evaluate(&self, q: &[f64], qd: &[f64], t: f64, ws: &mut Workspace) {
-        (**self).evaluate(q, qd, t, ws)
-    }
-    fn evaluate_positions(&self, q: &[f64], ws: &mut Workspace) {
-        (**self).evaluate_positions(q, ws)
-    }
-    fn potential_energy(&self, q: &[f64]) -> Option<f64> {
-        (**self).potential_energy(q)
-    }
-}
+forward_system!(&S, Box<S>);
