@@ -1,25 +1,10 @@
 //! End-to-end tests of `damper eval`, run as a user would run the binary.
 
-use std::process::Command;
+mod common;
+
+use common::{damper, root};
 
 use serde_json::Value;
-
-fn root() -> std::path::PathBuf {
-    std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
-}
-
-fn damper(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_damper"))
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("run damper");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 fn numbers(v: &Value) -> Vec<f64> {
     match v {

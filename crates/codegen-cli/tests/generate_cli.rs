@@ -3,27 +3,12 @@
 //! operation counts; bad models and unwritable outputs are one-line errors with exit code 2
 //! that leave no file (partial or temporary) behind.
 
+mod common;
+
+use common::{damper, root};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use mbs_symbolic::emit::{EmitOptions, generate};
-
-fn root() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
-}
-
-fn damper(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_damper"))
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("run damper");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 /// A fresh, empty scratch directory for one test.
 fn scratch(name: &str) -> PathBuf {

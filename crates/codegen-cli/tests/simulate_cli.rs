@@ -1,26 +1,11 @@
 //! End-to-end tests of `damper simulate` on damper scenarios, run as a user would.
 
+mod common;
+
+use common::{damper, root};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use serde_json::Value;
-
-fn root() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
-}
-
-fn damper(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_damper"))
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("run damper");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 /// A temporary directory with a copy of the bundled scenario, edited; returns (dir, scenario).
 fn scenario_copy(name: &str, edits: &[(&str, &str)]) -> (PathBuf, PathBuf) {

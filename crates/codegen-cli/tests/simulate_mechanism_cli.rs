@@ -1,27 +1,12 @@
 //! End-to-end tests of `damper simulate` on plain closed-loop mechanism scenarios
 //! (`kind = "mechanism"`), run as a user would run the binary.
 
+mod common;
+
+use common::{damper, root};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use serde_json::Value;
-
-fn root() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
-}
-
-fn damper(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_damper"))
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("run damper");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 /// A fresh temporary directory for one test.
 fn temp_dir(name: &str) -> PathBuf {
