@@ -599,13 +599,7 @@ fn applied_terms(b: &mut Builder<'_>, kin: &[BodyKinematics]) -> Vec<Id> {
                 ..
             } => {
                 let (pa, pbb) = (&model.points[*a], &model.points[*pb]);
-                let ra = b.v(&pa.position);
-                let rb = b.v(&pbb.position);
-                let xa = ground_point(b, kin, pa.body, ra);
-                let xb = ground_point(b, kin, pbb.body, rb);
-                let d = vec3::sub(&mut b.dag, xb, xa);
-                let dd = vec3::dot(&mut b.dag, d, d);
-                let l = b.dag.fun(crate::expr::Fun::Sqrt, dd);
+                let (ra, rb, d, l) = spring_geometry(b, kin, *a, *pb);
                 // l' = d . d' / l, with d' the time derivative of d along the motion.
                 let dv = b.dag.time_derivative_many(&d);
                 let ddv = vec3::dot(&mut b.dag, d, [dv[0], dv[1], dv[2]]);
@@ -669,14 +663,7 @@ fn potential_energy(b: &mut Builder<'_>, kin: &[BodyKinematics]) -> Id {
                 rest_length,
                 ..
             } => {
-                let (pa, pbb) = (&model.points[*a], &model.points[*pb]);
-                let ra = b.v(&pa.position);
-                let rb = b.v(&pbb.position);
-                let xa = ground_point(b, kin, pa.body, ra);
-                let xb = ground_point(b, kin, pbb.body, rb);
-                let d = vec3::sub(&mut b.dag, xb, xa);
-                let dd = vec3::dot(&mut b.dag, d, d);
-                let l = b.dag.fun(crate::expr::Fun::Sqrt, dd);
+                let (_, _, _, l) = spring_geometry(b, kin, *a, *pb);
                 let (k, l0) = (b.s(stiffness), b.s(rest_length));
                 Some((b.dag.sub(l, l0), k))
             }
@@ -690,6 +677,24 @@ fn potential_energy(b: &mut Builder<'_>, kin: &[BodyKinematics]) -> Id {
         }
     }
     v
+}
+
+/// Geometry of a spring between points `a` and `b`: their body-frame positions, the ground
+/// vector `d = p_b - p_a` and the length `l = |d|`.
+fn spring_geometry(
+    b: &mut Builder<'_>,
+    kin: &[BodyKinematics],
+    a: usize,
+    pb: usize,
+) -> (V3, V3, V3, Id) {
+    let (pa, pbb) = (&b.model.points[a], &b.model.points[pb]);
+    let ra = b.v(&pa.position);
+    let rb = b.v(&pbb.position);
+    let xa = ground_point(b, kin, pa.body, ra);
+    let xb = ground_point(b, kin, pbb.body, rb);
+    let d = vec3::sub(&mut b.dag, xb, xa);
+    let dd = vec3::dot(&mut b.dag, d, d);
+    (ra, rb, d, b.dag.fun(crate::expr::Fun::Sqrt, dd))
 }
 
 fn ground_point(b: &mut Builder<'_>, kin: &[BodyKinematics], body: Option<usize>, r: V3) -> V3 {
