@@ -352,6 +352,12 @@ impl Dag {
             (Node::Const(x), Node::Const(y)) if f64::from_bits(y) != 0.0 => {
                 self.constant(f64::from_bits(x) / f64::from_bits(y))
             }
+            // x / 2^k = x * 2^-k exactly (one rounding either way): a multiplication is cheaper.
+            (_, Node::Const(y)) if exact_reciprocal(f64::from_bits(y)).is_some() => {
+                let r = exact_reciprocal(f64::from_bits(y)).unwrap_or(1.0);
+                let k = self.constant(r);
+                self.mul(k, a)
+            }
             (Node::Neg(x), _) => {
                 let d = self.div(x, b);
                 self.neg(d)
@@ -546,6 +552,14 @@ impl Dag {
     }
 }
 
+/// `1/c` when it is exact: `c` a (normal) power of two whose reciprocal is normal too.
+fn exact_reciprocal(c: f64) -> Option<f64> {
+    const MANTISSA: u64 = (1 << 52) - 1;
+    let r = 1.0 / c;
+    let normal = |x: f64| x.is_normal() && x.to_bits() & MANTISSA == 0;
+    (normal(c) && normal(r)).then_some(r)
+}
+
 impl fmt::Display for Var {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
@@ -713,6 +727,29 @@ mod tests {
             },
             "(+ q0 3.5)",
         );
+    }
+
+    #[test]
+    fn division_by_a_power_of_two_becomes_an_exact_multiplication() {
+        for (c, expected) in [
+            (2.0, "(* 0.5 q0)"),
+            (-0.25, "(- (* 4 q0))"),
+            (12.0, "(/ q0 12)"),
+            (3.0, "(/ q0 3)"),
+        ] {
+            check(
+                |d| {
+                    let x = d.q(0);
+                    let k = d.constant(c);
+                    d.div(x, k)
+                },
+                expected,
+            );
+        }
+        for x in [1.0f64, -3.7, 1e-300, 5e-324, 1.7e308] {
+            assert_eq!(x / 2.0, x * 0.5);
+            assert_eq!(x / 1024.0, x * (1.0 / 1024.0));
+        }
     }
 
     #[test]

@@ -342,10 +342,10 @@ pub enum Constraint {
         components: Vec<Axis>,
     },
     /// Relative-angle closure about an axis (planar revolute cut): the rotation angle of body
-    /// `b` relative to body `a` (`None` = ground) about `axis`, minus `offset`, is zero. Every
-    /// revolute joint on the path between `a` and `b` must turn about that same axis (the
-    /// angle is then the signed sum of their coordinates) and no prismatic or tilted joint may
-    /// change the axis.
+    /// `b` relative to body `a` (`None` = ground) about `axis`, minus `offset`, is zero. The
+    /// angle is the signed sum of the revolute coordinates on the path between `a` and `b`
+    /// (`+` on `b`'s side of the common ancestor, `-` on `a`'s), so validation requires every
+    /// joint on that path to be a revolute about `axis` with no constant joint rotation.
     Angle {
         /// Name as written in the model file.
         name: String,
