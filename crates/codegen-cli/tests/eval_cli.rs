@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{damper, root};
+use common::{assert_bad_input, damper, root};
 
 use serde_json::Value;
 
@@ -99,20 +99,6 @@ fn eval_double_bar_matches_closed_form_in_all_backends() {
         for key in ["constraint_names", "h", "J", "A"] {
             assert_eq!(v[key], serde_json::json!([]), "{backend}: {key}");
         }
-    }
-}
-
-fn assert_bad_input(args: &[&str], needles: &[&str]) {
-    let (code, out, err) = damper(args);
-    assert_eq!(code, 2, "exit code for {args:?}: stdout {out} stderr {err}");
-    assert!(out.is_empty(), "nothing on stdout for bad input: {out}");
-    assert_eq!(err.trim_end().lines().count(), 1, "one-line error: {err}");
-    assert!(!err.contains("panicked"), "{err}");
-    for n in needles {
-        assert!(
-            err.contains(n),
-            "{args:?}: error {err:?} should mention {n:?}"
-        );
     }
 }
 

@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{damper, root};
+use common::{assert_bad_input, damper, root};
 use std::path::{Path, PathBuf};
 
 use mbs_symbolic::emit::{EmitOptions, generate};
@@ -34,20 +34,6 @@ fn library_output(rel: &str, struct_name: Option<&str>) -> mbs_symbolic::emit::G
         ..EmitOptions::default()
     };
     generate(&model, &opts).unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn assert_bad_input(args: &[&str], needles: &[&str]) {
-    let (code, out, err) = damper(args);
-    assert_eq!(code, 2, "exit code for {args:?}: stdout {out} stderr {err}");
-    assert!(out.is_empty(), "nothing on stdout for bad input: {out}");
-    assert_eq!(err.trim_end().lines().count(), 1, "one-line error: {err}");
-    assert!(!err.contains("panicked"), "{err}");
-    for n in needles {
-        assert!(
-            err.contains(n),
-            "{args:?}: error {err:?} should mention {n:?}"
-        );
-    }
 }
 
 #[test]

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{damper, root};
+use common::{assert_bad_input, damper, root};
 use std::path::{Path, PathBuf};
 
 use serde_json::Value;
@@ -107,28 +107,13 @@ fn simulate_damper_writes_history_summary_and_plot() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-fn assert_fails(args: &[&str], needles: &[&str]) -> String {
-    let (code, _, stderr) = damper(args);
-    assert_ne!(code, 0, "{args:?} should fail");
-    assert_eq!(code, 2, "{stderr}");
-    assert_eq!(stderr.trim_end().lines().count(), 1, "one line: {stderr}");
-    assert!(
-        !stderr.contains("panicked") && !stderr.contains("NaN"),
-        "{stderr}"
-    );
-    for n in needles {
-        assert!(stderr.contains(n), "{stderr:?} should mention {n:?}");
-    }
-    stderr
-}
-
 #[test]
 fn bad_scenarios_name_file_line_and_entity() {
     let (dir, sc) = scenario_copy(
         "badkey",
         &[("gear_ratio = 5.0", "gear_ratio = 5.0\ngear_raito = 4.0")],
     );
-    assert_fails(
+    assert_bad_input(
         &[
             "simulate",
             sc.to_str().unwrap(),
@@ -141,7 +126,7 @@ fn bad_scenarios_name_file_line_and_entity() {
         "badval",
         &[("load_resistance = 3.5", "load_resistance = -3.5")],
     );
-    assert_fails(
+    assert_bad_input(
         &[
             "simulate",
             sc.to_str().unwrap(),
@@ -154,7 +139,7 @@ fn bad_scenarios_name_file_line_and_entity() {
         "badangle",
         &[("half_angle_deg = 10.0", "half_angle_deg = 0.0")],
     );
-    assert_fails(
+    assert_bad_input(
         &[
             "simulate",
             sc.to_str().unwrap(),
@@ -163,7 +148,7 @@ fn bad_scenarios_name_file_line_and_entity() {
         ],
         &["half_angle_deg", "singular"],
     );
-    assert_fails(&["simulate", "scenarios/no_such.toml"], &["no_such.toml"]);
+    assert_bad_input(&["simulate", "scenarios/no_such.toml"], &["no_such.toml"]);
     for d in [dir, dir2, dir3] {
         let _ = std::fs::remove_dir_all(d);
     }
@@ -184,7 +169,7 @@ fn singular_run_fails_cleanly_and_writes_nothing() {
         ],
     );
     let out = dir.join("out");
-    let err = assert_fails(
+    let err = assert_bad_input(
         &[
             "simulate",
             sc.to_str().unwrap(),

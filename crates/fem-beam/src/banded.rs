@@ -356,34 +356,13 @@ impl BandedSym {
         f.groups = None;
         f.data.clear();
         f.data.extend_from_slice(&self.data);
-        let d = &mut f.data;
-        for i in 0..n {
-            let j0 = i.saturating_sub(kd);
-            // Unscaled t_ij = L_ij d_j = a_ij - sum_{k<j} t_ik L_jk  (row j is final).
-            for j in j0..i {
-                let mut s = d[slot(kd, i, j)];
-                for k in j0..j {
-                    s -= d[slot(kd, i, k)] * d[slot(kd, j, k)];
-                }
-                d[slot(kd, i, j)] = s;
+        ldlt_in_place(n, kd, &mut f.data, |index, pivot| {
+            if pivot > 0.0 && pivot.is_finite() {
+                Ok(())
+            } else {
+                Err(LinalgError::NotPositiveDefinite { index, pivot })
             }
-            // d_i = a_ii - sum_k t_ik^2 / d_k, then L_ik = t_ik / d_k.
-            let mut piv = d[slot(kd, i, i)];
-            for k in j0..i {
-                let t = d[slot(kd, i, k)];
-                let l = t / d[slot(kd, k, k)];
-                piv -= t * l;
-                d[slot(kd, i, k)] = l;
-            }
-            if !(piv > 0.0 && piv.is_finite()) {
-                return Err(LinalgError::NotPositiveDefinite {
-                    index: i,
-                    pivot: piv,
-                });
-            }
-            d[slot(kd, i, i)] = piv;
-        }
-        Ok(())
+        })
     }
 
     /// Number of negative pivots of an LDL^T factorisation without pivoting of this
@@ -391,35 +370,51 @@ impl BandedSym {
     /// property) it is the number of negative eigenvalues. Used with `C - sigma A` to count
     /// the eigenvalues below `sigma`. `None` when a pivot is exactly zero or not finite.
     pub fn negative_pivot_count(&self) -> Option<usize> {
-        let (n, kd) = (self.n, self.kd);
         let mut d = self.data.clone();
         let mut count = 0;
-        for i in 0..n {
-            let j0 = i.saturating_sub(kd);
-            for j in j0..i {
-                let mut s = d[slot(kd, i, j)];
-                for k in j0..j {
-                    s -= d[slot(kd, i, k)] * d[slot(kd, j, k)];
-                }
-                d[slot(kd, i, j)] = s;
+        ldlt_in_place(self.n, self.kd, &mut d, |_, pivot| {
+            if pivot == 0.0 || !pivot.is_finite() {
+                return Err(());
             }
-            let mut piv = d[slot(kd, i, i)];
-            for k in j0..i {
-                let t = d[slot(kd, i, k)];
-                let l = t / d[slot(kd, k, k)];
-                piv -= t * l;
-                d[slot(kd, i, k)] = l;
-            }
-            if piv == 0.0 || !piv.is_finite() {
-                return None;
-            }
-            if piv < 0.0 {
-                count += 1;
-            }
-            d[slot(kd, i, i)] = piv;
-        }
+            count += usize::from(pivot < 0.0);
+            Ok(())
+        })
+        .ok()?;
         Some(count)
     }
+}
+
+/// Banded LDL^T without pivoting, in place in the storage of [`BandedSym`]: on return the
+/// strict lower band holds `L` and the diagonal slots `D`. `pivot(i, d_i)` is called on
+/// every pivot before it is stored and can stop the elimination with an error.
+fn ldlt_in_place<E>(
+    n: usize,
+    kd: usize,
+    d: &mut [f64],
+    mut pivot: impl FnMut(usize, f64) -> Result<(), E>,
+) -> Result<(), E> {
+    for i in 0..n {
+        let j0 = i.saturating_sub(kd);
+        // Unscaled t_ij = L_ij d_j = a_ij - sum_{k<j} t_ik L_jk  (row j is final).
+        for j in j0..i {
+            let mut s = d[slot(kd, i, j)];
+            for k in j0..j {
+                s -= d[slot(kd, i, k)] * d[slot(kd, j, k)];
+            }
+            d[slot(kd, i, j)] = s;
+        }
+        // d_i = a_ii - sum_k t_ik^2 / d_k, then L_ik = t_ik / d_k.
+        let mut piv = d[slot(kd, i, i)];
+        for k in j0..i {
+            let t = d[slot(kd, i, k)];
+            let l = t / d[slot(kd, k, k)];
+            piv -= t * l;
+            d[slot(kd, i, k)] = l;
+        }
+        pivot(i, piv)?;
+        d[slot(kd, i, i)] = piv;
+    }
+    Ok(())
 }
 
 // Kernels. `#[inline(always)]` with a literal `kd` at the call site gives a specialised

@@ -23,3 +23,20 @@ pub fn damper(args: &[&str]) -> (i32, String, String) {
         String::from_utf8_lossy(&out.stderr).into_owned(),
     )
 }
+
+/// Asserts that `damper ARGS` fails as bad input: exit code 2, nothing on stdout, one line on
+/// stderr (no panic) mentioning every needle. Returns the error line.
+pub fn assert_bad_input(args: &[&str], needles: &[&str]) -> String {
+    let (code, out, err) = damper(args);
+    assert_eq!(code, 2, "exit code for {args:?}: stdout {out} stderr {err}");
+    assert!(out.is_empty(), "nothing on stdout for bad input: {out}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one-line error: {err}");
+    assert!(!err.contains("panicked") && !err.contains("NaN"), "{err}");
+    for n in needles {
+        assert!(
+            err.contains(n),
+            "{args:?}: error {err:?} should mention {n:?}"
+        );
+    }
+    err
+}
