@@ -289,7 +289,9 @@ mod tests {
         assert_eq!(ix.locate(4), (1, 5));
         assert_eq!(ix.locate(6), (2, 1));
         // 'é' is two bytes: the '=' after it is column 4.
-        assert_eq!(ix.locate(text.find('=').map(|_| 10).unwrap()), (2, 5));
+        assert_eq!(ix.locate(10), (2, 4));
+        // An offset inside 'é' counts from that character.
+        assert_eq!(ix.locate(8), (2, 2));
         assert_eq!(ix.locate(text.len()), (4, 2));
         assert_eq!(ix.locate(usize::MAX), (4, 2));
         assert_eq!(ix.line(13), 3);
