@@ -294,7 +294,8 @@ mod tests {
         assert_eq!(ix.locate(8), (2, 2));
         assert_eq!(ix.locate(text.len()), (4, 2));
         assert_eq!(ix.locate(usize::MAX), (4, 2));
-        assert_eq!(ix.line(13), 3);
+        assert_eq!(ix.line(13), 2);
+        assert_eq!(ix.line(14), 3);
     }
 
     #[test]
