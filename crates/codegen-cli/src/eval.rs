@@ -15,21 +15,16 @@
 //! Three backends compute the same numbers: the symbolic equations evaluated by the DAG
 //! interpreter (`interp`, default), the independent numeric recursive Newton–Euler
 //! (`numeric`), and the Rust code generated at build time for the bundled models
-//! (`generated`; see [`crate::compiled`]).
+//! (`generated`, matched through the one model registry, `model_registry::system_for`).
 
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
-use mbs_symbolic::constraints;
 use mbs_symbolic::dynamics::Symbolic;
-use mbs_symbolic::expr::{EvalInput, Id, OpCount, Tape};
-use mbs_symbolic::interp::Interpreter;
+use mbs_symbolic::expr::OpCount;
 use mbs_symbolic::model::{self, Model};
-use mbs_symbolic::numeric::NumericModel;
-use mbs_symbolic::runtime::{Mechanism, PointKinematics};
+use mbs_symbolic::runtime::{Backend as RtBackend, System};
 use serde_json::{Map, Value, json};
-
-use crate::compiled::{self, Bundled};
 
 /// Which implementation evaluates the equations.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -137,220 +132,79 @@ fn finite(name: &str, v: &[f64]) -> Result<()> {
     Ok(())
 }
 
-/// Kinematics of one named point, backend-independent.
-struct PointOut {
-    /// Ground position.
-    p: [f64; 3],
-    /// `dp/dq`, row-major 3 x n.
-    j: Vec<f64>,
-    /// `J' q'`.
-    a: [f64; 3],
-}
-
-/// Everything one evaluation computes; matrices row-major.
+/// Everything one evaluation computes through the one mechanism interface; matrices as
+/// rows.
 struct Outputs {
-    /// `M`, n x n (eq. 11).
-    m: Vec<f64>,
-    /// `F` (eq. 12).
+    m: Vec<Vec<f64>>,
     f: Vec<f64>,
-    /// `Q` (eq. 13).
     q: Vec<f64>,
-    /// `h` (eq. 14).
     h: Vec<f64>,
-    /// `J`, nc x n (eq. 15).
-    j: Vec<f64>,
-    /// `A = J' q'` (eq. 16).
+    j: Vec<Vec<f64>>,
     a: Vec<f64>,
     /// In the model's point order.
     points: Vec<PointOut>,
 }
 
-/// The symbolic equations evaluated by the DAG interpreter (`cons` and `pts` were derived
-/// on `sym`'s DAG).
-fn eval_interp(
-    model: &Model,
-    sym: &Symbolic,
-    cons: &constraints::ConstraintExprs,
-    pts: &[constraints::PointExprs],
-    q: &[f64],
-    qd: &[f64],
-    t: f64,
-) -> Outputs {
-    let params = model.default_params();
-    let it = Interpreter::from_symbolic(sym, params.clone());
-    let input = EvalInput {
-        q,
-        qd,
-        qdd: &[],
-        t,
-        params: &params,
-    };
-    let eval = |roots: &[Id]| Tape::new(&sym.dag, roots).eval_vec(&input);
-    let flat = |rows: &[Vec<Id>]| -> Vec<Id> { rows.iter().flatten().copied().collect() };
-    Outputs {
-        m: it.mass_matrix(q),
-        f: it.f_vector(q, qd),
-        q: it.q_vector(q, qd, t),
-        h: eval(&cons.h),
-        j: eval(&flat(&cons.j)),
-        a: eval(&cons.a),
-        points: pts
-            .iter()
-            .map(|pt| {
-                let (p, a) = (eval(&pt.p), eval(&pt.a));
-                PointOut {
-                    p: [p[0], p[1], p[2]],
-                    j: eval(&flat(&pt.j)),
-                    a: [a[0], a[1], a[2]],
-                }
-            })
-            .collect(),
-    }
+/// `(p, J rows, A)` of one named point.
+type PointOut = ([f64; 3], Vec<Vec<f64>>, [f64; 3]);
+
+fn rows_of(m: &nalgebra::DMatrix<f64>) -> Vec<Vec<f64>> {
+    m.row_iter().map(|r| r.iter().copied().collect()).collect()
 }
 
-/// The independent numeric reference.
-fn eval_numeric(model: &Model, q: &[f64], qd: &[f64], t: f64) -> Outputs {
-    let n = model.dof();
-    let nm = NumericModel::new(model, &model.default_params());
-    let mm = nm.mass_matrix(q);
-    let jm = nm.constraint_jacobian(q);
+/// Evaluates every equation of `sys` at one state.
+fn evaluate(sys: &dyn System, q: &[f64], qd: &[f64], t: f64) -> Outputs {
+    let mut ws = sys.workspace();
+    sys.evaluate(q, qd, t, &mut ws);
+    let points = (0..sys.point_names().len())
+        .map(|k| {
+            sys.point_kinematics(k, q, qd, &mut ws);
+            let (p, a) = (ws.point_p, ws.point_a);
+            ([p[0], p[1], p[2]], rows_of(&ws.point_j), [a[0], a[1], a[2]])
+        })
+        .collect();
     Outputs {
-        m: (0..n * n).map(|k| mm[(k / n, k % n)]).collect(),
-        f: nm.f_vector(q, qd).as_slice().to_vec(),
-        q: nm.q_vector(q, qd, t).as_slice().to_vec(),
-        h: nm.constraints(q).as_slice().to_vec(),
-        j: (0..jm.nrows() * n).map(|k| jm[(k / n, k % n)]).collect(),
-        a: nm.constraint_bias(q, qd).as_slice().to_vec(),
-        points: (0..model.points.len())
-            .map(|k| {
-                let (p, a) = (nm.point_position(k, q), nm.point_bias(k, q, qd));
-                let jp = nm.point_jacobian(k, q);
-                PointOut {
-                    p: [p[0], p[1], p[2]],
-                    j: (0..3 * n).map(|i| jp[(i / n, i % n)]).collect(),
-                    a: [a[0], a[1], a[2]],
-                }
-            })
-            .collect(),
-    }
-}
-
-/// The code generated at build time for a bundled model, through the [`Mechanism`] trait.
-/// `overrides` are the run-time parameters set on the command line (indices into
-/// [`Model::parameters`], values already in `model`).
-fn eval_generated<const N: usize, const NC: usize>(
-    mut mech: impl Mechanism<N, NC>,
-    model: &Model,
-    overrides: &[usize],
-    q: &[f64],
-    qd: &[f64],
-    t: f64,
-) -> Result<Outputs> {
-    for &k in overrides {
-        let p = &model.parameters[k];
-        if !mech.set_param(&p.name, p.value) {
-            bail!(
-                "internal error: the compiled-in `{}` has no run-time parameter `{}`",
-                model.name,
-                p.name
-            );
-        }
-    }
-    let sizes = || {
-        format!(
-            "internal error: the compiled-in `{}` has {N} coordinates, the model {}",
-            model.name,
-            model.dof()
-        )
-    };
-    let q: &[f64; N] = q.try_into().ok().with_context(sizes)?;
-    let qd: &[f64; N] = qd.try_into().ok().with_context(sizes)?;
-    let (mut m, mut f, mut qv) = ([[0.0; N]; N], [0.0; N], [0.0; N]);
-    let (mut h, mut j, mut a) = ([0.0; NC], [[0.0; N]; NC], [0.0; NC]);
-    mech.mass_matrix(q, &mut m);
-    mech.f_vector(q, qd, &mut f);
-    mech.q_vector(q, qd, t, &mut qv);
-    mech.constraints(q, &mut h);
-    mech.constraint_jacobian(q, &mut j);
-    mech.constraint_bias(q, qd, &mut a);
-    let mut points = Vec::with_capacity(model.points.len());
-    for k in 0..model.points.len() {
-        let mut pk = PointKinematics::<N>::default();
-        if !mech.point_kinematics(k, q, qd, &mut pk) {
-            bail!(
-                "internal error: the compiled-in `{}` has no point {k}",
-                model.name
-            );
-        }
-        points.push(PointOut {
-            p: pk.p,
-            j: pk.j.iter().flatten().copied().collect(),
-            a: pk.a,
-        });
-    }
-    Ok(Outputs {
-        m: m.iter().flatten().copied().collect(),
-        f: f.to_vec(),
-        q: qv.to_vec(),
-        h: h.to_vec(),
-        j: j.iter().flatten().copied().collect(),
-        a: a.to_vec(),
+        m: rows_of(&ws.m),
+        f: ws.f.as_slice().to_vec(),
+        q: ws.q.as_slice().to_vec(),
+        h: ws.h.as_slice().to_vec(),
+        j: rows_of(&ws.j),
+        a: ws.a.as_slice().to_vec(),
         points,
-    })
+    }
 }
 
-/// Picks the compiled-in mechanism for `model` (by content hash) and evaluates it.
-fn dispatch_generated(
-    args: &Args,
-    model: &Model,
-    overrides: &[usize],
-    q: &[f64],
-    qd: &[f64],
-) -> Result<Outputs> {
-    let Some(bundled) = Bundled::from_hash(&model.source.hash) else {
-        let names: Vec<&str> = Bundled::ALL.iter().map(|b| b.name()).collect();
-        bail!(
+/// The implementation of `model`'s equations for `--backend`, through the one registry.
+fn system(args: &Args, model: &Model, overrides: &[usize]) -> Result<Box<dyn System>> {
+    let backend = match args.backend {
+        Backend::Interp => RtBackend::Interpreted,
+        Backend::Numeric => RtBackend::Numeric,
+        Backend::Generated => {
+            for &k in overrides {
+                let p = &model.parameters[k];
+                if !p.runtime {
+                    bail!(
+                        "--param {}: parameter is folded into the generated code (not `runtime = true` in the model), so it cannot be changed with --backend generated; use --backend interp or numeric",
+                        p.name
+                    );
+                }
+            }
+            RtBackend::Generated
+        }
+    };
+    let resolved = model_registry::system_for(model, Some(backend)).map_err(|e| match e {
+        model_registry::RegistryError::NotCompiled { .. } => anyhow::anyhow!(
             "model {} is not compiled into this binary (compiled in: {}); use --backend interp or numeric, or rebuild",
             args.model.display(),
-            names.join(", ")
-        );
-    };
-    for &k in overrides {
-        let p = &model.parameters[k];
-        if !p.runtime {
-            bail!(
-                "--param {}: parameter is folded into the generated code (not `runtime = true` in the model), so it cannot be changed with --backend generated; use --backend interp or numeric",
-                p.name
-            );
-        }
-    }
-    let t = args.t;
-    match bundled {
-        Bundled::DoubleBar => eval_generated(
-            compiled::double_bar::DoubleBar::default(),
-            model,
-            overrides,
-            q,
-            qd,
-            t,
+            model_registry::compiled()
+                .iter()
+                .map(|c| c.name)
+                .collect::<Vec<_>>()
+                .join(", ")
         ),
-        Bundled::FourBar => eval_generated(
-            compiled::four_bar::FourBar::default(),
-            model,
-            overrides,
-            q,
-            qd,
-            t,
-        ),
-        Bundled::SliderCrank => eval_generated(
-            compiled::slider_crank::SliderCrank::default(),
-            model,
-            overrides,
-            q,
-            qd,
-            t,
-        ),
-    }
+        other => anyhow::anyhow!("{other}"),
+    })?;
+    Ok(resolved.system)
 }
 
 /// Runs `damper eval`.
@@ -362,30 +216,22 @@ pub fn run(args: Args) -> Result<()> {
     let qd = state("qd", &args.qd, n)?;
     // The symbolic derivation gives the operation counts and the constraint row names for
     // every backend (and the expressions for the interpreter).
-    let mut sym = Symbolic::derive(&model);
-    let pts = constraints::points(&model, &mut sym);
-    let cons = constraints::constraints(&model, &mut sym);
-    let out = match args.backend {
-        Backend::Interp => eval_interp(&model, &sym, &cons, &pts, &q, &qd, args.t),
-        Backend::Numeric => eval_numeric(&model, &q, &qd, args.t),
-        Backend::Generated => dispatch_generated(&args, &model, &overrides, &q, &qd)?,
-    };
-    finite("M", &out.m)?;
+    let sym = Symbolic::derive(&model);
+    let sys = system(&args, &model, &overrides)?;
+    let out = evaluate(sys.as_ref(), &q, &qd, args.t);
+    let flat = |rows: &[Vec<f64>]| -> Vec<f64> { rows.iter().flatten().copied().collect() };
+    finite("M", &flat(&out.m))?;
     finite("F", &out.f)?;
     finite("Q", &out.q)?;
     finite("h", &out.h)?;
-    finite("J", &out.j)?;
+    finite("J", &flat(&out.j))?;
     finite("A", &out.a)?;
-    let rows = |v: &[f64]| -> Vec<Vec<f64>> { v.chunks(n.max(1)).map(<[f64]>::to_vec).collect() };
     let mut points = Map::new();
-    for (pt, po) in model.points.iter().zip(&out.points) {
-        finite(&format!("point {:?}", pt.name), &po.p)?;
-        finite(&format!("point {:?} J", pt.name), &po.j)?;
-        finite(&format!("point {:?} A", pt.name), &po.a)?;
-        points.insert(
-            pt.name.clone(),
-            json!({"p": po.p, "J": rows(&po.j), "A": po.a}),
-        );
+    for (name, (p, j, a)) in sys.point_names().iter().zip(&out.points) {
+        finite(&format!("point {name:?}"), p)?;
+        finite(&format!("point {name:?} J"), &flat(j))?;
+        finite(&format!("point {name:?} A"), a)?;
+        points.insert(name.clone(), json!({"p": p, "J": j, "A": a}));
     }
     let json = json!({
         "model": model.name,
@@ -393,12 +239,12 @@ pub fn run(args: Args) -> Result<()> {
         "q": q,
         "qd": qd,
         "t": args.t,
-        "M": rows(&out.m),
+        "M": out.m,
         "F": out.f,
         "Q": out.q,
-        "constraint_names": cons.names,
+        "constraint_names": sys.constraint_names(),
         "h": out.h,
-        "J": rows(&out.j),
+        "J": out.j,
         "A": out.a,
         "points": points,
         "op_count": {

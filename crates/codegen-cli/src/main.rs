@@ -8,7 +8,6 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
-mod compiled;
 mod eval;
 mod generate;
 mod modes;

@@ -20,13 +20,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use hybrid_core::damper::DamperModel;
-use hybrid_core::generated::double_bar::{self, DoubleBar};
 use hybrid_core::output::{OutputFile, commit_files, csv_bytes, json_bytes, plot_svg};
 use hybrid_core::scenario::Scenario;
 use hybrid_core::study::{Run, damping_ratio, run_scenario};
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
-use mbs_symbolic::numeric::NumericMechanism;
-use mbs_symbolic::runtime::Mechanism;
+use mbs_symbolic::runtime::System;
 use serde_json::json;
 
 /// Arguments of `damper simulate`.
@@ -90,11 +88,7 @@ struct Pair<M> {
 
 /// Both runs (with and without the generator) in parallel threads; the results do not depend
 /// on the thread schedule (each run is independent and deterministic).
-fn run_pair<M: Mechanism<2, 0> + Clone + Send + Sync>(
-    sc: &Scenario,
-    mech: M,
-    progress: bool,
-) -> Result<Pair<M>> {
+fn run_pair<M: System + Clone>(sc: &Scenario, mech: M, progress: bool) -> Result<Pair<M>> {
     let multi = MultiProgress::new();
     let compare = sc.spec.output.compare_without_generator;
     let (pa, pb) = (
@@ -135,28 +129,21 @@ fn damper(path: &Path, out: &Path, progress: bool) -> Result<()> {
         std::fs::create_dir_all(out)
             .with_context(|| format!("cannot create the output directory {}", out.display()))?;
     }
-    if model_file.source.hash == double_bar::SOURCE_HASH {
-        let pair = run_pair(&sc, DoubleBar::default(), progress)?;
-        report(path, out, &sc, &model_file, "generated", pair)
-    } else {
-        let numeric = NumericMechanism::<2, 0>::new(&model_file).map_err(|e| {
-            anyhow::anyhow!(
-                "{}: {e}: the damper needs a planar two-coordinate mechanism without constraints",
-                sc.model_path.display()
-            )
-        })?;
+    let resolved = model_registry::system_for(&model_file, None)?;
+    if resolved.compiled.is_none() {
         eprintln!(
-            "note: {} is not the compiled-in double bar (hash {}); using the numeric reference implementation (slower). Rebuild to compile it in.",
+            "note: {} is not compiled in (hash {}); using the DAG interpreter (slower). Put it under models/ and rebuild to compile it in.",
             sc.model_path.display(),
             model_file.source.hash
         );
-        let pair = run_pair(&sc, numeric, progress)?;
-        report(path, out, &sc, &model_file, "numeric", pair)
     }
+    let backend = resolved.system.backend().as_str();
+    let pair = run_pair(&sc, resolved.system, progress)?;
+    report(path, out, &sc, &model_file, backend, pair)
 }
 
 /// Figures of merit and output files of a finished pair of runs.
-fn report<M: Mechanism<2, 0>>(
+fn report<M: System>(
     path: &Path,
     out: &Path,
     sc: &Scenario,

@@ -26,10 +26,8 @@ use std::time::Instant;
 use anyhow::{Context, Result, anyhow};
 use hybrid_core::closed_loop::scenario::{self, MechanismScenario};
 use hybrid_core::closed_loop::{
-    AssemblyOptions, Event, GeneratedSystem, InterpretedSystem, Method, OutputRow, Settings,
-    Simulator, System, assemble,
+    AssemblyOptions, Event, Method, OutputRow, Settings, Simulator, System, assemble,
 };
-use hybrid_core::generated::{double_bar, four_bar, slider_crank};
 use indicatif::{ProgressBar, ProgressStyle};
 use mbs_symbolic::model::{self, Model};
 use serde_json::{Value, json};
@@ -158,41 +156,20 @@ pub fn run(scenario_path: &Path, out_dir: &Path, progress: bool) -> Result<()> {
     })
 }
 
-/// The backend for a model: the compiled-in generated code when the file is byte-identical
-/// to a bundled model (same FNV-1a content hash), else the DAG interpreter. Potential energy
-/// comes from the numeric reference of the same model in both cases.
+/// The backend for a model, through the one registry: the compiled-in generated code when
+/// the file is byte-identical to a model under `models/` (same FNV-1a content hash), else the
+/// DAG interpreter.
 fn build_system(model: &Model) -> Result<(Box<dyn System>, String)> {
     let hash = model.source.hash.as_str();
-    let generated =
-        |name: &str| format!("backend: generated code (compiled-in `{name}`, hash {hash})");
-    if hash == four_bar::SOURCE_HASH {
-        let s = GeneratedSystem::new(
-            four_bar::FourBar::default(),
-            &four_bar::FourBar::COORDINATE_NAMES,
-            &four_bar::FourBar::CONSTRAINT_NAMES,
-        )?;
-        return Ok((Box::new(s), generated("four_bar")));
-    }
-    if hash == slider_crank::SOURCE_HASH {
-        let s = GeneratedSystem::new(
-            slider_crank::SliderCrank::default(),
-            &slider_crank::SliderCrank::COORDINATE_NAMES,
-            &slider_crank::SliderCrank::CONSTRAINT_NAMES,
-        )?;
-        return Ok((Box::new(s), generated("slider_crank")));
-    }
-    if hash == double_bar::SOURCE_HASH {
-        let s = GeneratedSystem::new(
-            double_bar::DoubleBar::default(),
-            &double_bar::DoubleBar::COORDINATE_NAMES,
-            &double_bar::DoubleBar::CONSTRAINT_NAMES,
-        )?;
-        return Ok((Box::new(s), generated("double_bar")));
-    }
-    Ok((
-        Box::new(InterpretedSystem::new(model)),
-        format!("backend: DAG interpreter (model not compiled in, hash {hash})"),
-    ))
+    let resolved = model_registry::system_for(model, None)?;
+    let note = match resolved.compiled {
+        Some(c) => format!(
+            "backend: generated code (compiled-in `{}`, hash {hash})",
+            c.name
+        ),
+        None => format!("backend: DAG interpreter (model not compiled in, hash {hash})"),
+    };
+    Ok((resolved.system, note))
 }
 
 fn tmp_path(path: &Path) -> PathBuf {
@@ -351,7 +328,7 @@ fn summary_json(
         "model": sc.model.display().to_string(),
         "model_name": model.name,
         "model_hash": model.source.hash,
-        "backend": sys.backend(),
+        "backend": sys.backend().as_str(),
         "status": if result.is_ok() { "completed" } else { "stopped" },
         "error": result.as_ref().err().map(|e| e.to_string()),
         "settings": {

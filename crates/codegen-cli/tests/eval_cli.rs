@@ -299,17 +299,26 @@ fn generated_backend_refuses_models_it_was_not_built_from() {
         &["eval", edited, "--backend", "generated"],
         &[
             &format!("model {edited} is not compiled into this binary"),
-            "(compiled in: double_bar, four_bar, slider_crank)",
+            "(compiled in: double_bar, four_bar, pendulum, slider_crank)",
             "use --backend interp or numeric, or rebuild",
         ],
     );
     // It is still a valid model for the other backends.
     eval_json(&["eval", edited, "--backend", "interp"]);
     let _ = std::fs::remove_dir_all(&dir);
-    // A model that was never bundled.
+    // Every model under models/ is compiled in (the one registry), a model elsewhere is not.
+    eval_json(&["eval", "models/pendulum.json", "--backend", "generated"]);
     assert_bad_input(
-        &["eval", "models/pendulum.json", "--backend", "generated"],
-        &["models/pendulum.json", "not compiled into this binary"],
+        &[
+            "eval",
+            "tests/fixtures/spatial_arm.toml",
+            "--backend",
+            "generated",
+        ],
+        &[
+            "tests/fixtures/spatial_arm.toml",
+            "not compiled into this binary",
+        ],
     );
     // Folded parameters are baked into the generated code: changing one is an error naming
     // it; run-time ones are fine.

@@ -11,9 +11,8 @@ use std::path::Path;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use hybrid_core::closed_loop::{
-    AssemblyOptions, GeneratedSystem, InterpretedSystem, NumericSystem, System, assemble,
+    AssemblyOptions, InterpretedSystem, NumericSystem, System, assemble,
 };
-use hybrid_core::generated::four_bar::FourBar;
 use hybrid_core::partition::{Partition, ReduceWorkspace, Reduced, reduce_into};
 use nalgebra::DVector;
 
@@ -116,12 +115,10 @@ fn bench_reduction<S: System>(c: &mut Criterion, sys: &S, states: &[(Vec<f64>, V
 fn closed_loop_rhs(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/four_bar.toml");
     let model = mbs_symbolic::model::load(&path).expect("four_bar.toml loads");
-    let generated = GeneratedSystem::new(
-        FourBar::default(),
-        &FourBar::COORDINATE_NAMES,
-        &FourBar::CONSTRAINT_NAMES,
-    )
-    .unwrap();
+    // As the product runs it: the registry's generated code behind the dynamic interface.
+    let generated = model_registry::find_by_name("four_bar")
+        .expect("models/four_bar.toml is compiled in")
+        .system();
     let interpreter = InterpretedSystem::new(&model);
     let numeric = NumericSystem::new(&model);
     let states = states(&generated);

@@ -24,7 +24,9 @@
 //! force the mechanism applies to the beam; `g_1` is the velocity amplification
 //! `q1'/y'`, and the generator's `Q_1 = c_g q1'` reflects as the damping `c_g g_1^2`.
 
-use mbs_symbolic::runtime::{Evaluation, Mechanism, PointKinematics};
+use std::cell::RefCell;
+
+use mbs_symbolic::runtime::{System, Workspace};
 
 /// Where the mechanism point is pinned: its target in the mechanism's ground frame when the
 /// beam is undeformed.
@@ -125,46 +127,133 @@ pub struct LinkState {
 }
 
 /// A two-coordinate mechanism pinned to a beam point, with the generator on one joint.
+///
+/// The mechanism is any [`System`] (generated code, the interpreter or the numeric
+/// reference, usually a `Box<dyn System>` from the model registry) of two coordinates and no
+/// constraint rows; its evaluations go into a workspace allocated once, here.
 #[derive(Clone, Debug)]
 pub struct MechanismLink<M> {
-    /// The mechanism equations (generated code or the numeric reference).
+    /// The mechanism equations.
     pub mechanism: M,
     /// Where its point is pinned.
     pub attachment: Attachment,
     /// Joint index carrying the generator.
     pub generator_joint: usize,
-    /// `n^2 J_r` added to `M^b` on the generator joint.
-    pub rotor_inertia: f64,
     /// Condition number of `J^b` beyond which the run stops (approach of the singular
     /// position).
     pub max_condition: f64,
+    ws: RefCell<Workspace>,
 }
 
-impl<M: Mechanism<2, 0>> MechanismLink<M> {
-    /// Constraint residual `h = [p_y - (y0 + y), p_x - x0]` and `J^b` at `q`.
-    fn residual(
+/// A mechanism that cannot be the damper's: the damper needs a two-coordinate mechanism
+/// without constraint rows, whose point and generator joint exist.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum LinkShapeError {
+    /// Wrong number of coordinates or constraint rows.
+    #[error(
+        "the damper needs a planar mechanism of 2 coordinates without constraints; this model has {dof} coordinate(s) and {rows} constraint row(s)"
+    )]
+    Shape {
+        /// Coordinates of the model.
+        dof: usize,
+        /// Constraint rows of the model.
+        rows: usize,
+    },
+    /// The point index is out of range.
+    #[error("the model has no point number {0}")]
+    Point(usize),
+    /// The generator joint index is out of range.
+    #[error("the model has no joint number {0}")]
+    Joint(usize),
+}
+
+impl<M: System> MechanismLink<M> {
+    /// Links `mechanism` (checked to have 2 coordinates, no constraint rows, the point and
+    /// the joint) to the beam point.
+    pub fn new(
+        mechanism: M,
+        attachment: Attachment,
+        generator_joint: usize,
+        max_condition: f64,
+    ) -> Result<Self, LinkShapeError> {
+        let (dof, rows) = (mechanism.dof(), mechanism.rows());
+        if dof != 2 || rows != 0 {
+            return Err(LinkShapeError::Shape { dof, rows });
+        }
+        if attachment.point >= mechanism.point_names().len() {
+            return Err(LinkShapeError::Point(attachment.point));
+        }
+        if generator_joint >= dof {
+            return Err(LinkShapeError::Joint(generator_joint));
+        }
+        let ws = RefCell::new(mechanism.workspace());
+        Ok(MechanismLink {
+            mechanism,
+            attachment,
+            generator_joint,
+            max_condition,
+            ws,
+        })
+    }
+
+    /// Point kinematics of the attachment point at `(q, q')`: `(p, J rows, A)` in the
+    /// ground frame (eqs. 49–50).
+    pub fn point(&self, q: &[f64; 2], qd: &[f64; 2]) -> ([f64; 3], [[f64; 2]; 3], [f64; 3]) {
+        let ws = &mut *self.ws.borrow_mut();
+        self.mechanism
+            .point_kinematics(self.attachment.point, q, qd, ws);
+        let pj = &ws.point_j;
+        (
+            [ws.point_p[0], ws.point_p[1], ws.point_p[2]],
+            [
+                [pj[(0, 0)], pj[(0, 1)]],
+                [pj[(1, 0)], pj[(1, 1)]],
+                [pj[(2, 0)], pj[(2, 1)]],
+            ],
+            [ws.point_a[0], ws.point_a[1], ws.point_a[2]],
+        )
+    }
+
+    /// `M^b`, `F^b`, `Q^b` at `(q, q', t)` with the generator's contribution (rotor inertia,
+    /// torque for `current`) added — from one evaluation of the mechanism.
+    pub fn equations(
         &self,
         q: &[f64; 2],
-        y: f64,
-        pk: &mut PointKinematics<2>,
-    ) -> ([f64; 2], [[f64; 2]; 2]) {
+        qd: &[f64; 2],
+        t: f64,
+        generator: &crate::generator::GeneratorSpec,
+        current: f64,
+    ) -> ([[f64; 2]; 2], [f64; 2], [f64; 2]) {
+        let ws = &mut *self.ws.borrow_mut();
+        self.mechanism.evaluate(q, qd, t, ws);
+        generator.add_to_equations(self.generator_joint, current, &mut ws.m, &mut ws.q);
+        (
+            [[ws.m[(0, 0)], ws.m[(0, 1)]], [ws.m[(1, 0)], ws.m[(1, 1)]]],
+            [ws.f[0], ws.f[1]],
+            [ws.q[0], ws.q[1]],
+        )
+    }
+
+    /// Potential energy `V(q^b)` of the mechanism (gravity, springs).
+    pub fn potential_energy(&self, q: &[f64; 2]) -> f64 {
         self.mechanism
-            .point_kinematics(self.attachment.point, q, &[0.0; 2], pk);
-        let h = [
-            pk.p[1] - (self.attachment.y0 + y),
-            pk.p[0] - self.attachment.x0,
-        ];
-        (h, [pk.j[1], pk.j[0]])
+            .potential_energy(q, &mut self.ws.borrow_mut())
+    }
+
+    /// Constraint residual `h = [p_y - (y0 + y), p_x - x0]` and `J^b` at `q`.
+    fn residual(&self, q: &[f64; 2], y: f64) -> ([f64; 2], [[f64; 2]; 2]) {
+        let (p, j, _) = self.point(q, &[0.0; 2]);
+        let h = [p[1] - (self.attachment.y0 + y), p[0] - self.attachment.x0];
+        (h, [j[1], j[0]])
     }
 
     /// Solves `h(q^b) = 0` for the beam point at `y` by Newton's method from `guess`
     /// (the guess selects the assembly branch). Step length limited to 0.3 rad.
     pub fn solve_positions(&self, y: f64, guess: [f64; 2]) -> Result<[f64; 2], KinematicError> {
         let mut q = guess;
-        let mut pk = PointKinematics::default();
         let scale = 1.0 + self.attachment.y0.abs() + self.attachment.x0.abs();
         for it in 0..60 {
-            let (h, jb) = self.residual(&q, y, &mut pk);
+            let (h, jb) = self.residual(&q, y);
             let rn = h[0].hypot(h[1]);
             if !rn.is_finite() {
                 return Err(KinematicError::NoAssembly {
@@ -188,7 +277,7 @@ impl<M: Mechanism<2, 0>> MechanismLink<M> {
             }
             q = [q[0] - dq[0], q[1] - dq[1]];
             if len <= 1e-13 * (1.0 + q[0].abs() + q[1].abs()) {
-                let (h, _) = self.residual(&q, y, &mut pk);
+                let (h, _) = self.residual(&q, y);
                 let r = h[0].hypot(h[1]);
                 if r <= 1e-12 * scale {
                     return Ok(q);
@@ -200,7 +289,7 @@ impl<M: Mechanism<2, 0>> MechanismLink<M> {
                 });
             }
         }
-        let (h, _) = self.residual(&q, y, &mut pk);
+        let (h, _) = self.residual(&q, y);
         Err(KinematicError::NoAssembly {
             residual: h[0].hypot(h[1]),
             iterations: 60,
@@ -220,8 +309,7 @@ impl<M: Mechanism<2, 0>> MechanismLink<M> {
         current: Current<'_>,
     ) -> Result<LinkState, KinematicError> {
         let q = self.solve_positions(y, warm)?;
-        let mut pk = PointKinematics::default();
-        let (h, jb) = self.residual(&q, y, &mut pk);
+        let (h, jb) = self.residual(&q, y);
         let (smax, smin) = singular_values2(&jb);
         let condition = if smin > 0.0 {
             smax / smin
@@ -237,22 +325,17 @@ impl<M: Mechanism<2, 0>> MechanismLink<M> {
         }
         let g = solve2(&jb, [1.0, 0.0]);
         let qd = [g[0] * yd, g[1] * yd];
-        self.mechanism
-            .point_kinematics(self.attachment.point, &q, &qd, &mut pk);
-        let ab = [pk.a[1], pk.a[0]];
+        let (_, _, pa) = self.point(&q, &qd);
+        let ab = [pa[1], pa[0]];
         let s = solve2(&jb, ab);
-        // M, F, Q from one fused generated body (shared trigonometric leaves).
-        let mut e = Evaluation::<2, 0>::default();
-        self.mechanism.evaluate(&q, &qd, t, &mut e);
-        let (mut m, f, mut qv) = (e.mass, e.f, e.q);
-        m[self.generator_joint][self.generator_joint] += self.rotor_inertia;
         let (spec, i) = match current {
             Current::QuasiStatic(spec) => {
                 (spec, spec.quasi_static_current(qd[self.generator_joint]))
             }
             Current::State(spec, i) => (spec, i),
         };
-        qv[self.generator_joint] += spec.q_term(i);
+        // M, F, Q from one fused evaluation (shared trigonometric leaves), generator added.
+        let (m, f, qv) = self.equations(&q, &qd, t, spec, i);
         let mg = [
             m[0][0] * g[0] + m[0][1] * g[1],
             m[1][0] * g[0] + m[1][1] * g[1],
@@ -264,7 +347,7 @@ impl<M: Mechanism<2, 0>> MechanismLink<M> {
         let m_eff = g[0] * mg[0] + g[1] * mg[1];
         let force = g[0] * (ms[0] - f[0] - qv[0]) + g[1] * (ms[1] - f[1] - qv[1]);
         let kinetic_energy = 0.5 * yd * yd * m_eff;
-        let potential_energy = self.mechanism.potential_energy(&q);
+        let potential_energy = self.potential_energy(&q);
         Ok(LinkState {
             q,
             qd,

@@ -39,7 +39,7 @@
 //! costs `O(n)` in the number of beam DOFs and allocates nothing.
 
 use fem_beam::{BandedFactor, BandedSym, BeamModel};
-use mbs_symbolic::runtime::Mechanism;
+use mbs_symbolic::runtime::System;
 
 use crate::coupling::{Current, KinematicError, LinkState, MechanismLink};
 use crate::generator::GeneratorSpec;
@@ -189,7 +189,7 @@ pub struct State {
     pub steps: u64,
 }
 
-impl<M: Mechanism<2, 0>> DamperModel<M> {
+impl<M: System> DamperModel<M> {
     /// `n . x`.
     pub fn point_value(&self, x: &[f64]) -> f64 {
         self.coupling.iter().map(|&(k, w)| w * x[k]).sum()
@@ -312,7 +312,7 @@ pub struct Integrator {
 impl Integrator {
     /// Prepares the scheme with time step `h`: factorises `K = A + (1+alpha)(gamma h B +
     /// beta h^2 C)` and computes `z = K^-1 n`.
-    pub fn new<M: Mechanism<2, 0>>(
+    pub fn new<M: System>(
         model: &DamperModel<M>,
         method: Method,
         h: f64,
@@ -357,7 +357,7 @@ impl Integrator {
     }
 
     /// Advances `state` by one step. Allocates nothing.
-    pub fn step<M: Mechanism<2, 0>>(
+    pub fn step<M: System>(
         &mut self,
         model: &DamperModel<M>,
         state: &mut State,
@@ -548,7 +548,7 @@ impl Integrator {
 /// The full constrained model (eqs. 51–54), solved as one system — the reference the
 /// reduction is checked against. Dense and allocating: for tests and small beams only.
 pub mod full {
-    use mbs_symbolic::runtime::{Mechanism, PointKinematics};
+    use mbs_symbolic::runtime::System;
     use nalgebra::{DMatrix, DVector};
 
     use super::DamperModel;
@@ -569,7 +569,7 @@ pub mod full {
     /// `M_full = blockdiag(A^c, M^b)`, `rhs_dyn = [P - B v - C q; -(F + Q)]`,
     /// `J = [J^c J^b]` and the constraint bias `A^b`.
     #[allow(clippy::type_complexity)]
-    pub fn pieces<M: Mechanism<2, 0>>(
+    pub fn pieces<M: System>(
         model: &DamperModel<M>,
         t: f64,
         q: &[f64],
@@ -582,9 +582,11 @@ pub mod full {
         let mut mf = DMatrix::zeros(nt, nt);
         mf.view_mut((0, 0), (n, n))
             .copy_from(&model.beam.mass().to_dense());
-        let mut mb = [[0.0; 2]; 2];
-        model.link.mechanism.mass_matrix(&qb, &mut mb);
-        mb[model.link.generator_joint][model.link.generator_joint] += model.link.rotor_inertia;
+        let gj = model.link.generator_joint;
+        let g = &model.generator;
+        let (mb, f, qv) = model
+            .link
+            .equations(&qb, &qbd, t, g, g.quasi_static_current(qbd[gj]));
         for i in 0..2 {
             for j in 0..2 {
                 mf[(n + i, n + j)] = mb[i][j];
@@ -600,35 +602,25 @@ pub mod full {
         let (vv, qq) = (DVector::from_column_slice(v), DVector::from_column_slice(q));
         let lin = DVector::from_vec(p) - bd * vv - cd * qq;
         rhs.rows_mut(0, n).copy_from(&lin);
-        let (mut f, mut qv) = ([0.0; 2], [0.0; 2]);
-        model.link.mechanism.f_vector(&qb, &qbd, &mut f);
-        model.link.mechanism.q_vector(&qb, &qbd, t, &mut qv);
-        let gj = model.link.generator_joint;
-        let g = &model.generator;
-        qv[gj] += g.q_term(g.quasi_static_current(qbd[gj]));
         rhs[n] = -(f[0] + qv[0]);
         rhs[n + 1] = -(f[1] + qv[1]);
         // Constraints (45)-(46): rows y, x; J^c = [-n^T; 0] (54), J^b = [dp_y; dp_x] (49).
-        let mut pk = PointKinematics::default();
-        model
-            .link
-            .mechanism
-            .point_kinematics(model.link.attachment.point, &qb, &qbd, &mut pk);
+        let (_, pj, pa) = model.link.point(&qb, &qbd);
         let mut j = DMatrix::zeros(2, nt);
         for &(k, w) in &model.coupling {
             j[(0, k)] = -w;
         }
         for c in 0..2 {
-            j[(0, n + c)] = pk.j[1][c];
-            j[(1, n + c)] = pk.j[0][c];
+            j[(0, n + c)] = pj[1][c];
+            j[(1, n + c)] = pj[0][c];
         }
-        let a = DVector::from_vec(vec![pk.a[1], pk.a[0]]);
+        let a = DVector::from_vec(vec![pa[1], pa[0]]);
         (mf, rhs, j, a)
     }
 
     /// Solves `[M J^T; J 0] [q''; lambda] = [rhs; -A]` (eqs. 51–53 with the acceleration
     /// constraint 16) by a dense LU.
-    pub fn accelerations<M: Mechanism<2, 0>>(
+    pub fn accelerations<M: System>(
         model: &DamperModel<M>,
         t: f64,
         q: &[f64],

@@ -70,6 +70,21 @@ impl GeneratorSpec {
         self.connected && self.inductance > 0.0
     }
 
+    /// Adds the generator to the mechanism's equations on joint `joint` — the one place it
+    /// is added: the reflected rotor inertia `n^2 J_r` on the diagonal of `M^b` (eq. 11) and
+    /// the torque for `current`, paper sign `+n k_t i`, to `Q^b` (eq. 13). With zero
+    /// inductance and the quasi-static current this is the viscous damper `c_g q'`.
+    pub fn add_to_equations(
+        &self,
+        joint: usize,
+        current: f64,
+        m: &mut nalgebra::DMatrix<f64>,
+        q: &mut nalgebra::DVector<f64>,
+    ) {
+        m[(joint, joint)] += self.reflected_inertia();
+        q[joint] += self.q_term(current);
+    }
+
     /// The current when the inductance is zero: `i = k_e n q' / (R_a + R_L)`.
     pub fn quasi_static_current(&self, joint_speed: f64) -> f64 {
         if self.connected {

@@ -4,34 +4,47 @@
 
 use std::time::{Duration, Instant};
 
-use mbs_symbolic::runtime::{Mechanism, PointKinematics};
+use mbs_symbolic::runtime::System;
 use serde::Serialize;
 
-use crate::coupling::{Attachment, MechanismLink};
+use crate::coupling::{Attachment, LinkShapeError, MechanismLink};
 use crate::damper::{DamperModel, Integrator, SimError, State};
 use crate::scenario::{Scenario, ScenarioError};
 
 /// Link lengths `(L1, L2)` of a double bar read off its point kinematics: the point at
 /// `q = (0, 0)` lies at `L1 + L2` along x, at `q = (0, pi)` at `L1 - L2`.
-fn bar_lengths<M: Mechanism<2, 0>>(m: &M, point: usize) -> (f64, f64) {
-    let mut pk = PointKinematics::default();
-    m.point_kinematics(point, &[0.0, 0.0], &[0.0; 2], &mut pk);
-    let s = pk.p[0];
-    m.point_kinematics(point, &[0.0, std::f64::consts::PI], &[0.0; 2], &mut pk);
-    let d = pk.p[0];
+fn bar_lengths<M: System>(m: &M, point: usize) -> (f64, f64) {
+    let mut ws = m.workspace();
+    m.point_kinematics(point, &[0.0, 0.0], &[0.0; 2], &mut ws);
+    let s = ws.point_p[0];
+    m.point_kinematics(point, &[0.0, std::f64::consts::PI], &[0.0; 2], &mut ws);
+    let d = ws.point_p[0];
     ((s + d) / 2.0, (s - d) / 2.0)
 }
 
 /// The coupled model of a scenario and the initial guess of the mechanism coordinates.
-pub fn build_model<M: Mechanism<2, 0>>(
+pub fn build_model<M: System>(
     sc: &Scenario,
     mut mechanism: M,
     connected: bool,
 ) -> Result<(DamperModel<M>, [f64; 2]), ScenarioError> {
     let spec = &sc.spec;
     let ms = &spec.mechanism;
+    let (dof, rows) = (mechanism.dof(), mechanism.rows());
+    if dof != 2 || rows != 0 {
+        return Err(sc.error_at(
+            "mechanism",
+            "model",
+            "[mechanism] model",
+            format!(
+                "{}: {}",
+                sc.model_path.display(),
+                LinkShapeError::Shape { dof, rows }
+            ),
+        ));
+    }
     for (name, value) in &ms.parameters {
-        if !mechanism.set_param(name, *value) {
+        if mechanism.set_param(name, *value).is_err() {
             let known = mechanism.param_names().join(", ");
             return Err(sc.error_at("mechanism", "parameters", "[mechanism] parameters", format!("{name:?} is not a run-time parameter of the model (run-time parameters: {known})")));
         }
@@ -131,13 +144,20 @@ pub fn build_model<M: Mechanism<2, 0>>(
     }
     let mut generator = spec.generator.clone();
     generator.connected = generator.connected && connected;
-    let link = MechanismLink {
+    let link = MechanismLink::new(
         mechanism,
-        attachment: Attachment { point, x0, y0 },
+        Attachment { point, x0, y0 },
         generator_joint,
-        rotor_inertia: generator.reflected_inertia(),
-        max_condition: ms.max_condition,
-    };
+        ms.max_condition,
+    )
+    .map_err(|e| {
+        sc.error_at(
+            "mechanism",
+            "model",
+            "[mechanism] model",
+            format!("{}: {e}", sc.model_path.display()),
+        )
+    })?;
     Ok((
         DamperModel {
             beam,
@@ -199,7 +219,7 @@ pub struct Sample {
 impl Sample {
     fn of<M>(model: &DamperModel<M>, s: &State, e0: f64) -> Sample
     where
-        M: Mechanism<2, 0>,
+        M: System,
     {
         let g = &model.generator;
         let e = &s.energy;
@@ -248,7 +268,7 @@ pub struct Run {
 
 /// Integrates `model` from `state` to `t_end` with step `dt`, sampling every `every` steps.
 /// `progress` receives the fraction done from time to time.
-pub fn run<M: Mechanism<2, 0>>(
+pub fn run<M: System>(
     model: &DamperModel<M>,
     integrator: &mut Integrator,
     mut state: State,
@@ -363,7 +383,7 @@ pub fn damping_ratio(samples: &[Sample]) -> Option<f64> {
 }
 
 /// Prepares model, integrator and initial state of a scenario and runs it.
-pub fn run_scenario<M: Mechanism<2, 0>>(
+pub fn run_scenario<M: System>(
     sc: &Scenario,
     mechanism: M,
     connected: bool,

@@ -10,12 +10,10 @@ use std::path::{Path, PathBuf};
 
 use hybrid_core::closed_loop::scenario;
 use hybrid_core::closed_loop::{
-    AssemblyError, AssemblyOptions, GeneratedSystem, InterpretedSystem, NumericSystem, SimError,
-    Simulator, System, Trajectory, assemble, simulate,
+    AssemblyError, AssemblyOptions, InterpretedSystem, NumericSystem, SimError, Simulator, System,
+    Trajectory, assemble, simulate,
 };
 use hybrid_core::closed_loop::{Settings, assemble_positions};
-use hybrid_core::generated::four_bar::FourBar;
-use hybrid_core::generated::slider_crank::SliderCrank;
 use hybrid_core::partition::{Partition, choose_partition, dependent_accelerations, reduce};
 use mbs_symbolic::model::{self, Format, Model};
 use nalgebra::{DMatrix, DVector};
@@ -48,22 +46,19 @@ fn model_text(rel: &str) -> String {
     std::fs::read_to_string(root().join(rel)).unwrap()
 }
 
-fn four_bar() -> GeneratedSystem<FourBar, 3, 2> {
-    GeneratedSystem::new(
-        FourBar::default(),
-        &FourBar::COORDINATE_NAMES,
-        &FourBar::CONSTRAINT_NAMES,
-    )
-    .unwrap()
+/// Generated code of a model under `models/`, from the model registry.
+fn compiled(name: &str) -> Box<dyn System> {
+    model_registry::find_by_name(name)
+        .unwrap_or_else(|| panic!("models/{name} is compiled in"))
+        .system()
 }
 
-fn slider_crank() -> GeneratedSystem<SliderCrank, 3, 2> {
-    GeneratedSystem::new(
-        SliderCrank::default(),
-        &SliderCrank::COORDINATE_NAMES,
-        &SliderCrank::CONSTRAINT_NAMES,
-    )
-    .unwrap()
+fn four_bar() -> Box<dyn System> {
+    compiled("four_bar")
+}
+
+fn slider_crank() -> Box<dyn System> {
+    compiled("slider_crank")
 }
 
 /// Four-bar geometry of `models/four_bar.toml`: crank a, coupler b, rocker c, ground d.
@@ -417,14 +412,8 @@ fn automatic_repartitioning_carries_the_four_bar_through_the_rocker_extremes() {
 #[test]
 fn generated_interpreted_and_numeric_backends_give_the_same_trajectories() {
     for (rel, generated) in [
-        (
-            "models/four_bar.toml",
-            Box::new(four_bar()) as Box<dyn System>,
-        ),
-        (
-            "models/slider_crank.toml",
-            Box::new(slider_crank()) as Box<dyn System>,
-        ),
+        ("models/four_bar.toml", four_bar()),
+        ("models/slider_crank.toml", slider_crank()),
     ] {
         let model = load(rel);
         let interp = InterpretedSystem::new(&model);
@@ -601,14 +590,8 @@ fn singular_configuration_stops_with_a_clear_error() {
 #[test]
 fn bundled_scenarios_parse_and_assemble() {
     for (file, sys) in [
-        (
-            "scenarios/four_bar.toml",
-            Box::new(four_bar()) as Box<dyn System>,
-        ),
-        (
-            "scenarios/slider_crank.toml",
-            Box::new(slider_crank()) as Box<dyn System>,
-        ),
+        ("scenarios/four_bar.toml", four_bar()),
+        ("scenarios/slider_crank.toml", slider_crank()),
     ] {
         let sc = scenario::load(&root().join(file)).unwrap_or_else(|e| panic!("{e}"));
         let model = model::load(&sc.model).unwrap_or_else(|e| panic!("{e}"));

@@ -3,7 +3,6 @@
 
 use damper_e2e::alloc_counter::{CountingAllocator, allocations};
 use hybrid_core::damper::Integrator;
-use hybrid_core::generated::double_bar::DoubleBar;
 use hybrid_core::scenario::Scenario;
 use hybrid_core::study::build_model;
 
@@ -22,7 +21,14 @@ fn damper_step_does_not_allocate() {
             .replace("inductance = 0.0", &format!("inductance = {inductance}"))
             .replace("\"newmark\"", method);
         let sc = Scenario::from_str(&text, &path).unwrap();
-        let (model, guess) = build_model(&sc, DoubleBar::default(), true).unwrap();
+        let (model, guess) = build_model(
+            &sc,
+            model_registry::find_by_name("double_bar")
+                .expect("models/double_bar.toml is compiled in")
+                .system(),
+            true,
+        )
+        .unwrap();
         let mut state = model.initial_state(1e-3, guess).unwrap();
         let mut integ = Integrator::new(&model, sc.method, 1e-4).unwrap();
         integ.step(&model, &mut state).unwrap();

@@ -4,7 +4,6 @@ pub mod constraints;
 pub mod dynamics;
 pub mod emit;
 pub mod expr;
-pub mod interp;
 pub mod model;
 pub mod numeric;
 pub mod runtime;

@@ -23,7 +23,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::system::{System, Workspace};
+use mbs_symbolic::runtime::{System, Workspace};
 
 /// Tuning of the position assembly.
 #[derive(Clone, Copy, Debug, PartialEq)]

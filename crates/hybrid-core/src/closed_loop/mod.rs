@@ -17,31 +17,30 @@
 //!   recording energy and constraint residuals ([`mod@simulate`]);
 //! - reads the plain-mechanism scenario file ([`scenario`]).
 //!
-//! Everything is written against the small dynamic-size trait [`System`], implemented for
-//! compiled-in generated code, the DAG interpreter and the numeric reference
-//! ([`adapters`]), so any model the generator accepts can be simulated, compiled in or read
-//! at run time.
+//! Everything is written against the one dynamic mechanism interface
+//! [`mbs_symbolic::runtime::System`] (re-exported here), whose three backends are
+//! compiled-in generated code, the DAG interpreter and the numeric reference, so any model
+//! the generator accepts can be simulated, compiled in or read at run time.
 
-pub mod adapters;
 pub mod assembly;
 mod dopri;
 pub mod error;
 mod projection;
 pub mod scenario;
 pub mod simulate;
-pub mod system;
 
-pub use adapters::{GeneratedSystem, InterpretedSystem, NumericSystem};
 pub use assembly::{
     Assembly, AssemblyError, AssemblyOptions, assemble_positions, assemble_velocities,
 };
 pub use error::{RedundancyReport, SimError, SingularReport};
+pub use mbs_symbolic::runtime::{
+    GeneratedSystem, InterpretedSystem, NumericSystem, System, Workspace,
+};
 pub use projection::ProjectionError;
 pub use simulate::{
     Event, Method, OutputRow, PartitionChange, PartitionSettings, Settings, Simulator, Stats,
     Trajectory, simulate,
 };
-pub use system::{System, Workspace};
 
 /// Consistent initial positions and velocities: [`assemble_positions`] holding the
 /// coordinates `fixed` of `q0` (the others are guesses), then [`assemble_velocities`]

@@ -6,7 +6,7 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::partition::{self, Partition, PartitionError, ReduceWorkspace};
 
-use super::system::{System, Workspace};
+use mbs_symbolic::runtime::{System, Workspace};
 
 /// Why a projection failed.
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]

@@ -40,7 +40,7 @@ use crate::partition::{
 use super::dopri;
 use super::error::{RedundancyReport, RedundantRow, SimError, SingularReport};
 use super::projection::{ProjectionError, Projector};
-use super::system::{System, Workspace};
+use mbs_symbolic::runtime::{System, Workspace};
 
 /// The integration method.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -804,15 +804,16 @@ impl<'s, S: System + ?Sized> Simulator<'s, S> {
     }
 
     /// Builds the output row of the last evaluated state.
-    fn output_row(&self, t: f64) -> OutputRow {
+    fn output_row(&mut self, t: f64) -> OutputRow {
         let qd = DVector::from_column_slice(&self.qdt);
         let kinetic_energy = 0.5 * qd.dot(&(&self.ws.m * &qd));
+        let potential_energy = Some(self.sys.potential_energy(&self.qt, &mut self.ws));
         OutputRow {
             t,
             q: self.qt.clone(),
             qd: self.qdt.clone(),
             kinetic_energy,
-            potential_energy: self.sys.potential_energy(&self.qt),
+            potential_energy,
             residual_norm: self.ws.h.norm(),
             cond_jv: self.last_cond,
         }

@@ -1,4 +1,4 @@
-//! The runtime trait shared by generated code, the numeric reference and the interpreter.
+//! The fixed-size trait that generated code implements.
 //!
 //! Sizes are const generics — `N` joint coordinates, `NC` constraint rows — so every output is
 //! a caller-owned fixed-size array: evaluations allocate nothing and cannot index out of

@@ -1,0 +1,109 @@
+//! The numeric backend: the independent recursive reference
+//! ([`crate::numeric::NumericModel`]) behind the dynamic [`System`] interface.
+
+use crate::model::Model;
+use crate::numeric::NumericModel;
+
+use super::system::{
+    Backend, ParamError, System, Workspace, constraint_row_names, coordinate_names, find_param,
+    runtime_params,
+};
+
+/// The numeric recursive reference as a [`System`]. It allocates its results (a reference,
+/// not a hot path).
+#[derive(Clone, Debug)]
+pub struct NumericSystem {
+    model: Model,
+    values: Vec<f64>,
+    numeric: NumericModel,
+    coords: Vec<String>,
+    cons: Vec<String>,
+    points: Vec<String>,
+    params: Vec<String>,
+    param_index: Vec<usize>,
+}
+
+impl NumericSystem {
+    /// The numeric model of `model` with its default parameter values.
+    pub fn new(model: &Model) -> NumericSystem {
+        let values = model.default_params();
+        let (params, param_index) = runtime_params(model);
+        NumericSystem {
+            numeric: NumericModel::new(model, &values),
+            model: model.clone(),
+            values,
+            coords: coordinate_names(model),
+            cons: constraint_row_names(model),
+            points: model.points.iter().map(|p| p.name.clone()).collect(),
+            params,
+            param_index,
+        }
+    }
+
+    /// The wrapped numeric model.
+    pub fn model(&self) -> &NumericModel {
+        &self.numeric
+    }
+}
+
+impl System for NumericSystem {
+    fn backend(&self) -> Backend {
+        Backend::Numeric
+    }
+    fn dof(&self) -> usize {
+        self.numeric.dof()
+    }
+    fn rows(&self) -> usize {
+        self.numeric.constraint_rows()
+    }
+    fn coordinate_names(&self) -> &[String] {
+        &self.coords
+    }
+    fn constraint_names(&self) -> &[String] {
+        &self.cons
+    }
+    fn point_names(&self) -> &[String] {
+        &self.points
+    }
+    fn param_names(&self) -> &[String] {
+        &self.params
+    }
+
+    fn set_param(&mut self, name: &str, value: f64) -> Result<(), ParamError> {
+        let k = find_param(&self.params, &self.param_index, name, value)?;
+        self.values[k] = value;
+        self.numeric = NumericModel::new(&self.model, &self.values);
+        Ok(())
+    }
+
+    fn evaluate(&self, q: &[f64], qd: &[f64], t: f64, ws: &mut Workspace) {
+        ws.m.copy_from(&self.numeric.mass_matrix(q));
+        ws.f.copy_from(&self.numeric.f_vector(q, qd));
+        ws.q.copy_from(&self.numeric.q_vector(q, qd, t));
+        self.evaluate_positions(q, ws);
+        ws.a.copy_from(&self.numeric.constraint_bias(q, qd));
+    }
+
+    fn evaluate_positions(&self, q: &[f64], ws: &mut Workspace) {
+        ws.h.copy_from(&self.numeric.constraints(q));
+        ws.j.copy_from(&self.numeric.constraint_jacobian(q));
+    }
+
+    fn potential_energy(&self, q: &[f64], _ws: &mut Workspace) -> f64 {
+        self.numeric.potential_energy(q)
+    }
+
+    fn point_kinematics(&self, k: usize, q: &[f64], qd: &[f64], ws: &mut Workspace) -> bool {
+        if k >= self.points.len() {
+            return false;
+        }
+        ws.point_p = self.numeric.point_position(k, q);
+        ws.point_j.copy_from(&self.numeric.point_jacobian(k, q));
+        ws.point_a = self.numeric.point_bias(k, q, qd);
+        true
+    }
+
+    fn clone_box(&self) -> Box<dyn System> {
+        Box::new(self.clone())
+    }
+}

@@ -1,0 +1,236 @@
+//! The one model registry: every mechanism model file under the workspace's `models/`
+//! folder, generated into Rust at build time by this crate's `build.rs` and compiled in, and
+//! [`system_for`], the one function that matches a model file to its compiled code.
+//!
+//! A model file is matched by its FNV-1a content hash
+//! ([`mbs_symbolic::model::SourceInfo::hash`]): only a byte-identical copy of a compiled-in
+//! model uses the generated code, so an edited model can never run with stale equations.
+//! **The fallback** for a model that is not compiled in (a file elsewhere, an edited file not
+//! yet rebuilt, a model whose generation failed at build time) is the DAG interpreter
+//! ([`mbs_symbolic::runtime::InterpretedSystem`]): the same symbolic equations, evaluated
+//! without generated code.
+//!
+//! Nothing outside this crate names a generated model's Rust type: callers get a
+//! [`Box<dyn System>`](System) and check its shape at run time (so a model the product
+//! cannot use where it is used gives a model-level message, never a compile error), or
+//! visit the fixed-size type generically through [`Visitor`] (benchmarks, allocation tests).
+
+use mbs_symbolic::model::Model;
+use mbs_symbolic::runtime::{
+    Backend, GeneratedSystem, InterpretedSystem, Mechanism, NumericSystem, ParamError, System,
+};
+
+include!(concat!(env!("OUT_DIR"), "/registry.rs"));
+
+/// A model compiled into this build.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Compiled {
+    /// File stem under `models/` (`"double_bar"`).
+    pub name: &'static str,
+    /// File name under `models/` (`"double_bar.toml"`).
+    pub file: &'static str,
+    /// FNV-1a 64 content hash of the file the code was generated from.
+    pub hash: &'static str,
+    /// Name of the generated struct (`"DoubleBar"`).
+    pub struct_name: &'static str,
+    /// Number of coordinates.
+    pub dof: usize,
+    /// Number of constraint rows.
+    pub rows: usize,
+    index: usize,
+}
+
+/// Generic access to a compiled-in model's fixed-size type (for code that must be
+/// monomorphised: benchmarks of the generated functions, allocation tests).
+pub trait Visitor {
+    /// What the visit returns.
+    type Output;
+    /// Called with a default instance of the generated struct and its name constants.
+    fn visit<T, const N: usize, const NC: usize>(
+        self,
+        mechanism: T,
+        coordinate_names: &[&str],
+        constraint_names: &[&str],
+    ) -> Self::Output
+    where
+        T: Mechanism<N, NC> + Clone + Send + Sync + 'static;
+}
+
+/// Boxes generated code as a [`System`].
+struct Boxer;
+
+impl Visitor for Boxer {
+    type Output = Box<dyn System>;
+    fn visit<T, const N: usize, const NC: usize>(
+        self,
+        mechanism: T,
+        coordinate_names: &[&str],
+        constraint_names: &[&str],
+    ) -> Box<dyn System>
+    where
+        T: Mechanism<N, NC> + Clone + Send + Sync + 'static,
+    {
+        match GeneratedSystem::new(mechanism, coordinate_names, constraint_names) {
+            Ok(s) => Box::new(s),
+            // The generated constants have the generated sizes.
+            Err(e) => unreachable!("generated names do not match the generated sizes: {e}"),
+        }
+    }
+}
+
+impl Compiled {
+    /// The generated code as a [`System`], with the model file's parameter values.
+    pub fn system(&self) -> Box<dyn System> {
+        visit(self.index, Boxer)
+    }
+
+    /// Calls `v` with the generated struct's fixed-size type.
+    pub fn visit<V: Visitor>(&self, v: V) -> V::Output {
+        visit(self.index, v)
+    }
+}
+
+/// Every model compiled into this build, sorted by file name.
+pub fn compiled() -> &'static [Compiled] {
+    COMPILED
+}
+
+/// Model files under `models/` that could not be compiled in at build time, with the reason
+/// (the build reports them as warnings; using one falls back to the interpreter).
+pub fn skipped() -> &'static [(&'static str, &'static str)] {
+    SKIPPED
+}
+
+/// The compiled-in model generated from a file with this content hash.
+pub fn find_by_hash(hash: &str) -> Option<&'static Compiled> {
+    COMPILED.iter().find(|c| c.hash == hash)
+}
+
+/// The compiled-in model with this file stem (`"double_bar"`).
+pub fn find_by_name(name: &str) -> Option<&'static Compiled> {
+    COMPILED.iter().find(|c| c.name == name)
+}
+
+/// Why [`system_for`] could not provide the backend asked for.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum RegistryError {
+    /// Generated code was asked for a model that is not compiled in.
+    #[error(
+        "model {file} is not compiled into this build (compiled in: {}); use the interpreter or the numeric reference, or put the file under models/ and rebuild",
+        .compiled.join(", ")
+    )]
+    NotCompiled {
+        /// The model file.
+        file: String,
+        /// File names of the compiled-in models.
+        compiled: Vec<String>,
+    },
+    /// A parameter value of the model could not be given to the generated code.
+    #[error("model {file}: {error}")]
+    Param {
+        /// The model file.
+        file: String,
+        /// The problem.
+        error: ParamError,
+    },
+}
+
+/// A model's equations behind the one dynamic interface, and where they come from.
+#[derive(Debug)]
+pub struct Resolved {
+    /// The equations.
+    pub system: Box<dyn System>,
+    /// The compiled-in model used, when the backend is generated code.
+    pub compiled: Option<&'static Compiled>,
+}
+
+/// THE function that matches a model to an implementation of its equations.
+///
+/// - `backend = None`: generated code when the model file is compiled in (same content
+///   hash), otherwise the documented fallback, the DAG interpreter;
+/// - `Some(Backend::Generated)`: generated code, or [`RegistryError::NotCompiled`];
+/// - `Some(Backend::Interpreted)` / `Some(Backend::Numeric)`: that backend.
+///
+/// The run-time parameters of generated code are set to the model's values (which the
+/// caller may have overridden); the interpreter and the numeric reference are built from
+/// the model as it is.
+pub fn system_for(model: &Model, backend: Option<Backend>) -> Result<Resolved, RegistryError> {
+    let compiled = find_by_hash(&model.source.hash);
+    let file = || model.source.path.clone();
+    match (backend, compiled) {
+        (None | Some(Backend::Generated), Some(c)) => {
+            let mut system = c.system();
+            for p in model.parameters.iter().filter(|p| p.runtime && !p.derived) {
+                system
+                    .set_param(&p.name, p.value)
+                    .map_err(|error| RegistryError::Param {
+                        file: file(),
+                        error,
+                    })?;
+            }
+            Ok(Resolved {
+                system,
+                compiled: Some(c),
+            })
+        }
+        (Some(Backend::Generated), None) => Err(RegistryError::NotCompiled {
+            file: file(),
+            compiled: COMPILED.iter().map(|c| c.file.to_string()).collect(),
+        }),
+        (None | Some(Backend::Interpreted), None) | (Some(Backend::Interpreted), Some(_)) => {
+            Ok(Resolved {
+                system: Box::new(InterpretedSystem::new(model)),
+                compiled: None,
+            })
+        }
+        (Some(Backend::Numeric), _) => Ok(Resolved {
+            system: Box::new(NumericSystem::new(model)),
+            compiled: None,
+        }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn models_dir() -> std::path::PathBuf {
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models")
+    }
+
+    #[test]
+    fn every_bundled_model_is_compiled_in_and_matched_by_hash() {
+        for name in ["double_bar", "four_bar", "slider_crank", "pendulum"] {
+            let c = find_by_name(name).unwrap_or_else(|| panic!("{name} not compiled in"));
+            let model = mbs_symbolic::model::load(&models_dir().join(c.file))
+                .unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(find_by_hash(&model.source.hash), Some(c));
+            assert_eq!((c.dof, c.rows), (model.dof(), model.constraint_rows()));
+            let r = system_for(&model, None).unwrap();
+            assert_eq!(r.system.backend(), Backend::Generated);
+            assert_eq!(r.compiled, Some(c));
+            assert_eq!(r.system.dof(), model.dof());
+        }
+        assert!(skipped().is_empty(), "{:?}", skipped());
+        assert_eq!(find_by_hash("0000000000000000"), None);
+    }
+
+    #[test]
+    fn an_edited_model_falls_back_to_the_interpreter() {
+        let path = models_dir().join("double_bar.toml");
+        let text = std::fs::read_to_string(&path).unwrap() + "\n# edited\n";
+        let model =
+            mbs_symbolic::model::parse_str(&text, "edited.toml", mbs_symbolic::model::Format::Toml)
+                .unwrap();
+        let r = system_for(&model, None).unwrap();
+        assert_eq!(r.system.backend(), Backend::Interpreted);
+        assert!(r.compiled.is_none());
+        let err = system_for(&model, Some(Backend::Generated)).unwrap_err();
+        assert!(
+            err.to_string().contains("edited.toml is not compiled"),
+            "{err}"
+        );
+        let r = system_for(&model, Some(Backend::Numeric)).unwrap();
+        assert_eq!(r.system.backend(), Backend::Numeric);
+    }
+}
