@@ -42,9 +42,7 @@ use crate::model::types::{Axis, Constraint, ForceElement, JointKind, Model, Scal
 
 mod constraints;
 mod dynamics;
-mod fixed;
 mod kinematics;
-pub use fixed::{NumericMechanism, SizeMismatch};
 
 pub use kinematics::BodyState;
 
