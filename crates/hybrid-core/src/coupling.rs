@@ -60,8 +60,12 @@ pub enum KinematicError {
     },
     /// Newton on `h = 0` did not converge: the beam point is out of the mechanism's reach
     /// (e.g. pushed through the toggle position).
-    #[error("the mechanism cannot reach the beam point: |h| = {residual:.3e} m after {iterations} Newton iterations (q^b = [{:.6}, {:.6}] rad)", q[0], q[1])]
+    #[error("{}", no_assembly_message(*residual, *iterations, q, *reach))]
     NoAssembly {
+        /// How far the beam point can move from its undeformed position in the direction
+        /// that stretches the mechanism (m), when the geometry gives it: `2 L (1 - cos a0)`
+        /// for a double bar of equal bars at half-angle `a0`.
+        reach: Option<f64>,
         /// Constraint residual norm at the last iterate.
         residual: f64,
         /// Iterations made.
@@ -69,6 +73,24 @@ pub enum KinematicError {
         /// Last iterate.
         q: [f64; 2],
     },
+}
+
+fn no_assembly_message(
+    residual: f64,
+    iterations: usize,
+    q: &[f64; 2],
+    reach: Option<f64>,
+) -> String {
+    let reach = match reach {
+        Some(r) => format!(
+            "it reaches at most {r:.6e} m from the undeformed position (2 L (1 - cos a0) for a double bar of equal bars L at half-angle a0); "
+        ),
+        None => String::new(),
+    };
+    format!(
+        "the mechanism cannot reach the beam point: {reach}|h| = {residual:.3e} m after {iterations} Newton iterations (q^b = [{:.6}, {:.6}] rad)",
+        q[0], q[1]
+    )
 }
 
 /// 2x2 helpers.
@@ -142,6 +164,10 @@ pub struct MechanismLink<M> {
     /// Condition number of `J^b` beyond which the run stops (approach of the singular
     /// position).
     pub max_condition: f64,
+    /// How far the beam point can move from its undeformed position in the direction that
+    /// stretches the mechanism (m), when the geometry gives it (reported when the
+    /// mechanism cannot follow).
+    pub reach: Option<f64>,
     ws: RefCell<Workspace>,
 }
 
@@ -192,6 +218,7 @@ impl<M: System> MechanismLink<M> {
             attachment,
             generator_joint,
             max_condition,
+            reach: None,
             ws,
         })
     }
@@ -257,6 +284,7 @@ impl<M: System> MechanismLink<M> {
             let rn = h[0].hypot(h[1]);
             if !rn.is_finite() {
                 return Err(KinematicError::NoAssembly {
+                    reach: self.reach,
                     residual: rn,
                     iterations: it,
                     q,
@@ -283,6 +311,7 @@ impl<M: System> MechanismLink<M> {
                     return Ok(q);
                 }
                 return Err(KinematicError::NoAssembly {
+                    reach: self.reach,
                     residual: r,
                     iterations: it + 1,
                     q,
@@ -291,6 +320,7 @@ impl<M: System> MechanismLink<M> {
         }
         let (h, _) = self.residual(&q, y);
         Err(KinematicError::NoAssembly {
+            reach: self.reach,
             residual: h[0].hypot(h[1]),
             iterations: 60,
             q,

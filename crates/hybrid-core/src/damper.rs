@@ -71,14 +71,15 @@ impl Method {
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum SimError {
     /// The mechanism could not follow the beam (singular position or out of reach).
-    #[error("t = {t:.6} s, beam point displacement {y:.6e} m: {source}")]
+    #[error("t = {t:.6} s, beam point displacement {y:.6e} m: {error}")]
     Kinematics {
         /// Time.
         t: f64,
         /// Displacement of the beam point (m).
         y: f64,
-        /// What happened.
-        source: KinematicError,
+        /// What happened (part of the message, not a separate source, so a chain-printing
+        /// reporter says it once).
+        error: KinematicError,
     },
     /// The scalar Newton iteration of a step did not converge.
     #[error(
@@ -215,7 +216,7 @@ impl<M: System> DamperModel<M> {
         let y = self.point_value(q);
         self.link
             .follow(y, self.point_value(v), t, warm, self.current_mode(current))
-            .map_err(|source| SimError::Kinematics { t, y, source })
+            .map_err(|error| SimError::Kinematics { t, y, error })
     }
 
     /// Accelerations of the reduced model (eqs. 55–58) by the structured path: the rank-one
@@ -425,11 +426,7 @@ impl Integrator {
                 let l = model
                     .link
                     .follow(y, yd, t_new, warm, Current::State(gspec, 0.0));
-                let mut l = l.map_err(|source| SimError::Kinematics {
-                    t: t_new,
-                    y,
-                    source,
-                })?;
+                let mut l = l.map_err(|error| SimError::Kinematics { t: t_new, y, error })?;
                 let w = l.qd[model.link.generator_joint];
                 let i = (i_old
                     + 0.5 * h * di_old
@@ -442,11 +439,7 @@ impl Integrator {
                 model
                     .link
                     .follow(y, yd, t_new, warm, Current::QuasiStatic(gspec))
-                    .map_err(|source| SimError::Kinematics {
-                        t: t_new,
-                        y,
-                        source,
-                    })?
+                    .map_err(|error| SimError::Kinematics { t: t_new, y, error })?
             };
             let r = ay * (1.0 + link.m_eff * zeta) - a0y - zeta * link.force;
             Ok((r, link))

@@ -144,7 +144,10 @@ pub fn build_model<M: System>(
     }
     let mut generator = spec.generator.clone();
     generator.connected = generator.connected && connected;
-    let link = MechanismLink::new(
+    // The stretched mechanism (bars in line) bounds the beam point's travel:
+    // |p - pivot| <= L1 + L2, i.e. for x0 = 0 and equal bars 2 L (1 - cos a0).
+    let reach = ((l1 + l2).powi(2) - x0 * x0).max(0.0).sqrt() - y0;
+    let mut link = MechanismLink::new(
         mechanism,
         Attachment { point, x0, y0 },
         generator_joint,
@@ -158,6 +161,7 @@ pub fn build_model<M: System>(
             format!("{}: {e}", sc.model_path.display()),
         )
     })?;
+    link.reach = Some(reach);
     Ok((
         DamperModel {
             beam,

@@ -532,3 +532,31 @@ fn structured_fast_path_equals_general_partitioning() {
         let _: &DMatrix<f64> = &general.b;
     }
 }
+
+/// A model the damper cannot use (a double bar given a third body) is refused with a
+/// model-level message naming the file — at run time, whatever backend runs it.
+#[test]
+fn a_mechanism_of_the_wrong_shape_is_a_model_level_error() {
+    let sc = scenario(&[]);
+    let text = std::fs::read_to_string(&sc.model_path).unwrap().replace(
+        "[[points]]",
+        "[[bodies]]\nname = \"third\"\nparent = \"coupler\"\njoint = \"R3\"\nanchor = [\"L2\", 0, 0]\nmass = \"m2\"\ncom = [\"L2/2\", 0, 0]\ninertia = { xx = 0, yy = \"m2*L2^2/12\", zz = \"m2*L2^2/12\" }\n\n[[points]]",
+    );
+    let model = mbs_symbolic::model::parse_str(
+        &text,
+        &sc.model_path.display().to_string(),
+        mbs_symbolic::model::Format::Toml,
+    )
+    .unwrap();
+    assert_eq!(model.dof(), 3);
+    let sys = mbs_symbolic::runtime::InterpretedSystem::new(&model);
+    let err = match build_model(&sc, sys, true) {
+        Ok(_) => panic!("a three-coordinate mechanism must be refused"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        err.contains("double_bar.toml") && err.contains("3 coordinate"),
+        "{err}"
+    );
+    assert!(!err.contains('\n'), "one line: {err}");
+}
