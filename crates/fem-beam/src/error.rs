@@ -2,8 +2,8 @@
 //!
 //! Three layers, from the inside out:
 //!
-//! - [`LinalgError`]: small `Copy` errors of the banded kernels (a non-positive pivot, a
-//!   singular rank-one update, mismatched sizes), carrying the offending index.
+//! - [`LinalgError`]: small `Copy` errors of the banded kernels (a non-positive pivot,
+//!   mismatched sizes), carrying the offending index.
 //! - [`InputError`]: one problem with a beam description, naming the entity the user wrote
 //!   (`segment 2`, `support 0`, `load 1`, `damping`) and the field.
 //! - [`BeamError`]: everything a public operation can fail with. Validation collects every
@@ -25,22 +25,6 @@ pub enum LinalgError {
         index: usize,
         /// Value of the pivot.
         pivot: f64,
-    },
-    /// `1 + alpha e_k^T K^-1 e_k` vanished: `K + alpha e_k e_k^T` is singular.
-    #[error("rank-one update at DOF {k} with alpha = {alpha:e} makes the matrix singular")]
-    SingularUpdate {
-        /// The updated DOF (0-based).
-        k: usize,
-        /// The update coefficient.
-        alpha: f64,
-    },
-    /// An index is outside the matrix.
-    #[error("index {index} is out of range for a matrix of size {size}")]
-    IndexOutOfRange {
-        /// The index.
-        index: usize,
-        /// The size of the matrix.
-        size: usize,
     },
     /// Two operands do not have the same size and half-bandwidth, or a dense matrix is not
     /// square.
