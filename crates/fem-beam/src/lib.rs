@@ -101,15 +101,17 @@ pub mod element;
 mod error;
 mod modal;
 mod model;
+mod source;
 mod spec;
 
 pub use banded::{BandedFactor, BandedSym};
 pub use beam::{Beam, Damping, DistributedLoad, Element, MAX_ELEMENTS, NodalLoad, Segment};
 pub use dofs::DofMap;
-pub use error::{BeamError, Entity, InputError, Issue, LinalgError};
+pub use error::{BeamError, Entity, InputError, LinalgError};
 pub use modal::{DENSE_LIMIT, ModalMethod, Modes};
 pub use model::{BeamModel, HALF_BANDWIDTH, ShapeAt, rayleigh_from_ratios};
+pub use source::input_diagnostics;
 pub use spec::{
     BeamSpec, DampingSpec, DistributedLoadSpec, Dof, ModalRatioSpec, NodalLoadSpec, SegmentSpec,
-    SupportKind, SupportSpec, TimeFunction, locate_line,
+    SupportKind, SupportSpec, TimeFunction,
 };

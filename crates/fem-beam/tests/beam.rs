@@ -741,19 +741,27 @@ fn bad_segments_are_reported_with_entity_and_field() {
             segments: vec![seg],
             ..Default::default()
         };
+        let errors = Beam::validate(&s).unwrap_err();
+        assert!(
+            errors.iter().any(|e| e.to_string() == expect),
+            "expected {expect:?}, got {errors:?}"
+        );
+        // The same problem, as the diagnostic of `Beam::new`.
         let err = Beam::new(&s).unwrap_err();
-        let BeamError::Invalid { issues, .. } = &err else {
+        let BeamError::Input(diagnostics) = &err else {
             panic!("{err}")
         };
         assert!(
-            issues.iter().any(|i| i.error.to_string() == expect),
+            diagnostics.iter().any(|d| d.to_string() == expect),
             "expected {expect:?}, got {err}"
         );
     }
-    let err = Beam::new(&BeamSpec::default()).unwrap_err();
-    assert!(
-        matches!(&err, BeamError::Invalid { issues, .. } if issues[0].error == InputError::NoSegments)
-    );
+    let errors = Beam::validate(&BeamSpec::default()).unwrap_err();
+    assert_eq!(errors[0], InputError::NoSegments);
+    assert!(matches!(
+        Beam::new(&BeamSpec::default()),
+        Err(BeamError::Input(d)) if d.0[0].kind == diagnostic::Kind::MissingField
+    ));
 }
 
 #[test]
