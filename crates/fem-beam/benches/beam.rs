@@ -9,10 +9,7 @@ use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 
-use fem_beam::{
-    Beam, BeamModel, BeamSpec, Dof, NodalLoadSpec, RankOneUpdate, SegmentSpec, SupportKind,
-    SupportSpec,
-};
+use fem_beam::{Beam, BeamModel, BeamSpec, NodalLoadSpec, SegmentSpec, SupportKind, SupportSpec};
 
 /// The damper's cantilever meshed into `n` elements, with a tip load.
 fn cantilever(n: usize) -> Beam {
@@ -64,13 +61,11 @@ fn statics(c: &mut Criterion) {
 
 fn per_step(c: &mut Criterion) {
     // What the coupled simulation does every step, on prebuilt data: A v, a solve with a
-    // reused factor, a Sherman–Morrison solve with a reflected mass at the tip.
+    // reused factor, the load vector at time t.
     let mut g = c.benchmark_group("per_step");
     for n in [1_000usize, 10_000] {
         let model = BeamModel::new(&cantilever(n)).unwrap();
         let factor = model.mass().factorize().unwrap();
-        let tip = model.dof_index(n, Dof::Transverse).unwrap();
-        let update = RankOneUpdate::new(factor.clone(), tip).unwrap();
         let v: Vec<f64> = (0..model.dof_count()).map(|i| (i as f64).sin()).collect();
         let mut out = vec![0.0; model.dof_count()];
         g.bench_function(BenchmarkId::new("mass_times_vector", n), |b| {
@@ -80,12 +75,6 @@ fn per_step(c: &mut Criterion) {
             b.iter(|| {
                 out.copy_from_slice(&v);
                 factor.solve_in_place(black_box(&mut out));
-            })
-        });
-        g.bench_function(BenchmarkId::new("rank_one_update_solve", n), |b| {
-            b.iter(|| {
-                out.copy_from_slice(&v);
-                update.solve_in_place(black_box(0.37), &mut out).unwrap();
             })
         });
         g.bench_function(BenchmarkId::new("load_into", n), |b| {

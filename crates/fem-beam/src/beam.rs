@@ -1,13 +1,18 @@
 //! The validated beam: segments meshed into elements, nodes, locked DOFs, damping and loads.
 //!
-//! [`Beam::new`] checks a [`BeamSpec`] and reports every problem at once
-//! ([`BeamError::Invalid`]); [`Beam::from_toml_str`] and [`Beam::from_file`] add the file and
-//! line to each problem.
+//! [`Beam::validate`] checks a [`BeamSpec`] and returns every problem found as typed
+//! [`InputError`]s; [`Beam::new`] reports them as diagnostics ([`BeamError::Input`]), and
+//! [`Beam::from_toml_str`] and [`Beam::from_file`] add the file and the line of each problem
+//! ([`crate::input_diagnostics`]), in file order.
 
 use std::path::Path;
 
-use crate::error::{BeamError, Entity, InputError, Issue};
-use crate::spec::{self, BeamSpec, Dof, SupportKind, TimeFunction};
+use diagnostic::Diagnostics;
+
+use crate::element;
+use crate::error::{BeamError, Entity, InputError};
+use crate::source;
+use crate::spec::{BeamSpec, Dof, SegmentSpec, SupportKind, TimeFunction};
 
 /// A validated prismatic segment.
 #[derive(Clone, Debug, PartialEq)]
@@ -194,6 +199,55 @@ fn check_finite(
     }
 }
 
+/// Checks that a segment whose values are each valid gives element matrices (38), (39) with
+/// finite entries and normal (not zero or subnormal) diagonals, and finite element
+/// frequencies (so finite `omega^2` of the whole beam, [`element::ELEMENT_EIGENVALUE_MAX`]):
+/// absurd magnitudes (`density = 5e-324`, usually wrong units) are reported here instead of
+/// producing non-finite matrices or frequencies later.
+fn check_representable(
+    errors: &mut Vec<InputError>,
+    entity: Entity,
+    seg: &SegmentSpec,
+    area: f64,
+    second_moment: f64,
+) -> bool {
+    let h = seg.length / seg.elements as f64;
+    let fits = |m: &element::ElementMatrix| {
+        m.iter().flatten().all(|v| v.is_finite()) && (0..4).all(|i| m[i][i].is_normal())
+    };
+    let bending = seg.youngs_modulus * second_moment;
+    let mass = seg.density * area;
+    let problem = if !fits(&element::mass_matrix(seg.density, area, h)) {
+        Some(("density", seg.density, "element mass matrix (38)"))
+    } else if !fits(&element::stiffness_matrix(
+        seg.youngs_modulus,
+        second_moment,
+        h,
+    )) {
+        Some((
+            "youngs_modulus",
+            seg.youngs_modulus,
+            "element stiffness matrix (39)",
+        ))
+    } else if !(element::ELEMENT_EIGENVALUE_MAX * bending / mass / h.powi(4)).is_finite() {
+        Some(("density", seg.density, "element frequencies"))
+    } else {
+        None
+    };
+    match problem {
+        Some((field, value, what)) => {
+            errors.push(InputError::OutOfRange {
+                entity,
+                field,
+                value,
+                what,
+            });
+            false
+        }
+        None => true,
+    }
+}
+
 fn check_time(errors: &mut Vec<InputError>, entity: Entity, time: &TimeFunction) {
     match *time {
         TimeFunction::Constant => {}
@@ -211,35 +265,28 @@ fn check_time(errors: &mut Vec<InputError>, entity: Entity, time: &TimeFunction)
 }
 
 impl Beam {
-    /// Validates and meshes a description; every problem is reported at once.
+    /// Validates and meshes a description; every problem is reported at once, as
+    /// diagnostics without file or line (see [`from_toml_str`](Self::from_toml_str)).
     pub fn new(spec: &BeamSpec) -> Result<Self, BeamError> {
-        Self::build(spec).map_err(|errors| BeamError::Invalid {
-            origin: None,
-            issues: errors
-                .into_iter()
-                .map(|error| Issue { line: None, error })
-                .collect(),
+        Self::validate(spec).map_err(|errors| {
+            BeamError::Input(Diagnostics(
+                errors.iter().map(|e| e.to_diagnostic("", None)).collect(),
+            ))
         })
     }
 
-    /// Parses and validates TOML text; errors name `origin` (the file name) and the line.
+    /// Validates and meshes a description, returning every problem found as the typed
+    /// cause (segments, supports, damping, loads, each in the order of the spec).
+    pub fn validate(spec: &BeamSpec) -> Result<Self, Vec<InputError>> {
+        Self::build(spec)
+    }
+
+    /// Parses and validates TOML text; errors name `origin` (the file name) and the line,
+    /// in file order.
     pub fn from_toml_str(text: &str, origin: &str) -> Result<Self, BeamError> {
         let spec = BeamSpec::from_toml_str(text, origin)?;
-        Self::build(&spec).map_err(|errors| BeamError::Invalid {
-            origin: Some(origin.to_string()),
-            issues: errors
-                .into_iter()
-                .map(|error| {
-                    let (entity, field) = error.location();
-                    let line = entity.and_then(|ent| {
-                        let (key, index) = ent.toml_key();
-                        // Nested fields ("time.at") are located at their parent key.
-                        let field = field.map(|f| f.split('.').next().unwrap_or(f));
-                        spec::locate_line(text, &[], key, index, field)
-                    });
-                    Issue { line, error }
-                })
-                .collect(),
+        Self::build(&spec).map_err(|errors| {
+            BeamError::Input(source::input_diagnostics(&errors, text, origin, &[]))
         })
     }
 
@@ -325,7 +372,9 @@ impl Beam {
                 }
             };
             match section {
-                Some((area, second_moment)) if ok => {
+                Some((area, second_moment))
+                    if ok && check_representable(&mut errors, ent, seg, area, second_moment) =>
+                {
                     segments.push(Segment {
                         length: seg.length,
                         youngs_modulus: seg.youngs_modulus,
@@ -681,7 +730,7 @@ impl Beam {
 mod tests {
     use super::*;
     use crate::spec::{
-        DampingSpec, DistributedLoadSpec, ModalRatioSpec, NodalLoadSpec, SegmentSpec, SupportSpec,
+        DampingSpec, DistributedLoadSpec, ModalRatioSpec, NodalLoadSpec, SupportSpec,
     };
 
     fn seg(len: f64, n: usize) -> SegmentSpec {
@@ -747,10 +796,8 @@ mod tests {
             }],
             ..Default::default()
         };
-        let BeamError::Invalid { issues, .. } = Beam::new(&spec).unwrap_err() else {
-            panic!("expected Invalid")
-        };
-        let msgs: Vec<String> = issues.iter().map(|i| i.error.to_string()).collect();
+        let errors = Beam::validate(&spec).unwrap_err();
+        let msgs: Vec<String> = errors.iter().map(|e| e.to_string()).collect();
         let expect = [
             "segment 1: length must be positive (got -1)",
             "segment 1: density must be a finite number (got NaN)",
@@ -855,5 +902,43 @@ mod tests {
             0
         );
         assert_eq!(with(vec![SupportSpec::at_node(0, SupportKind::Free)]), 2);
+    }
+
+    #[test]
+    fn absurd_magnitudes_are_rejected_not_turned_into_infinities() {
+        let check = |seg: SegmentSpec, expect: &str| {
+            let errors = Beam::validate(&BeamSpec {
+                segments: vec![seg],
+                ..Default::default()
+            })
+            .unwrap_err();
+            assert_eq!(errors.len(), 1, "{errors:?}");
+            assert!(errors[0].to_string().starts_with(expect), "{errors:?}");
+        };
+        let steel = |e: f64, rho: f64, a: f64, i: f64, n: usize| {
+            SegmentSpec::with_section(1.0, e, rho, a, i, n)
+        };
+        // rho A l underflows to zero: a zero mass matrix, infinite frequencies.
+        check(
+            SegmentSpec::rectangular(1.0, 210e9, 5e-324, 0.04, 0.008, 20),
+            "segment 0: density = 5e-324 puts the element mass matrix (38) out of",
+        );
+        check(
+            steel(1e308, 7850.0, 1.0, 10.0, 1),
+            "segment 0: youngs_modulus = 1e308 puts the element stiffness matrix (39) out of",
+        );
+        // Both matrices representable, their ratio omega^2 is not.
+        check(
+            steel(1e300, 1e-20, 1.0, 1e-9, 1),
+            "segment 0: density = 1e-20 puts the element frequencies out of",
+        );
+        // Extreme but representable values stay accepted.
+        assert!(
+            Beam::new(&BeamSpec {
+                segments: vec![steel(1e-3, 1e-3, 1e-6, 1e-12, 1000)],
+                ..Default::default()
+            })
+            .is_ok()
+        );
     }
 }

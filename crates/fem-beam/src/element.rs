@@ -77,6 +77,12 @@ pub fn stiffness_matrix(e: f64, i: f64, l: f64) -> ElementMatrix {
     ]
 }
 
+/// Largest eigenvalue of an element's stiffness (39) against its consistent mass (38),
+/// `C_e phi = lambda A_e phi`, in units of `E J / (rho A l^4)` (the others are 0, 0 and 720).
+/// By the element eigenvalue bound (Irons and Treharne), no `omega^2` of an assembled beam
+/// exceeds the largest element value, so validation uses it to keep frequencies finite.
+pub const ELEMENT_EIGENVALUE_MAX: f64 = 8400.0;
+
 /// Rayleigh damping matrix, eq. (40): `B_e = alpha A_e + beta C_e`.
 pub fn damping_matrix(
     alpha: f64,
@@ -211,6 +217,25 @@ mod tests {
         }
         for k in 0..4 {
             assert!((p[k] - s[k]).abs() < 1e-14 * q.abs() * l, "{k}");
+        }
+    }
+
+    #[test]
+    fn element_eigenvalues_are_0_0_720_8400() {
+        // C_e phi = lambda A_e phi with E J = rho A = l = 1: Cholesky A_e = L L^T, then the
+        // symmetric eigenvalues of L^-1 C_e L^-T.
+        let dense = |m: ElementMatrix| nalgebra::Matrix4::from_fn(|r, c| m[r][c]);
+        let l = dense(mass_matrix(1.0, 1.0, 1.0)).cholesky().unwrap().l();
+        let li = l.try_inverse().unwrap();
+        let s = li * dense(stiffness_matrix(1.0, 1.0, 1.0)) * li.transpose();
+        let mut ev: Vec<f64> = nalgebra::SymmetricEigen::new(s)
+            .eigenvalues
+            .iter()
+            .copied()
+            .collect();
+        ev.sort_by(f64::total_cmp);
+        for (got, want) in ev.iter().zip([0.0, 0.0, 720.0, ELEMENT_EIGENVALUE_MAX]) {
+            assert!((got - want).abs() < 1e-9 * ELEMENT_EIGENVALUE_MAX, "{ev:?}");
         }
     }
 }

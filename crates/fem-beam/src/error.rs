@@ -2,16 +2,20 @@
 //!
 //! Three layers, from the inside out:
 //!
-//! - [`LinalgError`]: small `Copy` errors of the banded kernels (a non-positive pivot, a
-//!   singular rank-one update, mismatched sizes), carrying the offending index.
+//! - [`LinalgError`]: small `Copy` errors of the banded kernels (a non-positive pivot,
+//!   mismatched sizes), carrying the offending index.
 //! - [`InputError`]: one problem with a beam description, naming the entity the user wrote
-//!   (`segment 2`, `support 0`, `load 1`, `damping`) and the field.
-//! - [`BeamError`]: everything a public operation can fail with. Validation collects every
-//!   [`InputError`] at once ([`BeamError::Invalid`]); TOML syntax and type errors carry the
-//!   file, line and column ([`BeamError::Parse`]).
+//!   (`segment 2`, `support 0`, `load 1`, `damping`) and the field: the typed,
+//!   machine-readable cause ([`crate::Beam::validate`] returns every one found).
+//! - [`BeamError`]: everything a public operation can fail with. Problems with a beam
+//!   description, TOML syntax and type errors as well as every validation problem, are
+//!   reported at once as the workspace's one diagnostic type ([`BeamError::Input`] with
+//!   [`Diagnostics`]: file, line, entity, message, kind); each [`InputError`] becomes a
+//!   [`Diagnostic`] at that boundary ([`InputError::to_diagnostic`]).
 
 use std::fmt;
 
+use diagnostic::{Diagnostic, Diagnostics, Kind};
 use thiserror::Error;
 
 /// Errors of the banded matrix kernels ([`crate::BandedSym`], [`crate::BandedFactor`]).
@@ -25,22 +29,6 @@ pub enum LinalgError {
         index: usize,
         /// Value of the pivot.
         pivot: f64,
-    },
-    /// `1 + alpha e_k^T K^-1 e_k` vanished: `K + alpha e_k e_k^T` is singular.
-    #[error("rank-one update at DOF {k} with alpha = {alpha:e} makes the matrix singular")]
-    SingularUpdate {
-        /// The updated DOF (0-based).
-        k: usize,
-        /// The update coefficient.
-        alpha: f64,
-    },
-    /// An index is outside the matrix.
-    #[error("index {index} is out of range for a matrix of size {size}")]
-    IndexOutOfRange {
-        /// The index.
-        index: usize,
-        /// The size of the matrix.
-        size: usize,
     },
     /// Two operands do not have the same size and half-bandwidth, or a dense matrix is not
     /// square.
@@ -103,13 +91,11 @@ impl fmt::Display for Entity {
 
 /// One problem with a beam description, naming the entity and the field as written in the
 /// file.
-#[derive(Clone, Debug, PartialEq, Error)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum InputError {
     /// The description has no `[[segment]]`.
-    #[error("the beam has no segments: add at least one [[segment]] table")]
     NoSegments,
     /// A quantity that must be strictly positive is zero or negative.
-    #[error("{entity}: {field} must be positive (got {value})")]
     NotPositive {
         /// Where.
         entity: Entity,
@@ -119,7 +105,6 @@ pub enum InputError {
         value: f64,
     },
     /// A quantity that must be zero or positive is negative.
-    #[error("{entity}: {field} must not be negative (got {value})")]
     Negative {
         /// Where.
         entity: Entity,
@@ -129,7 +114,6 @@ pub enum InputError {
         value: f64,
     },
     /// A quantity is NaN or infinite.
-    #[error("{entity}: {field} must be a finite number (got {value})")]
     NotFinite {
         /// Where.
         entity: Entity,
@@ -139,13 +123,11 @@ pub enum InputError {
         value: f64,
     },
     /// A segment is meshed into zero elements.
-    #[error("segment {segment}: elements must be at least 1 (got 0)")]
     NoElements {
         /// Segment index.
         segment: usize,
     },
     /// A segment is meshed into more elements than the crate accepts.
-    #[error("segment {segment}: elements must be at most {max} (got {got})")]
     TooManyElements {
         /// Segment index.
         segment: usize,
@@ -155,7 +137,6 @@ pub enum InputError {
         max: usize,
     },
     /// Fields that exclude each other were both given, or a required choice was not made.
-    #[error("{entity}: {message}")]
     Choice {
         /// Where.
         entity: Entity,
@@ -165,7 +146,6 @@ pub enum InputError {
         message: &'static str,
     },
     /// A node index beyond the last node.
-    #[error("{entity}: node {node} does not exist (the beam has {nodes} nodes, 0 to {last})", last = nodes - 1)]
     NodeOutOfRange {
         /// Where.
         entity: Entity,
@@ -175,10 +155,6 @@ pub enum InputError {
         nodes: usize,
     },
     /// A position `x` that does not coincide with a node of the mesh.
-    #[error(
-        "{entity}: x = {x} is not at a node (nearest is node {nearest} at x = {nearest_x}): \
-         supports and nodal loads must sit on nodes"
-    )]
     NotAtNode {
         /// Where.
         entity: Entity,
@@ -190,7 +166,6 @@ pub enum InputError {
         nearest_x: f64,
     },
     /// A segment index beyond the last segment.
-    #[error("{entity}: segment {segment} does not exist (the beam has {segments} segments)")]
     SegmentOutOfRange {
         /// Where.
         entity: Entity,
@@ -200,27 +175,44 @@ pub enum InputError {
         segments: usize,
     },
     /// `damping.ratios` does not have exactly two entries.
-    #[error("damping: ratios needs exactly two entries, one per target mode (got {got})")]
     RatioCount {
         /// Number of entries given.
         got: usize,
     },
     /// A target mode number of `damping.ratios` is zero (modes are numbered from 1).
-    #[error("damping: ratios[{index}]: mode numbers start at 1 (got 0)")]
     ModeZero {
         /// Entry of `ratios`.
         index: usize,
     },
     /// Both entries of `damping.ratios` target the same mode.
-    #[error("damping: ratios target mode {mode} twice; give two different modes")]
     SameMode {
         /// The repeated mode number.
         mode: usize,
     },
+    /// The values of a segment are each valid but together put its element matrices (38),
+    /// (39) or its element frequencies out of floating-point range: an entry overflows to
+    /// infinity, or a diagonal entry underflows to zero or a subnormal number (e.g.
+    /// `density = 5e-324`). Usually wrong units.
+    OutOfRange {
+        /// Where.
+        entity: Entity,
+        /// The TOML field blamed (`density` for the mass matrix and the frequencies,
+        /// `youngs_modulus` for the stiffness matrix).
+        field: &'static str,
+        /// Its value.
+        value: f64,
+        /// What left the range, e.g. `element mass matrix (38)`.
+        what: &'static str,
+    },
 }
 
 impl InputError {
-    /// The TOML location the error is about: table key, array index, field (any may be
+    /// The entity the problem is about (`None` for the missing `[[segment]]` tables).
+    pub fn entity(&self) -> Option<Entity> {
+        self.location().0
+    }
+
+    /// The TOML location the error is about: the entity and the field (either may be
     /// missing). Used to find the line in the source text.
     pub fn location(&self) -> (Option<Entity>, Option<&'static str>) {
         match self {
@@ -228,7 +220,8 @@ impl InputError {
             InputError::NotPositive { entity, field, .. }
             | InputError::Negative { entity, field, .. }
             | InputError::NotFinite { entity, field, .. }
-            | InputError::Choice { entity, field, .. } => (Some(*entity), Some(field)),
+            | InputError::Choice { entity, field, .. }
+            | InputError::OutOfRange { entity, field, .. } => (Some(*entity), Some(field)),
             InputError::NoElements { segment } | InputError::TooManyElements { segment, .. } => {
                 (Some(Entity::Segment(*segment)), Some("elements"))
             }
@@ -240,16 +233,103 @@ impl InputError {
             | InputError::SameMode { .. } => (Some(Entity::Damping), Some("ratios")),
         }
     }
+
+    /// The machine-readable kind of the problem.
+    pub fn kind(&self) -> Kind {
+        match self {
+            InputError::NoSegments => Kind::MissingField,
+            InputError::NodeOutOfRange { .. } | InputError::SegmentOutOfRange { .. } => {
+                Kind::UnknownName
+            }
+            InputError::SameMode { .. } => Kind::Duplicate,
+            InputError::NotPositive { .. }
+            | InputError::Negative { .. }
+            | InputError::NotFinite { .. }
+            | InputError::NoElements { .. }
+            | InputError::TooManyElements { .. }
+            | InputError::Choice { .. }
+            | InputError::NotAtNode { .. }
+            | InputError::RatioCount { .. }
+            | InputError::ModeZero { .. }
+            | InputError::OutOfRange { .. } => Kind::InvalidValue,
+        }
+    }
+
+    /// What is wrong, without the entity (which [`Display`](fmt::Display) puts in front).
+    pub fn message(&self) -> String {
+        match self {
+            InputError::NoSegments => {
+                "the beam has no segments: add at least one [[segment]] table".to_string()
+            }
+            InputError::NotPositive { field, value, .. } => {
+                format!("{field} must be positive (got {value})")
+            }
+            InputError::Negative { field, value, .. } => {
+                format!("{field} must not be negative (got {value})")
+            }
+            InputError::NotFinite { field, value, .. } => {
+                format!("{field} must be a finite number (got {value})")
+            }
+            InputError::NoElements { .. } => "elements must be at least 1 (got 0)".to_string(),
+            InputError::TooManyElements { got, max, .. } => {
+                format!("elements must be at most {max} (got {got})")
+            }
+            InputError::Choice { message, .. } => (*message).to_string(),
+            InputError::NodeOutOfRange { node, nodes, .. } => format!(
+                "node {node} does not exist (the beam has {nodes} nodes, 0 to {})",
+                nodes.saturating_sub(1)
+            ),
+            InputError::NotAtNode {
+                x,
+                nearest,
+                nearest_x,
+                ..
+            } => format!(
+                "x = {x} is not at a node (nearest is node {nearest} at x = {nearest_x}): \
+                 supports and nodal loads must sit on nodes"
+            ),
+            InputError::SegmentOutOfRange {
+                segment, segments, ..
+            } => format!("segment {segment} does not exist (the beam has {segments} segments)"),
+            InputError::RatioCount { got } => {
+                format!("ratios needs exactly two entries, one per target mode (got {got})")
+            }
+            InputError::ModeZero { index } => {
+                format!("ratios[{index}]: mode numbers start at 1 (got 0)")
+            }
+            InputError::SameMode { mode } => {
+                format!("ratios target mode {mode} twice; give two different modes")
+            }
+            InputError::OutOfRange {
+                field, value, what, ..
+            } => format!(
+                "{field} = {value:e} puts the {what} out of floating-point range \
+                 (overflow or underflow; check the units)"
+            ),
+        }
+    }
+
+    /// The problem as the workspace's diagnostic: `file` (may be empty), the 1-based `line`
+    /// when known, the entity as the user wrote it, the message and the kind.
+    pub fn to_diagnostic(&self, file: &str, line: Option<usize>) -> Diagnostic {
+        let d = Diagnostic::new(self.kind(), file, self.message()).at_line(line);
+        match self.entity() {
+            Some(entity) => d.entity(entity.to_string()),
+            None => d,
+        }
+    }
 }
 
-/// An [`InputError`] with the line of the source file it refers to, when known.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Issue {
-    /// 1-based line in the source text, when the description came from TOML text.
-    pub line: Option<usize>,
-    /// The problem.
-    pub error: InputError,
+impl fmt::Display for InputError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let Some(entity) = self.entity() {
+            write!(f, "{entity}: ")?;
+        }
+        f.write_str(&self.message())
+    }
 }
+
+impl std::error::Error for InputError {}
 
 /// Every error a public operation of the crate can return.
 #[derive(Debug, Error)]
@@ -263,26 +343,11 @@ pub enum BeamError {
         /// The I/O error.
         error: std::io::Error,
     },
-    /// TOML syntax error, unknown field, missing field or wrong type.
-    #[error("{origin}:{line}:{column}: {message}")]
-    Parse {
-        /// File name (or other origin) of the text.
-        origin: String,
-        /// 1-based line.
-        line: usize,
-        /// 1-based column.
-        column: usize,
-        /// What is wrong.
-        message: String,
-    },
-    /// The description is well-formed TOML but not a valid beam: every problem found.
-    #[error("{}", display_issues(origin.as_deref(), issues))]
-    Invalid {
-        /// File name of the description, when it came from a file.
-        origin: Option<String>,
-        /// All problems: segments, supports, damping, loads, each in file order.
-        issues: Vec<Issue>,
-    },
+    /// Problems with a beam description: a TOML syntax or type error, an unknown or
+    /// missing field, or every validation problem found, in file order. Displayed on one
+    /// line, the diagnostics joined with `; `.
+    #[error("{}", one_line(.0))]
+    Input(Diagnostics),
     /// A static solution was asked for a beam whose supports leave rigid-body motion free.
     #[error(
         "static solution impossible: the supports leave {rigid_modes} rigid-body motion(s) free \
@@ -339,21 +404,12 @@ pub enum BeamError {
     Linalg(#[from] LinalgError),
 }
 
-fn display_issues(origin: Option<&str>, issues: &[Issue]) -> String {
-    let mut out = String::new();
-    for (i, issue) in issues.iter().enumerate() {
-        if i > 0 {
-            out.push_str("; ");
-        }
-        match (origin, issue.line) {
-            (Some(o), Some(l)) => out.push_str(&format!("{o}:{l}: ")),
-            (Some(o), None) => out.push_str(&format!("{o}: ")),
-            (None, Some(l)) => out.push_str(&format!("line {l}: ")),
-            (None, None) => {}
-        }
-        out.push_str(&issue.error.to_string());
-    }
-    out
+fn one_line(diagnostics: &Diagnostics) -> String {
+    diagnostics
+        .iter()
+        .map(|d| d.to_string())
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 #[cfg(test)]
@@ -381,19 +437,10 @@ mod tests {
 
     #[test]
     fn invalid_joins_issues_on_one_line() {
-        let err = BeamError::Invalid {
-            origin: Some("b.toml".into()),
-            issues: vec![
-                Issue {
-                    line: Some(3),
-                    error: InputError::NoElements { segment: 0 },
-                },
-                Issue {
-                    line: None,
-                    error: InputError::NoSegments,
-                },
-            ],
-        };
+        let err = BeamError::Input(Diagnostics(vec![
+            InputError::NoElements { segment: 0 }.to_diagnostic("b.toml", Some(3)),
+            InputError::NoSegments.to_diagnostic("b.toml", None),
+        ]));
         let s = err.to_string();
         assert_eq!(
             s,

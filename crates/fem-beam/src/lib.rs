@@ -19,10 +19,8 @@
 //!
 //!   in banded symmetric storage ([`BandedSym`]);
 //! - an allocation-free banded LDL^T factorisation and solve ([`BandedFactor`]), banded
-//!   products into caller buffers, and a Sherman–Morrison solve of
-//!   `(K + alpha e_k e_k^T) x = b` ([`RankOneUpdate`], [`solve_rank_one_update`]) for the
-//!   coupling, where the mechanism's reflected mass is a rank-one term at one DOF
-//!   (THEORY.md section 6);
+//!   products into caller buffers, and iteratively refined solves
+//!   ([`BandedFactor::refine_with`]);
 //! - loads: nodal forces and moments (27), consistent nodal loads of uniformly distributed
 //!   loads, time functions (constant, harmonic, step), assembled at time `t` into a caller
 //!   buffer ([`BeamModel::load_into`]);
@@ -103,15 +101,17 @@ pub mod element;
 mod error;
 mod modal;
 mod model;
+mod source;
 mod spec;
 
-pub use banded::{BandedFactor, BandedSym, RankOneUpdate, solve_rank_one_update};
+pub use banded::{BandedFactor, BandedSym};
 pub use beam::{Beam, Damping, DistributedLoad, Element, MAX_ELEMENTS, NodalLoad, Segment};
 pub use dofs::DofMap;
-pub use error::{BeamError, Entity, InputError, Issue, LinalgError};
+pub use error::{BeamError, Entity, InputError, LinalgError};
 pub use modal::{DENSE_LIMIT, ModalMethod, Modes};
 pub use model::{BeamModel, HALF_BANDWIDTH, ShapeAt, rayleigh_from_ratios};
+pub use source::input_diagnostics;
 pub use spec::{
     BeamSpec, DampingSpec, DistributedLoadSpec, Dof, ModalRatioSpec, NodalLoadSpec, SegmentSpec,
-    SupportKind, SupportSpec, TimeFunction, locate_line,
+    SupportKind, SupportSpec, TimeFunction,
 };

@@ -40,6 +40,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::BeamError;
+use crate::source;
 
 /// A whole beam description.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -332,78 +333,17 @@ pub struct DistributedLoadSpec {
 }
 
 impl BeamSpec {
-    /// Parses TOML text. `origin` (usually the file name) prefixes error messages, which
-    /// carry the line and column of the problem.
+    /// Parses TOML text. `origin` (usually the file name) names the file in the
+    /// diagnostic, which carries the line and column of the problem.
     pub fn from_toml_str(text: &str, origin: &str) -> Result<Self, BeamError> {
-        toml::from_str(text).map_err(|e| {
-            let (line, column) = e
-                .span()
-                .map(|s| line_column(text, s.start))
-                .unwrap_or((1, 1));
-            BeamError::Parse {
-                origin: origin.to_string(),
-                line,
-                column,
-                message: e.message().trim().to_string(),
-            }
-        })
+        toml::from_str(text)
+            .map_err(|e| BeamError::Input(source::parse_diagnostic(&e, text, origin).into()))
     }
 
     /// Serialises to TOML text.
     pub fn to_toml_string(&self) -> Result<String, toml::ser::Error> {
         toml::to_string(self)
     }
-}
-
-/// 1-based line and column of a byte offset.
-pub(crate) fn line_column(text: &str, offset: usize) -> (usize, usize) {
-    let offset = offset.min(text.len());
-    let before = &text[..offset];
-    let line = before.matches('\n').count() + 1;
-    let column = before.rsplit('\n').next().map_or(0, |s| s.chars().count()) + 1;
-    (line, column)
-}
-
-/// The 1-based line of `[key][index].field` (or the closest enclosing item found) in TOML
-/// text, for error messages. `prefix` is the path of the beam table inside a larger
-/// document (empty for a beam file).
-pub fn locate_line(
-    text: &str,
-    prefix: &[&str],
-    key: &str,
-    index: Option<usize>,
-    field: Option<&str>,
-) -> Option<usize> {
-    use toml::de::{DeTable, DeValue};
-    let root = DeTable::parse(text).ok()?;
-    let root_value = DeValue::Table(root.into_inner());
-    let mut cur = &root_value;
-    let mut span = None;
-    for p in prefix {
-        let v = cur.get(*p)?;
-        span = Some(v.span());
-        cur = v.get_ref();
-    }
-    if let Some(v) = cur.get(key) {
-        span = Some(v.span());
-        cur = v.get_ref();
-        if let Some(i) = index {
-            if let Some(v) = cur.get(i) {
-                span = Some(v.span());
-                cur = v.get_ref();
-                if let Some(f) = field
-                    && let Some(v) = cur.get(f)
-                {
-                    span = Some(v.span());
-                }
-            }
-        } else if let Some(f) = field
-            && let Some(v) = cur.get(f)
-        {
-            span = Some(v.span());
-        }
-    }
-    span.map(|s| line_column(text, s.start).0)
 }
 
 #[cfg(test)]
@@ -498,28 +438,6 @@ time = { kind = "step", at = 0.5 }
             .unwrap_err()
             .to_string();
         assert!(msg.starts_with("b.toml:2:"), "{msg}");
-    }
-
-    #[test]
-    fn locates_fields() {
-        assert_eq!(
-            locate_line(SAMPLE, &[], "segment", Some(1), Some("length")),
-            Some(13)
-        );
-        assert_eq!(
-            locate_line(SAMPLE, &[], "support", Some(1), Some("x")),
-            Some(25)
-        );
-        assert_eq!(
-            locate_line(SAMPLE, &[], "damping", None, Some("ratios")),
-            Some(29)
-        );
-        // Field absent: falls back to the table.
-        assert_eq!(
-            locate_line(SAMPLE, &[], "support", Some(0), Some("x")),
-            Some(20)
-        );
-        assert_eq!(locate_line(SAMPLE, &[], "nothing", None, None), None);
     }
 
     #[test]

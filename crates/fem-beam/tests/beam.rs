@@ -4,8 +4,8 @@
 use fem_beam::{BandedSym, analytic::BoundaryCase};
 use fem_beam::{
     Beam, BeamError, BeamModel, BeamSpec, DampingSpec, DistributedLoadSpec, Dof, InputError,
-    LinalgError, ModalMethod, ModalRatioSpec, NodalLoadSpec, RankOneUpdate, SegmentSpec,
-    SupportKind, SupportSpec, TimeFunction, analytic, solve_rank_one_update,
+    LinalgError, ModalMethod, ModalRatioSpec, NodalLoadSpec, SegmentSpec, SupportKind, SupportSpec,
+    TimeFunction, analytic,
 };
 use nalgebra::{DMatrix, DVector};
 use proptest::prelude::*;
@@ -607,66 +607,6 @@ proptest! {
         a.residual_into(&xr, b, &mut work);
         prop_assert!(work.iter().all(|r| r.abs() <= 1e-12 * (1.0 + b.iter().fold(0.0f64, |m, v| m.max(v.abs())))));
     }
-
-    #[test]
-    fn rank_one_update_equals_refactorisation(
-        n in 2usize..30,
-        entries in prop::collection::vec(-1.0f64..1.0, 8..64),
-        rhs in prop::collection::vec(-10.0f64..10.0, 30),
-        k_frac in 0.0f64..1.0,
-        alpha in -0.4f64..50.0,
-    ) {
-        let kd = 3;
-        let a = random_spd(n, kd, &entries);
-        let k = ((n as f64 * k_frac) as usize).min(n - 1);
-        // alpha > -0.5 keeps K + alpha e_k e_k^T SPD (diagonal >= 0.5 + off-diagonal sum).
-        let mut updated = a.clone();
-        updated.add(k, k, alpha);
-        let reference = updated.factorize().unwrap().solve(&rhs[..n]);
-
-        let factor = a.factorize().unwrap();
-        let (mut x, mut work) = (rhs[..n].to_vec(), vec![0.0; n]);
-        solve_rank_one_update(&factor, k, alpha, &mut x, &mut work).unwrap();
-        let scale = 1.0 + reference.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        for i in 0..n {
-            prop_assert!((x[i] - reference[i]).abs() <= 1e-12 * scale, "{} vs {}", x[i], reference[i]);
-        }
-        let update = RankOneUpdate::new(factor, k).unwrap();
-        let mut x2 = rhs[..n].to_vec();
-        update.solve_in_place(alpha, &mut x2).unwrap();
-        prop_assert_eq!(x, x2);
-    }
-}
-
-#[test]
-fn rank_one_update_of_the_beam_mass_matrix() {
-    // The coupling's use: a reflected mass at the tip DOF of the damper's beam.
-    let m = model(&cantilever(20));
-    let tip = m.dof_index(20, Dof::Transverse).unwrap();
-    let update = RankOneUpdate::new(m.mass().factorize().unwrap(), tip).unwrap();
-    let p = (0..m.dof_count())
-        .map(|i| (i as f64 * 0.37).sin())
-        .collect::<Vec<_>>();
-    for extra in [0.0, 0.3, 40.0] {
-        let mut x = p.clone();
-        update.solve_in_place(extra, &mut x).unwrap();
-        let mut a = m.mass().clone();
-        a.add(tip, tip, extra);
-        let reference = a.factorize().unwrap().solve(&p);
-        let dense = a
-            .to_dense()
-            .cholesky()
-            .unwrap()
-            .solve(&DVector::from_vec(p.clone()));
-        for i in 0..x.len() {
-            // Mass matrix cond ~ 1e3: agreement to ~1e-13 relative.
-            assert!(
-                (x[i] - reference[i]).abs()
-                    < 1e-12 * reference.iter().fold(0.0f64, |m, v| m.max(v.abs()))
-            );
-            assert!((x[i] - dense[i]).abs() < 1e-12 * dense.amax());
-        }
-    }
 }
 
 #[test]
@@ -801,19 +741,27 @@ fn bad_segments_are_reported_with_entity_and_field() {
             segments: vec![seg],
             ..Default::default()
         };
+        let errors = Beam::validate(&s).unwrap_err();
+        assert!(
+            errors.iter().any(|e| e.to_string() == expect),
+            "expected {expect:?}, got {errors:?}"
+        );
+        // The same problem, as the diagnostic of `Beam::new`.
         let err = Beam::new(&s).unwrap_err();
-        let BeamError::Invalid { issues, .. } = &err else {
+        let BeamError::Input(diagnostics) = &err else {
             panic!("{err}")
         };
         assert!(
-            issues.iter().any(|i| i.error.to_string() == expect),
+            diagnostics.iter().any(|d| d.to_string() == expect),
             "expected {expect:?}, got {err}"
         );
     }
-    let err = Beam::new(&BeamSpec::default()).unwrap_err();
-    assert!(
-        matches!(&err, BeamError::Invalid { issues, .. } if issues[0].error == InputError::NoSegments)
-    );
+    let errors = Beam::validate(&BeamSpec::default()).unwrap_err();
+    assert_eq!(errors[0], InputError::NoSegments);
+    assert!(matches!(
+        Beam::new(&BeamSpec::default()),
+        Err(BeamError::Input(d)) if d.0[0].kind == diagnostic::Kind::MissingField
+    ));
 }
 
 #[test]

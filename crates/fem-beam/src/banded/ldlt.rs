@@ -1,0 +1,346 @@
+//! The factorisation `A = L D L^T` of a banded symmetric matrix without pivoting
+//! ([`BandedFactor`]), forwards or with the elimination order reversed over groups of rows,
+//! its `O(n kd)` allocation-free solves, and the Sturm count of negative pivots, which runs
+//! the same elimination kernel on an indefinite matrix.
+
+use super::{BandedSym, slot};
+use crate::error::LinalgError;
+
+impl BandedSym {
+    /// The LDL^T factorisation (allocates the factor; see
+    /// [`factorize_into`](Self::factorize_into) to reuse one).
+    pub fn factorize(&self) -> Result<BandedFactor, LinalgError> {
+        let mut f = BandedFactor {
+            n: self.n,
+            kd: self.kd,
+            data: Vec::new(),
+            groups: None,
+        };
+        self.factorize_into(&mut f)?;
+        Ok(f)
+    }
+
+    /// The symmetric permutation `B = P A P^T`, `B[perm[i], perm[j]] = A[i, j]`, or `None`
+    /// when a nonzero entry would fall outside the band.
+    fn permuted(&self, perm: &[usize]) -> Option<BandedSym> {
+        let (n, kd) = (self.n, self.kd);
+        let mut r = BandedSym::zeros(n, kd);
+        for i in 0..n {
+            for j in i.saturating_sub(kd)..=i {
+                let v = self.data[slot(kd, i, j)];
+                if v != 0.0 {
+                    let (a, b) = (perm[i].max(perm[j]), perm[i].min(perm[j]));
+                    if a - b > kd {
+                        return None;
+                    }
+                    r.data[slot(kd, a, b)] = v;
+                }
+            }
+        }
+        Some(r)
+    }
+
+    /// The factorisation with the elimination running backwards over groups of rows:
+    /// `groups` are the sizes of consecutive index groups (for the beam: the free DOFs of
+    /// each node), which are taken last to first, each keeping its internal order. The
+    /// solves are the same, the rounding is not: eliminating towards a support subtracts
+    /// large element stiffnesses to leave a small one, so a beam stiffness is best eliminated
+    /// starting at its free end. For a cantilever clamped at x = 0 this order leaves a
+    /// relative error 4e-8 at 10,000 elements where the forward order leaves 2e-2 (plain
+    /// row reversal, which also swaps `w` and `theta` inside each node, leaves 1.6e-2).
+    /// [`crate::BeamModel::factorize`] chooses the order from the supports.
+    ///
+    /// Errors: [`LinalgError::ShapeMismatch`] when the groups do not add up to the size or
+    /// the reordered matrix does not fit the band; [`LinalgError::NotPositiveDefinite`] with
+    /// the index in the original ordering.
+    pub fn factorize_reversed(&self, groups: &[usize]) -> Result<BandedFactor, LinalgError> {
+        let mismatch = LinalgError::ShapeMismatch {
+            expected_size: self.n,
+            expected_band: self.kd,
+            got_size: groups.iter().sum(),
+            got_band: self.kd,
+        };
+        if groups.iter().sum::<usize>() != self.n {
+            return Err(mismatch);
+        }
+        // perm[old] = new: group g (start s, size m) moves to start n - s - m.
+        let mut perm = vec![0; self.n];
+        let mut start = 0;
+        for &m in groups {
+            for k in 0..m {
+                perm[start + k] = self.n - start - m + k;
+            }
+            start += m;
+        }
+        let mut f = self
+            .permuted(&perm)
+            .ok_or(mismatch)?
+            .factorize()
+            .map_err(|e| match e {
+                LinalgError::NotPositiveDefinite { index, pivot } => {
+                    LinalgError::NotPositiveDefinite {
+                        // Back to the original numbering.
+                        index: perm.iter().position(|&p| p == index).unwrap_or(index),
+                        pivot,
+                    }
+                }
+                other => other,
+            })?;
+        f.groups = Some(groups.to_vec());
+        Ok(f)
+    }
+
+    /// The LDL^T factorisation into an existing factor, reusing its storage (no allocation
+    /// when the factor already has this size and band).
+    ///
+    /// Fails with [`LinalgError::NotPositiveDefinite`] at the first pivot that is not a
+    /// positive finite number.
+    pub fn factorize_into(&self, f: &mut BandedFactor) -> Result<(), LinalgError> {
+        let (n, kd) = (self.n, self.kd);
+        f.n = n;
+        f.kd = kd;
+        f.groups = None;
+        f.data.clear();
+        f.data.extend_from_slice(&self.data);
+        ldlt_in_place(n, kd, &mut f.data, |index, pivot| {
+            if pivot > 0.0 && pivot.is_finite() {
+                Ok(())
+            } else {
+                Err(LinalgError::NotPositiveDefinite { index, pivot })
+            }
+        })
+    }
+
+    /// Number of negative pivots of an LDL^T factorisation without pivoting of this
+    /// (possibly indefinite) matrix: by Sylvester's law of inertia (the Sturm sequence
+    /// property) it is the number of negative eigenvalues. Used with `C - sigma A` to count
+    /// the eigenvalues below `sigma`. `None` when a pivot is exactly zero or not finite.
+    pub fn negative_pivot_count(&self) -> Option<usize> {
+        let mut d = self.data.clone();
+        let mut count = 0;
+        ldlt_in_place(self.n, self.kd, &mut d, |_, pivot| {
+            if pivot == 0.0 || !pivot.is_finite() {
+                return Err(());
+            }
+            count += usize::from(pivot < 0.0);
+            Ok(())
+        })
+        .ok()?;
+        Some(count)
+    }
+}
+
+/// Banded LDL^T without pivoting, in place in the storage of [`BandedSym`]: on return the
+/// strict lower band holds `L` and the diagonal slots `D`. `pivot(i, d_i)` is called on
+/// every pivot before it is stored and can stop the elimination with an error.
+fn ldlt_in_place<E>(
+    n: usize,
+    kd: usize,
+    d: &mut [f64],
+    mut pivot: impl FnMut(usize, f64) -> Result<(), E>,
+) -> Result<(), E> {
+    for i in 0..n {
+        let j0 = i.saturating_sub(kd);
+        // Unscaled t_ij = L_ij d_j = a_ij - sum_{k<j} t_ik L_jk  (row j is final).
+        for j in j0..i {
+            let mut s = d[slot(kd, i, j)];
+            for k in j0..j {
+                s -= d[slot(kd, i, k)] * d[slot(kd, j, k)];
+            }
+            d[slot(kd, i, j)] = s;
+        }
+        // d_i = a_ii - sum_k t_ik^2 / d_k, then L_ik = t_ik / d_k.
+        let mut piv = d[slot(kd, i, i)];
+        for k in j0..i {
+            let t = d[slot(kd, i, k)];
+            let l = t / d[slot(kd, k, k)];
+            piv -= t * l;
+            d[slot(kd, i, k)] = l;
+        }
+        pivot(i, piv)?;
+        d[slot(kd, i, i)] = piv;
+    }
+    Ok(())
+}
+
+/// Solves `L D L^T x = b` in place.
+#[inline(always)]
+fn solve_kernel(kd: usize, data: &[f64], b: &mut [f64]) {
+    let w = kd + 1;
+    // L y = b
+    for (i, row) in data.chunks_exact(w).enumerate() {
+        let len = i.min(kd);
+        let dot: f64 = row[kd - len..kd]
+            .iter()
+            .zip(&b[i - len..i])
+            .map(|(l, v)| l * v)
+            .sum();
+        b[i] -= dot;
+    }
+    // D z = y
+    for (bi, row) in b.iter_mut().zip(data.chunks_exact(w)) {
+        *bi /= row[kd];
+    }
+    // L^T x = z (column sweep over the stored rows)
+    for (i, row) in data.chunks_exact(w).enumerate().rev() {
+        let len = i.min(kd);
+        let xi = b[i];
+        for (l, v) in row[kd - len..kd].iter().zip(&mut b[i - len..i]) {
+            *v -= l * xi;
+        }
+    }
+}
+
+/// The factorisation `A = L D L^T` of a [`BandedSym`]; solves are `O(n kd)` and allocate
+/// nothing.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BandedFactor {
+    pub(super) n: usize,
+    pub(super) kd: usize,
+    /// `L` (strict lower band, unit diagonal implied) and `D` (on the diagonal slots), in
+    /// the storage of [`BandedSym`].
+    data: Vec<f64>,
+    /// The groups of [`BandedSym::factorize_reversed`], when the factor is of the
+    /// group-reversed matrix.
+    groups: Option<Vec<usize>>,
+}
+
+impl BandedFactor {
+    /// Size of the factorised matrix.
+    pub fn size(&self) -> usize {
+        self.n
+    }
+
+    /// Half-bandwidth of the factorised matrix.
+    pub fn half_bandwidth(&self) -> usize {
+        self.kd
+    }
+
+    /// Whether the elimination ran from the last row up.
+    pub fn is_reversed(&self) -> bool {
+        self.groups.is_some()
+    }
+
+    /// The pivots `D` (all positive), in elimination order.
+    pub fn pivots(&self) -> impl ExactSizeIterator<Item = f64> + '_ {
+        (0..self.n).map(move |i| self.data[slot(self.kd, i, i)])
+    }
+
+    /// Solves `A x = b` in place (`b` becomes `x`); no allocation.
+    ///
+    /// # Panics
+    /// If `b` does not have length [`size`](Self::size).
+    pub fn solve_in_place(&self, b: &mut [f64]) {
+        assert_eq!(
+            b.len(),
+            self.n,
+            "BandedFactor::solve_in_place: right-hand side has the wrong length"
+        );
+        // Group reversal P, in place: reverse everything, then restore the order inside
+        // each group (at its new place); P^-1: reverse everything, then restore each group
+        // at its original place.
+        if let Some(groups) = &self.groups {
+            b.reverse();
+            let mut start = 0;
+            for &m in groups.iter().rev() {
+                b[start..start + m].reverse();
+                start += m;
+            }
+        }
+        if self.kd == 3 {
+            solve_kernel(3, &self.data, b);
+        } else {
+            solve_kernel(self.kd, &self.data, b);
+        }
+        if let Some(groups) = &self.groups {
+            b.reverse();
+            let mut start = 0;
+            for &m in groups {
+                b[start..start + m].reverse();
+                start += m;
+            }
+        }
+    }
+
+    /// Solves `A x = b` into a new vector (convenience wrapper of
+    /// [`solve_in_place`](Self::solve_in_place)).
+    pub fn solve(&self, b: &[f64]) -> Vec<f64> {
+        let mut x = b.to_vec();
+        self.solve_in_place(&mut x);
+        x
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::sample;
+    use super::*;
+
+    #[test]
+    fn factor_solve_matches_dense_lu() {
+        let a = sample(9, 3);
+        let b: Vec<f64> = (0..9).map(|i| (i as f64).sin()).collect();
+        let x = a.factorize().unwrap().solve(&b);
+        let xd = a
+            .to_dense()
+            .lu()
+            .solve(&nalgebra::DVector::from_vec(b))
+            .unwrap();
+        for i in 0..9 {
+            // Well-conditioned 9x9 matrix: both solutions agree to a few ulps.
+            assert!((x[i] - xd[i]).abs() < 1e-14, "{i}: {} vs {}", x[i], xd[i]);
+        }
+    }
+
+    #[test]
+    fn reversed_factor_solves_the_same_system() {
+        // Block-tridiagonal in the groups below (like a beam: a node couples only with its
+        // neighbours), so the group reversal keeps the band.
+        let group = |i: usize| i.div_ceil(2);
+        let mut a = sample(11, 3);
+        for i in 0..11usize {
+            for j in i.saturating_sub(3)..i {
+                if group(i) - group(j) > 1 {
+                    a.set(i, j, 0.0);
+                }
+            }
+        }
+        let b: Vec<f64> = (0..11).map(|i| (i as f64 * 0.7).cos()).collect();
+        let x = a.factorize().unwrap().solve(&b);
+        // Groups of 1 (plain reversal) and node-like groups of 2 (one single at the start).
+        for groups in [vec![1; 11], vec![1, 2, 2, 2, 2, 2]] {
+            let f = a.factorize_reversed(&groups).unwrap();
+            assert!(f.is_reversed());
+            let xr = f.solve(&b);
+            for i in 0..11 {
+                assert!((x[i] - xr[i]).abs() < 1e-14, "{groups:?} {i}");
+            }
+        }
+        assert!(matches!(
+            a.factorize_reversed(&[5, 5]),
+            Err(LinalgError::ShapeMismatch { .. })
+        ));
+        // Groups of 5 with kd = 3 push entries out of the band.
+        assert!(matches!(
+            sample(11, 3).factorize_reversed(&[5, 5, 1]),
+            Err(LinalgError::ShapeMismatch { .. })
+        ));
+        let mut bad = sample(5, 1);
+        bad.set(1, 1, -3.0);
+        assert!(matches!(
+            bad.factorize_reversed(&[1; 5]),
+            Err(LinalgError::NotPositiveDefinite { index: 1, .. })
+        ));
+    }
+
+    #[test]
+    fn indefinite_matrix_is_rejected_with_index() {
+        let mut a = sample(4, 1);
+        a.set(2, 2, -1.0);
+        assert!(matches!(
+            a.factorize(),
+            Err(LinalgError::NotPositiveDefinite { index: 2, .. })
+        ));
+        assert_eq!(a.negative_pivot_count(), Some(1));
+    }
+}
