@@ -1,12 +1,14 @@
 //! Generated code against the numeric recursive reference and the DAG interpreter: the time
 //! of one evaluation of everything a simulation step needs — `M`, `F`, `Q` (eqs. 11–13),
 //! `h`, `J`, `A` (eqs. 14–16) and the tip point's kinematics (eqs. 49–50) — for the double
-//! bar (`models/double_bar.toml`, gravity `gy = -9.81` set at run time) and the 16-body
-//! spatial chain (`mbs_symbolic::samples::spatial_chain(16)`).
+//! bar (`models/double_bar.toml`, gravity `gy = -9.81` set at run time; its generated type
+//! reached through the model registry's `Visitor`, never by name) and the 16-body spatial
+//! chain (`mbs_symbolic::samples::spatial_chain(16)`, a fixture of `tests/support/build.rs`).
 //!
 //! Group `evaluate_all`, one run reports all three implementations per model:
 //!
-//! - `generated`: the struct generated at build time, through the `Mechanism` trait, into
+//! - `generated`: the struct generated at build time, through the `Mechanism` trait
+//!   (monomorphised on the real generated type), into
 //!   preallocated fixed-size arrays (no allocation);
 //! - `numeric`: `NumericModel`, the nalgebra reference (allocates its results);
 //! - `interp`: the symbolic expressions evaluated by `Tape`s (one per generated function),
@@ -22,7 +24,8 @@
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use damper_e2e::fixtures::{chain16::Chain16, double_bar::DoubleBar};
+use damper_e2e::fixtures::chain16::Chain16;
+use damper_e2e::rng::SplitMix64;
 use damper_e2e::workspace_root;
 use mbs_symbolic::constraints;
 use mbs_symbolic::dynamics::Symbolic;
@@ -30,18 +33,11 @@ use mbs_symbolic::expr::{EvalInput, Id, Tape};
 use mbs_symbolic::model::Model;
 use mbs_symbolic::numeric::NumericModel;
 use mbs_symbolic::runtime::{Evaluation, Mechanism, PointKinematics};
+use model_registry::Visitor;
 
-/// SplitMix64 values in [-scale, scale).
+/// Seeded values in [-scale, scale).
 fn seeded<const N: usize>(seed: u64, scale: f64) -> [f64; N] {
-    let mut s = seed;
-    std::array::from_fn(|_| {
-        s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = s;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        scale * ((z >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0)
-    })
+    SplitMix64::new(seed).array(scale)
 }
 
 /// Caller-owned outputs of the generated evaluation.
@@ -275,15 +271,45 @@ fn bench_model<const N: usize, const NC: usize>(
     group.finish();
 }
 
+/// [`bench_model`] on a compiled-in model's generated type, with run-time parameters set.
+struct Bench<'a> {
+    c: &'a mut Criterion,
+    name: &'a str,
+    model: &'a Model,
+    params: &'a [(&'a str, f64)],
+}
+
+impl Visitor for Bench<'_> {
+    type Output = ();
+    fn visit<T, const N: usize, const NC: usize>(self, mut mechanism: T, _: &[&str], _: &[&str])
+    where
+        T: Mechanism<N, NC> + Clone + Send + Sync + 'static,
+    {
+        for (p, v) in self.params {
+            assert!(mechanism.set_param(p, *v), "{}: set_param({p})", self.name);
+        }
+        bench_model::<N, NC>(self.c, self.name, self.model, &mechanism);
+    }
+}
+
 fn evaluate_all(c: &mut Criterion) {
     // The double bar with gravity on (a run-time parameter), as mounted vertically.
-    let mut model = mbs_symbolic::model::load(&workspace_root().join("models/double_bar.toml"))
-        .unwrap_or_else(|e| panic!("{e}"));
-    let gy = model.param_index("gy").expect("parameter gy");
-    model.parameters[gy].value = -9.81;
-    let mut db = DoubleBar::default();
-    assert!(db.set_param("gy", -9.81));
-    bench_model::<2, 0>(c, "double_bar", &model, &db);
+    let double_bar =
+        model_registry::find_by_name("double_bar").expect("models/double_bar.toml is compiled in");
+    let mut model =
+        mbs_symbolic::model::load(&workspace_root().join("models").join(double_bar.file))
+            .unwrap_or_else(|e| panic!("{e}"));
+    let params = [("gy", -9.81)];
+    for (p, v) in params {
+        let k = model.param_index(p).expect("parameter gy");
+        model.parameters[k].value = v;
+    }
+    double_bar.visit(Bench {
+        c,
+        name: "double_bar",
+        model: &model,
+        params: &params,
+    });
 
     let chain = mbs_symbolic::samples::spatial_chain(16);
     bench_model::<16, 0>(c, "chain16", &chain, &Chain16::default());

@@ -1,5 +1,7 @@
-//! Shared support for the workspace-level end-to-end tests in `tests/`: the fixture
-//! mechanisms generated at build time by `tests/support/build.rs`.
+//! Shared support for the workspace-level end-to-end tests in `tests/` and the benchmarks in
+//! `benches/`: the test fixture mechanisms generated at build time by
+//! `tests/support/build.rs`, the one seeded test generator ([`rng::SplitMix64`]) and a
+//! counting global allocator for allocation-free checks.
 
 use std::path::PathBuf;
 
@@ -8,20 +10,10 @@ pub fn workspace_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// Mechanisms generated from their model files at build time.
+/// Test fixture mechanisms generated at build time by `tests/support/build.rs`. The models
+/// under `models/` are not here: the one model registry (`model-registry`) compiles them in,
+/// and tests reach their fixed-size generated types only through `model_registry::Visitor`.
 pub mod fixtures {
-    /// `models/double_bar.toml`
-    pub mod double_bar {
-        include!(concat!(env!("OUT_DIR"), "/double_bar.rs"));
-    }
-    /// `models/four_bar.toml`
-    pub mod four_bar {
-        include!(concat!(env!("OUT_DIR"), "/four_bar.rs"));
-    }
-    /// `models/slider_crank.toml`
-    pub mod slider_crank {
-        include!(concat!(env!("OUT_DIR"), "/slider_crank.rs"));
-    }
     /// `tests/fixtures/spatial_arm.toml`
     pub mod spatial_arm {
         include!(concat!(env!("OUT_DIR"), "/spatial_arm.rs"));
@@ -30,6 +22,72 @@ pub mod fixtures {
     /// chain of the benchmarks.
     pub mod chain16 {
         include!(concat!(env!("OUT_DIR"), "/chain16.rs"));
+    }
+}
+
+/// The one deterministic generator of the end-to-end tests and benchmarks: seeded test
+/// states, no external RNG crate.
+pub mod rng {
+    /// SplitMix64 (Steele, Lea, Flood 2014): a tiny, fast, well-mixed 64-bit generator.
+    #[derive(Clone, Debug)]
+    pub struct SplitMix64(u64);
+
+    impl SplitMix64 {
+        /// A generator with the given seed.
+        pub fn new(seed: u64) -> Self {
+            SplitMix64(seed)
+        }
+
+        /// The next 64 random bits.
+        pub fn next_u64(&mut self) -> u64 {
+            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^ (z >> 31)
+        }
+
+        /// Uniform in `[0, 1)` (53 random bits).
+        pub fn unit(&mut self) -> f64 {
+            (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+        }
+
+        /// Uniform in `[-1, 1)`.
+        pub fn signed(&mut self) -> f64 {
+            self.unit() * 2.0 - 1.0
+        }
+
+        /// `N` values uniform in `[-scale, scale)`.
+        pub fn array<const N: usize>(&mut self, scale: f64) -> [f64; N] {
+            std::array::from_fn(|_| scale * self.signed())
+        }
+
+        /// `n` values uniform in `[-scale, scale)`.
+        pub fn vec(&mut self, n: usize, scale: f64) -> Vec<f64> {
+            (0..n).map(|_| scale * self.signed()).collect()
+        }
+    }
+
+    #[cfg(test)]
+    mod tests {
+        use super::SplitMix64;
+
+        /// The reference sequence of SplitMix64 for seed 0 (Vigna's `splitmix64.c`).
+        #[test]
+        fn splitmix64_matches_the_reference_sequence() {
+            let mut r = SplitMix64::new(0);
+            assert_eq!(r.next_u64(), 0xE220_A839_7B1D_CDAF);
+            assert_eq!(r.next_u64(), 0x6E78_9E6A_A1B9_65F4);
+            assert_eq!(r.next_u64(), 0x06C4_5D18_8009_454F);
+        }
+
+        #[test]
+        fn signed_values_stay_in_range() {
+            let mut r = SplitMix64::new(42);
+            for v in r.vec(1000, 3.0) {
+                assert!((-3.0..3.0).contains(&v), "{v}");
+            }
+        }
     }
 }
 
