@@ -342,6 +342,10 @@ fn regeneration_is_byte_identical() {
     let b = generate(&four_bar, &EmitOptions::default()).unwrap();
     assert_eq!(a.source, b.source);
     assert_eq!(
+        a.source, compiled.source,
+        "{rel}: the registry compiled other bytes"
+    );
+    assert_eq!(
         model_registry::find_by_hash(&four_bar.source.hash),
         Some(compiled),
         "{rel}: the registry compiled a different version of the file"

@@ -75,7 +75,9 @@ fn main() {
                     entries,
                     "    Compiled {{\n        name: {stem:?},\n        file: {file:?},\n        \
                      hash: {hash:?},\n        struct_name: {sn:?},\n        dof: {ty}::DOF,\n        \
-                     rows: {ty}::CONSTRAINTS,\n        index: {index},\n    }},\n",
+                     rows: {ty}::CONSTRAINTS,\n        \
+                     source: include_str!(concat!(env!(\"OUT_DIR\"), \"/{module}.rs\")),\n        \
+                     index: {index},\n    }},\n",
                     hash = c.hash,
                     sn = c.struct_name,
                 );

@@ -37,6 +37,8 @@ pub struct Compiled {
     pub dof: usize,
     /// Number of constraint rows.
     pub rows: usize,
+    /// The generated Rust source that was compiled in.
+    pub source: &'static str,
     index: usize,
 }
 
