@@ -1,18 +1,13 @@
 //! `damper`: the command-line front end of the damper design tool.
 //!
-//! A thin binary over the library crates: it parses arguments, reads files, calls
-//! `mbs-symbolic`, `fem-beam` and `hybrid-core`, and writes results. Every error is reported
-//! as one line on standard error with a non-zero exit code (2 for bad input).
+//! A thin binary over the `codegen_cli` library: it parses arguments (clap) and calls the
+//! command. Every error is reported as one line on standard error with exit code 2 (bad
+//! input); standard output closed early by the reader exits quietly with 141.
 
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-
-mod eval;
-mod generate;
-mod modes;
-mod simulate;
-mod simulate_mechanism;
+use codegen_cli::commands::{eval, generate, modes, simulate};
 
 /// Design and verification of electromagnetic vibration dampers with a mechanism near its
 /// singular position.
@@ -36,6 +31,29 @@ enum Command {
     Simulate(simulate::Args),
 }
 
+/// Exit status when standard output was closed by the reader (128 + SIGPIPE).
+const BROKEN_PIPE: u8 = 141;
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Generate(args) => generate::run(args)?,
+        Command::Eval(args) => eval::run(args)?,
+        Command::Modes(args) => modes::run(args)?,
+        Command::Simulate(args) => simulate::run(args)?,
+    }
+    Ok(())
+}
+
+/// Whether the error is standard output closed by the reader.
+fn broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<codegen_cli::Error>()
+            .is_some_and(codegen_cli::Error::is_broken_pipe)
+            || c.downcast_ref::<std::io::Error>()
+                .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
@@ -46,14 +64,9 @@ fn main() -> ExitCode {
             return ExitCode::from(code);
         }
     };
-    let result = match cli.command {
-        Command::Generate(args) => generate::run(args),
-        Command::Eval(args) => eval::run(args),
-        Command::Modes(args) => modes::run(args),
-        Command::Simulate(args) => simulate::run(args),
-    };
-    match result {
+    match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if broken_pipe(&e) => ExitCode::from(BROKEN_PIPE),
         Err(e) => {
             // One line naming what is wrong (the chain of causes joined with ": ").
             eprintln!("error: {}", format!("{e:#}").replace('\n', "; "));

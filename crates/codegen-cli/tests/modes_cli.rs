@@ -147,3 +147,35 @@ fn bad_beam_is_a_one_line_error_with_exit_code_2() {
         assert!(!err.contains("panicked"), "{args:?}: {err}");
     }
 }
+
+/// Standard output closed by the reader (`damper modes .. | head -1`) is no panic: the
+/// command exits quietly with 141 (128 + SIGPIPE), nothing on standard error.
+#[test]
+fn closed_stdout_exits_quietly_without_panic() {
+    use std::process::{Command, Stdio};
+    for args in [
+        &["modes", "beams/cantilever.toml"][..],
+        &["modes", "beams/cantilever.toml", "--json"][..],
+        &["eval", "models/double_bar.toml"][..],
+    ] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_damper"))
+            .args(args)
+            .current_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("run damper");
+        // The reader goes away before the command writes anything.
+        drop(child.stdout.take());
+        let out = child.wait_with_output().expect("wait for damper");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert_ne!(out.status.code(), Some(101), "{args:?}: {err}");
+        assert!(
+            matches!(out.status.code(), Some(141) | Some(0)),
+            "{args:?}: {:?} {err}",
+            out.status
+        );
+        assert!(err.is_empty(), "{args:?}: quiet on stderr: {err}");
+    }
+}

@@ -99,29 +99,109 @@ impl GeneratorSpec {
         self.gear_ratio * self.kt * current
     }
 
-    /// Checks the values; the message names the field.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Every problem with the values, in field order (empty when the generator is usable).
+    pub fn problems(&self) -> Vec<GeneratorError> {
         let checks = [
-            ("kt", self.kt, false),
-            ("ke", self.ke, false),
-            ("armature_resistance", self.armature_resistance, true),
-            ("load_resistance", self.load_resistance, true),
-            ("inductance", self.inductance, true),
-            ("gear_ratio", self.gear_ratio, false),
-            ("rotor_inertia", self.rotor_inertia, true),
+            (GeneratorField::Kt, self.kt, false),
+            (GeneratorField::Ke, self.ke, false),
+            (
+                GeneratorField::ArmatureResistance,
+                self.armature_resistance,
+                true,
+            ),
+            (GeneratorField::LoadResistance, self.load_resistance, true),
+            (GeneratorField::Inductance, self.inductance, true),
+            (GeneratorField::GearRatio, self.gear_ratio, false),
+            (GeneratorField::RotorInertia, self.rotor_inertia, true),
         ];
-        for (name, v, zero_ok) in checks {
-            if !v.is_finite() || v < 0.0 || (!zero_ok && v == 0.0) {
-                let need = if zero_ok { "non-negative" } else { "positive" };
-                return Err(format!(
-                    "generator.{name} must be a finite {need} number (got {v})"
-                ));
+        let mut out = vec![];
+        for (field, value, zero_ok) in checks {
+            if !value.is_finite() || value < 0.0 || (!zero_ok && value == 0.0) {
+                out.push(GeneratorError::Invalid {
+                    field,
+                    value,
+                    zero_ok,
+                });
             }
         }
-        if self.resistance() <= 0.0 {
-            return Err("generator: armature_resistance + load_resistance must be positive".into());
+        if out.is_empty() && self.resistance() <= 0.0 {
+            out.push(GeneratorError::NoResistance);
         }
-        Ok(())
+        out
+    }
+
+    /// Checks the values: the first of [`GeneratorSpec::problems`], if any.
+    pub fn validate(&self) -> Result<(), GeneratorError> {
+        match self.problems().into_iter().next() {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+}
+
+/// A numeric field of [`GeneratorSpec`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GeneratorField {
+    /// `kt`.
+    Kt,
+    /// `ke`.
+    Ke,
+    /// `armature_resistance`.
+    ArmatureResistance,
+    /// `load_resistance`.
+    LoadResistance,
+    /// `inductance`.
+    Inductance,
+    /// `gear_ratio`.
+    GearRatio,
+    /// `rotor_inertia`.
+    RotorInertia,
+}
+
+impl GeneratorField {
+    /// The field's name as written in a generator description.
+    pub fn name(self) -> &'static str {
+        match self {
+            GeneratorField::Kt => "kt",
+            GeneratorField::Ke => "ke",
+            GeneratorField::ArmatureResistance => "armature_resistance",
+            GeneratorField::LoadResistance => "load_resistance",
+            GeneratorField::Inductance => "inductance",
+            GeneratorField::GearRatio => "gear_ratio",
+            GeneratorField::RotorInertia => "rotor_inertia",
+        }
+    }
+}
+
+/// A generator value the model cannot use.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum GeneratorError {
+    /// A field out of its range.
+    #[error(
+        "generator.{} must be a finite {} number (got {value})",
+        field.name(),
+        if *zero_ok { "non-negative" } else { "positive" }
+    )]
+    Invalid {
+        /// The field.
+        field: GeneratorField,
+        /// Its value.
+        value: f64,
+        /// Whether 0 is allowed.
+        zero_ok: bool,
+    },
+    /// `R_a + R_L` is zero.
+    #[error("generator: armature_resistance + load_resistance must be positive")]
+    NoResistance,
+}
+
+impl GeneratorError {
+    /// The field concerned, when it is one field.
+    pub fn field(&self) -> Option<GeneratorField> {
+        match self {
+            GeneratorError::Invalid { field, .. } => Some(*field),
+            GeneratorError::NoResistance => None,
+        }
     }
 }
 
@@ -153,6 +233,7 @@ mod tests {
             }
             .validate()
             .unwrap_err()
+            .to_string()
             .contains("generator.kt")
         );
         assert_eq!(

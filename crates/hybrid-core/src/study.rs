@@ -1,15 +1,171 @@
-//! Running a damper scenario: building the coupled model from the scenario, integrating it
-//! with samples for the outputs, and the figures of merit (peak amplitude, equivalent
+//! Running a damper: building the coupled model from a checked [`DamperSetup`] (the pin of
+//! eqs. 45–54 placed on the beam), integrating it with samples for the outputs, and the figures of merit (peak amplitude, equivalent
 //! damping ratio of the first mode from the free decay, energy account).
 
+use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use mbs_symbolic::runtime::System;
+use fem_beam::{Beam, BeamError};
+use mbs_symbolic::model::Model;
+use mbs_symbolic::runtime::{ParamError, System};
 use serde::Serialize;
 
 use crate::coupling::{Attachment, LinkShapeError, MechanismLink};
-use crate::damper::{DamperModel, Integrator, SimError, State};
-use crate::scenario::{Scenario, ScenarioError};
+use crate::damper::{DamperModel, Integrator, Method, SimError, State};
+use crate::generator::GeneratorSpec;
+
+/// Where the ground pivot of the double bar is, relative to the undeformed beam point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Placement {
+    /// On the point's line of motion, the bars at this half-angle at the pivot (degrees;
+    /// 0 = the singular, straight position).
+    HalfAngle(f64),
+    /// The pivot at `[x, y]` (m) from the undeformed beam point.
+    Pivot([f64; 2]),
+}
+
+/// Everything a damper run needs, already checked (the scenario loader of the CLI builds it
+/// from a scenario file).
+#[derive(Clone, Debug)]
+pub struct DamperSetup {
+    /// The validated beam.
+    pub beam: Beam,
+    /// Run-time parameter overrides of the mechanism.
+    pub parameters: BTreeMap<String, f64>,
+    /// The mechanism point pinned to the beam.
+    pub point: String,
+    /// The beam point: x coordinate along the beam (m).
+    pub x: f64,
+    /// The ground pivot.
+    pub placement: Placement,
+    /// Body whose joint carries the generator.
+    pub generator_joint: String,
+    /// Stop when cond(J^b) exceeds this.
+    pub max_condition: f64,
+    /// The generator.
+    pub generator: GeneratorSpec,
+    /// Initial displacement of the beam point (m), static shape of a point load there.
+    pub initial_displacement: f64,
+    /// The integration scheme.
+    pub method: Method,
+    /// Time step (s).
+    pub dt: f64,
+    /// End time (s).
+    pub t_end: f64,
+    /// A sample every `every` steps.
+    pub every: usize,
+}
+
+/// The part of a [`DamperSetup`] a [`SetupError`] is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SetupField {
+    /// [`DamperSetup::beam`].
+    Beam,
+    /// [`DamperSetup::parameters`].
+    Parameters,
+    /// [`DamperSetup::point`].
+    Point,
+    /// [`DamperSetup::x`].
+    X,
+    /// [`Placement::HalfAngle`].
+    HalfAngle,
+    /// [`Placement::Pivot`].
+    Pivot,
+    /// [`DamperSetup::generator_joint`].
+    GeneratorJoint,
+    /// The mechanism model itself.
+    Model,
+}
+
+/// A setup that does not fit its mechanism model or its beam.
+#[derive(Debug, thiserror::Error)]
+pub enum SetupError {
+    /// A parameter override that is not a run-time parameter.
+    #[error("{name:?} is not a run-time parameter of the model (run-time parameters: {known})")]
+    UnknownParameter {
+        /// The parameter.
+        name: String,
+        /// The run-time parameters, comma-separated.
+        known: String,
+    },
+    /// No such point in the model.
+    #[error("no point {name:?} in the model (points: {known})")]
+    UnknownPoint {
+        /// The point.
+        name: String,
+        /// The model's points, comma-separated.
+        known: String,
+    },
+    /// No such body in the model.
+    #[error("no body {0:?} in the model")]
+    UnknownBody(String),
+    /// The point is not the end of a two-bar chain.
+    #[error("the point is not at the end of a two-bar chain (bar lengths {l1}, {l2})")]
+    NotTwoBar {
+        /// First bar length read off the kinematics.
+        l1: f64,
+        /// Second bar length.
+        l2: f64,
+    },
+    /// The half-angle cannot be reached.
+    #[error("{deg} degrees cannot be reached with bars {l1} m and {l2} m")]
+    AngleUnreachable {
+        /// The half-angle (degrees).
+        deg: f64,
+        /// First bar length.
+        l1: f64,
+        /// Second bar length.
+        l2: f64,
+    },
+    /// The pivot is out of reach.
+    #[error("the beam point is {d} m from the pivot, out of the reach of bars {l1} m and {l2} m")]
+    PivotUnreachable {
+        /// Distance from the pivot to the beam point.
+        d: f64,
+        /// First bar length.
+        l1: f64,
+        /// Second bar length.
+        l2: f64,
+    },
+    /// The beam's finite-element model could not be built.
+    #[error("{0}")]
+    Beam(BeamError),
+    /// The beam point is not on the beam.
+    #[error("{0}")]
+    BeamPoint(BeamError),
+    /// A support locks the beam point.
+    #[error("the beam cannot move transversely at x = {0} (a support locks it)")]
+    Locked(f64),
+    /// The mechanism model cannot be the damper's (wrong number of coordinates, ...).
+    #[error("{file}: {error}")]
+    Shape {
+        /// The model file.
+        file: String,
+        /// What is wrong.
+        error: LinkShapeError,
+    },
+    /// A run-time parameter value was refused.
+    #[error("{0}")]
+    Parameter(ParamError),
+}
+
+impl SetupError {
+    /// The part of the setup the error is about.
+    pub fn field(&self) -> SetupField {
+        match self {
+            SetupError::UnknownParameter { .. } | SetupError::Parameter(_) => {
+                SetupField::Parameters
+            }
+            SetupError::Shape { .. } => SetupField::Model,
+            SetupError::UnknownPoint { .. } | SetupError::NotTwoBar { .. } => SetupField::Point,
+            SetupError::UnknownBody(_) => SetupField::GeneratorJoint,
+            SetupError::AngleUnreachable { .. } => SetupField::HalfAngle,
+            SetupError::PivotUnreachable { .. } => SetupField::Pivot,
+            SetupError::Beam(_) => SetupField::Beam,
+            SetupError::BeamPoint(_) | SetupError::Locked(_) => SetupField::X,
+        }
+    }
+}
 
 /// Link lengths `(L1, L2)` of a double bar read off its point kinematics: the point at
 /// `q = (0, 0)` lies at `L1 + L2` along x, at `q = (0, pi)` at `L1 - L2`.
@@ -22,99 +178,68 @@ fn bar_lengths<M: System>(m: &M, point: usize) -> (f64, f64) {
     ((s + d) / 2.0, (s - d) / 2.0)
 }
 
-/// The coupled model of a scenario and the initial guess of the mechanism coordinates.
+/// The coupled model of a setup and the initial guess of the mechanism coordinates;
+/// `model` is the mechanism's description (for its body names).
 pub fn build_model<M: System>(
-    sc: &Scenario,
+    setup: &DamperSetup,
+    model: &Model,
     mut mechanism: M,
     connected: bool,
-) -> Result<(DamperModel<M>, [f64; 2]), ScenarioError> {
-    let spec = &sc.spec;
-    let ms = &spec.mechanism;
+) -> Result<(DamperModel<M>, [f64; 2]), SetupError> {
     let (dof, rows) = (mechanism.dof(), mechanism.rows());
     if dof != 2 || rows != 0 {
-        return Err(sc.error_at(
-            "mechanism",
-            "model",
-            "[mechanism] model",
-            format!(
-                "{}: {}",
-                sc.model_path.display(),
-                LinkShapeError::Shape { dof, rows }
-            ),
-        ));
+        return Err(SetupError::Shape {
+            file: model.source.path.clone(),
+            error: LinkShapeError::Shape { dof, rows },
+        });
     }
-    for (name, value) in &ms.parameters {
-        if mechanism.set_param(name, *value).is_err() {
-            let known = mechanism.param_names().join(", ");
-            return Err(sc.error_at("mechanism", "parameters", "[mechanism] parameters", format!("{name:?} is not a run-time parameter of the model (run-time parameters: {known})")));
+    for (name, value) in &setup.parameters {
+        match mechanism.set_param(name, *value) {
+            Ok(()) => {}
+            Err(ParamError::Unknown { .. }) => {
+                let known = mechanism.param_names().join(", ");
+                return Err(SetupError::UnknownParameter {
+                    name: name.clone(),
+                    known,
+                });
+            }
+            Err(e) => return Err(SetupError::Parameter(e)),
         }
     }
     let point = mechanism
         .point_names()
         .iter()
-        .position(|p| *p == ms.point)
-        .ok_or_else(|| {
-            sc.error_at(
-                "mechanism",
-                "point",
-                "[mechanism] point",
-                format!(
-                    "no point {:?} in the model (points: {})",
-                    ms.point,
-                    mechanism.point_names().join(", ")
-                ),
-            )
+        .position(|p| *p == setup.point)
+        .ok_or_else(|| SetupError::UnknownPoint {
+            name: setup.point.clone(),
+            known: mechanism.point_names().join(", "),
         })?;
-    let model = mbs_symbolic::model::load(&sc.model_path).map_err(|e| {
-        sc.error_at(
-            "mechanism",
-            "model",
-            "[mechanism] model",
-            e.to_string().replace('\n', "; "),
-        )
-    })?;
-    let generator_joint = model.body_index(&ms.generator_joint).ok_or_else(|| {
-        sc.error_at(
-            "mechanism",
-            "generator_joint",
-            "[mechanism] generator_joint",
-            format!("no body {:?} in the model", ms.generator_joint),
-        )
-    })?;
+    let generator_joint = model
+        .body_index(&setup.generator_joint)
+        .ok_or_else(|| SetupError::UnknownBody(setup.generator_joint.clone()))?;
     let (l1, l2) = bar_lengths(&mechanism, point);
     if !(l1 > 0.0 && l2 > 0.0) {
-        return Err(sc.error_at(
-            "mechanism",
-            "point",
-            "[mechanism] point",
-            format!("the point is not at the end of a two-bar chain (bar lengths {l1}, {l2})"),
-        ));
+        return Err(SetupError::NotTwoBar { l1, l2 });
     }
     // Target of the point in the mechanism frame (pivot at the origin) and the initial guess.
-    let (x0, y0, alpha) = match (ms.half_angle_deg, ms.pivot) {
-        (Some(deg), _) => {
+    let (x0, y0, alpha) = match setup.placement {
+        Placement::HalfAngle(deg) => {
             let a = deg.to_radians();
             let rad = l2 * l2 - (l1 * a.sin()).powi(2);
             if rad < 0.0 {
-                return Err(sc.error_at(
-                    "mechanism",
-                    "half_angle_deg",
-                    "[mechanism] half_angle_deg",
-                    format!("{deg} degrees cannot be reached with bars {l1} m and {l2} m"),
-                ));
+                return Err(SetupError::AngleUnreachable { deg, l1, l2 });
             }
             (0.0, l1 * a.cos() + rad.sqrt(), a)
         }
-        (None, Some(p)) => {
+        Placement::Pivot(p) => {
             let (x0, y0) = (-p[0], -p[1]);
             let d = x0.hypot(y0);
             let c = (l1 * l1 + d * d - l2 * l2) / (2.0 * l1 * d);
             if !(-1.0..=1.0).contains(&c) {
-                return Err(sc.error_at("mechanism", "pivot", "[mechanism] pivot", format!("the beam point is {d} m from the pivot, out of the reach of bars {l1} m and {l2} m")));
+                return Err(SetupError::PivotUnreachable { d, l1, l2 });
             }
             (x0, y0, c.acos())
         }
-        (None, None) => unreachable!("checked when the scenario was loaded"),
     };
     let d = x0.hypot(y0);
     let theta = y0.atan2(x0);
@@ -123,26 +248,16 @@ pub fn build_model<M: System>(
         .acos();
     let guess = [theta - alpha, std::f64::consts::PI - knee];
 
-    let beam = sc.beam_model()?;
-    let shape = beam
-        .shape_at(ms.x)
-        .map_err(|e| sc.error_at("mechanism", "x", "[mechanism] x", e.to_string()))?;
+    let beam = fem_beam::BeamModel::new(&setup.beam).map_err(SetupError::Beam)?;
+    let shape = beam.shape_at(setup.x).map_err(SetupError::BeamPoint)?;
     let coupling: Vec<(usize, f64)> = (0..4)
         .filter_map(|k| shape.dofs[k].map(|i| (i, shape.weights[0][k])))
         .filter(|&(_, w)| w != 0.0)
         .collect();
     if coupling.is_empty() {
-        return Err(sc.error_at(
-            "mechanism",
-            "x",
-            "[mechanism] x",
-            format!(
-                "the beam cannot move transversely at x = {} (a support locks it)",
-                ms.x
-            ),
-        ));
+        return Err(SetupError::Locked(setup.x));
     }
-    let mut generator = spec.generator.clone();
+    let mut generator = setup.generator.clone();
     generator.connected = generator.connected && connected;
     // The stretched mechanism (bars in line) bounds the beam point's travel:
     // |p - pivot| <= L1 + L2, i.e. for x0 = 0 and equal bars 2 L (1 - cos a0).
@@ -151,15 +266,11 @@ pub fn build_model<M: System>(
         mechanism,
         Attachment { point, x0, y0 },
         generator_joint,
-        ms.max_condition,
+        setup.max_condition,
     )
-    .map_err(|e| {
-        sc.error_at(
-            "mechanism",
-            "model",
-            "[mechanism] model",
-            format!("{}: {e}", sc.model_path.display()),
-        )
+    .map_err(|error| SetupError::Shape {
+        file: model.source.path.clone(),
+        error,
     })?;
     link.reach = Some(reach);
     Ok((
@@ -386,34 +497,34 @@ pub fn damping_ratio(samples: &[Sample]) -> Option<f64> {
     Some(delta / (4.0 * std::f64::consts::PI.powi(2) + delta * delta).sqrt())
 }
 
-/// Prepares model, integrator and initial state of a scenario and runs it.
-pub fn run_scenario<M: System>(
-    sc: &Scenario,
+/// Prepares model, integrator and initial state of a setup and runs it.
+pub fn run_setup<M: System>(
+    setup: &DamperSetup,
+    model: &Model,
     mechanism: M,
     connected: bool,
     progress: &mut dyn FnMut(f64),
 ) -> Result<(DamperModel<M>, Run), RunError> {
-    let (model, guess) = build_model(sc, mechanism, connected)?;
-    let ig = &sc.spec.integrator;
-    let state = model.initial_state(sc.spec.initial.displacement, guess)?;
-    let mut integrator = Integrator::new(&model, sc.method, ig.dt)?;
+    let (coupled, guess) = build_model(setup, model, mechanism, connected)?;
+    let state = coupled.initial_state(setup.initial_displacement, guess)?;
+    let mut integrator = Integrator::new(&coupled, setup.method, setup.dt)?;
     let run = run(
-        &model,
+        &coupled,
         &mut integrator,
         state,
-        ig.t_end,
-        sc.spec.output.every,
+        setup.t_end,
+        setup.every,
         progress,
     )?;
-    Ok((model, run))
+    Ok((coupled, run))
 }
 
-/// A scenario that could not be set up or run.
+/// A setup that could not be built or run.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
-    /// The scenario is invalid.
+    /// The setup does not fit the model or the beam.
     #[error(transparent)]
-    Scenario(#[from] ScenarioError),
+    Setup(#[from] SetupError),
     /// The simulation stopped.
     #[error(transparent)]
     Sim(#[from] SimError),

@@ -8,7 +8,6 @@
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
-use hybrid_core::closed_loop::scenario;
 use hybrid_core::closed_loop::{
     AssemblyError, AssemblyOptions, InterpretedSystem, NumericSystem, SimError, Simulator, System,
     Trajectory, assemble, simulate,
@@ -583,34 +582,4 @@ fn singular_configuration_stops_with_a_clear_error() {
         msg.contains("q1 = ") && msg.contains("smallest singular value"),
         "{msg}"
     );
-}
-
-/// The bundled scenarios parse, resolve against their models and assemble; the four-bar
-/// one names its initial branch correctly (upper branch of the closed form).
-#[test]
-fn bundled_scenarios_parse_and_assemble() {
-    for (file, sys) in [
-        ("scenarios/four_bar.toml", four_bar()),
-        ("scenarios/slider_crank.toml", slider_crank()),
-    ] {
-        let sc = scenario::load(&root().join(file)).unwrap_or_else(|e| panic!("{e}"));
-        let model = model::load(&sc.model).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(model.dof(), sys.dof());
-        let r = sc.resolve(sys.coordinate_names()).unwrap();
-        let (q, qd) = assemble(
-            &sys,
-            &r.q0,
-            &r.fixed,
-            &r.qd0,
-            &r.qd_given,
-            &AssemblyOptions::default(),
-        )
-        .unwrap_or_else(|e| panic!("{file}: {e}"));
-        if file.contains("four_bar") {
-            let (q3, q2) = four_bar_closed_form(q[0], 1.0);
-            assert!(angle_diff(q[2], q3).abs() < 1e-10 && angle_diff(q[1], q2).abs() < 1e-10);
-            assert!(qd.iter().all(|v| *v == 0.0));
-        }
-        assert!((r.settings.t_end - 5.0).abs() < 1e-15, "{file}: 5 s");
-    }
 }

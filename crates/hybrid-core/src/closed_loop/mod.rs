@@ -14,8 +14,7 @@
 //!   degrades ([`mod@simulate`]);
 //! - integrates `M^R u'' + F^R + Q^R = 0` (eqs. 22–25) with Dormand–Prince 5(4) or fixed-step
 //!   RK4, recovering `v` by Newton projection on `h(u, v) = 0` and `v'` from eq. (18), and
-//!   recording energy and constraint residuals ([`mod@simulate`]);
-//! - reads the plain-mechanism scenario file ([`scenario`]).
+//!   recording energy and constraint residuals ([`mod@simulate`]).
 //!
 //! Everything is written against the one dynamic mechanism interface
 //! [`mbs_symbolic::runtime::System`] (re-exported here), whose three backends are
@@ -26,7 +25,6 @@ pub mod assembly;
 mod dopri;
 pub mod error;
 mod projection;
-pub mod scenario;
 pub mod simulate;
 
 pub use assembly::{

@@ -253,6 +253,6 @@ pub fn run(args: Args) -> Result<()> {
             "M+F": count_json(sym.op_count_mf()),
         },
     });
-    println!("{}", serde_json::to_string_pretty(&json)?);
+    crate::print(&(serde_json::to_string_pretty(&json)? + "\n"))?;
     Ok(())
 }

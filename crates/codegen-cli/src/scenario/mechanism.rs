@@ -35,58 +35,17 @@
 //! ```
 //!
 //! Unknown keys are errors. Every problem is reported at once, each with the file, the line
-//! and the entity (`scenarios/x.toml:7: [initial] q: unknown coordinate "q9" ...`).
+//! and the entity (`scenarios/x.toml:7:8: [initial] q.q9: unknown coordinate "q9" ...`).
 
 use std::collections::BTreeMap;
-use std::fmt;
 use std::path::{Path, PathBuf};
 
+use diagnostic::{Diagnostic, Diagnostics, Kind};
+use hybrid_core::closed_loop::{Method, PartitionSettings, Settings};
 use serde::Deserialize;
 use toml::Spanned;
 
-use super::simulate::{Method, PartitionSettings, Settings};
-
-/// One problem in a scenario file.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct ScenarioError {
-    /// The scenario file.
-    pub file: String,
-    /// 1-based line, when known.
-    pub line: Option<usize>,
-    /// The entity (`[integrator] rtol`), when known.
-    pub entity: Option<String>,
-    /// What is wrong.
-    pub message: String,
-}
-
-impl fmt::Display for ScenarioError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}", self.file)?;
-        if let Some(l) = self.line {
-            write!(f, ":{l}")?;
-        }
-        if let Some(e) = &self.entity {
-            write!(f, ": {e}")?;
-        }
-        write!(f, ": {}", self.message)
-    }
-}
-
-/// Every problem found in a scenario file (at least one).
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-pub struct ScenarioErrors(pub Vec<ScenarioError>);
-
-impl fmt::Display for ScenarioErrors {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        for (i, e) in self.0.iter().enumerate() {
-            if i > 0 {
-                writeln!(f)?;
-            }
-            write!(f, "{e}")?;
-        }
-        Ok(())
-    }
-}
+use super::Doc;
 
 /// A named value with the line it was written on.
 #[derive(Clone, Debug, PartialEq)]
@@ -148,20 +107,6 @@ pub struct ResolvedScenario {
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct RawScenario {
-    kind: Spanned<String>,
-    model: Spanned<String>,
-    #[serde(default)]
-    description: Option<String>,
-    #[serde(default)]
-    initial: Option<Spanned<RawInitial>>,
-    integrator: Spanned<RawIntegrator>,
-    #[serde(default)]
-    partition: Option<RawPartition>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
 struct RawInitial {
     #[serde(default)]
     q: BTreeMap<String, Spanned<f64>>,
@@ -216,38 +161,20 @@ struct RawPartition {
     projection_tol: Option<Spanned<f64>>,
 }
 
-/// 1-based line of byte `offset` in `text`.
-fn line_of(text: &str, offset: usize) -> usize {
-    let end = offset.min(text.len());
-    1 + text.as_bytes()[..end]
-        .iter()
-        .filter(|&&b| b == b'\n')
-        .count()
+/// Range checks of single values, recorded in the document.
+trait Check {
+    /// A positive finite number, or a recorded problem.
+    fn positive(&mut self, v: &Spanned<f64>, entity: &str) -> f64;
 }
 
-struct Collector<'a> {
-    file: &'a str,
-    text: &'a str,
-    errors: Vec<ScenarioError>,
-}
-
-impl Collector<'_> {
-    fn push(&mut self, span: Option<std::ops::Range<usize>>, entity: &str, message: String) {
-        self.errors.push(ScenarioError {
-            file: self.file.to_string(),
-            line: span.map(|s| line_of(self.text, s.start)),
-            entity: Some(entity.to_string()),
-            message,
-        });
-    }
-
-    /// A positive finite number, or an error.
+impl Check for Doc<'_> {
     fn positive(&mut self, v: &Spanned<f64>, entity: &str) -> f64 {
         let x = *v.get_ref();
         if !(x.is_finite() && x > 0.0) {
             self.push(
+                Kind::InvalidValue,
                 Some(v.span()),
-                entity,
+                Some(entity),
                 format!("must be a positive number, got {x}"),
             );
         }
@@ -255,103 +182,83 @@ impl Collector<'_> {
     }
 }
 
-/// Reads and checks a mechanism scenario file.
-pub fn load(path: &Path) -> Result<MechanismScenario, ScenarioErrors> {
-    let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| {
-        ScenarioErrors(vec![ScenarioError {
-            file: file.clone(),
-            line: None,
-            entity: None,
-            message: format!("cannot read the scenario file: {e}"),
-        }])
-    })?;
-    let base = path.parent().unwrap_or_else(|| Path::new("."));
-    parse_str(&text, &file, base)
-}
-
-/// Parses and checks scenario text; `file` names it in messages, `base_dir` resolves the
-/// relative model path.
-pub fn parse_str(
-    text: &str,
-    file: &str,
-    base_dir: &Path,
-) -> Result<MechanismScenario, ScenarioErrors> {
-    let raw: RawScenario = toml::from_str(text).map_err(|e| {
-        ScenarioErrors(vec![ScenarioError {
-            file: file.to_string(),
-            line: e.span().map(|s| line_of(text, s.start)),
-            entity: None,
-            message: e.message().trim().to_string(),
-        }])
-    })?;
-    let mut c = Collector {
-        file,
-        text,
-        errors: vec![],
-    };
-    if raw.kind.get_ref() != "mechanism" {
-        c.push(
-            Some(raw.kind.span()),
-            "kind",
-            format!(
-                "this is a {:?} scenario; expected kind = \"mechanism\"",
-                raw.kind.get_ref()
-            ),
-        );
-    }
-    let model = {
-        let m = raw.model.get_ref();
-        if m.trim().is_empty() {
-            c.push(Some(raw.model.span()), "model", "empty model path".into());
+/// Reads the sections of a mechanism scenario and checks every value.
+pub(crate) fn from_doc(c: &mut Doc<'_>) -> Option<MechanismScenario> {
+    c.check_keys(&[
+        "kind",
+        "model",
+        "description",
+        "initial",
+        "integrator",
+        "partition",
+    ]);
+    let file = c.file().to_string();
+    let base_dir = c.base().to_path_buf();
+    let raw_model = c.section::<String>("model", true);
+    let description = c.section::<String>("description", false);
+    let raw_initial = c.section::<RawInitial>("initial", false);
+    let raw_integrator = c.section::<RawIntegrator>("integrator", true);
+    let raw_partition = c.section::<RawPartition>("partition", false);
+    let model = raw_model.as_ref().map(|m| {
+        let p = Path::new(m.get_ref());
+        if m.get_ref().trim().is_empty() {
+            c.push(
+                Kind::InvalidValue,
+                Some(m.span()),
+                Some("model"),
+                "empty model path",
+            );
         }
-        let p = Path::new(m);
         if p.is_absolute() {
             p.to_path_buf()
         } else {
             base_dir.join(p)
         }
-    };
-
+    });
     // [initial]
-    let named = |map: &BTreeMap<String, Spanned<f64>>, section: &str, c: &mut Collector<'_>| {
+    let named = |map: &BTreeMap<String, Spanned<f64>>, section: &str, c: &mut Doc<'_>| {
         map.iter()
             .map(|(k, v)| {
                 let x = *v.get_ref();
                 if !x.is_finite() {
                     c.push(
+                        Kind::InvalidValue,
                         Some(v.span()),
-                        &format!("[initial] {section}.{k}"),
+                        Some(&format!("[initial] {section}.{k}")),
                         format!("must be a finite number, got {x}"),
                     );
                 }
                 Named {
                     name: k.clone(),
                     value: x,
-                    line: line_of(c.text, v.span().start),
+                    line: c.index().line(v.span().start),
                 }
             })
             .collect::<Vec<_>>()
     };
-    let initial = match &raw.initial {
+    let initial = match &raw_initial {
         Some(init) => {
             let i = init.get_ref();
-            let q = named(&i.q, "q", &mut c);
-            let guess = named(&i.guess, "guess", &mut c);
-            let qd = named(&i.qd, "qd", &mut c);
+            let q = named(&i.q, "q", c);
+            let guess = named(&i.guess, "guess", c);
+            let qd = named(&i.qd, "qd", c);
             for g in &guess {
                 if i.q.contains_key(&g.name) {
-                    c.errors.push(ScenarioError {
-                        file: file.to_string(),
-                        line: Some(g.line),
-                        entity: Some(format!("[initial] guess.{}", g.name)),
-                        message: "coordinate is both held (q) and guessed".into(),
-                    });
+                    let span = i.guess.get(&g.name).map(|v| v.span());
+                    let entity = format!("[initial] guess.{}", g.name);
+                    let msg = "coordinate is both held (q) and guessed";
+                    c.push(Kind::Duplicate, span, Some(&entity), msg);
                 }
             }
             let t = match &i.t {
                 Some(t) if !t.get_ref().is_finite() => {
-                    c.push(Some(t.span()), "[initial] t", "must be finite".into());
+                    let span = Some(t.span());
+                    c.push(
+                        Kind::InvalidValue,
+                        span,
+                        Some("[initial] t"),
+                        "must be finite",
+                    );
                     0.0
                 }
                 Some(t) => *t.get_ref(),
@@ -368,12 +275,14 @@ pub fn parse_str(
     };
 
     // [integrator]
-    let ig = raw.integrator.get_ref();
+    let raw_integrator = raw_integrator?;
+    let ig = raw_integrator.get_ref();
     let t_end = *ig.t_end.get_ref();
     if !(t_end.is_finite() && t_end > initial.t) {
         c.push(
+            Kind::InvalidValue,
             Some(ig.t_end.span()),
-            "[integrator] t_end",
+            Some("[integrator] t_end"),
             format!(
                 "must be finite and later than the start time {}, got {t_end}",
                 initial.t
@@ -385,18 +294,19 @@ pub fn parse_str(
         .as_ref()
         .map_or("dopri5", |m| m.get_ref().as_str())
         .to_string();
-    let forbid = |c: &mut Collector<'_>, v: &Option<Spanned<f64>>, key: &str, method: &str| {
+    let forbid = |c: &mut Doc<'_>, v: &Option<Spanned<f64>>, key: &str, method: &str| {
         if let Some(v) = v {
             c.push(
+                Kind::InvalidValue,
                 Some(v.span()),
-                &format!("[integrator] {key}"),
+                Some(&format!("[integrator] {key}")),
                 format!("not used by method \"{method}\""),
             );
         }
     };
     let method = match method_name.as_str() {
         "dopri5" => {
-            forbid(&mut c, &ig.step, "step", "dopri5");
+            forbid(c, &ig.step, "step", "dopri5");
             let rtol = ig
                 .rtol
                 .as_ref()
@@ -404,9 +314,10 @@ pub fn parse_str(
             let atol = match &ig.atol {
                 Some(v) if !(v.get_ref().is_finite() && *v.get_ref() >= 0.0) => {
                     c.push(
+                        Kind::InvalidValue,
                         Some(v.span()),
-                        "[integrator] atol",
-                        "must be a non-negative number".into(),
+                        Some("[integrator] atol"),
+                        "must be a non-negative number",
                     );
                     0.0
                 }
@@ -427,17 +338,18 @@ pub fn parse_str(
             }
         }
         "rk4" => {
-            forbid(&mut c, &ig.rtol, "rtol", "rk4");
-            forbid(&mut c, &ig.atol, "atol", "rk4");
-            forbid(&mut c, &ig.max_step, "max_step", "rk4");
-            forbid(&mut c, &ig.initial_step, "initial_step", "rk4");
+            forbid(c, &ig.rtol, "rtol", "rk4");
+            forbid(c, &ig.atol, "atol", "rk4");
+            forbid(c, &ig.max_step, "max_step", "rk4");
+            forbid(c, &ig.initial_step, "initial_step", "rk4");
             let step = match &ig.step {
                 Some(v) => c.positive(v, "[integrator] step"),
                 None => {
                     c.push(
-                        Some(raw.integrator.span()),
-                        "[integrator] step",
-                        "method \"rk4\" needs a fixed step `step`".into(),
+                        Kind::MissingField,
+                        Some(raw_integrator.span()),
+                        Some("[integrator] step"),
+                        "method \"rk4\" needs a fixed step `step`",
                     );
                     1.0
                 }
@@ -447,8 +359,9 @@ pub fn parse_str(
         other => {
             let span = ig.method.as_ref().map(|m| m.span());
             c.push(
+                Kind::InvalidValue,
                 span,
-                "[integrator] method",
+                Some("[integrator] method"),
                 format!("unknown method {other:?} (expected \"dopri5\" or \"rk4\")"),
             );
             Method::Rk4 { step: 1.0 }
@@ -471,9 +384,10 @@ pub fn parse_str(
     let mut ps = PartitionSettings::default();
     let mut projection_tol = 1e-10;
     let mut independent = None;
-    if let Some(p) = &raw.partition {
+    if let Some(p) = &raw_partition {
+        let p = p.get_ref();
         if let Some(ind) = &p.independent {
-            independent = Some((ind.get_ref().clone(), line_of(text, ind.span().start)));
+            independent = Some((ind.get_ref().clone(), c.index().line(ind.span().start)));
         }
         if let Some(v) = p.allow_redundant {
             ps.allow_redundant = v;
@@ -484,10 +398,12 @@ pub fn parse_str(
         if let Some(v) = &p.switch_ratio {
             ps.switch_ratio = c.positive(v, "[partition] switch_ratio");
             if ps.switch_ratio < 1.0 {
+                let entity = Some("[partition] switch_ratio");
                 c.push(
+                    Kind::InvalidValue,
                     Some(v.span()),
-                    "[partition] switch_ratio",
-                    "must be at least 1".into(),
+                    entity,
+                    "must be at least 1",
                 );
             }
         }
@@ -500,10 +416,12 @@ pub fn parse_str(
         if let Some(v) = &p.rank_tol {
             ps.rank_tol = c.positive(v, "[partition] rank_tol");
             if ps.rank_tol >= 1.0 {
+                let entity = Some("[partition] rank_tol");
                 c.push(
+                    Kind::InvalidValue,
                     Some(v.span()),
-                    "[partition] rank_tol",
-                    "must be below 1".into(),
+                    entity,
+                    "must be below 1",
                 );
             }
         }
@@ -511,14 +429,11 @@ pub fn parse_str(
             projection_tol = c.positive(v, "[partition] projection_tol");
         }
     }
-    if !c.errors.is_empty() {
-        return Err(ScenarioErrors(c.errors));
-    }
     let t_start = initial.t;
-    Ok(MechanismScenario {
-        file: file.to_string(),
-        model,
-        description: raw.description,
+    Some(MechanismScenario {
+        file,
+        model: model?,
+        description: description.map(Spanned::into_inner),
         initial,
         settings: Settings {
             method,
@@ -534,22 +449,43 @@ pub fn parse_str(
     })
 }
 
+/// Parses and checks mechanism scenario text; `file` names it in messages, `base_dir`
+/// resolves the relative model path.
+pub fn parse_str(
+    text: &str,
+    file: &str,
+    base_dir: &Path,
+) -> Result<MechanismScenario, Diagnostics> {
+    match super::parse_in(text, file, base_dir)? {
+        super::Scenario::Mechanism(s) => Ok(*s),
+        super::Scenario::Damper(_) => Err(Diagnostic::new(
+            Kind::Unsupported,
+            file,
+            "a damper scenario, not `kind = \"mechanism\"`",
+        )
+        .into()),
+    }
+}
+
 impl MechanismScenario {
     /// Resolves the coordinate names against a model's `coordinate_names`, reporting every
     /// unknown name with its line.
-    pub fn resolve(&self, coordinate_names: &[String]) -> Result<ResolvedScenario, ScenarioErrors> {
+    pub fn resolve(&self, coordinate_names: &[String]) -> Result<ResolvedScenario, Diagnostics> {
         let n = coordinate_names.len();
         let mut errors = vec![];
         let known = coordinate_names.join(", ");
         let mut find = |name: &str, line: usize, entity: String| -> Option<usize> {
             let k = coordinate_names.iter().position(|c| c == name);
             if k.is_none() {
-                errors.push(ScenarioError {
-                    file: self.file.clone(),
-                    line: Some(line),
-                    entity: Some(entity),
-                    message: format!("unknown coordinate {name:?} (the model has {known})"),
-                });
+                errors.push(
+                    Diagnostic::new(
+                        Kind::UnknownName,
+                        self.file.clone(),
+                        format!("unknown coordinate {name:?} (the model has {known})"),
+                    )
+                    .at_line(Some(line))
+                    .entity(entity),
+                );
             }
             k
         };
@@ -588,16 +524,19 @@ impl MechanismScenario {
             }
             settings.partition.independent = Some(idx);
             for name in twice {
-                errors.push(ScenarioError {
-                    file: self.file.clone(),
-                    line: Some(*line),
-                    entity: Some("[partition] independent".into()),
-                    message: format!("coordinate {name:?} listed twice"),
-                });
+                errors.push(
+                    Diagnostic::new(
+                        Kind::Duplicate,
+                        self.file.clone(),
+                        format!("coordinate {name:?} listed twice"),
+                    )
+                    .at_line(Some(*line))
+                    .entity("[partition] independent"),
+                );
             }
         }
         if !errors.is_empty() {
-            return Err(ScenarioErrors(errors));
+            return Err(Diagnostics(errors));
         }
         fixed.sort_unstable();
         qd_given.sort_unstable();

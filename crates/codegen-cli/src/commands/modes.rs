@@ -3,9 +3,13 @@
 //! boundary conditions have them (cantilever, simply supported, clamped–clamped, free–free,
 //! clamped–pinned, pinned–free on a uniform beam).
 
+use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use fem_beam::{Beam, BeamModel, analytic};
+
+use crate::Error;
+use crate::report::ReportError;
 
 /// Arguments of `damper modes`.
 #[derive(clap::Args, Debug)]
@@ -22,7 +26,12 @@ pub struct Args {
 
 /// Runs the subcommand: reads and validates the beam, assembles it, computes the lowest
 /// `count` modes and prints them (table or JSON).
-pub fn run(args: Args) -> anyhow::Result<()> {
+pub fn run(args: Args) -> Result<(), Error> {
+    crate::print(&report(&args)?)
+}
+
+/// The text `damper modes` prints.
+fn report(args: &Args) -> Result<String, Error> {
     // Library errors already name the file, line and entity.
     let beam = Beam::from_file(&args.beam)?;
     let model = BeamModel::new(&beam)?;
@@ -32,36 +41,42 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
     if args.json {
         // Written by hand to keep the documented key order (serde_json's map sorts keys).
-        println!(
-            "{{\"frequencies_hz\": {}, \"analytic_hz\": {}}}",
-            serde_json::to_string(&fe)?,
-            serde_json::to_string(&reference.as_ref().map(|(_, f)| f))?
-        );
-        return Ok(());
+        let analytic = reference.as_ref().map(|(_, f)| f);
+        let json = |r: serde_json::Result<String>| r.map_err(ReportError::Json);
+        return Ok(format!(
+            "{{\"frequencies_hz\": {}, \"analytic_hz\": {}}}\n",
+            json(serde_json::to_string(&fe))?,
+            json(serde_json::to_string(&analytic))?
+        ));
     }
 
+    let mut out = String::new();
     let elements: usize = beam.segments().iter().map(|s| s.elements).sum();
     let segments = beam.segments().len();
-    println!("beam: {}", beam.name().unwrap_or("(unnamed)"));
-    println!(
+    let _ = writeln!(out, "beam: {}", beam.name().unwrap_or("(unnamed)"));
+    let _ = writeln!(
+        out,
         "file: {}; {segments} segment{}, {elements} elements, {} free DOFs, length {} m",
         args.beam.display(),
         if segments == 1 { "" } else { "s" },
         model.dof_count(),
         beam.length()
     );
-    match &reference {
-        Some((case, _)) => {
-            println!("boundary conditions: {case}; reference: Euler-Bernoulli closed form")
-        }
-        None => println!(
+    let _ = match &reference {
+        Some((case, _)) => writeln!(
+            out,
+            "boundary conditions: {case}; reference: Euler-Bernoulli closed form"
+        ),
+        None => writeln!(
+            out,
             "boundary conditions: no closed-form reference (non-uniform beam or other supports)"
         ),
-    }
-    println!();
+    };
+    let _ = writeln!(out);
     match &reference {
         Some((_, exact)) => {
-            println!(
+            let _ = writeln!(
+                out,
                 "{:>4}  {:>18}  {:>18}  {:>11}",
                 "mode", "FE [Hz]", "analytic [Hz]", "rel. error"
             );
@@ -71,15 +86,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 } else {
                     format!("{:+.3e}", f / a - 1.0)
                 };
-                println!("{:>4}  {:>18.9}  {:>18.9}  {:>11}", i + 1, f, a, err);
+                let _ = writeln!(out, "{:>4}  {:>18.9}  {:>18.9}  {:>11}", i + 1, f, a, err);
             }
         }
         None => {
-            println!("{:>4}  {:>18}", "mode", "FE [Hz]");
+            let _ = writeln!(out, "{:>4}  {:>18}", "mode", "FE [Hz]");
             for (i, f) in fe.iter().enumerate() {
-                println!("{:>4}  {:>18.9}", i + 1, f);
+                let _ = writeln!(out, "{:>4}  {:>18.9}", i + 1, f);
             }
         }
     }
-    Ok(())
+    Ok(out)
 }

@@ -17,10 +17,11 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Result, bail};
 use mbs_symbolic::emit::{EmitOptions, generate, write_if_changed};
 use mbs_symbolic::expr::OpCount;
 use mbs_symbolic::model;
+
+use crate::Error;
 
 /// Arguments of `damper generate`.
 #[derive(clap::Args, Debug)]
@@ -74,43 +75,45 @@ pub fn stats_table(stats: &[(String, OpCount)]) -> String {
 
 /// Checks before any work that the output can be created: its directory exists and the
 /// path is not a directory itself (clearer messages than the operating system's).
-fn check_output(path: &Path) -> Result<()> {
+fn check_output(path: &Path) -> Result<(), Error> {
     if path.is_dir() {
-        bail!("output {} is a directory, not a file", path.display());
+        return Err(Error::Usage(format!(
+            "output {} is a directory, not a file",
+            path.display()
+        )));
     }
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
     if dir.exists() && !dir.is_dir() {
-        bail!(
+        return Err(Error::Usage(format!(
             "cannot write {}: {} is not a directory",
             path.display(),
             dir.display()
-        );
+        )));
     }
     if !dir.is_dir() {
-        bail!(
+        return Err(Error::Usage(format!(
             "cannot write {}: directory {} does not exist",
             path.display(),
             dir.display()
-        );
+        )));
     }
     Ok(())
 }
 
 /// Runs `damper generate`.
-pub fn run(args: Args) -> Result<()> {
+pub fn run(args: Args) -> Result<(), Error> {
     check_output(&args.output)?;
     // Model errors already name the file, the line and the entity.
-    let model = model::load(&args.model).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let model = model::load(&args.model)?;
     let opts = EmitOptions {
         struct_name: args.struct_name.clone(),
         ..EmitOptions::default()
     };
-    let generated = generate(&model, &opts).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let wrote =
-        write_if_changed(&args.output, &generated.source).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let generated = generate(&model, &opts)?;
+    let wrote = write_if_changed(&args.output, &generated.source)?;
     eprintln!(
         "{}: {} (struct {}, {} coordinates, {} constraint rows)",
         args.output.display(),
@@ -120,7 +123,7 @@ pub fn run(args: Args) -> Result<()> {
         model.constraint_rows()
     );
     if args.stats {
-        print!("{}", stats_table(&generated.stats));
+        crate::print(&stats_table(&generated.stats))?;
     }
     Ok(())
 }

@@ -6,10 +6,10 @@
 use std::hint::black_box;
 use std::path::PathBuf;
 
+use codegen_cli::scenario::DamperScenario as Scenario;
 use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group, criterion_main};
 use hybrid_core::damper::Integrator;
-use hybrid_core::scenario::Scenario;
-use hybrid_core::study::{build_model, run_scenario};
+use hybrid_core::study::{build_model, run_setup};
 
 fn scenario(elements: usize, t_end: f64) -> Scenario {
     let path = PathBuf::from(concat!(
@@ -37,11 +37,17 @@ fn whole_run(c: &mut Criterion) {
     g.bench_function("default_5s_dt1e-4", |b| {
         b.iter(|| {
             black_box(
-                run_scenario(&sc, double_bar(), true, &mut |_| {})
-                    .unwrap()
-                    .1
-                    .state
-                    .t,
+                run_setup(
+                    &sc.setup,
+                    &double_bar_model(),
+                    double_bar(),
+                    true,
+                    &mut |_| {},
+                )
+                .unwrap()
+                .1
+                .state
+                .t,
             )
         })
     });
@@ -52,9 +58,10 @@ fn step_cost(c: &mut Criterion) {
     let mut g = c.benchmark_group("step_1000");
     for elements in [20usize, 200, 2000] {
         let sc = scenario(elements, 5.0);
-        let (model, guess) = build_model(&sc, double_bar(), true).unwrap();
+        let (model, guess) =
+            build_model(&sc.setup, &double_bar_model(), double_bar(), true).unwrap();
         let state = model.initial_state(1e-3, guess).unwrap();
-        let integ = Integrator::new(&model, sc.method, 1e-4).unwrap();
+        let integ = Integrator::new(&model, sc.setup.method, 1e-4).unwrap();
         g.bench_with_input(BenchmarkId::from_parameter(elements), &elements, |b, _| {
             b.iter_batched(
                 || (integ.clone(), state.clone()),
@@ -73,3 +80,9 @@ fn step_cost(c: &mut Criterion) {
 
 criterion_group!(benches, whole_run, step_cost);
 criterion_main!(benches);
+
+/// The bundled double bar's model description (body names for the generator joint).
+fn double_bar_model() -> mbs_symbolic::model::Model {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../models/double_bar.toml");
+    mbs_symbolic::model::load(std::path::Path::new(path)).unwrap_or_else(|e| panic!("{e}"))
+}

@@ -5,10 +5,10 @@
 
 use std::path::PathBuf;
 
+use codegen_cli::scenario::DamperScenario as Scenario;
 use fem_beam::BandedFactor;
 use hybrid_core::damper::{DamperModel, Integrator, full};
-use hybrid_core::scenario::Scenario;
-use hybrid_core::study::{build_model, damping_ratio, run_scenario};
+use hybrid_core::study::{build_model, damping_ratio, run_setup};
 use mbs_symbolic::runtime::{NumericSystem, System};
 
 fn scenario_path() -> PathBuf {
@@ -77,7 +77,8 @@ fn random_state<M: System>(
 fn reduced_model_equals_full_constrained_model_in_accelerations() {
     for (x, connected) in [("x = 1.0", true), ("x = 0.9625", true), ("x = 1.0", false)] {
         let sc = scenario(&[("x = 1.0", x)]);
-        let (model, _) = build_model(&sc, double_bar(), connected).unwrap();
+        let (model, _) =
+            build_model(&sc.setup, &double_bar_model(), double_bar(), connected).unwrap();
         let mass_factor: BandedFactor = model.beam.mass().factorize().unwrap();
         let mut rng = Rng(17);
         for _ in 0..20 {
@@ -122,7 +123,7 @@ fn reduced_model_equals_full_constrained_model_in_accelerations() {
 #[test]
 fn reduced_and_full_models_give_the_same_trajectory() {
     let sc = scenario(&[("elements = 20", "elements = 4")]);
-    let (model, guess) = build_model(&sc, double_bar(), true).unwrap();
+    let (model, guess) = build_model(&sc.setup, &double_bar_model(), double_bar(), true).unwrap();
     let init = model.initial_state(1e-3, guess).unwrap();
     let n = model.beam.dof_count();
     let omega_max = model
@@ -213,7 +214,14 @@ fn energy_is_conserved_without_dissipation() {
             "rotor_inertia = 1e-6\nconnected = false",
         ),
     ]);
-    let (_, r) = run_scenario(&sc, double_bar(), true, &mut |_| {}).unwrap();
+    let (_, r) = run_setup(
+        &sc.setup,
+        &double_bar_model(),
+        double_bar(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap();
     let e = r.state.energy;
     assert_eq!(e.dissipated(), 0.0);
     assert!(
@@ -231,7 +239,14 @@ fn energy_is_conserved_without_dissipation() {
 fn energy_account_balances_with_dissipation() {
     let err = |dt: &str| {
         let sc = scenario(&[("t_end = 5.0", "t_end = 1.0"), ("dt = 1e-4", dt)]);
-        let (_, r) = run_scenario(&sc, double_bar(), true, &mut |_| {}).unwrap();
+        let (_, r) = run_setup(
+            &sc.setup,
+            &double_bar_model(),
+            double_bar(),
+            true,
+            &mut |_| {},
+        )
+        .unwrap();
         let e = r.state.energy;
         assert!(
             e.dissipated_load > 0.0 && e.dissipated_armature > 0.0 && e.dissipated_structure > 0.0
@@ -261,7 +276,14 @@ fn energy_account_balances_with_gravity_on_the_mechanism() {
             "max_condition = 1e4\nparameters = { gx = 3.0, gy = -9.81 }",
         ),
     ]);
-    let (_, r) = run_scenario(&sc, double_bar(), true, &mut |_| {}).unwrap();
+    let (_, r) = run_setup(
+        &sc.setup,
+        &double_bar_model(),
+        double_bar(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap();
     let e = r.state.energy;
     assert!(e.mechanism_potential != 0.0);
     assert!(
@@ -287,7 +309,7 @@ fn massless_mechanism_leaves_the_first_beam_frequency() {
             "max_condition = 1e4\nparameters = { m1 = 0.0, m2 = 0.0 }",
         ),
     ]);
-    let (model, guess) = build_model(&sc, double_bar(), true).unwrap();
+    let (model, guess) = build_model(&sc.setup, &double_bar_model(), double_bar(), true).unwrap();
     let modes = model.beam.modes(1).unwrap();
     let f1 = modes.frequencies_hz()[0];
     let phi: Vec<f64> = modes.shape(0).to_vec();
@@ -295,7 +317,7 @@ fn massless_mechanism_leaves_the_first_beam_frequency() {
     let mut aphi = vec![0.0; n];
     model.beam.mass().mul_vec_into(&phi, &mut aphi);
     let mut state = model.initial_state(1e-3, guess).unwrap();
-    let mut integ = Integrator::new(&model, sc.method, 1e-4).unwrap();
+    let mut integ = Integrator::new(&model, sc.setup.method, 1e-4).unwrap();
     let (mut t, mut y) = (vec![], vec![]);
     for _ in 0..20_000 {
         integ.step(&model, &mut state).unwrap();
@@ -317,8 +339,22 @@ fn massless_mechanism_leaves_the_first_beam_frequency() {
 #[test]
 fn generator_damps_the_first_mode() {
     let sc = scenario(&[("t_end = 5.0", "t_end = 2.0")]);
-    let (_, with) = run_scenario(&sc, double_bar(), true, &mut |_| {}).unwrap();
-    let (_, without) = run_scenario(&sc, double_bar(), false, &mut |_| {}).unwrap();
+    let (_, with) = run_setup(
+        &sc.setup,
+        &double_bar_model(),
+        double_bar(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap();
+    let (_, without) = run_setup(
+        &sc.setup,
+        &double_bar_model(),
+        double_bar(),
+        false,
+        &mut |_| {},
+    )
+    .unwrap();
     let (zw, zo) = (
         damping_ratio(&with.samples).unwrap(),
         damping_ratio(&without.samples).unwrap(),
@@ -336,8 +372,15 @@ fn generated_and_numeric_mechanisms_give_the_same_trajectory() {
     let sc = scenario(&[("t_end = 5.0", "t_end = 0.2")]);
     let model_file = mbs_symbolic::model::load(&sc.model_path).unwrap();
     let numeric = NumericSystem::new(&model_file);
-    let (_, g) = run_scenario(&sc, double_bar(), true, &mut |_| {}).unwrap();
-    let (_, n) = run_scenario(&sc, numeric, true, &mut |_| {}).unwrap();
+    let (_, g) = run_setup(
+        &sc.setup,
+        &double_bar_model(),
+        double_bar(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap();
+    let (_, n) = run_setup(&sc.setup, &double_bar_model(), numeric, true, &mut |_| {}).unwrap();
     assert_eq!(g.samples.len(), n.samples.len());
     for (a, b) in g.samples.iter().zip(&n.samples) {
         assert!(
@@ -360,8 +403,22 @@ fn small_inductance_approaches_the_quasi_static_generator() {
         ("t_end = 5.0", "t_end = 1.0"),
         ("inductance = 0.0", "inductance = 1e-4"),
     ]);
-    let (_, r0) = run_scenario(&sc0, double_bar(), true, &mut |_| {}).unwrap();
-    let (_, r1) = run_scenario(&sc1, double_bar(), true, &mut |_| {}).unwrap();
+    let (_, r0) = run_setup(
+        &sc0.setup,
+        &double_bar_model(),
+        double_bar(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap();
+    let (_, r1) = run_setup(
+        &sc1.setup,
+        &double_bar_model(),
+        double_bar(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap();
     let (z0, z1) = (
         damping_ratio(&r0.samples).unwrap(),
         damping_ratio(&r1.samples).unwrap(),
@@ -402,7 +459,14 @@ fn hht_damps_high_modes_and_leaves_the_first_mode() {
             "rotor_inertia = 0.0\nconnected",
         ),
     ]);
-    let (_, linear) = run_scenario(&scenario(&edits), double_bar(), true, &mut |_| {}).unwrap();
+    let (_, linear) = run_setup(
+        &scenario(&edits).setup,
+        &double_bar_model(),
+        double_bar(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap();
     for s in &linear.samples {
         assert!(
             s.total_energy <= linear.initial_energy * (1.0 + 1e-12),
@@ -415,10 +479,24 @@ fn hht_damps_high_modes_and_leaves_the_first_mode() {
         "HHT should remove some energy"
     );
 
-    let (_, newmark) = run_scenario(&scenario(&base), double_bar(), true, &mut |_| {}).unwrap();
+    let (_, newmark) = run_setup(
+        &scenario(&base).setup,
+        &double_bar_model(),
+        double_bar(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap();
     let mut edits = base.to_vec();
     edits.push(hht);
-    let (_, hht) = run_scenario(&scenario(&edits), double_bar(), true, &mut |_| {}).unwrap();
+    let (_, hht) = run_setup(
+        &scenario(&edits).setup,
+        &double_bar_model(),
+        double_bar(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap();
     for (a, b) in newmark.samples.iter().zip(&hht.samples) {
         assert!(
             (a.tip_displacement - b.tip_displacement).abs() < 1e-2 * 1e-3,
@@ -441,7 +519,13 @@ fn driving_into_the_singular_position_stops_with_a_clear_error() {
             "rotor_inertia = 1e-6\nconnected = false",
         ),
     ]);
-    let err = match run_scenario(&sc, double_bar(), true, &mut |_| {}) {
+    let err = match run_setup(
+        &sc.setup,
+        &double_bar_model(),
+        double_bar(),
+        true,
+        &mut |_| {},
+    ) {
         Ok(_) => panic!("the run should stop at the singular position"),
         Err(e) => e.to_string(),
     };
@@ -456,9 +540,15 @@ fn driving_into_the_singular_position_stops_with_a_clear_error() {
     assert!(!err.contains("NaN") && !err.contains("inf "), "{err}");
     // An initial position beyond the toggle cannot be assembled.
     let sc = scenario(&[("displacement = 0.001", "displacement = 0.004")]);
-    let err = run_scenario(&sc, double_bar(), true, &mut |_| {})
-        .unwrap_err()
-        .to_string();
+    let err = run_setup(
+        &sc.setup,
+        &double_bar_model(),
+        double_bar(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap_err()
+    .to_string();
     assert!(
         err.contains("t = 0.000000") && err.contains("cannot reach"),
         "{err}"
@@ -470,8 +560,22 @@ fn driving_into_the_singular_position_stops_with_a_clear_error() {
 #[test]
 fn runs_are_deterministic() {
     let sc = scenario(&[("t_end = 5.0", "t_end = 0.1")]);
-    let (_, a) = run_scenario(&sc, double_bar(), true, &mut |_| {}).unwrap();
-    let (_, b) = run_scenario(&sc, double_bar(), true, &mut |_| {}).unwrap();
+    let (_, a) = run_setup(
+        &sc.setup,
+        &double_bar_model(),
+        double_bar(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap();
+    let (_, b) = run_setup(
+        &sc.setup,
+        &double_bar_model(),
+        double_bar(),
+        true,
+        &mut |_| {},
+    )
+    .unwrap();
     assert_eq!(a.state, b.state);
 }
 
@@ -483,7 +587,7 @@ fn structured_fast_path_equals_general_partitioning() {
     use hybrid_core::partition::{Partition, reduce};
     use nalgebra::{DMatrix, DVector};
     let sc = scenario(&[("elements = 20", "elements = 8")]);
-    let (model, _) = build_model(&sc, double_bar(), true).unwrap();
+    let (model, _) = build_model(&sc.setup, &double_bar_model(), double_bar(), true).unwrap();
     let n = model.beam.dof_count();
     let mass_factor = model.beam.mass().factorize().unwrap();
     let mut rng = Rng(99);
@@ -533,26 +637,29 @@ fn structured_fast_path_equals_general_partitioning() {
     }
 }
 
+/// The bundled double bar's model description (body names for the generator joint).
+fn double_bar_model() -> mbs_symbolic::model::Model {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../models/double_bar.toml");
+    mbs_symbolic::model::load(std::path::Path::new(path)).unwrap_or_else(|e| panic!("{e}"))
+}
+
 /// A model the damper cannot use (a double bar given a third body) is refused with a
 /// model-level message naming the file — at run time, whatever backend runs it.
 #[test]
 fn a_mechanism_of_the_wrong_shape_is_a_model_level_error() {
     let sc = scenario(&[]);
-    let text = std::fs::read_to_string(&sc.model_path).unwrap().replace(
+    let file = double_bar_model().source.path;
+    let text = std::fs::read_to_string(&file).unwrap().replace(
         "[[points]]",
         "[[bodies]]\nname = \"third\"\nparent = \"coupler\"\njoint = \"R3\"\nanchor = [\"L2\", 0, 0]\nmass = \"m2\"\ncom = [\"L2/2\", 0, 0]\ninertia = { xx = 0, yy = \"m2*L2^2/12\", zz = \"m2*L2^2/12\" }\n\n[[points]]",
     );
-    let model = mbs_symbolic::model::parse_str(
-        &text,
-        &sc.model_path.display().to_string(),
-        mbs_symbolic::model::Format::Toml,
-    )
-    .unwrap();
+    let model =
+        mbs_symbolic::model::parse_str(&text, &file, mbs_symbolic::model::Format::Toml).unwrap();
     assert_eq!(model.dof(), 3);
     let sys = mbs_symbolic::runtime::InterpretedSystem::new(&model);
-    let err = match build_model(&sc, sys, true) {
+    let err = match build_model(&sc.setup, &model, sys, true) {
         Ok(_) => panic!("a three-coordinate mechanism must be refused"),
-        Err(e) => e.to_string(),
+        Err(e) => sc.diagnostic(&e).to_string(),
     };
     assert!(
         err.contains("double_bar.toml") && err.contains("3 coordinate"),

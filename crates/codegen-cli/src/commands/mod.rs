@@ -1,0 +1,6 @@
+//! The subcommands of `damper`, one module each: arguments (clap) and the command.
+
+pub mod eval;
+pub mod generate;
+pub mod modes;
+pub mod simulate;

@@ -1,0 +1,366 @@
+//! `damper simulate SCENARIO [-o DIR]`: the main job.
+//!
+//! A `kind = "damper"` scenario couples the beam and the generated double bar with its
+//! generator (hybrid-core), integrates it, runs the same scenario with the generator
+//! disconnected for comparison, and writes into DIR:
+//!
+//! - `time_history.csv` (and `time_history_without_generator.csv`): time, tip displacement
+//!   and velocity, crank and coupler angles and rates, amplification q1'/y', generator
+//!   current and power, energies, constraint residual, cond(J^b);
+//! - `summary.json`: model hash, generator version, settings, peak amplitude, equivalent
+//!   damping ratios `zeta_with_generator` / `zeta_without_generator`, energy account and
+//!   `energy_balance_rel_error`;
+//! - `tip_displacement.svg`: the tip displacement with and without the generator.
+//!
+//! A `kind = "mechanism"` scenario is a plain closed-loop mechanism (paper section 2.2,
+//! eqs. 14–25): it writes `<stem>.csv` (`t`, every coordinate, every velocity
+//! `<name>_dot`, `kinetic_energy`, `potential_energy`, `total_energy`,
+//! `constraint_residual_norm`, `cond_jv`) and `<stem>_summary.json` (backend, settings,
+//! energy drift, largest constraint residual, partition changes, steps, wall time, status).
+//! When such a run stops on a singular configuration the samples up to that point are
+//! still written, the summary says `"status": "stopped"` with the error, and the command
+//! fails with that error.
+//!
+//! All files of a run are committed together by the one atomic writer, or none; errors
+//! before the integration starts write nothing.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use hybrid_core::closed_loop::Method;
+use hybrid_core::study::Sample;
+
+use crate::Error;
+use crate::report::csv::{MechanismCsv, samples_csv};
+use crate::report::plot::plot_svg;
+use crate::report::summary::{
+    ChangeSummary, DamperSummary, DriftSummary, EnergySummary, EnergyWithout, FinalState,
+    InitialSummary, IntegratorSummary, MechanismSettings, MechanismSummary, PartitionSummary,
+    Requested, json_bytes,
+};
+use crate::report::{OutputFile, ReportError, commit_files};
+use crate::run::{self, DamperOutcome, MechanismOutcome};
+use crate::scenario::{self, DamperScenario, MechanismScenario, Scenario};
+
+/// Arguments of `damper simulate`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Scenario file (`kind = "damper"` or `kind = "mechanism"`).
+    pub scenario: PathBuf,
+    /// Output directory (default: `out/<scenario name>`).
+    #[arg(short = 'o', long = "out")]
+    pub out: Option<PathBuf>,
+    /// No progress bar even on a terminal.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Runs `damper simulate`.
+pub fn run(args: Args) -> Result<(), Error> {
+    let started = Instant::now();
+    let sc = scenario::load(&args.scenario)?;
+    let stem = args
+        .scenario
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned());
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(stem.clone().unwrap_or_else(|| "run".into())));
+    let progress = !args.quiet;
+    match sc {
+        Scenario::Damper(sc) => damper(&args.scenario, &out, &sc, progress),
+        Scenario::Mechanism(sc) => {
+            let stem = stem.unwrap_or_else(|| "mechanism".into());
+            mechanism(&sc, &out, &stem, progress, started)
+        }
+    }
+}
+
+fn create_dir(out: &Path) -> Result<(), Error> {
+    if !out.is_dir() {
+        std::fs::create_dir_all(out).map_err(|error| Error::CreateDir {
+            path: out.to_path_buf(),
+            error,
+        })?;
+    }
+    Ok(())
+}
+
+fn damper(path: &Path, out: &Path, sc: &DamperScenario, progress: bool) -> Result<(), Error> {
+    let model = mbs_symbolic::model::load(&sc.model_path)?;
+    create_dir(out)?;
+    let outcome = run::damper(sc, &model, progress)?;
+    let files = damper_files(path, out, sc, &model, &outcome)?;
+    commit_files(&files).map_err(ReportError::from)?;
+    let with = &outcome.with;
+    let fmt_zeta = |z: Option<f64>| z.map_or("n/a".to_string(), |z| format!("{:.3} %", z * 100.0));
+    crate::print(&format!(
+        "{}: {} steps in {:.3} s ({} mechanism); zeta with generator {}, without {}; peak {:.3} mm; energy balance error {:.1e}; outputs in {}\n",
+        path.display(),
+        with.state.steps,
+        with.wall.as_secs_f64(),
+        outcome.backend,
+        fmt_zeta(outcome.zeta_with),
+        fmt_zeta(outcome.zeta_without),
+        outcome.peak * 1e3,
+        with.energy_balance_rel_error,
+        out.display()
+    ))
+}
+
+/// The output files of a finished damper run.
+fn damper_files(
+    path: &Path,
+    out: &Path,
+    sc: &DamperScenario,
+    model: &mbs_symbolic::model::Model,
+    o: &DamperOutcome,
+) -> Result<Vec<OutputFile>, ReportError> {
+    let (with, without) = (&o.with, o.without.as_ref());
+    let e = with.state.energy;
+    let s0 = &with.samples[0];
+    let steps = with.state.steps;
+    let summary = DamperSummary {
+        scenario: path.display().to_string(),
+        model: &model.name,
+        model_file: sc.model_path.display().to_string(),
+        model_hash: &model.source.hash,
+        generator_version: mbs_symbolic::emit::GENERATOR_VERSION,
+        mechanism_backend: o.backend,
+        settings: &sc.spec,
+        steps,
+        wall_seconds: with.wall.as_secs_f64(),
+        steps_per_second: steps as f64 / with.wall.as_secs_f64().max(1e-12),
+        beam_first_frequency_hz: o.beam_first_frequency_hz,
+        initial: InitialSummary {
+            tip_displacement: s0.tip_displacement,
+            crank_angle_deg: s0.crank_angle.to_degrees(),
+            coupler_angle_deg: s0.coupler_angle.to_degrees(),
+            amplification_rad_per_m: s0.amplification,
+            jacobian_condition: s0.jacobian_condition,
+        },
+        peak_amplitude: o.peak,
+        zeta_with_generator: o.zeta_with,
+        zeta_without_generator: o.zeta_without,
+        energy: EnergySummary {
+            initial: with.initial_energy,
+            final_stored: e.total(),
+            dissipated_generator: e.dissipated_armature + e.dissipated_load,
+            dissipated_armature: e.dissipated_armature,
+            harvested_in_load: e.dissipated_load,
+            dissipated_structure: e.dissipated_structure,
+            external_work: e.external_work,
+            without_generator: without.map(|r| EnergyWithout {
+                dissipated_structure: r.state.energy.dissipated_structure,
+                final_stored: r.state.energy.total(),
+            }),
+        },
+        energy_balance_rel_error: with.energy_balance_rel_error,
+    };
+    let mut files = vec![
+        OutputFile {
+            path: out.join("time_history.csv"),
+            bytes: samples_csv(&with.samples)?,
+        },
+        OutputFile {
+            path: out.join("summary.json"),
+            bytes: json_bytes(&summary)?,
+        },
+    ];
+    let mut series: Vec<(&str, &[Sample])> = vec![("with generator", &with.samples)];
+    if let Some(w) = without {
+        files.push(OutputFile {
+            path: out.join("time_history_without_generator.csv"),
+            bytes: samples_csv(&w.samples)?,
+        });
+        series.push(("generator disconnected", &w.samples));
+    }
+    files.push(OutputFile {
+        path: out.join("tip_displacement.svg"),
+        bytes: plot_svg("Beam tip displacement", &series)?,
+    });
+    Ok(files)
+}
+
+fn mechanism(
+    sc: &MechanismScenario,
+    out: &Path,
+    stem: &str,
+    progress: bool,
+    started: Instant,
+) -> Result<(), Error> {
+    let model = mbs_symbolic::model::load(&sc.model)?;
+    let mut csv: Option<MechanismCsv> = None;
+    let mut csv_error: Option<::csv::Error> = None;
+    let outcome = run::mechanism(sc, &model, progress, &mut |names, row| {
+        if csv_error.is_some() {
+            return;
+        }
+        let pushed = match &mut csv {
+            Some(w) => w.push(row),
+            None => MechanismCsv::new(names).and_then(|w| csv.insert(w).push(row)),
+        };
+        if let Err(e) = pushed {
+            csv_error = Some(e);
+        }
+    })?;
+    if let Some(e) = csv_error {
+        return Err(ReportError::from(e).into());
+    }
+    let csv = match csv {
+        Some(w) => w,
+        None => MechanismCsv::new(&outcome.names).map_err(ReportError::from)?,
+    };
+    let rows = csv.rows();
+    let summary = mechanism_summary(sc, &model, &outcome, rows, started.elapsed().as_secs_f64());
+    let csv_path = out.join(format!("{stem}.csv"));
+    let summary_path = out.join(format!("{stem}_summary.json"));
+    let files = vec![
+        OutputFile {
+            path: csv_path.clone(),
+            bytes: csv.into_bytes().map_err(ReportError::from)?,
+        },
+        OutputFile {
+            path: summary_path.clone(),
+            bytes: json_bytes(&summary).map_err(ReportError::from)?,
+        },
+    ];
+    create_dir(out)?;
+    commit_files(&files).map_err(ReportError::from)?;
+    let stats = &outcome.stats;
+    eprintln!(
+        "wrote {} ({rows} rows) and {}: {} steps ({} rejected), {} partition change(s), max |h| {:.2e}",
+        csv_path.display(),
+        summary_path.display(),
+        stats.steps_accepted,
+        stats.steps_rejected,
+        outcome.changes.len(),
+        stats.max_residual
+    );
+    outcome.result.map_err(|error| Error::Stopped {
+        file: sc.file.clone(),
+        t: outcome
+            .last_row
+            .as_ref()
+            .map_or(outcome.settings.t_start, |r| r.t),
+        error,
+    })
+}
+
+/// The summary of a closed-loop mechanism run.
+fn mechanism_summary(
+    sc: &MechanismScenario,
+    model: &mbs_symbolic::model::Model,
+    o: &MechanismOutcome,
+    rows: usize,
+    wall: f64,
+) -> MechanismSummary {
+    let (stats, settings, names) = (&o.stats, &o.settings, &o.names);
+    let integrator = match settings.method {
+        Method::Dopri5 {
+            rtol,
+            atol,
+            initial_step,
+            max_step,
+        } => IntegratorSummary::Dopri5 {
+            rtol,
+            atol,
+            initial_step,
+            max_step,
+        },
+        Method::Rk4 { step } => IntegratorSummary::Rk4 { step },
+    };
+    let ps = &settings.partition;
+    let independent = match &ps.independent {
+        Some(idx) => Requested::Names(idx.iter().map(|&i| names[i].clone()).collect()),
+        None => Requested::Automatic("automatic"),
+    };
+    let e0 = stats.initial_energy;
+    let scale = e0.map(|e| e.abs().max(stats.max_kinetic_energy));
+    let final_drift = match (o.last_row.as_ref().and_then(|r| r.total_energy()), e0) {
+        (Some(e), Some(e0)) => Some(e - e0),
+        _ => None,
+    };
+    let max_relative_drift = match (stats.max_energy_error, scale) {
+        (Some(d), Some(s)) if s > 0.0 => Some(d / s),
+        _ => None,
+    };
+    let named = |values: &[f64]| names.iter().cloned().zip(values.iter().copied()).collect();
+    let final_state = match &o.last_row {
+        Some(r) => FinalState {
+            t: r.t,
+            q: named(&r.q),
+            qd: named(&r.qd),
+        },
+        None => FinalState {
+            t: settings.t_start,
+            q: Default::default(),
+            qd: Default::default(),
+        },
+    };
+    MechanismSummary {
+        scenario: sc.file.clone(),
+        description: sc.description.clone(),
+        model: sc.model.display().to_string(),
+        model_name: model.name.clone(),
+        model_hash: model.source.hash.clone(),
+        backend: o.backend,
+        status: if o.result.is_ok() {
+            "completed"
+        } else {
+            "stopped"
+        },
+        error: o.result.as_ref().err().map(|e| e.to_string()),
+        settings: MechanismSettings {
+            integrator,
+            t_start: settings.t_start,
+            t_end: settings.t_end,
+            output_step: settings.output_step,
+            projection_tol: settings.projection_tol,
+            max_steps: settings.max_steps,
+            partition: PartitionSummary {
+                independent,
+                allow_redundant: ps.allow_redundant,
+                repartition: ps.repartition,
+                switch_ratio: ps.switch_ratio,
+                max_condition: ps.max_condition,
+                singular_condition: ps.singular_condition,
+                rank_tol: ps.rank_tol,
+            },
+        },
+        initial_independent: o.initial_independent.clone(),
+        final_independent: o.final_independent.clone(),
+        dropped_constraint_rows: o.dropped.clone(),
+        partition_changes: o
+            .changes
+            .iter()
+            .map(|c| ChangeSummary {
+                t: c.t,
+                from: c.from.clone(),
+                to: c.to.clone(),
+                cond_before: c.cond_before,
+                cond_after: c.cond_after,
+                log: c.to_string(),
+            })
+            .collect(),
+        energy: DriftSummary {
+            initial_total: e0,
+            max_abs_drift: stats.max_energy_error,
+            max_relative_drift,
+            relative_to: "max(|E(t_start)|, max kinetic energy)",
+            final_drift,
+        },
+        max_constraint_residual_norm: stats.max_residual,
+        steps_accepted: stats.steps_accepted,
+        steps_rejected: stats.steps_rejected,
+        rhs_evaluations: stats.rhs_evaluations,
+        newton_iterations: stats.newton_iterations,
+        min_step: stats.min_step,
+        max_step: stats.max_step,
+        output_rows: rows,
+        final_time: stats.final_time,
+        final_state,
+        wall_time_s: wall,
+    }
+}

@@ -1,0 +1,114 @@
+//! The damper design application behind the `damper` binary: scenario files in, simulations
+//! through `hybrid-core`, result files out.
+//!
+//! The data flows in one direction:
+//!
+//! - [`scenario`]: the one loader of scenario files (`kind = "damper"`, the default, or
+//!   `kind = "mechanism"`), every problem reported at once with file:line:column;
+//! - [`run`]: scenario → model (compiled-in generated code, numeric reference or DAG
+//!   interpreter) → `hybrid-core` → observer;
+//! - [`report`]: CSV time histories, typed JSON summaries, the SVG plot, and the one atomic
+//!   writer that commits all files of a run together;
+//! - [`commands`]: `generate`, `eval`, `modes`, `simulate` (the binary parses arguments and
+//!   calls these).
+//!
+//! Standard output closed early (`damper modes .. | head -1`) is [`Error::Stdout`] with
+//! [`std::io::ErrorKind::BrokenPipe`]; the binary exits quietly with status 141
+//! (128 + SIGPIPE).
+
+#![warn(missing_docs)]
+
+pub mod commands;
+pub mod report;
+pub mod run;
+pub mod scenario;
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use diagnostic::Diagnostics;
+
+/// What can go wrong in a command.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// Problems in a user file (scenario), every one with its position.
+    #[error(transparent)]
+    Scenario(#[from] Diagnostics),
+    /// Problems in a mechanism model file.
+    #[error(transparent)]
+    Model(#[from] mbs_symbolic::model::ModelErrors),
+    /// A beam description that cannot be used.
+    #[error(transparent)]
+    Beam(#[from] fem_beam::BeamError),
+    /// Code generation failed.
+    #[error(transparent)]
+    Emit(#[from] mbs_symbolic::emit::EmitError),
+    /// The damper simulation stopped (singular position, divergence).
+    #[error("{0}")]
+    Damper(hybrid_core::damper::SimError),
+    /// The comparison run without generator panicked.
+    #[error("the comparison run without generator panicked")]
+    ComparisonPanicked,
+    /// The model registry cannot provide the backend asked for.
+    #[error(transparent)]
+    Registry(#[from] model_registry::RegistryError),
+    /// The initial conditions of a mechanism cannot be assembled.
+    #[error("{file}: initial conditions: {error}")]
+    Assembly {
+        /// The scenario file.
+        file: String,
+        /// Why.
+        error: hybrid_core::closed_loop::AssemblyError,
+    },
+    /// The mechanism simulation cannot start.
+    #[error("{file}: cannot start the simulation: {error}")]
+    Start {
+        /// The scenario file.
+        file: String,
+        /// Why.
+        error: hybrid_core::closed_loop::SimError,
+    },
+    /// The mechanism simulation stopped; the samples up to `t` were written.
+    #[error("{file}: simulation stopped (samples up to t = {t} written): {error}")]
+    Stopped {
+        /// The scenario file.
+        file: String,
+        /// The last output time.
+        t: f64,
+        /// Why.
+        error: hybrid_core::closed_loop::SimError,
+    },
+    /// The output directory cannot be created.
+    #[error("cannot create the output directory {}: {error}", path.display())]
+    CreateDir {
+        /// The directory.
+        path: PathBuf,
+        /// Why.
+        error: std::io::Error,
+    },
+    /// An output file cannot be produced or written.
+    #[error(transparent)]
+    Report(#[from] report::ReportError),
+    /// Invalid command-line input.
+    #[error("{0}")]
+    Usage(String),
+    /// Writing to standard output failed (a closed pipe: `BrokenPipe`).
+    #[error("cannot write to standard output: {0}")]
+    Stdout(std::io::Error),
+}
+
+impl Error {
+    /// Whether this is standard output closed by the reader (`damper .. | head -1`).
+    pub fn is_broken_pipe(&self) -> bool {
+        matches!(self, Error::Stdout(e) if e.kind() == std::io::ErrorKind::BrokenPipe)
+    }
+}
+
+/// Writes `text` to standard output and flushes it; a closed pipe is [`Error::Stdout`]
+/// (never a panic, unlike `print!`).
+pub fn print(text: &str) -> Result<(), Error> {
+    let mut out = std::io::stdout().lock();
+    out.write_all(text.as_bytes())
+        .and_then(|()| out.flush())
+        .map_err(Error::Stdout)
+}

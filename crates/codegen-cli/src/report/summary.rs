@@ -1,0 +1,267 @@
+//! The typed JSON summaries of a run (`summary.json` of a damper, `<name>_summary.json` of a
+//! closed-loop mechanism). Non-finite numbers are written as `null`.
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+
+use crate::scenario::damper::ScenarioSpec;
+
+/// `summary.json` of a damper run.
+#[derive(Clone, Debug, Serialize)]
+pub struct DamperSummary<'a> {
+    /// The scenario file.
+    pub scenario: String,
+    /// The mechanism model's name.
+    pub model: &'a str,
+    /// The mechanism model file.
+    pub model_file: String,
+    /// FNV-1a content hash of the model file.
+    pub model_hash: &'a str,
+    /// Version of the code generator.
+    pub generator_version: &'static str,
+    /// `generated` or `numeric`.
+    pub mechanism_backend: &'a str,
+    /// The scenario as read, with defaults.
+    pub settings: &'a ScenarioSpec,
+    /// Time steps.
+    pub steps: u64,
+    /// Wall-clock time of the integration (s).
+    pub wall_seconds: f64,
+    /// Steps per second of wall-clock time.
+    pub steps_per_second: f64,
+    /// First natural frequency of the bare beam (Hz).
+    pub beam_first_frequency_hz: Option<f64>,
+    /// The state at t = 0.
+    pub initial: InitialSummary,
+    /// Largest |tip displacement| (m).
+    pub peak_amplitude: f64,
+    /// Equivalent damping ratio of the free decay with the generator.
+    pub zeta_with_generator: Option<f64>,
+    /// ... and with the generator disconnected.
+    pub zeta_without_generator: Option<f64>,
+    /// The energy account.
+    pub energy: EnergySummary,
+    /// Largest |energy balance error| / initial energy.
+    pub energy_balance_rel_error: f64,
+}
+
+/// The initial state of a damper run.
+#[derive(Clone, Debug, Serialize)]
+pub struct InitialSummary {
+    /// Tip displacement (m).
+    pub tip_displacement: f64,
+    /// Crank angle (degrees).
+    pub crank_angle_deg: f64,
+    /// Coupler angle (degrees).
+    pub coupler_angle_deg: f64,
+    /// q1'/y' (rad/m).
+    pub amplification_rad_per_m: f64,
+    /// cond(J^b).
+    pub jacobian_condition: f64,
+}
+
+/// The energy account of a damper run (J).
+#[derive(Clone, Debug, Serialize)]
+pub struct EnergySummary {
+    /// Stored energy at t = 0.
+    pub initial: f64,
+    /// Stored energy at the end.
+    pub final_stored: f64,
+    /// Dissipated in the generator circuit.
+    pub dissipated_generator: f64,
+    /// ... of which in the armature.
+    pub dissipated_armature: f64,
+    /// ... of which in the load.
+    pub harvested_in_load: f64,
+    /// Dissipated by the structure.
+    pub dissipated_structure: f64,
+    /// Work of external forces.
+    pub external_work: f64,
+    /// The run with the generator disconnected.
+    pub without_generator: Option<EnergyWithout>,
+}
+
+/// Energy of the comparison run without generator (J).
+#[derive(Clone, Debug, Serialize)]
+pub struct EnergyWithout {
+    /// Dissipated by the structure.
+    pub dissipated_structure: f64,
+    /// Stored energy at the end.
+    pub final_stored: f64,
+}
+
+/// `<name>_summary.json` of a closed-loop mechanism run.
+#[derive(Clone, Debug, Serialize)]
+pub struct MechanismSummary {
+    /// The scenario file.
+    pub scenario: String,
+    /// Its description.
+    pub description: Option<String>,
+    /// The model file.
+    pub model: String,
+    /// The model's name.
+    pub model_name: String,
+    /// FNV-1a content hash of the model file.
+    pub model_hash: String,
+    /// The mechanism backend.
+    pub backend: &'static str,
+    /// `completed` or `stopped`.
+    pub status: &'static str,
+    /// Why the run stopped.
+    pub error: Option<String>,
+    /// Integration settings.
+    pub settings: MechanismSettings,
+    /// Independent coordinates at the start.
+    pub initial_independent: Vec<String>,
+    /// ... and at the end.
+    pub final_independent: Vec<String>,
+    /// Redundant constraint rows dropped.
+    pub dropped_constraint_rows: Vec<String>,
+    /// Every change of partition.
+    pub partition_changes: Vec<ChangeSummary>,
+    /// Energy drift.
+    pub energy: DriftSummary,
+    /// Largest |h|.
+    pub max_constraint_residual_norm: f64,
+    /// Accepted steps.
+    pub steps_accepted: usize,
+    /// Rejected steps.
+    pub steps_rejected: usize,
+    /// Evaluations of the reduced equations.
+    pub rhs_evaluations: usize,
+    /// Newton iterations of the projection.
+    pub newton_iterations: usize,
+    /// Smallest accepted step.
+    pub min_step: f64,
+    /// Largest accepted step.
+    pub max_step: f64,
+    /// CSV rows written.
+    pub output_rows: usize,
+    /// Time reached.
+    pub final_time: f64,
+    /// The last output sample.
+    pub final_state: FinalState,
+    /// Wall-clock time (s).
+    pub wall_time_s: f64,
+}
+
+/// The integration settings of a mechanism run.
+#[derive(Clone, Debug, Serialize)]
+pub struct MechanismSettings {
+    /// The scheme.
+    pub integrator: IntegratorSummary,
+    /// Start time.
+    pub t_start: f64,
+    /// End time.
+    pub t_end: f64,
+    /// Output interval.
+    pub output_step: f64,
+    /// Projection tolerance.
+    pub projection_tol: f64,
+    /// Step limit.
+    pub max_steps: usize,
+    /// Partitioning.
+    pub partition: PartitionSummary,
+}
+
+/// The integration scheme, tagged by `method`.
+#[derive(Clone, Debug, Serialize)]
+#[serde(tag = "method", rename_all = "lowercase")]
+pub enum IntegratorSummary {
+    /// Dormand–Prince 5(4).
+    Dopri5 {
+        /// Relative tolerance.
+        rtol: f64,
+        /// Absolute tolerance.
+        atol: f64,
+        /// First step.
+        initial_step: Option<f64>,
+        /// Largest step.
+        max_step: Option<f64>,
+    },
+    /// Fixed-step RK4.
+    Rk4 {
+        /// The step.
+        step: f64,
+    },
+}
+
+/// The partitioning settings.
+#[derive(Clone, Debug, Serialize)]
+pub struct PartitionSummary {
+    /// The requested independent coordinates, or `"automatic"`.
+    pub independent: Requested,
+    /// Drop redundant rows.
+    pub allow_redundant: bool,
+    /// Re-partition when J_v degrades.
+    pub repartition: bool,
+    /// Switch ratio.
+    pub switch_ratio: f64,
+    /// Largest acceptable cond(J_v).
+    pub max_condition: f64,
+    /// cond(J_v) that stops the run.
+    pub singular_condition: f64,
+    /// Rank tolerance.
+    pub rank_tol: f64,
+}
+
+/// Independent coordinates as requested.
+#[derive(Clone, Debug, Serialize)]
+#[serde(untagged)]
+pub enum Requested {
+    /// By name.
+    Names(Vec<String>),
+    /// `"automatic"`.
+    Automatic(&'static str),
+}
+
+/// One change of partition.
+#[derive(Clone, Debug, Serialize)]
+pub struct ChangeSummary {
+    /// Time.
+    pub t: f64,
+    /// Independent coordinates before.
+    pub from: Vec<String>,
+    /// ... after.
+    pub to: Vec<String>,
+    /// cond(J_v) before.
+    pub cond_before: f64,
+    /// cond(J_v) after.
+    pub cond_after: f64,
+    /// The log line.
+    pub log: String,
+}
+
+/// Energy drift of a mechanism run.
+#[derive(Clone, Debug, Serialize)]
+pub struct DriftSummary {
+    /// Total energy at the start.
+    pub initial_total: Option<f64>,
+    /// Largest |E - E0|.
+    pub max_abs_drift: Option<f64>,
+    /// ... relative to `relative_to`.
+    pub max_relative_drift: Option<f64>,
+    /// What the relative drift is relative to.
+    pub relative_to: &'static str,
+    /// E - E0 at the end.
+    pub final_drift: Option<f64>,
+}
+
+/// The last output sample of a mechanism run.
+#[derive(Clone, Debug, Serialize)]
+pub struct FinalState {
+    /// Time.
+    pub t: f64,
+    /// Coordinates by name.
+    pub q: BTreeMap<String, f64>,
+    /// Velocities by name.
+    pub qd: BTreeMap<String, f64>,
+}
+
+/// Pretty-printed JSON of a summary, with a final newline.
+pub fn json_bytes<T: Serialize>(value: &T) -> Result<Vec<u8>, serde_json::Error> {
+    let mut v = serde_json::to_vec_pretty(value)?;
+    v.push(b'\n');
+    Ok(v)
+}

@@ -1,0 +1,250 @@
+//! The one scenario loader: a TOML file whose `kind` tag (default `"damper"`) says what it
+//! describes.
+//!
+//! - `kind = "damper"` ([`damper`]): an elastic beam, a double bar pinned to one of its
+//!   points (eqs. 45–58) and the DC generator, with initial conditions and the integrator;
+//! - `kind = "mechanism"` ([`mechanism`]): a rigid closed-loop mechanism integrated in
+//!   independent coordinates (eqs. 14–25).
+//!
+//! The text is parsed once into a spanned document; the kind tag is read first (a typo gives
+//! "unknown kind `mechanizm`, expected one of `damper`, `mechanism`"), then every section is
+//! read on its own, so that every problem of the file — an unknown key in one section, a bad
+//! value in another — is reported at once as [`Diagnostics`], each with file:line:column
+//! from the parser's spans ([`LineIndex`]).
+
+pub mod damper;
+pub mod mechanism;
+
+use std::ops::Range;
+use std::path::Path;
+
+use diagnostic::{Diagnostic, Diagnostics, Kind, LineIndex};
+use serde::de::DeserializeOwned;
+use toml::Spanned;
+use toml::de::{DeTable, DeValue, ValueDeserializer};
+
+pub use damper::DamperScenario;
+pub use mechanism::MechanismScenario;
+
+/// The kinds of scenario, as written after `kind =`.
+pub const KINDS: [&str; 2] = ["damper", "mechanism"];
+
+/// A loaded and checked scenario of either kind.
+#[derive(Clone, Debug)]
+pub enum Scenario {
+    /// `kind = "damper"`.
+    Damper(Box<DamperScenario>),
+    /// `kind = "mechanism"`.
+    Mechanism(Box<MechanismScenario>),
+}
+
+/// Reads and checks a scenario file of any kind; every problem is reported at once.
+pub fn load(path: &Path) -> Result<Scenario, Diagnostics> {
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        Diagnostics::from(Diagnostic::new(
+            Kind::Io,
+            path.display().to_string(),
+            format!("cannot read the scenario file: {e}"),
+        ))
+    })?;
+    parse(&text, path)
+}
+
+/// Parses and checks scenario text; `path` names the file in messages and is the base of
+/// relative paths.
+pub fn parse(text: &str, path: &Path) -> Result<Scenario, Diagnostics> {
+    let base = path.parent().unwrap_or(Path::new("."));
+    parse_in(text, &path.display().to_string(), base)
+}
+
+/// [`parse`] with the file's name and the directory of relative paths given apart.
+pub fn parse_in(text: &str, file: &str, base: &Path) -> Result<Scenario, Diagnostics> {
+    let mut doc = Doc::parse(text, file, base)?;
+    let kind = doc.kind();
+    let scenario = match kind.as_deref() {
+        Some("damper") => damper::from_doc(&mut doc).map(|s| Scenario::Damper(Box::new(s))),
+        Some("mechanism") => {
+            mechanism::from_doc(&mut doc).map(|s| Scenario::Mechanism(Box::new(s)))
+        }
+        _ => None,
+    };
+    let diags = doc.finish();
+    match scenario {
+        Some(s) if diags.is_empty() => Ok(s),
+        _ => Err(diags),
+    }
+}
+
+/// A parsed scenario text: the spanned document, the line index and the problems found so
+/// far.
+pub(crate) struct Doc<'a> {
+    file: String,
+    base: &'a Path,
+    index: LineIndex,
+    root: DeTable<'a>,
+    diags: Diagnostics,
+}
+
+impl<'a> Doc<'a> {
+    /// Parses `text`; a syntax error is the only problem reported alone.
+    fn parse(text: &'a str, file: &str, base: &'a Path) -> Result<Doc<'a>, Diagnostics> {
+        let file = file.to_string();
+        let index = LineIndex::new(text);
+        let root = DeTable::parse(text).map_err(|e| {
+            let d = Diagnostic::new(Kind::Syntax, file.clone(), e.message().trim());
+            Diagnostics::from(match e.span() {
+                Some(s) => d.at_offset(&index, s.start),
+                None => d,
+            })
+        })?;
+        Ok(Doc {
+            file,
+            base,
+            index,
+            root: root.into_inner(),
+            diags: Diagnostics::default(),
+        })
+    }
+
+    /// The scenario file as given.
+    pub(crate) fn file(&self) -> &str {
+        &self.file
+    }
+
+    /// The directory relative paths are resolved against.
+    pub(crate) fn base(&self) -> &Path {
+        self.base
+    }
+
+    /// The line index of the text.
+    pub(crate) fn index(&self) -> &LineIndex {
+        &self.index
+    }
+
+    /// The `kind` tag (`"damper"` when absent), or `None` after reporting a bad one.
+    fn kind(&mut self) -> Option<String> {
+        let Some(v) = self.root.get("kind") else {
+            return Some("damper".into());
+        };
+        let span = v.span();
+        match v.get_ref() {
+            DeValue::String(s) if KINDS.contains(&s.as_ref()) => Some(s.to_string()),
+            DeValue::String(s) => {
+                let msg = format!(
+                    "unknown kind `{}`, expected one of `damper`, `mechanism`",
+                    diagnostic::truncate(s, 40)
+                );
+                self.push(Kind::InvalidValue, Some(span), Some("kind"), msg);
+                None
+            }
+            _ => {
+                let msg = "must be a string, one of `damper`, `mechanism`";
+                self.push(Kind::Syntax, Some(span), Some("kind"), msg);
+                None
+            }
+        }
+    }
+
+    /// Records a problem at a span of the text.
+    pub(crate) fn push(
+        &mut self,
+        kind: Kind,
+        span: Option<Range<usize>>,
+        entity: Option<&str>,
+        message: impl Into<String>,
+    ) {
+        let d = self.diagnostic(kind, span, entity, message);
+        self.diags.push(d);
+    }
+
+    /// A problem at a span of the text (not recorded).
+    pub(crate) fn diagnostic(
+        &self,
+        kind: Kind,
+        span: Option<Range<usize>>,
+        entity: Option<&str>,
+        message: impl Into<String>,
+    ) -> Diagnostic {
+        let mut d = Diagnostic::new(kind, self.file.clone(), message);
+        if let Some(s) = span {
+            d = d.at_offset(&self.index, s.start);
+        }
+        if let Some(e) = entity {
+            d = d.entity(e);
+        }
+        d
+    }
+
+    /// Reports every top-level key not in `known`.
+    pub(crate) fn check_keys(&mut self, known: &[&str]) {
+        let unknown: Vec<(String, Range<usize>)> = self
+            .root
+            .iter()
+            .filter(|(k, _)| !known.contains(&k.get_ref().as_ref()))
+            .map(|(k, _)| (k.get_ref().to_string(), k.span()))
+            .collect();
+        for (key, span) in unknown {
+            let expected = known
+                .iter()
+                .map(|k| format!("`{k}`"))
+                .collect::<Vec<_>>()
+                .join(", ");
+            self.push(
+                Kind::UnknownField,
+                Some(span),
+                None,
+                format!("unknown field `{key}`, expected one of {expected}"),
+            );
+        }
+    }
+
+    /// Deserializes the top-level entry `key` on its own, with its span; a missing entry is
+    /// `None` (reported when `required`), a malformed one is reported and `None`.
+    pub(crate) fn section<T: DeserializeOwned>(
+        &mut self,
+        key: &str,
+        required: bool,
+    ) -> Option<Spanned<T>> {
+        let Some(v) = self.root.get(key) else {
+            if required {
+                self.push(
+                    Kind::MissingField,
+                    None,
+                    None,
+                    format!("missing field `{key}`"),
+                );
+            }
+            return None;
+        };
+        let span = v.span();
+        let entity = format!("[{key}]");
+        match T::deserialize(ValueDeserializer::from(v.clone())) {
+            Ok(t) => Some(Spanned::new(span, t)),
+            Err(e) => {
+                let at = e.span().or(Some(span));
+                self.push(Kind::Syntax, at, Some(&entity), e.message().trim());
+                None
+            }
+        }
+    }
+
+    /// The span of the value at `path` (keys of nested tables), when it is written.
+    pub(crate) fn span(&self, path: &[&str]) -> Option<Range<usize>> {
+        let (first, rest) = path.split_first()?;
+        let mut v = self.root.get(*first)?;
+        for key in rest {
+            match v.get_ref() {
+                DeValue::Table(t) => v = t.get(*key)?,
+                _ => return None,
+            }
+        }
+        Some(v.span())
+    }
+
+    /// The problems found, in source order.
+    fn finish(self) -> Diagnostics {
+        let mut d = self.diags;
+        d.sort();
+        d
+    }
+}
