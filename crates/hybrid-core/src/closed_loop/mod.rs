@@ -11,10 +11,13 @@
 //! - chooses the independent coordinates `u` (by the user, or automatically by LU with full
 //!   pivoting of `J`, [`crate::partition::choose_partition`]), diagnoses redundant
 //!   constraint rows by name, and monitors `cond(J_v)`, changing the partition when it
-//!   degrades ([`mod@simulate`]);
-//! - integrates `M^R u'' + F^R + Q^R = 0` (eqs. 22–25) with Dormand–Prince 5(4) or fixed-step
-//!   RK4, recovering `v` by Newton projection on `h(u, v) = 0` and `v'` from eq. (18), and
-//!   recording energy and constraint residuals ([`mod@simulate`]);
+//!   degrades ([`partitioning`]);
+//! - evaluates `M^R u'' + F^R + Q^R = 0` (eqs. 22–25, [`rhs`]), recovering `v` by Newton
+//!   projection on `h(u, v) = 0` ([`projection`]) and `v'` from eq. (18);
+//! - integrates it ([`Simulator`], configured by [`Settings`]) with Dormand–Prince 5(4)
+//!   ([`dopri`]: tableau, PI step control, dense output and the adaptive driver) or
+//!   fixed-step RK4 ([`rk4`]: tableau, Hermite output and the driver), recording energy and
+//!   constraint residuals ([`Trajectory`]);
 //! - reads the plain-mechanism scenario file ([`scenario`]).
 //!
 //! Everything is written against the small dynamic-size trait [`System`], implemented for
@@ -26,10 +29,16 @@ pub mod adapters;
 pub mod assembly;
 mod dopri;
 pub mod error;
+mod partitioning;
 mod projection;
+mod rhs;
+mod rk4;
 pub mod scenario;
-pub mod simulate;
+mod settings;
+mod simulate;
+mod simulator;
 pub mod system;
+mod trajectory;
 
 pub use adapters::{GeneratedSystem, InterpretedSystem, NumericSystem};
 pub use assembly::{
@@ -37,11 +46,10 @@ pub use assembly::{
 };
 pub use error::{RedundancyReport, SimError, SingularReport};
 pub use projection::ProjectionError;
-pub use simulate::{
-    Event, Method, OutputRow, PartitionChange, PartitionSettings, Settings, Simulator, Stats,
-    Trajectory, simulate,
-};
+pub use settings::{Method, PartitionSettings, Settings};
+pub use simulator::{Simulator, simulate};
 pub use system::{System, Workspace};
+pub use trajectory::{Event, OutputRow, PartitionChange, Stats, Trajectory};
 
 /// Consistent initial positions and velocities: [`assemble_positions`] holding the
 /// coordinates `fixed` of `q0` (the others are guesses), then [`assemble_velocities`]
