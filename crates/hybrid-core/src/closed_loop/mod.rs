@@ -11,12 +11,12 @@
 //! - chooses the independent coordinates `u` (by the user, or automatically by LU with full
 //!   pivoting of `J`, [`crate::partition::choose_partition`]), diagnoses redundant
 //!   constraint rows by name, and monitors `cond(J_v)`, changing the partition when it
-//!   degrades ([`partitioning`]);
-//! - evaluates `M^R u'' + F^R + Q^R = 0` (eqs. 22–25, [`rhs`]), recovering `v` by Newton
-//!   projection on `h(u, v) = 0` ([`projection`]) and `v'` from eq. (18);
+//!   degrades (`partitioning.rs`);
+//! - evaluates `M^R u'' + F^R + Q^R = 0` (eqs. 22–25, `rhs.rs`), recovering `v` by Newton
+//!   projection on `h(u, v) = 0` (`projection.rs`) and `v'` from eq. (18);
 //! - integrates it ([`Simulator`], configured by [`Settings`]) with Dormand–Prince 5(4)
-//!   ([`dopri`]: tableau, PI step control, dense output and the adaptive driver) or
-//!   fixed-step RK4 ([`rk4`]: tableau, Hermite output and the driver), recording energy and
+//!   (`dopri.rs`: tableau, PI step control, dense output and the adaptive driver) or
+//!   fixed-step RK4 (`rk4.rs`: tableau, Hermite output and the driver), recording energy and
 //!   constraint residuals ([`Trajectory`]);
 //! - reads the plain-mechanism scenario file ([`scenario`]).
 //!
