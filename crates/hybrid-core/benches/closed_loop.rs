@@ -3,7 +3,8 @@
 //! `M^R, F^R, Q^R` for the partition u = [q1], and the Cholesky solve for `u''` — what the
 //! integrator does per stage after the position projection. Generated code, the DAG
 //! interpreter and the numeric recursive reference on the same model, in one run (criterion
-//! reports elements/s = evaluations/s; compare the ratios).
+//! reports elements/s = evaluations/s; compare the ratios). Also the reduction and solve alone,
+//! and the choice of partition by LU with full pivoting of `J`.
 #![allow(missing_docs)] // criterion's macros generate undocumented items
 
 use std::hint::black_box;
@@ -13,7 +14,7 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use hybrid_core::closed_loop::{
     AssemblyOptions, InterpretedSystem, NumericSystem, System, assemble,
 };
-use hybrid_core::partition::{Partition, ReduceWorkspace, Reduced, reduce_into};
+use hybrid_core::partition::{Partition, ReduceWorkspace, Reduced, choose_partition, reduce_into};
 use nalgebra::DVector;
 
 /// Consistent four-bar states around a full crank turn, with seeded crank speeds.
@@ -112,6 +113,30 @@ fn bench_reduction<S: System>(c: &mut Criterion, sys: &S, states: &[(Vec<f64>, V
     group.finish();
 }
 
+/// The choice of partition by LU with full pivoting of `J` (done after every accepted step),
+/// on the evaluated states of a crank turn.
+fn bench_choice<S: System>(c: &mut Criterion, sys: &S, states: &[(Vec<f64>, Vec<f64>)]) {
+    let jacobians: Vec<_> = states
+        .iter()
+        .map(|(q, _)| {
+            let mut ws = sys.workspace();
+            sys.evaluate_positions(q, &mut ws);
+            ws.j
+        })
+        .collect();
+    let mut group = c.benchmark_group("closed_loop_partition");
+    group.throughput(Throughput::Elements(1));
+    let mut k = 0;
+    group.bench_function("choose_full_pivot_lu", |b| {
+        b.iter(|| {
+            let j = &jacobians[k % jacobians.len()];
+            k += 1;
+            black_box(choose_partition(black_box(j), 1e-9).rank)
+        })
+    });
+    group.finish();
+}
+
 fn closed_loop_rhs(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/four_bar.toml");
     let model = mbs_symbolic::model::load(&path).expect("four_bar.toml loads");
@@ -126,6 +151,7 @@ fn closed_loop_rhs(c: &mut Criterion) {
     bench_backend(c, "interpreter", &interpreter, &states);
     bench_backend(c, "numeric", &numeric, &states);
     bench_reduction(c, &generated, &states);
+    bench_choice(c, &generated, &states);
 }
 
 criterion_group! {

@@ -11,10 +11,13 @@
 //! - chooses the independent coordinates `u` (by the user, or automatically by LU with full
 //!   pivoting of `J`, [`crate::partition::choose_partition`]), diagnoses redundant
 //!   constraint rows by name, and monitors `cond(J_v)`, changing the partition when it
-//!   degrades ([`mod@simulate`]);
-//! - integrates `M^R u'' + F^R + Q^R = 0` (eqs. 22–25) with Dormand–Prince 5(4) or fixed-step
-//!   RK4, recovering `v` by Newton projection on `h(u, v) = 0` and `v'` from eq. (18), and
-//!   recording energy and constraint residuals ([`mod@simulate`]).
+//!   degrades (`partitioning.rs`);
+//! - evaluates `M^R u'' + F^R + Q^R = 0` (eqs. 22–25, `rhs.rs`), recovering `v` by Newton
+//!   projection on `h(u, v) = 0` (`projection.rs`) and `v'` from eq. (18);
+//! - integrates it ([`Simulator`], configured by [`Settings`]) with Dormand–Prince 5(4)
+//!   (`dopri.rs`: tableau, PI step control, dense output and the adaptive driver) or
+//!   fixed-step RK4 (`rk4.rs`: tableau, Hermite output and the driver), recording energy and
+//!   constraint residuals ([`Trajectory`]);
 //!
 //! Everything is written against the one dynamic mechanism interface
 //! [`mbs_symbolic::runtime::System`] (re-exported here), whose three backends are
@@ -24,8 +27,13 @@
 pub mod assembly;
 mod dopri;
 pub mod error;
+mod partitioning;
 mod projection;
-pub mod simulate;
+mod rhs;
+mod rk4;
+mod settings;
+mod simulator;
+mod trajectory;
 
 pub use assembly::{
     Assembly, AssemblyError, AssemblyOptions, assemble_positions, assemble_velocities,
@@ -35,10 +43,9 @@ pub use mbs_symbolic::runtime::{
     GeneratedSystem, InterpretedSystem, NumericSystem, System, Workspace,
 };
 pub use projection::ProjectionError;
-pub use simulate::{
-    Event, Method, OutputRow, PartitionChange, PartitionSettings, Settings, Simulator, Stats,
-    Trajectory, simulate,
-};
+pub use settings::{Method, PartitionSettings, Settings};
+pub use simulator::{Simulator, simulate};
+pub use trajectory::{Event, OutputRow, PartitionChange, Stats, Trajectory};
 
 /// Consistent initial positions and velocities: [`assemble_positions`] holding the
 /// coordinates `fixed` of `q0` (the others are guesses), then [`assemble_velocities`]
