@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use approx::assert_relative_eq;
 
 use mbs_symbolic::model::{
-    Axis, BinOp, Constraint, ForceElement, Format, JointKind, Model, ModelError, Scalar, load,
+    Axis, BinOp, Constraint, Diagnostic, ForceElement, Format, JointKind, Model, Scalar, load,
     parse_str,
 };
 use proptest::prelude::*;
@@ -19,14 +19,14 @@ fn models_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models")
 }
 
-fn toml_errors(src: &str) -> Vec<ModelError> {
+fn toml_errors(src: &str) -> Vec<Diagnostic> {
     match parse_str(src, FILE, Format::Toml) {
         Ok(m) => panic!("expected errors, got a model: {m:#?}"),
         Err(e) => e.0,
     }
 }
 
-fn json_errors(src: &str) -> Vec<ModelError> {
+fn json_errors(src: &str) -> Vec<Diagnostic> {
     match parse_str(src, "bad.json", Format::Json) {
         Ok(m) => panic!("expected errors, got a model: {m:#?}"),
         Err(e) => e.0,
@@ -47,7 +47,7 @@ fn line_of(src: &str, needle: &str) -> usize {
 
 /// Asserts that `errors` holds exactly one error, at `line` of `file`, about `entity`,
 /// whose message contains `part`, and that its display says so.
-fn assert_one(errors: &[ModelError], file: &str, line: usize, entity: &str, part: &str) {
+fn assert_one(errors: &[Diagnostic], file: &str, line: usize, entity: &str, part: &str) {
     assert_eq!(
         errors.len(),
         1,
@@ -57,7 +57,7 @@ fn assert_one(errors: &[ModelError], file: &str, line: usize, entity: &str, part
     assert_error(&errors[0], file, line, entity, part);
 }
 
-fn assert_error(e: &ModelError, file: &str, line: usize, entity: &str, part: &str) {
+fn assert_error(e: &Diagnostic, file: &str, line: usize, entity: &str, part: &str) {
     assert_eq!(e.file, file, "{e}");
     assert_eq!(e.line, Some(line), "{e}");
     assert_eq!(e.entity.as_deref(), Some(entity), "{e}");
@@ -69,7 +69,7 @@ fn assert_error(e: &ModelError, file: &str, line: usize, entity: &str, part: &st
     );
 }
 
-fn show(errors: &[ModelError]) -> String {
+fn show(errors: &[Diagnostic]) -> String {
     errors
         .iter()
         .map(|e| format!("  {e}\n"))
@@ -794,10 +794,13 @@ fn malformed_toml() {
     let errors = toml_errors(src);
     assert!(!errors.is_empty());
     assert_eq!(errors[0].line, Some(4), "{}", show(&errors));
+    // The parser's span gives the column too: the second `=` of `mass = = 1`.
+    assert_eq!(errors[0].column, Some(8), "{}", show(&errors));
+    assert_eq!(errors[0].kind, mbs_symbolic::model::Kind::Syntax);
     assert!(
         errors[0]
             .to_string()
-            .starts_with("bad.toml:4: syntax error: "),
+            .starts_with("bad.toml:4:8: syntax error: "),
         "{}",
         errors[0]
     );

@@ -49,7 +49,7 @@ pub const GENERATOR_VERSION: &str = env!("CARGO_PKG_VERSION");
 pub enum EmitError {
     /// The model file could not be read or is invalid.
     #[error("{0}")]
-    Model(#[from] crate::model::ModelErrors),
+    Model(#[from] diagnostic::Diagnostics),
     /// Two parameters or points sanitise to the same Rust identifier.
     #[error("{file}: {what} {a:?} and {b:?} both become the Rust identifier `{ident}`")]
     IdentClash {
