@@ -118,6 +118,25 @@ fn unknown_parent() {
     );
 }
 
+/// Each diagnostic carries a machine-readable kind.
+#[test]
+fn diagnostics_carry_their_kind() {
+    use mbs_symbolic::model::Kind;
+    // The kind of the first diagnostic (a syntax error may come with follow-up ones).
+    let kind_of = |src: &str| toml_errors(src)[0].kind;
+    let src = BASE.replace("parent = \"crank\"", "parent = \"crnk\"");
+    assert_eq!(kind_of(&src), Kind::UnknownName);
+    let src = BASE.replacen("mass", "masss", 1);
+    assert_eq!(kind_of(&src), Kind::UnknownField);
+    let src = BASE.replace(
+        "name = \"coupler\"\n",
+        "name = \"crank\"\ncoordinate = \"c2\"\n",
+    );
+    assert_eq!(kind_of(&src), Kind::Duplicate);
+    let src = "name = \"x\"\n[[bodies]]\nname = \"a\"\nmass = = 1\n";
+    assert_eq!(kind_of(src), Kind::Syntax);
+}
+
 #[test]
 fn cycle_in_the_parent_graph() {
     let src = r#"
