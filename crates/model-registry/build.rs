@@ -12,7 +12,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use mbs_symbolic::emit::{EmitOptions, generate, sanitize_ident, write_if_changed};
+use mbs_symbolic::emit::{EmitOptions, compile_model, sanitize_ident, write_if_changed};
 
 fn main() {
     let manifest =
@@ -51,18 +51,8 @@ fn main() {
             );
             continue;
         }
-        println!("cargo:rerun-if-changed={}", path.display());
-        let compiled = mbs_symbolic::model::load(path)
-            .map_err(|e| e.to_string())
-            .and_then(|model| {
-                let g = generate(&model, &EmitOptions::default()).map_err(|e| e.to_string())?;
-                write_if_changed(&out.join(format!("{module}.rs")), &g.source)
-                    .map_err(|e| e.to_string())?;
-                Ok((model.source.hash, g.struct_name))
-            });
-        match compiled {
-            Ok((hash, struct_name)) => {
-                let c = Compiled { hash, struct_name };
+        match compile_model(path, &out, &format!("{module}.rs"), &EmitOptions::default()) {
+            Ok(c) => {
                 let ty = format!("{module}::{}", c.struct_name);
                 let index = seen.len() - 1;
                 let _ = write!(
@@ -116,10 +106,4 @@ fn file_name(path: &Path) -> String {
     path.file_name()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default()
-}
-
-/// What the registry needs of a generated model.
-struct Compiled {
-    hash: String,
-    struct_name: String,
 }

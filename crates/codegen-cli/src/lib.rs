@@ -31,12 +31,9 @@ use diagnostic::Diagnostics;
 /// What can go wrong in a command.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
-    /// Problems in a user file (scenario), every one with its position.
+    /// Problems in user files (a scenario, a mechanism model), every one with its position.
     #[error(transparent)]
-    Scenario(#[from] Diagnostics),
-    /// Problems in a mechanism model file.
-    #[error(transparent)]
-    Model(#[from] mbs_symbolic::model::ModelErrors),
+    Input(#[from] Diagnostics),
     /// A beam description that cannot be used.
     #[error(transparent)]
     Beam(#[from] fem_beam::BeamError),

@@ -101,7 +101,7 @@ fn pair<M: System + Clone>(
         (with, without)
     });
     let run_error = |e: RunError| match e {
-        RunError::Setup(e) => Error::Scenario(sc.diagnostic(&e).into()),
+        RunError::Setup(e) => Error::Input(sc.diagnostic(&e).into()),
         RunError::Sim(e) => Error::Damper(e),
     };
     let (coupled, with) = with.map_err(run_error)?;

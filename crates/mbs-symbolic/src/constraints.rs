@@ -10,10 +10,10 @@
 //! Constraint rows are stacked in declaration order (eq. 14); `J = dh/dq` (eq. 15) and
 //! `A = J' q'` (eq. 16) follow the same rows and signs.
 
-use crate::dynamics::Symbolic;
 use crate::dynamics::vec3::V3;
+use crate::dynamics::{self, Symbolic};
 use crate::expr::{Id, Var};
-use crate::model::{Constraint, JointKind, Model};
+use crate::model::{Constraint, Model};
 
 /// Symbolic kinematics of one named point.
 #[derive(Clone, Debug)]
@@ -134,13 +134,13 @@ pub fn constraints(model: &Model, sym: &mut Symbolic) -> ConstraintExprs {
                 let pb = chain_to_root(model, *b);
                 let mut h = sym.dag.zero();
                 for &k in pb.iter().filter(|k| !pa.contains(k)) {
-                    if model.bodies[k].joint.kind == JointKind::Revolute {
+                    if dynamics::is_rotation(&model.bodies[k].joint) {
                         let q = sym.dag.q(k);
                         h = sym.dag.add(h, q);
                     }
                 }
                 for &k in pa.iter().filter(|k| !pb.contains(k)) {
-                    if model.bodies[k].joint.kind == JointKind::Revolute {
+                    if dynamics::is_rotation(&model.bodies[k].joint) {
                         let q = sym.dag.q(k);
                         h = sym.dag.sub(h, q);
                     }

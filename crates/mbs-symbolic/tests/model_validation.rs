@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use approx::assert_relative_eq;
 
 use mbs_symbolic::model::{
-    Axis, BinOp, Constraint, ForceElement, Format, JointKind, Model, ModelError, Scalar, load,
+    Axis, BinOp, Constraint, Diagnostic, ForceElement, Format, JointKind, Model, Scalar, load,
     parse_str,
 };
 use proptest::prelude::*;
@@ -19,14 +19,14 @@ fn models_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models")
 }
 
-fn toml_errors(src: &str) -> Vec<ModelError> {
+fn toml_errors(src: &str) -> Vec<Diagnostic> {
     match parse_str(src, FILE, Format::Toml) {
         Ok(m) => panic!("expected errors, got a model: {m:#?}"),
         Err(e) => e.0,
     }
 }
 
-fn json_errors(src: &str) -> Vec<ModelError> {
+fn json_errors(src: &str) -> Vec<Diagnostic> {
     match parse_str(src, "bad.json", Format::Json) {
         Ok(m) => panic!("expected errors, got a model: {m:#?}"),
         Err(e) => e.0,
@@ -47,7 +47,7 @@ fn line_of(src: &str, needle: &str) -> usize {
 
 /// Asserts that `errors` holds exactly one error, at `line` of `file`, about `entity`,
 /// whose message contains `part`, and that its display says so.
-fn assert_one(errors: &[ModelError], file: &str, line: usize, entity: &str, part: &str) {
+fn assert_one(errors: &[Diagnostic], file: &str, line: usize, entity: &str, part: &str) {
     assert_eq!(
         errors.len(),
         1,
@@ -57,7 +57,7 @@ fn assert_one(errors: &[ModelError], file: &str, line: usize, entity: &str, part
     assert_error(&errors[0], file, line, entity, part);
 }
 
-fn assert_error(e: &ModelError, file: &str, line: usize, entity: &str, part: &str) {
+fn assert_error(e: &Diagnostic, file: &str, line: usize, entity: &str, part: &str) {
     assert_eq!(e.file, file, "{e}");
     assert_eq!(e.line, Some(line), "{e}");
     assert_eq!(e.entity.as_deref(), Some(entity), "{e}");
@@ -69,7 +69,7 @@ fn assert_error(e: &ModelError, file: &str, line: usize, entity: &str, part: &st
     );
 }
 
-fn show(errors: &[ModelError]) -> String {
+fn show(errors: &[Diagnostic]) -> String {
     errors
         .iter()
         .map(|e| format!("  {e}\n"))
@@ -116,6 +116,25 @@ fn unknown_parent() {
         "body \"coupler\"",
         "unknown parent `crnk`",
     );
+}
+
+/// Each diagnostic carries a machine-readable kind.
+#[test]
+fn diagnostics_carry_their_kind() {
+    use mbs_symbolic::model::Kind;
+    // The kind of the first diagnostic (a syntax error may come with follow-up ones).
+    let kind_of = |src: &str| toml_errors(src)[0].kind;
+    let src = BASE.replace("parent = \"crank\"", "parent = \"crnk\"");
+    assert_eq!(kind_of(&src), Kind::UnknownName);
+    let src = BASE.replacen("mass", "masss", 1);
+    assert_eq!(kind_of(&src), Kind::UnknownField);
+    let src = BASE.replace(
+        "name = \"coupler\"\n",
+        "name = \"crank\"\ncoordinate = \"c2\"\n",
+    );
+    assert_eq!(kind_of(&src), Kind::Duplicate);
+    let src = "name = \"x\"\n[[bodies]]\nname = \"a\"\nmass = = 1\n";
+    assert_eq!(kind_of(src), Kind::Syntax);
 }
 
 #[test]
@@ -794,10 +813,13 @@ fn malformed_toml() {
     let errors = toml_errors(src);
     assert!(!errors.is_empty());
     assert_eq!(errors[0].line, Some(4), "{}", show(&errors));
+    // The parser's span gives the column too: the second `=` of `mass = = 1`.
+    assert_eq!(errors[0].column, Some(8), "{}", show(&errors));
+    assert_eq!(errors[0].kind, mbs_symbolic::model::Kind::Syntax);
     assert!(
         errors[0]
             .to_string()
-            .starts_with("bad.toml:4: syntax error: "),
+            .starts_with("bad.toml:4:8: syntax error: "),
         "{}",
         errors[0]
     );

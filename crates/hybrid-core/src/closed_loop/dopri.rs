@@ -12,8 +12,8 @@ use super::error::SimError;
 use super::rhs::StageError;
 use super::settings::Method;
 use super::simulator::Simulator;
-use mbs_symbolic::runtime::System;
 use super::trajectory::Event;
+use mbs_symbolic::runtime::System;
 
 /// Nodes `c_i`.
 const C: [f64; 7] = [0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];

@@ -27,8 +27,8 @@ use crate::partition::{self, Partition, PartitionChoice, choose_partition};
 use super::error::{RedundancyReport, RedundantRow, SimError, SingularReport};
 use super::settings::Settings;
 use super::simulator::Simulator;
-use mbs_symbolic::runtime::{System, Workspace};
 use super::trajectory::{Event, PartitionChange};
+use mbs_symbolic::runtime::{System, Workspace};
 
 /// Smallest and largest singular values of `j` (0, 0 for an empty or non-finite matrix).
 pub(super) fn singular_range(j: &DMatrix<f64>) -> (f64, f64) {

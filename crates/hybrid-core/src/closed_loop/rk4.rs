@@ -21,8 +21,8 @@ use nalgebra::DVector;
 use super::error::SimError;
 use super::rhs::StageError;
 use super::simulator::Simulator;
-use mbs_symbolic::runtime::System;
 use super::trajectory::Event;
+use mbs_symbolic::runtime::System;
 
 /// Cubic Hermite interpolation between `(y0, f0)` and `(y1, f1)` over a step `h`
 /// (dense output of the fixed-step RK4 option; local error O(h^4)).

@@ -16,8 +16,8 @@ use super::error::SimError;
 use super::partitioning::{InitialRank, examine_rank, singular_range};
 use super::projection::Projector;
 use super::settings::{Method, Settings};
-use mbs_symbolic::runtime::{System, Workspace};
 use super::trajectory::{Event, OutputRow, PartitionChange, Stats, Trajectory};
+use mbs_symbolic::runtime::{System, Workspace};
 
 /// Runs a simulation from a consistent state and collects the output.
 ///

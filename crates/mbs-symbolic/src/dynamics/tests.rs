@@ -1,9 +1,11 @@
 //! Unit tests of the symbolic derivation against closed forms (the randomised comparison
 //! with the numeric reference lives in the crate's integration tests).
 
+use super::forces::velocity_and_gravity_terms;
+use super::kinematics::forward_kinematics;
 use super::*;
 use crate::expr::{EvalInput, Tape};
-use crate::model::{Axis, Body, Joint, Parameter, SourceInfo};
+use crate::model::{Axis, Body, Joint, JointKind, Parameter, SourceInfo};
 
 fn rod(name: &str, parent: Option<usize>, anchor_x: f64, l: f64, m: f64, c: f64, izz: f64) -> Body {
     let z = Scalar::ZERO;

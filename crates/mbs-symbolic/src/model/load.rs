@@ -2,8 +2,9 @@
 
 use std::path::Path;
 
-use super::error::{ModelError, ModelErrors};
-use super::source::{fnv1a_hex, json_to_node, toml_to_node};
+use diagnostic::{Diagnostic, Diagnostics, Kind, LineIndex};
+
+use super::source::{Position, fnv1a_hex, json_to_node, toml_to_node};
 use super::types::{Model, SourceInfo};
 use super::validate::validate;
 
@@ -31,42 +32,42 @@ impl Format {
 /// Reads and validates a model file (format from the extension: `.toml` or `.json`).
 ///
 /// Every problem is reported at once, each with the file, the line and the entity.
-pub fn load(path: &Path) -> Result<Model, ModelErrors> {
+pub fn load(path: &Path) -> Result<Model, Diagnostics> {
     let file = path.display().to_string();
-    let single = |message: String| {
-        ModelErrors(vec![ModelError {
-            file: file.clone(),
-            line: None,
-            entity: None,
-            message,
-        }])
-    };
+    let single =
+        |kind: Kind, message: String| Diagnostics::from(Diagnostic::new(kind, &file, message));
     let Some(format) = Format::from_path(path) else {
         return Err(single(
+            Kind::Unsupported,
             "unknown model file extension (expected .toml or .json)".into(),
         ));
     };
     let src = std::fs::read_to_string(path)
-        .map_err(|e| single(format!("cannot read the model file: {e}")))?;
+        .map_err(|e| single(Kind::Io, format!("cannot read the model file: {e}")))?;
     parse_str(&src, &file, format)
 }
 
 /// Parses and validates model text; `file` is the name used in messages and in
 /// [`SourceInfo::path`].
-pub fn parse_str(src: &str, file: &str, format: Format) -> Result<Model, ModelErrors> {
+pub fn parse_str(src: &str, file: &str, format: Format) -> Result<Model, Diagnostics> {
+    let lines = LineIndex::new(src);
     let tree = match format {
-        Format::Toml => toml_to_node(src),
-        Format::Json => json_to_node(src),
+        Format::Toml => toml_to_node(src, &lines),
+        Format::Json => json_to_node(src, &lines),
     };
     let root = tree.map_err(|errors| {
-        ModelErrors(
+        Diagnostics(
             errors
                 .into_iter()
-                .map(|(line, message)| ModelError {
-                    file: file.to_string(),
-                    line,
-                    entity: None,
-                    message: format!("syntax error: {message}"),
+                .map(|(position, message)| {
+                    let mut d =
+                        Diagnostic::new(Kind::Syntax, file, format!("syntax error: {message}"));
+                    match position {
+                        Position::Offset(offset) => d = d.at_offset(&lines, offset),
+                        Position::Line(line) => d = d.at_line(Some(line)),
+                        Position::Unknown => {}
+                    }
+                    d
                 })
                 .collect(),
         )
@@ -75,5 +76,5 @@ pub fn parse_str(src: &str, file: &str, format: Format) -> Result<Model, ModelEr
         path: file.to_string(),
         hash: fnv1a_hex(src.as_bytes()),
     };
-    validate(&root, file, source).map_err(ModelErrors)
+    validate(&root, file, source).map_err(Diagnostics)
 }

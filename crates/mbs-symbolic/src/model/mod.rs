@@ -2,7 +2,7 @@
 //! validation into the typed tree of [`types`].
 //!
 //! [`load`] reads a `.toml` or `.json` file, [`parse_str`] the same from a string; both
-//! return a validated [`Model`] or [`ModelErrors`] listing **every** problem, each with the
+//! return a validated [`Model`] or [`Diagnostics`] listing **every** problem, each with the
 //! file, the line and the entity (`models/x.toml:12: body "crank": mass: ...`).
 //!
 //! # File format
@@ -101,7 +101,6 @@
 //! so they are exact for both formats: the line of the offending key or value, or of the
 //! entity's `name` for problems of a whole entity.
 
-mod error;
 mod expr_parse;
 mod load;
 mod node;
@@ -110,6 +109,6 @@ mod source;
 pub mod types;
 mod validate;
 
-pub use error::{ModelError, ModelErrors};
+pub use diagnostic::{Diagnostic, Diagnostics, Kind};
 pub use load::{Format, load, parse_str};
 pub use types::*;

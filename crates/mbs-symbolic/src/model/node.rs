@@ -9,6 +9,7 @@
 
 use std::fmt;
 
+use diagnostic::Kind;
 use serde::de::{self, DeserializeSeed, IntoDeserializer, MapAccess, SeqAccess, Visitor};
 
 /// A value with the (1-based) line where it starts.
@@ -138,6 +139,8 @@ impl Node {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub(crate) struct DeError {
     pub message: String,
+    /// What kind of problem: a missing or unknown field, or else a value of the wrong type.
+    pub kind: Kind,
     pub line: Option<usize>,
     /// Path segments (`key` or `[i]`), innermost first.
     path: Vec<String>,
@@ -192,8 +195,36 @@ impl de::Error for DeError {
     fn custom<T: fmt::Display>(msg: T) -> Self {
         DeError {
             message: msg.to_string(),
+            kind: Kind::Syntax,
             line: None,
             path: Vec::new(),
+        }
+    }
+
+    // The two messages below are serde's own wording; only the kind is added.
+    fn missing_field(field: &'static str) -> Self {
+        DeError {
+            kind: Kind::MissingField,
+            ..DeError::custom(format_args!("missing field `{field}`"))
+        }
+    }
+
+    fn unknown_field(field: &str, expected: &'static [&'static str]) -> Self {
+        let message = match expected {
+            [] => format!("unknown field `{field}`, there are no fields"),
+            [a] => format!("unknown field `{field}`, expected `{a}`"),
+            [a, b] => format!("unknown field `{field}`, expected `{a}` or `{b}`"),
+            _ => {
+                let all: Vec<String> = expected.iter().map(|e| format!("`{e}`")).collect();
+                format!(
+                    "unknown field `{field}`, expected one of {}",
+                    all.join(", ")
+                )
+            }
+        };
+        DeError {
+            kind: Kind::UnknownField,
+            ..DeError::custom(message)
         }
     }
 }
@@ -244,6 +275,7 @@ impl<'de> de::Deserializer<'de> for &Node {
                         None => Ok(v),
                         Some(e) => Err(DeError {
                             message: format!("unexpected key `{}`", e.key),
+                            kind: Kind::UnknownField,
                             line: Some(e.line),
                             path: Vec::new(),
                         }),

@@ -9,6 +9,7 @@
 //!
 //! Also the FNV-1a hash recorded in `SourceInfo`.
 
+use diagnostic::LineIndex;
 use serde::de::IgnoredAny;
 use toml::Spanned;
 use toml::de::{DeTable, DeValue};
@@ -18,8 +19,19 @@ use super::node::{Entry, Node, Value};
 /// Nesting deeper than this is refused (the model format needs a depth of about 5).
 const MAX_DEPTH: usize = 100;
 
-/// A syntax error: 1-based line (when known) and message.
-pub(crate) type SyntaxError = (Option<usize>, String);
+/// Where a syntax error is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Position {
+    /// A byte offset into the text (line and column through [`LineIndex`]).
+    Offset(usize),
+    /// A 1-based line only (the parser gives its column in the message).
+    Line(usize),
+    /// Unknown.
+    Unknown,
+}
+
+/// A syntax error: position and message.
+pub(crate) type SyntaxError = (Position, String);
 
 /// FNV-1a, 64-bit, of `bytes`, as 16 lower-case hexadecimal digits.
 pub(crate) fn fnv1a_hex(bytes: &[u8]) -> String {
@@ -33,40 +45,24 @@ pub(crate) fn fnv1a_hex(bytes: &[u8]) -> String {
     format!("{hash:016x}")
 }
 
-/// Byte offset to 1-based line number.
-pub(crate) struct LineIndex {
-    starts: Vec<usize>,
-}
-
-impl LineIndex {
-    pub fn new(src: &str) -> Self {
-        let mut starts = vec![0];
-        starts.extend(src.match_indices('\n').map(|(i, _)| i + 1));
-        LineIndex { starts }
-    }
-
-    pub fn line(&self, offset: usize) -> usize {
-        self.starts.partition_point(|&s| s <= offset).max(1)
-    }
-}
-
 /// Parses TOML text into a [`Node`] (a table).
-pub(crate) fn toml_to_node(src: &str) -> Result<Node, Vec<SyntaxError>> {
-    let lines = LineIndex::new(src);
+pub(crate) fn toml_to_node(src: &str, lines: &LineIndex) -> Result<Node, Vec<SyntaxError>> {
     let (table, errors) = DeTable::parse_recoverable(src);
     if !errors.is_empty() {
         return Err(errors
             .iter()
             .map(|e| {
-                let line = e.span().map(|s| lines.line(s.start));
-                (line, one_line(e.message()))
+                let at = e
+                    .span()
+                    .map_or(Position::Unknown, |s| Position::Offset(s.start));
+                (at, one_line(e.message()))
             })
             .collect());
     }
     let span = table.span();
     let root = Spanned::new(span, DeValue::Table(table.into_inner()));
     let mut errors = Vec::new();
-    let mut node = convert_toml(&root, &lines, 0, &mut errors);
+    let mut node = convert_toml(&root, lines, 0, &mut errors);
     // The document table starts at the top of the file whatever its span says.
     node.line = 1;
     if errors.is_empty() {
@@ -91,13 +87,11 @@ fn convert_toml(
     depth: usize,
     errors: &mut Vec<SyntaxError>,
 ) -> Node {
+    let at = Position::Offset(v.span().start);
     let line = lines.line(v.span().start);
     if depth > MAX_DEPTH {
         if errors.is_empty() {
-            errors.push((
-                Some(line),
-                format!("nesting deeper than {MAX_DEPTH} levels"),
-            ));
+            errors.push((at, format!("nesting deeper than {MAX_DEPTH} levels")));
         }
         return Node {
             line,
@@ -109,14 +103,14 @@ fn convert_toml(
         DeValue::Integer(i) => match i64::from_str_radix(i.as_str(), i.radix()) {
             Ok(x) => Value::Int(x),
             Err(_) => {
-                errors.push((Some(line), format!("integer `{i}` out of range")));
+                errors.push((at, format!("integer `{i}` out of range")));
                 Value::Null
             }
         },
         DeValue::Float(x) => match x.as_str().parse::<f64>() {
             Ok(x) => Value::Float(x),
             Err(_) => {
-                errors.push((Some(line), format!("invalid float `{x}`")));
+                errors.push((at, format!("invalid float `{x}`")));
                 Value::Null
             }
         },
@@ -147,24 +141,28 @@ fn convert_toml(
 }
 
 /// Parses JSON text into a [`Node`].
-pub(crate) fn json_to_node(src: &str) -> Result<Node, Vec<SyntaxError>> {
+pub(crate) fn json_to_node(src: &str, lines: &LineIndex) -> Result<Node, Vec<SyntaxError>> {
     if let Err(e) = serde_json::from_str::<IgnoredAny>(src) {
         let full = e.to_string();
         let suffix = format!(" at line {} column {}", e.line(), e.column());
         let message = full.strip_suffix(&suffix).unwrap_or(&full);
-        let line = (e.line() > 0).then_some(e.line());
-        return Err(vec![(line, format!("{message} (column {})", e.column()))]);
+        let at = if e.line() > 0 {
+            Position::Line(e.line())
+        } else {
+            Position::Unknown
+        };
+        return Err(vec![(at, format!("{message} (column {})", e.column()))]);
     }
     let mut scanner = JsonScanner {
         src,
         bytes: src.as_bytes(),
         pos: 0,
-        lines: LineIndex::new(src),
+        lines,
     };
     scanner.skip_ws();
-    let node = scanner.value(0).map_err(|(offset, msg)| {
-        vec![(Some(scanner.lines.line(offset)), format!("JSON: {msg}"))]
-    })?;
+    let node = scanner
+        .value(0)
+        .map_err(|(offset, msg)| vec![(Position::Offset(offset), format!("JSON: {msg}"))])?;
     Ok(node)
 }
 
@@ -174,7 +172,7 @@ struct JsonScanner<'a> {
     src: &'a str,
     bytes: &'a [u8],
     pos: usize,
-    lines: LineIndex,
+    lines: &'a LineIndex,
 }
 
 type ScanResult<T> = Result<T, (usize, String)>;
@@ -396,8 +394,8 @@ mod tests {
     fn json_and_toml_trees_agree() {
         let json = "{\n \"b\": 1,\n \"a\": [2.5, \"x\\u00e9\\ud83d\\ude00\", true, null],\n \"c\": {\"d\": -3e2}\n}";
         let toml = "b = 1\na = [2.5, \"x\u{e9}\u{1F600}\", true]\n[c]\nd = -3e2\n";
-        let j = json_to_node(json).unwrap();
-        let t = toml_to_node(toml).unwrap();
+        let j = json_to_node(json, &LineIndex::new(json)).unwrap();
+        let t = toml_to_node(toml, &LineIndex::new(toml)).unwrap();
         let keys = |n: &Node| {
             n.entries()
                 .unwrap()
@@ -423,10 +421,16 @@ mod tests {
 
     #[test]
     fn syntax_errors_have_lines() {
-        let e = toml_to_node("a = 1\nb = = 2\n").unwrap_err();
-        assert_eq!(e[0].0, Some(2));
-        let e = json_to_node("{\n\"a\": 1,\n}").unwrap_err();
-        assert_eq!(e[0].0, Some(3));
+        let src = "a = 1\nb = = 2\n";
+        let lines = LineIndex::new(src);
+        let e = toml_to_node(src, &lines).unwrap_err();
+        let Position::Offset(offset) = e[0].0 else {
+            panic!("{:?}", e[0]);
+        };
+        assert_eq!(lines.line(offset), 2);
+        let src = "{\n\"a\": 1,\n}";
+        let e = json_to_node(src, &LineIndex::new(src)).unwrap_err();
+        assert_eq!(e[0].0, Position::Line(3));
         assert!(e[0].1.contains("column"), "{}", e[0].1);
     }
 
@@ -434,10 +438,10 @@ mod tests {
     fn deep_nesting_is_refused_without_overflow() {
         let deep = 100_000;
         let toml = format!("a = {}{}", "[".repeat(deep), "]".repeat(deep));
-        assert!(toml_to_node(&toml).is_err());
+        assert!(toml_to_node(&toml, &LineIndex::new(&toml)).is_err());
         let dotted = format!("{} = 1", vec!["k"; 5_000].join("."));
-        assert!(toml_to_node(&dotted).is_err());
+        assert!(toml_to_node(&dotted, &LineIndex::new(&dotted)).is_err());
         let json = format!("{}{}", "[".repeat(deep), "]".repeat(deep));
-        assert!(json_to_node(&json).is_err());
+        assert!(json_to_node(&json, &LineIndex::new(&json)).is_err());
     }
 }

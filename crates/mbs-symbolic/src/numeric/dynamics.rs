@@ -4,9 +4,9 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
+use super::joint;
 use super::kinematics::{Frames, Motion, point_acceleration, point_velocity};
 use super::{NForce, NumericModel};
-use crate::model::types::JointKind;
 
 /// Which parts of the force elements [`NumericModel::generalised_force`] collects.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -150,10 +150,7 @@ impl NumericModel {
             let w = motion[i].omega;
             f[i] += ma;
             moment[i] += ig * motion[i].alpha + w.cross(&(ig * w)) + (xc - fr.origin[i]).cross(&ma);
-            tau[i] = match b.kind {
-                JointKind::Revolute => fr.axis[i].dot(&moment[i]),
-                JointKind::Prismatic => fr.axis[i].dot(&f[i]),
-            };
+            tau[i] = joint::project(b.kind, &fr.axis[i], &f[i], &moment[i]);
             if let Some(p) = b.parent {
                 let (fi, ni) = (f[i], moment[i]);
                 f[p] += fi;

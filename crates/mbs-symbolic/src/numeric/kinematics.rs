@@ -35,8 +35,7 @@
 
 use nalgebra::{DMatrix, Matrix3, Vector3};
 
-use super::{NumericModel, rot, unit};
-use crate::model::types::JointKind;
+use super::{NumericModel, joint, unit};
 
 /// Ground-frame position and velocity state of one body (eqs. 1–2).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -151,10 +150,7 @@ impl NumericModel {
             let joint = tp * b.r0;
             let e = joint * unit(b.axis);
             let anchor = xp + tp * b.anchor;
-            let (t, x) = match b.kind {
-                JointKind::Revolute => (joint * rot(b.axis, q[i]), anchor),
-                JointKind::Prismatic => (joint, anchor + e * q[i]),
-            };
+            let (t, x) = joint::placement(b.kind, b.axis, joint, &e, anchor, q[i]);
             fr.rot.push(t);
             fr.origin.push(x);
             fr.axis.push(e);
@@ -194,16 +190,7 @@ impl NumericModel {
                 alpha: mp.alpha,
                 acc: mp.acc + mp.alpha.cross(&r) + mp.omega.cross(&mp.omega.cross(&r)),
             };
-            match b.kind {
-                JointKind::Revolute => {
-                    m.omega += e * qd[i];
-                    m.alpha += mp.omega.cross(&e) * qd[i] + e * qddi;
-                }
-                JointKind::Prismatic => {
-                    m.vel += e * qd[i];
-                    m.acc += mp.omega.cross(&e) * (2.0 * qd[i]) + e * qddi;
-                }
-            }
+            joint::add_joint_motion(b.kind, &mut m, &mp.omega, &e, qd[i], qddi);
             out.push(m);
         }
         out
@@ -212,18 +199,12 @@ impl NumericModel {
     /// Linear Jacobian column `dx_P/dq_j` of a point at ground position `x` on a body whose
     /// reference chain contains joint `j`.
     pub(super) fn linear_column(&self, fr: &Frames, j: usize, x: &Vector3<f64>) -> Vector3<f64> {
-        match self.bodies[j].kind {
-            JointKind::Revolute => fr.axis[j].cross(&(x - fr.origin[j])),
-            JointKind::Prismatic => fr.axis[j],
-        }
+        joint::linear_column(self.bodies[j].kind, &fr.axis[j], &fr.origin[j], x)
     }
 
     /// Angular Jacobian column `dw/dq'_j` of a body whose reference chain contains joint `j`.
     pub(super) fn angular_column(&self, fr: &Frames, j: usize) -> Vector3<f64> {
-        match self.bodies[j].kind {
-            JointKind::Revolute => fr.axis[j],
-            JointKind::Prismatic => Vector3::zeros(),
-        }
+        joint::angular_column(self.bodies[j].kind, &fr.axis[j])
     }
 
     /// The joints on the reference chain of `body` (none for ground).

@@ -42,28 +42,12 @@ use crate::model::types::{Axis, Constraint, ForceElement, JointKind, Model, Scal
 
 mod constraints;
 mod dynamics;
+mod joint;
 mod kinematics;
+pub use joint::rot;
+use joint::unit;
 
 pub use kinematics::BodyState;
-
-/// The elementary active rotation `Rot(axis, angle)` of the model conventions
-/// (`Rot(z, t) = [[cos t, -sin t, 0], [sin t, cos t, 0], [0, 0, 1]]`, likewise for x and y):
-/// its columns are the rotated axes expressed in the unrotated frame.
-pub fn rot(axis: Axis, angle: f64) -> Matrix3<f64> {
-    let (s, c) = angle.sin_cos();
-    match axis {
-        Axis::X => Matrix3::new(1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c),
-        Axis::Y => Matrix3::new(c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c),
-        Axis::Z => Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0),
-    }
-}
-
-/// The unit vector along a coordinate axis.
-fn unit(axis: Axis) -> Vector3<f64> {
-    let mut e = Vector3::zeros();
-    e[axis.index()] = 1.0;
-    e
-}
 
 /// A body with every [`Scalar`] evaluated.
 #[derive(Clone, Debug)]
@@ -358,12 +342,12 @@ impl NumericModel {
                     // Joints on b's side of the common ancestor count +, on a's side -.
                     let mut terms = Vec::new();
                     for &j in pb.iter().filter(|j| !pa.contains(j)) {
-                        if bodies[j].kind == JointKind::Revolute {
+                        if joint::is_rotation(bodies[j].kind) {
                             terms.push((j, 1.0));
                         }
                     }
                     for &j in pa.iter().filter(|j| !pb.contains(j)) {
-                        if bodies[j].kind == JointKind::Revolute {
+                        if joint::is_rotation(bodies[j].kind) {
                             terms.push((j, -1.0));
                         }
                     }

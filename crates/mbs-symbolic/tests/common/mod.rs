@@ -3,8 +3,7 @@
 //! reference, symbolic Newton–Euler, generated code).
 //!
 //! Use from an integration test with `mod common;`. Everything is deterministic: the same
-//! seed and options always give the same model, on every platform (SplitMix64, no external
-//! RNG crate).
+//! seed and options always give the same model, on every platform (`mbs_symbolic::samples::SplitMix64`).
 
 #![allow(dead_code)]
 
@@ -14,50 +13,7 @@ use mbs_symbolic::model::types::{
 };
 use nalgebra::{Matrix3, Vector3};
 
-/// SplitMix64 (Steele, Lea, Flood 2014): a tiny, fast, well-mixed 64-bit generator.
-#[derive(Clone, Debug)]
-pub struct SplitMix64(u64);
-
-impl SplitMix64 {
-    /// A generator with the given seed.
-    pub fn new(seed: u64) -> Self {
-        SplitMix64(seed)
-    }
-
-    /// The next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[0, 1)` (53 random bits).
-    pub fn unit(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-    }
-
-    /// Uniform in `[lo, hi)`.
-    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.unit()
-    }
-
-    /// Uniform in `0..n` (`n > 0`).
-    pub fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n as u64) as usize
-    }
-
-    /// `true` with probability `p`.
-    pub fn chance(&mut self, p: f64) -> bool {
-        self.unit() < p
-    }
-
-    /// A uniformly chosen axis.
-    pub fn axis(&mut self) -> Axis {
-        Axis::from_index(self.below(3)).unwrap()
-    }
-}
+pub use mbs_symbolic::samples::SplitMix64;
 
 /// What [`random_model`] generates.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -128,8 +84,8 @@ const P_ISCALE: usize = 5;
 
 /// A random vector (z = 0 when planar) with components in `[-r, r)`.
 fn vec3(rng: &mut SplitMix64, r: f64, planar: bool) -> [f64; 3] {
-    let z = if planar { 0.0 } else { rng.range(-r, r) };
-    [rng.range(-r, r), rng.range(-r, r), z]
+    let z = if planar { 0.0 } else { rng.uniform(-r, r) };
+    [rng.uniform(-r, r), rng.uniform(-r, r), z]
 }
 
 fn scalars(v: [f64; 3]) -> [Scalar; 3] {
@@ -140,16 +96,16 @@ fn scalars(v: [f64; 3]) -> [Scalar; 3] {
 /// principal moments satisfying the triangle inequalities strictly (`R` about z only when
 /// planar).
 fn inertia(rng: &mut SplitMix64, planar: bool) -> Matrix3<f64> {
-    let a = rng.range(0.02, 0.2);
-    let b = rng.range(0.02, 0.2);
+    let a = rng.uniform(0.02, 0.2);
+    let b = rng.uniform(0.02, 0.2);
     let lo = (a - b).abs();
-    let c = lo + (a + b - lo) * rng.range(0.1, 0.9);
+    let c = lo + (a + b - lo) * rng.uniform(0.1, 0.9);
     let r = if planar {
-        rot(Axis::Z, rng.range(-3.0, 3.0))
+        rot(Axis::Z, rng.uniform(-3.0, 3.0))
     } else {
-        rot(Axis::Z, rng.range(-3.0, 3.0))
-            * rot(Axis::X, rng.range(-3.0, 3.0))
-            * rot(Axis::Y, rng.range(-3.0, 3.0))
+        rot(Axis::Z, rng.uniform(-3.0, 3.0))
+            * rot(Axis::X, rng.uniform(-3.0, 3.0))
+            * rot(Axis::Y, rng.uniform(-3.0, 3.0))
     };
     let i = r * Matrix3::from_diagonal(&Vector3::new(a, b, c)) * r.transpose();
     // Exactly symmetric.
@@ -190,13 +146,13 @@ pub fn random_model(seed: u64, opts: &RandomOpts) -> Model {
     let parameters = vec![
         Parameter {
             name: "mscale".into(),
-            value: rng.range(0.8, 1.3),
+            value: rng.uniform(0.8, 1.3),
             runtime: rt,
             derived: false,
         },
         Parameter {
             name: "len".into(),
-            value: rng.range(0.3, 0.6),
+            value: rng.uniform(0.3, 0.6),
             runtime: rt,
             derived: false,
         },
@@ -208,19 +164,19 @@ pub fn random_model(seed: u64, opts: &RandomOpts) -> Model {
         },
         Parameter {
             name: "kscale".into(),
-            value: rng.range(0.8, 1.5),
+            value: rng.uniform(0.8, 1.5),
             runtime: rt,
             derived: false,
         },
         Parameter {
             name: "ang".into(),
-            value: rng.range(0.2, 0.9),
+            value: rng.uniform(0.2, 0.9),
             runtime: false,
             derived: false,
         },
         Parameter {
             name: "iscale".into(),
-            value: rng.range(0.8, 1.3),
+            value: rng.uniform(0.8, 1.3),
             runtime: false,
             derived: false,
         },
@@ -230,15 +186,15 @@ pub fn random_model(seed: u64, opts: &RandomOpts) -> Model {
         [Scalar::ZERO, Scalar::ZERO, Scalar::ZERO]
     } else if planar {
         [
-            num(rng.range(-1.0, 1.0)),
+            num(rng.uniform(-1.0, 1.0)),
             Scalar::Neg(Box::new(param(P_G))),
             Scalar::ZERO,
         ]
     } else {
         [
-            num(rng.range(-2.0, 2.0)),
+            num(rng.uniform(-2.0, 2.0)),
             Scalar::Neg(Box::new(param(P_G))),
-            num(rng.range(-2.0, 2.0)),
+            num(rng.uniform(-2.0, 2.0)),
         ]
     };
 
@@ -274,7 +230,7 @@ pub fn random_model(seed: u64, opts: &RandomOpts) -> Model {
         let mut rotation = Vec::new();
         if planar {
             if rng.chance(0.35) {
-                rotation.push((Axis::Z, num(rng.range(-1.5, 1.5))));
+                rotation.push((Axis::Z, num(rng.uniform(-1.5, 1.5))));
             }
         } else {
             for _ in 0..rng.below(3) {
@@ -283,10 +239,10 @@ pub fn random_model(seed: u64, opts: &RandomOpts) -> Model {
                     // cos(ang) * c, exercises Call and Bin.
                     mul(
                         Scalar::Call(Func::Cos, Box::new(param(P_ANG))),
-                        num(rng.range(-2.0, 2.0)),
+                        num(rng.uniform(-2.0, 2.0)),
                     )
                 } else {
-                    num(rng.range(-1.5, 1.5))
+                    num(rng.uniform(-1.5, 1.5))
                 };
                 rotation.push((ax, th));
             }
@@ -297,7 +253,7 @@ pub fn random_model(seed: u64, opts: &RandomOpts) -> Model {
         } else {
             scalars(a)
         };
-        let m = rng.range(0.5, 2.0);
+        let m = rng.uniform(0.5, 2.0);
         let mass = if rng.chance(0.5) {
             mul(num(m), param(P_MSCALE))
         } else {
@@ -362,7 +318,7 @@ pub fn random_model(seed: u64, opts: &RandomOpts) -> Model {
         for i in 0..opts.bodies {
             if rng.chance(0.5) || (!any && i + 1 == opts.bodies) {
                 any = true;
-                let k = rng.range(0.5, 5.0);
+                let k = rng.uniform(0.5, 5.0);
                 forces.push(ForceElement::Joint {
                     name: format!("joint{i}"),
                     body: i,
@@ -371,9 +327,9 @@ pub fn random_model(seed: u64, opts: &RandomOpts) -> Model {
                     } else {
                         num(k)
                     },
-                    damping: num(rng.range(0.0, 0.5)),
-                    rest: num(rng.range(-0.5, 0.5)),
-                    constant: num(rng.range(-0.5, 0.5)),
+                    damping: num(rng.uniform(0.0, 0.5)),
+                    rest: num(rng.uniform(-0.5, 0.5)),
+                    constant: num(rng.uniform(-0.5, 0.5)),
                 });
             }
         }
@@ -383,9 +339,9 @@ pub fn random_model(seed: u64, opts: &RandomOpts) -> Model {
                     name: format!("spring{s}"),
                     a,
                     b,
-                    stiffness: mul(num(rng.range(1.0, 10.0)), param(P_KSCALE)),
-                    damping: num(rng.range(0.0, 0.3)),
-                    rest_length: num(rng.range(0.1, 0.5)),
+                    stiffness: mul(num(rng.uniform(1.0, 10.0)), param(P_KSCALE)),
+                    damping: num(rng.uniform(0.0, 0.3)),
+                    rest_length: num(rng.uniform(0.1, 0.5)),
                 });
             }
         }
@@ -393,8 +349,8 @@ pub fn random_model(seed: u64, opts: &RandomOpts) -> Model {
             let body = rng.below(opts.bodies);
             let (force, torque) = if planar {
                 (
-                    [rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), 0.0],
-                    [0.0, 0.0, rng.range(-1.0, 1.0)],
+                    [rng.uniform(-2.0, 2.0), rng.uniform(-2.0, 2.0), 0.0],
+                    [0.0, 0.0, rng.uniform(-1.0, 1.0)],
                 )
             } else {
                 (vec3(&mut rng, 2.0, false), vec3(&mut rng, 1.0, false))
@@ -498,7 +454,7 @@ fn angle_constraint(rng: &mut SplitMix64, bodies: &[Body], planar: bool) -> Opti
                 a,
                 b: Some(b),
                 axis,
-                offset: num(rng.range(-1.0, 1.0)),
+                offset: num(rng.uniform(-1.0, 1.0)),
             });
         }
     }
@@ -509,8 +465,8 @@ fn angle_constraint(rng: &mut SplitMix64, bodies: &[Body], planar: bool) -> Opti
 /// `q'` in `[-1.5, 1.5)`, `q''` in `[-2, 2)`.
 pub fn random_state(seed: u64, n: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let mut rng = SplitMix64::new(seed ^ 0x57A7_E000_0000_0001);
-    let q = (0..n).map(|_| rng.range(-1.2, 1.2)).collect();
-    let qd = (0..n).map(|_| rng.range(-1.5, 1.5)).collect();
-    let qdd = (0..n).map(|_| rng.range(-2.0, 2.0)).collect();
+    let q = (0..n).map(|_| rng.uniform(-1.2, 1.2)).collect();
+    let qd = (0..n).map(|_| rng.uniform(-1.5, 1.5)).collect();
+    let qdd = (0..n).map(|_| rng.uniform(-2.0, 2.0)).collect();
     (q, qd, qdd)
 }

@@ -6,6 +6,8 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use nalgebra::{Matrix3, SymmetricEigen};
 
+use diagnostic::Kind;
+
 use super::super::node::{Node, Seg};
 use super::super::raw::{RawBody, RawInertia, RawJoint, RawJointTable, RawRotation};
 use super::super::types::{Joint, JointKind, Scalar};
@@ -47,9 +49,15 @@ impl<'n> Validator<'_, 'n> {
             let (line, label) = (b.ent.line(), b.ent.label.clone());
             if let Some(name) = b.name.clone() {
                 if name.is_empty() {
-                    self.error(Some(line), Some(&label), "empty body name");
+                    self.error(
+                        Kind::InvalidValue,
+                        Some(line),
+                        Some(&label),
+                        "empty body name",
+                    );
                 } else if name == "ground" {
                     self.error(
+                        Kind::InvalidValue,
                         Some(line),
                         Some(&label),
                         "`ground` is reserved for the fixed frame and cannot name a body",
@@ -57,6 +65,7 @@ impl<'n> Validator<'_, 'n> {
                 } else if let Some(&first) = self.body_index.get(&name) {
                     let first_line = self.bodies[first].ent.line();
                     self.error(
+                        Kind::Duplicate,
                         Some(line),
                         Some(&label),
                         format!("duplicate body name (first declared on line {first_line})"),
@@ -72,12 +81,17 @@ impl<'n> Validator<'_, 'n> {
                 if coordinate.is_empty() {
                     // An empty body name is reported above; its default coordinate is not.
                     if b.raw.as_ref().is_some_and(|r| r.coordinate.is_some()) {
-                        self.error(Some(coord_line), Some(&label), "empty coordinate name");
+                        self.error(
+                            Kind::InvalidValue,
+                            Some(coord_line),
+                            Some(&label),
+                            "empty coordinate name",
+                        );
                     }
                 } else if let Some(&first) = coordinates.get(&coordinate) {
                     let other = self.bodies[first].ent.label.clone();
                     let other_line = self.bodies[first].ent.line();
-                    self.error(
+                    self.error(Kind::Duplicate,
                         Some(coord_line),
                         Some(&label),
                         format!(
@@ -104,6 +118,7 @@ impl<'n> Validator<'_, 'n> {
                 let at = self.bodies[i].ent.at(&[Seg::Key("parent")]);
                 let (line, label) = (at.line, at.label.to_string());
                 self.error(
+                    Kind::UnknownName,
                     Some(line),
                     Some(&label),
                     format!("unknown parent `{parent_name}` (not a body name, nor \"ground\")"),
@@ -128,6 +143,7 @@ impl<'n> Validator<'_, 'n> {
             if let Some(m) = mass.as_ref().and_then(|m| self.value(m)) {
                 if m <= 0.0 {
                     self.error_at(
+                        Kind::InvalidValue,
                         &ent.at(&[Seg::Key("mass")]),
                         format!(
                             "mass must be positive, got {} at the default parameter values",
@@ -227,7 +243,7 @@ impl<'n> Validator<'_, 'n> {
         };
         let at = self.bodies[head].ent.at(&[Seg::Key("parent")]);
         let (line, label) = (at.line, at.label.to_string());
-        self.error(Some(line), Some(&label), message);
+        self.error(Kind::Unsupported, Some(line), Some(&label), message);
     }
 
     fn joint(&mut self, ent: &Ent<'_>, raw: &RawBody) -> Option<Joint> {
@@ -237,7 +253,7 @@ impl<'n> Validator<'_, 'n> {
             RawJoint::Code(code) => match parse_joint_code(code) {
                 Some(ka) => (Some(ka), None),
                 None => {
-                    self.error_at(
+                    self.error_at(Kind::InvalidValue,
                         &joint_at,
                         format!(
                             "unknown joint type `{code}` (expected R1, R2, R3, T1, T2, T3, or a table {{ type = \"revolute\" or \"prismatic\", axis = \"x\", \"y\" or \"z\" }})"
@@ -254,6 +270,7 @@ impl<'n> Validator<'_, 'n> {
                         Some(axis) => Some(axis),
                         None => {
                             self.error_at(
+                                Kind::InvalidValue,
                                 &axis_at,
                                 format!("unknown axis `{a}` (expected x, y or z)"),
                             );
@@ -271,14 +288,18 @@ impl<'n> Validator<'_, 'n> {
                             JointKind::Prismatic
                         };
                         if t.axis.is_none() {
-                            self.error_at(&joint_at, "missing `axis` (x, y or z)");
+                            self.error_at(
+                                Kind::MissingField,
+                                &joint_at,
+                                "missing `axis` (x, y or z)",
+                            );
                         }
                         axis.map(|a| (kind, a))
                     }
                     code => match parse_joint_code(code) {
                         Some((kind, code_axis)) => {
                             if axis.is_some_and(|a| a != code_axis) {
-                                self.error_at(
+                                self.error_at(Kind::InvalidValue,
                                     &axis_at,
                                     format!(
                                         "axis `{}` contradicts joint type `{code}` (about/along {code_axis})",
@@ -290,7 +311,7 @@ impl<'n> Validator<'_, 'n> {
                             Some((kind, code_axis))
                         }
                         None => {
-                            self.error_at(
+                            self.error_at(Kind::InvalidValue,
                                 &type_at,
                                 format!(
                                     "unknown joint type `{code}` (expected revolute, prismatic, R1, R2, R3, T1, T2 or T3)"
@@ -309,6 +330,7 @@ impl<'n> Validator<'_, 'n> {
         let anchor = if in_table(&|t| t.anchor.is_some()) {
             if raw.anchor.is_some() {
                 self.error_at(
+                    Kind::InvalidValue,
                     &ent.at(&[Seg::Key("anchor")]),
                     "anchor given both here and in `joint`",
                 );
@@ -323,6 +345,7 @@ impl<'n> Validator<'_, 'n> {
             if in_table(&|t| t.rotation.is_some()) {
                 if raw.rotation.is_some() {
                     self.error_at(
+                        Kind::InvalidValue,
                         &ent.at(&[Seg::Key("rotation")]),
                         "rotation given both here and in `joint`",
                     );
@@ -341,6 +364,7 @@ impl<'n> Validator<'_, 'n> {
             let axis = parse_axis(&r.axis);
             if axis.is_none() {
                 self.error_at(
+                    Kind::InvalidValue,
                     &ent.at(&with(&entry_path, Seg::Key("axis"))),
                     format!("unknown axis `{}` (expected x, y or z)", r.axis),
                 );
@@ -413,7 +437,7 @@ impl<'n> Validator<'_, 'n> {
                 for (r, c) in [(0, 1), (0, 2), (1, 2)] {
                     if let (Some(a), Some(b)) = (self.value(&m[r][c]), self.value(&m[c][r])) {
                         if (a - b).abs() > 1e-12 * (a.abs() + b.abs()).max(f64::MIN_POSITIVE) {
-                            self.error_at(
+                            self.error_at(Kind::InvalidValue,
                                 &ent.at(&[key]),
                                 format!(
                                     "the inertia matrix is not symmetric: [{r}][{c}] = {} but [{c}][{r}] = {}",
@@ -438,7 +462,7 @@ impl<'n> Validator<'_, 'n> {
             }
         }
         if let Some(message) = inertia_problem(&values) {
-            self.error_at(&ent.at(&[key]), message);
+            self.error_at(Kind::InvalidValue, &ent.at(&[key]), message);
             return None;
         }
         Some(tensor)

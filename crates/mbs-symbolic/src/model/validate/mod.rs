@@ -12,11 +12,11 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
-use super::error::ModelError;
 use super::expr_parse::{RESERVED, params_used, parse_expr};
 use super::node::{Node, Seg, Value};
 use super::raw::{RawBody, RawParam, RawScalar, RawVec3};
 use super::types::{Axis, Body, Joint, JointKind, Model, Parameter, Point, Scalar, SourceInfo};
+use diagnostic::{Diagnostic, Kind};
 
 mod bodies;
 mod refs;
@@ -40,7 +40,7 @@ pub(crate) fn validate(
     root: &Node,
     file: &str,
     source: SourceInfo,
-) -> Result<Model, Vec<ModelError>> {
+) -> Result<Model, Vec<Diagnostic>> {
     let mut v = Validator {
         file,
         errors: Vec::new(),
@@ -60,12 +60,11 @@ pub(crate) fn validate(
     let mut errors = v.errors;
     if errors.is_empty() {
         model.ok_or_else(|| {
-            vec![ModelError {
-                file: file.to_string(),
-                line: None,
-                entity: None,
-                message: "internal error: model incomplete although no problem was found".into(),
-            }]
+            vec![Diagnostic::new(
+                Kind::Unsupported,
+                file,
+                "internal error: model incomplete although no problem was found",
+            )]
         })
     } else {
         errors.sort_by_key(|e| e.line);
@@ -224,7 +223,7 @@ struct FilePoint {
 
 struct Validator<'f, 'n> {
     file: &'f str,
-    errors: Vec<ModelError>,
+    errors: Vec<Diagnostic>,
     params: Vec<Parameter>,
     /// False for parameters whose value could not be computed (already reported).
     param_ok: Vec<bool>,
@@ -249,23 +248,26 @@ struct Validator<'f, 'n> {
 }
 
 impl<'n> Validator<'_, 'n> {
-    fn error(&mut self, line: Option<usize>, entity: Option<&str>, message: impl Into<String>) {
-        self.errors.push(ModelError {
-            file: self.file.to_string(),
-            line,
-            entity: entity.map(str::to_string),
-            message: message.into(),
-        });
+    fn error(
+        &mut self,
+        kind: Kind,
+        line: Option<usize>,
+        entity: Option<&str>,
+        message: impl Into<String>,
+    ) {
+        let mut d = Diagnostic::new(kind, self.file, message).at_line(line);
+        d.entity = entity.map(str::to_string);
+        self.errors.push(d);
     }
 
-    fn error_at(&mut self, at: &At<'_>, message: impl AsRef<str>) {
+    fn error_at(&mut self, kind: Kind, at: &At<'_>, message: impl AsRef<str>) {
         let message = if at.field.is_empty() {
             message.as_ref().to_string()
         } else {
             format!("{}: {}", at.field, message.as_ref())
         };
         let (line, label) = (at.line, at.label.to_string());
-        self.error(Some(line), Some(&label), message);
+        self.error(kind, Some(line), Some(&label), message);
     }
 
     /// Deserializes an entity node, reporting a failure at the line the error concerns.
@@ -274,7 +276,7 @@ impl<'n> Validator<'_, 'n> {
             Ok(v) => Some(v),
             Err(e) => {
                 let line = e.line.unwrap_or(node.line);
-                self.error(Some(line), Some(label), e.describe());
+                self.error(e.kind, Some(line), Some(label), e.describe());
                 None
             }
         }
@@ -300,7 +302,11 @@ impl<'n> Validator<'_, 'n> {
         let scalar = match raw {
             RawScalar::Num(v) => {
                 if !v.is_finite() {
-                    self.error_at(at, format!("{v} is not a finite number"));
+                    self.error_at(
+                        Kind::InvalidValue,
+                        at,
+                        format!("{v} is not a finite number"),
+                    );
                     return None;
                 }
                 Scalar::Num(*v)
@@ -317,6 +323,7 @@ impl<'n> Validator<'_, 'n> {
                     Ok(s) => self.inline_derived(s),
                     Err(e) => {
                         self.error_at(
+                            Kind::Syntax,
                             at,
                             format!("{} (in \"{src}\" at column {})", e.message, e.column),
                         );
@@ -332,6 +339,7 @@ impl<'n> Validator<'_, 'n> {
                     RawScalar::Num(x) => x.to_string(),
                 };
                 self.error_at(
+                    Kind::InvalidValue,
                     at,
                     format!("{shown} evaluates to {v} at the default parameter values"),
                 );
@@ -371,6 +379,7 @@ impl<'n> Validator<'_, 'n> {
     fn run(&mut self, root: &'n Node, source: SourceInfo) -> Option<Model> {
         let Some(entries) = root.entries() else {
             self.error(
+                Kind::Syntax,
                 Some(root.line),
                 None,
                 format!("the top level must be a table, not {}", root.kind()),
@@ -394,6 +403,7 @@ impl<'n> Validator<'_, 'n> {
         if let Some(e) = name_entry {
             if written.is_none() {
                 self.error(
+                    Kind::Syntax,
                     Some(e.line),
                     Some(&model_label),
                     "`name` must be a non-empty string",
@@ -407,6 +417,7 @@ impl<'n> Validator<'_, 'n> {
         for entry in entries {
             match TOP_LEVEL_KEYS.iter().find(|k| **k == entry.key) {
                 Some(k) if section.contains_key(k) => self.error(
+                    Kind::Duplicate,
                     Some(entry.line),
                     Some(&model_label),
                     format!("duplicate key `{k}`"),
@@ -416,6 +427,7 @@ impl<'n> Validator<'_, 'n> {
                     section_line.insert(k, entry.line);
                 }
                 None => self.error(
+                    Kind::UnknownField,
                     Some(entry.line),
                     Some(&model_label),
                     format!(
@@ -429,7 +441,12 @@ impl<'n> Validator<'_, 'n> {
         if let Some(node) = section.get("description") {
             if !matches!(node.value, Value::Str(_)) {
                 let line = section_line.get("description").copied();
-                self.error(line, Some(&model_label), "`description` must be a string");
+                self.error(
+                    Kind::Syntax,
+                    line,
+                    Some(&model_label),
+                    "`description` must be a string",
+                );
             }
         }
 
@@ -444,7 +461,7 @@ impl<'n> Validator<'_, 'n> {
                     Err(e) => {
                         let line = e.line.or(section_line.get("gravity").copied());
                         let message = format!("gravity{}: {}", e.path(), e.message);
-                        self.error(line, Some(&model_label), message);
+                        self.error(e.kind, line, Some(&model_label), message);
                         None
                     }
                 };
@@ -462,6 +479,7 @@ impl<'n> Validator<'_, 'n> {
         if bodies_absent || body_nodes.as_ref().is_some_and(Vec::is_empty) {
             let line = section_line.get("bodies").copied().unwrap_or(1);
             self.error(
+                Kind::Unsupported,
                 Some(line),
                 Some(&model_label),
                 "the model has no bodies (add at least one [[bodies]] entry)",
@@ -526,6 +544,7 @@ impl<'n> Validator<'_, 'n> {
         let node = node?;
         let Value::Array(items) = &node.value else {
             self.error(
+                Kind::Syntax,
                 Some(node.line),
                 Some(label),
                 format!(
@@ -541,6 +560,7 @@ impl<'n> Validator<'_, 'n> {
                 tables.push(item);
             } else {
                 self.error(
+                    Kind::Syntax,
                     Some(item.line),
                     Some(label),
                     format!("`{key}[{i}]` must be a table, not {}", item.kind()),
@@ -554,6 +574,7 @@ impl<'n> Validator<'_, 'n> {
     fn parameters(&mut self, node: &Node, model_label: &str) {
         let Some(entries) = node.entries() else {
             self.error(
+                Kind::Syntax,
                 Some(node.line),
                 Some(model_label),
                 format!(
@@ -569,7 +590,7 @@ impl<'n> Validator<'_, 'n> {
             let label = format!("parameter \"{name}\"");
             let mut ok = true;
             if !is_identifier(&name) {
-                self.error(
+                self.error(Kind::InvalidValue,
                     Some(entry.line),
                     Some(&label),
                     "not a valid parameter name (letters, digits and `_`, not starting with a digit)",
@@ -577,6 +598,7 @@ impl<'n> Validator<'_, 'n> {
                 ok = false;
             } else if RESERVED.contains(&name.as_str()) {
                 self.error(
+                    Kind::InvalidValue,
                     Some(entry.line),
                     Some(&label),
                     format!("`{name}` is reserved in expressions and cannot be a parameter name"),
@@ -591,6 +613,7 @@ impl<'n> Validator<'_, 'n> {
                     .next()
                     .unwrap_or(entry.line);
                 self.error(
+                    Kind::Duplicate,
                     Some(entry.line),
                     Some(&label),
                     format!("duplicate parameter name (first declared on line {first_line})"),
@@ -610,6 +633,7 @@ impl<'n> Validator<'_, 'n> {
                 };
                 if raw.runtime && matches!(raw.value, RawScalar::Expr(_)) {
                     self.error(
+                        Kind::InvalidValue,
                         Some(line),
                         Some(&label),
                         "a run-time parameter must be a number: a parameter written as an \
@@ -624,13 +648,18 @@ impl<'n> Validator<'_, 'n> {
                         derived = expr;
                     }
                     Ok((Some(v), _)) => {
-                        self.error(Some(line), Some(&label), format!("value {v} is not finite"));
+                        self.error(
+                            Kind::InvalidValue,
+                            Some(line),
+                            Some(&label),
+                            format!("value {v} is not finite"),
+                        );
                         ok = false;
                     }
                     // Uses a broken parameter: already reported.
                     Ok((None, _)) => ok = false,
                     Err(message) => {
-                        self.error(Some(line), Some(&label), message);
+                        self.error(Kind::InvalidValue, Some(line), Some(&label), message);
                         ok = false;
                     }
                 }

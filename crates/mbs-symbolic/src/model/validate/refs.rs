@@ -4,6 +4,8 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
+use diagnostic::Kind;
+
 use super::super::node::{Node, Seg};
 use super::super::raw::{
     RawAngle, RawExternal, RawFixed, RawJointForce, RawLoop, RawPoint, RawPointRef, RawSpring,
@@ -25,10 +27,16 @@ impl<'n> Validator<'_, 'n> {
             if let Some(n) = &name {
                 let line = ent.line();
                 if n.is_empty() {
-                    self.error(Some(line), Some(&ent.label), "empty point name");
+                    self.error(
+                        Kind::InvalidValue,
+                        Some(line),
+                        Some(&ent.label),
+                        "empty point name",
+                    );
                 } else if let Some(&first) = self.point_index.get(n) {
                     let first_line = self.point_lines.get(first).copied().unwrap_or(line);
                     self.error(
+                        Kind::Duplicate,
                         Some(line),
                         Some(&ent.label),
                         format!("duplicate point name (first declared on line {first_line})"),
@@ -77,6 +85,7 @@ impl<'n> Validator<'_, 'n> {
             }
             None => {
                 self.error_at(
+                    Kind::UnknownName,
                     &ent.at(path),
                     format!("unknown body `{name}` (not a body name, nor \"ground\")"),
                 );
@@ -90,7 +99,11 @@ impl<'n> Validator<'_, 'n> {
         match self.point_index.get(name) {
             Some(&i) => Some((i, self.points[i].body)),
             None => {
-                self.error_at(&ent.at(&[Seg::Key(key)]), format!("unknown point `{name}`"));
+                self.error_at(
+                    Kind::UnknownName,
+                    &ent.at(&[Seg::Key(key)]),
+                    format!("unknown point `{name}`"),
+                );
                 None
             }
         }
@@ -133,9 +146,15 @@ impl<'n> Validator<'_, 'n> {
         if let Some(n) = &name {
             let line = ent.line();
             if n.is_empty() {
-                self.error(Some(line), Some(&ent.label), format!("empty {what} name"));
+                self.error(
+                    Kind::InvalidValue,
+                    Some(line),
+                    Some(&ent.label),
+                    format!("empty {what} name"),
+                );
             } else if let Some(first) = names.get(n) {
                 self.error(
+                    Kind::Duplicate,
                     Some(line),
                     Some(&ent.label),
                     format!("duplicate {what} name (first declared on line {first})"),
@@ -148,6 +167,7 @@ impl<'n> Validator<'_, 'n> {
         let kind = match (node.entry("type"), kind) {
             (None, _) => {
                 self.error(
+                    Kind::MissingField,
                     Some(ent.line()),
                     Some(&ent.label),
                     format!("missing `type` (one of: {expected})"),
@@ -156,6 +176,7 @@ impl<'n> Validator<'_, 'n> {
             }
             (Some(e), None) => {
                 self.error(
+                    Kind::Syntax,
                     Some(e.line),
                     Some(&ent.label),
                     format!("`type` must be a string (one of: {expected})"),
@@ -164,6 +185,7 @@ impl<'n> Validator<'_, 'n> {
             }
             (Some(e), Some(k)) if !types.contains(&k.as_str()) => {
                 self.error(
+                    Kind::InvalidValue,
                     Some(e.line),
                     Some(&ent.label),
                     format!("unknown {what} type `{k}` (expected one of: {expected})"),
@@ -210,6 +232,7 @@ impl<'n> Validator<'_, 'n> {
             BodyRef::Body(k) => Some(k),
             BodyRef::Ground => {
                 self.error_at(
+                    Kind::InvalidValue,
                     &ent.at(&[Seg::Key(key)]),
                     format!("{what} needs a moving body, not ground"),
                 );
@@ -246,6 +269,7 @@ impl<'n> Validator<'_, 'n> {
         let mut ok = true;
         if raw.a == raw.b && a.is_some() {
             self.error_at(
+                Kind::InvalidValue,
                 &ent.at(&[Seg::Key("b")]),
                 format!("the spring connects point `{}` to itself", raw.a),
             );
@@ -286,6 +310,7 @@ impl<'n> Validator<'_, 'n> {
                 ),
                 Some((_, BodyRef::Ground)) => {
                     self.error_at(
+                        Kind::InvalidValue,
                         &point_at,
                         format!("point `{p}` is on ground: an external force needs a moving body"),
                     );
@@ -301,6 +326,7 @@ impl<'n> Validator<'_, 'n> {
                     self.body_name(BodyRef::Body(pb)),
                 );
                 self.error_at(
+                    Kind::InvalidValue,
                     &point_at,
                     format!("point is on body `{pn}`, not on the force's body `{bn}`"),
                 );
@@ -310,6 +336,7 @@ impl<'n> Validator<'_, 'n> {
             (None, Some(pb)) => pb,
             (None, None) => {
                 self.error(
+                    Kind::MissingField,
                     Some(ent.line()),
                     Some(&ent.label),
                     "missing `body` (or a `point` given by name)",
@@ -322,6 +349,7 @@ impl<'n> Validator<'_, 'n> {
             Some("body") => Some(true),
             Some(other) => {
                 self.error_at(
+                    Kind::InvalidValue,
                     &ent.at(&[Seg::Key("frame")]),
                     format!("unknown frame `{other}` (expected \"ground\" or \"body\")"),
                 );
@@ -347,6 +375,7 @@ impl<'n> Validator<'_, 'n> {
         let at = ent.at(&[Seg::Key("components")]);
         if list.is_empty() {
             self.error_at(
+                Kind::InvalidValue,
                 &at,
                 "empty list (omit `components` to constrain x, y and z)",
             );
@@ -357,12 +386,20 @@ impl<'n> Validator<'_, 'n> {
         for c in list {
             match parse_axis(c) {
                 Some(a) if out.contains(&a) => {
-                    self.error_at(&at, format!("component `{c}` listed twice"));
+                    self.error_at(
+                        Kind::Duplicate,
+                        &at,
+                        format!("component `{c}` listed twice"),
+                    );
                     ok = false;
                 }
                 Some(a) => out.push(a),
                 None => {
-                    self.error_at(&at, format!("unknown component `{c}` (expected x, y or z)"));
+                    self.error_at(
+                        Kind::InvalidValue,
+                        &at,
+                        format!("unknown component `{c}` (expected x, y or z)"),
+                    );
                     ok = false;
                 }
             }
@@ -412,7 +449,7 @@ impl<'n> Validator<'_, 'n> {
                     BodyRef::Ground => "both on ground".to_string(),
                     _ => format!("both on body `{}`", self.body_name(ba)),
                 };
-                self.error(
+                self.error(Kind::InvalidValue,
                     Some(ent.line()),
                     Some(&ent.label),
                     format!(
@@ -445,7 +482,7 @@ impl<'n> Validator<'_, 'n> {
         match body {
             BodyRef::Unusable => return None,
             BodyRef::Ground => {
-                self.error_at(
+                self.error_at(Kind::InvalidValue,
                     &ent.at(&[Seg::Key("point")]),
                     format!(
                         "point `{}` is on ground: a constraint on ground's own point is either always satisfied or never",
@@ -475,6 +512,7 @@ impl<'n> Validator<'_, 'n> {
         let axis = parse_axis(&raw.axis);
         if axis.is_none() {
             self.error_at(
+                Kind::InvalidValue,
                 &ent.at(&[Seg::Key("axis")]),
                 format!("unknown axis `{}` (expected x, y or z)", raw.axis),
             );
@@ -488,7 +526,7 @@ impl<'n> Validator<'_, 'n> {
         };
         let (ia, ib) = (index(a)?, index(b)?);
         if ia == ib {
-            self.error(
+            self.error(Kind::InvalidValue,
                 Some(ent.line()),
                 Some(&ent.label),
                 format!(
@@ -501,7 +539,7 @@ impl<'n> Validator<'_, 'n> {
         // The joints on the path between a and b must all be revolutes about `axis`.
         let bad = self.angle_path_problems(ia, ib, axis)?;
         if !bad.is_empty() {
-            self.error(
+            self.error(Kind::Unsupported,
                 Some(ent.line()),
                 Some(&ent.label),
                 format!(

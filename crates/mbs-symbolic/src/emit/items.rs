@@ -1,0 +1,170 @@
+//! The items of the generated module around the methods: the struct of run-time parameters,
+//! its `Default`, the inherent `impl` (constants and methods) and the
+//! `runtime::Mechanism<N, NC>` implementation.
+
+use proc_macro2::{Ident, Literal, TokenStream};
+use quote::{format_ident, quote};
+
+use super::statements::float_literal;
+use crate::model::Model;
+
+/// What the items need to know about the model.
+pub(super) struct Items<'a> {
+    /// The model.
+    pub model: &'a Model,
+    /// The struct's name.
+    pub sname: &'a Ident,
+    /// Path of the runtime module.
+    pub rt: &'a syn::Path,
+    /// Field names of the parameters, by parameter index.
+    pub param_idents: &'a [Ident],
+    /// Number of coordinates.
+    pub n: usize,
+    /// Number of constraint rows.
+    pub nc: usize,
+}
+
+impl Items<'_> {
+    /// The run-time parameters with their field names.
+    fn runtime_params(&self) -> impl Iterator<Item = (&crate::model::Parameter, &Ident)> {
+        self.model
+            .parameters
+            .iter()
+            .zip(self.param_idents)
+            .filter(|(p, _)| p.runtime)
+    }
+
+    /// The struct: one documented `f64` field per run-time parameter.
+    pub fn struct_item(&self) -> TokenStream {
+        let mut fields = TokenStream::new();
+        for (p, id) in self.runtime_params() {
+            let doc = format!(" Parameter `{}` (default {}).", p.name, p.value);
+            fields.extend(quote! { #[doc = #doc] pub #id: f64, });
+        }
+        let struct_doc = format!(
+            " Generated equations of the `{}` mechanism: {} coordinates, {} constraint rows. Fields are the run-time parameters.",
+            self.model.name, self.n, self.nc
+        );
+        let sname = self.sname;
+        quote! {
+            #[doc = #struct_doc]
+            #[derive(Clone, Copy, Debug, PartialEq)]
+            #[allow(non_snake_case)]
+            pub struct #sname { #fields }
+        }
+    }
+
+    /// `Default`: the parameter values of the model file.
+    pub fn default_impl(&self) -> TokenStream {
+        let mut defaults = TokenStream::new();
+        for (p, id) in self.runtime_params() {
+            let v = float_literal(p.value);
+            defaults.extend(quote! { #id: #v, });
+        }
+        let sname = self.sname;
+        // Fully qualified: a model named `default` gives a struct `Default`, which would
+        // shadow the prelude trait. (Derivable when there are no run-time parameters.)
+        quote! {
+            #[allow(clippy::all)]
+            impl ::core::default::Default for #sname {
+                fn default() -> Self { Self { #defaults } }
+            }
+        }
+    }
+
+    /// The inherent `impl`: sizes and names as constants, then `methods`.
+    pub fn inherent_impl(&self, names: &Names<'_>, methods: TokenStream) -> TokenStream {
+        let (nl, ncl) = (
+            Literal::usize_unsuffixed(self.n),
+            Literal::usize_unsuffixed(self.nc),
+        );
+        let runtime_names: Vec<&str> = self
+            .runtime_params()
+            .map(|(p, _)| p.name.as_str())
+            .collect();
+        let npar = Literal::usize_unsuffixed(runtime_names.len());
+        let npts = Literal::usize_unsuffixed(names.points.len());
+        let (point_names, coord_names, cons_names) =
+            (&names.points, &names.coordinates, &names.constraints);
+        let sname = self.sname;
+        quote! {
+            #[allow(non_snake_case, unused_parens, clippy::all)]
+            impl #sname {
+                /// Number of joint coordinates.
+                pub const DOF: usize = #nl;
+                /// Number of constraint rows.
+                pub const CONSTRAINTS: usize = #ncl;
+                /// Names of the run-time parameters.
+                pub const PARAM_NAMES: [&'static str; #npar] = [#(#runtime_names),*];
+                /// Names of the named points.
+                pub const POINT_NAMES: [&'static str; #npts] = [#(#point_names),*];
+                /// Names of the joint coordinates.
+                pub const COORDINATE_NAMES: [&'static str; #nl] = [#(#coord_names),*];
+                /// Names of the constraint rows.
+                pub const CONSTRAINT_NAMES: [&'static str; #ncl] = [#(#cons_names),*];
+                #methods
+            }
+        }
+    }
+
+    /// `impl runtime::Mechanism<N, NC>`: forwards to the inherent methods; `point_fns` are the
+    /// point methods by point index.
+    pub fn mechanism_impl(&self, point_fns: &[Ident]) -> TokenStream {
+        let (nl, ncl) = (
+            Literal::usize_unsuffixed(self.n),
+            Literal::usize_unsuffixed(self.nc),
+        );
+        let mut setters = TokenStream::new();
+        for (p, id) in self.runtime_params() {
+            let name = &p.name;
+            setters.extend(quote! { #name => self.#id = value, });
+        }
+        // Without run-time parameters `set_param` never reads the value.
+        let value_arg = if self.runtime_params().next().is_none() {
+            format_ident!("_value")
+        } else {
+            format_ident!("value")
+        };
+        let mut point_arms = TokenStream::new();
+        for (k, fname) in point_fns.iter().enumerate() {
+            let kl = Literal::usize_unsuffixed(k);
+            point_arms.extend(quote! { #kl => self.#fname(q, qd, out), });
+        }
+        let (sname, rt) = (self.sname, self.rt);
+        quote! {
+            #[allow(clippy::all)]
+            impl #rt::Mechanism<#nl, #ncl> for #sname {
+                fn param_names(&self) -> &[&'static str] { &Self::PARAM_NAMES }
+                fn set_param(&mut self, name: &str, #value_arg: f64) -> bool {
+                    match name { #setters _ => return false, }
+                    #[allow(unreachable_code)]
+                    true
+                }
+                fn point_names(&self) -> &[&'static str] { &Self::POINT_NAMES }
+                fn mass_matrix(&self, q: &[f64; #nl], m: &mut [[f64; #nl]; #nl]) { #sname::mass_matrix(self, q, m) }
+                fn f_vector(&self, q: &[f64; #nl], qd: &[f64; #nl], f: &mut [f64; #nl]) { #sname::f_vector(self, q, qd, f) }
+                fn q_vector(&self, q: &[f64; #nl], qd: &[f64; #nl], t: f64, out: &mut [f64; #nl]) { #sname::q_vector(self, q, qd, t, out) }
+                fn constraints(&self, q: &[f64; #nl], h: &mut [f64; #ncl]) { #sname::constraints(self, q, h) }
+                fn constraint_jacobian(&self, q: &[f64; #nl], j: &mut [[f64; #nl]; #ncl]) { #sname::constraint_jacobian(self, q, j) }
+                fn constraint_bias(&self, q: &[f64; #nl], qd: &[f64; #nl], a: &mut [f64; #ncl]) { #sname::constraint_bias(self, q, qd, a) }
+                fn evaluate(&self, q: &[f64; #nl], qd: &[f64; #nl], t: f64, out: &mut #rt::Evaluation<#nl, #ncl>) { #sname::evaluate(self, q, qd, t, out) }
+                fn potential_energy(&self, q: &[f64; #nl]) -> f64 { #sname::potential_energy(self, q) }
+                fn point_kinematics(&self, k: usize, q: &[f64; #nl], qd: &[f64; #nl], out: &mut #rt::PointKinematics<#nl>) -> bool {
+                    match k { #point_arms _ => return false, }
+                    #[allow(unreachable_code)]
+                    true
+                }
+            }
+        }
+    }
+}
+
+/// Names of the points, coordinates and constraint rows, in index order.
+pub(super) struct Names<'a> {
+    /// Point names.
+    pub points: Vec<&'a str>,
+    /// Coordinate names.
+    pub coordinates: Vec<&'a str>,
+    /// Constraint row names.
+    pub constraints: Vec<&'a str>,
+}
