@@ -25,7 +25,6 @@ use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use damper_e2e::fixtures::chain16::Chain16;
-use damper_e2e::rng::SplitMix64;
 use damper_e2e::workspace_root;
 use mbs_symbolic::constraints;
 use mbs_symbolic::dynamics::Symbolic;
@@ -33,6 +32,7 @@ use mbs_symbolic::expr::{EvalInput, Id, Tape};
 use mbs_symbolic::model::Model;
 use mbs_symbolic::numeric::NumericModel;
 use mbs_symbolic::runtime::{Evaluation, Mechanism, PointKinematics};
+use mbs_symbolic::samples::SplitMix64;
 use model_registry::Visitor;
 
 /// Seeded values in [-scale, scale).

@@ -65,14 +65,7 @@ fn registered(name: &str) -> &'static model_registry::Compiled {
     model_registry::find_by_name(name).unwrap_or_else(|| panic!("models/{name} not compiled in"))
 }
 
-/// One test function: the counting allocator is global, so a second test running in
-/// parallel in this binary would be counted too.
 #[test]
-fn evaluations_do_not_allocate() {
-    generated_evaluations_do_not_allocate();
-    generated_and_interpreted_systems_do_not_allocate_after_workspace();
-}
-
 fn generated_evaluations_do_not_allocate() {
     let (acc_db, alloc_db) = registered("double_bar").visit(Exercise);
     let (acc_fb, alloc_fb) = registered("four_bar").visit(Exercise);
@@ -113,6 +106,7 @@ fn exercise_dyn(s: &dyn System) -> (f64, usize) {
     (acc, allocations() - before)
 }
 
+#[test]
 fn generated_and_interpreted_systems_do_not_allocate_after_workspace() {
     let mut systems: Vec<(String, Box<dyn System>)> = Vec::new();
     for c in model_registry::compiled() {

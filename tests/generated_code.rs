@@ -19,7 +19,6 @@
 mod common;
 
 use damper_e2e::fixtures::{chain16::Chain16, spatial_arm::SpatialArm};
-use damper_e2e::rng::SplitMix64;
 use damper_e2e::workspace_root;
 use mbs_symbolic::constraints;
 use mbs_symbolic::dynamics::Symbolic;
@@ -30,6 +29,7 @@ use mbs_symbolic::runtime::{
     Backend, Evaluation, GeneratedSystem, InterpretedSystem, Mechanism, NumericSystem,
     PointKinematics, System,
 };
+use mbs_symbolic::samples::SplitMix64;
 use model_registry::{Compiled, Visitor};
 
 fn assert_close(what: &str, got: &[f64], want: &[f64]) {
@@ -426,7 +426,13 @@ fn backends_agree(what: &str, model: &Model, systems: &mut [Box<dyn System>], se
 
     let mut rng = SplitMix64::new(seed);
     let states: Vec<(Vec<f64>, Vec<f64>, f64)> = (0..8)
-        .map(|_| (rng.vec(n, 1.5), rng.vec(n, 2.0), 0.5 + rng.signed()))
+        .map(|_| {
+            (
+                (0..n).map(|_| rng.symmetric(1.5)).collect(),
+                (0..n).map(|_| rng.symmetric(2.0)).collect(),
+                0.5 + rng.symmetric(1.0),
+            )
+        })
         .collect();
     let check_all = |systems: &[Box<dyn System>], stage: &str| -> Vec<Vec<(String, Vec<f64>)>> {
         let mut all = Vec::new();

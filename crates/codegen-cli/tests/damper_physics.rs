@@ -10,6 +10,7 @@ use fem_beam::BandedFactor;
 use hybrid_core::damper::{DamperModel, Integrator, full};
 use hybrid_core::study::{build_model, damping_ratio, run_setup};
 use mbs_symbolic::runtime::{NumericSystem, System};
+use mbs_symbolic::samples::SplitMix64;
 
 fn scenario_path() -> PathBuf {
     PathBuf::from(concat!(
@@ -40,32 +41,23 @@ fn double_bar() -> Box<dyn System> {
         .system()
 }
 
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
-}
-
 /// A random beam state with the beam point at `y` (m): a random mix of the static shape and
 /// noise on every DOF.
 fn random_state<M: System>(
     model: &DamperModel<M>,
-    rng: &mut Rng,
+    rng: &mut SplitMix64,
     amp: f64,
 ) -> (Vec<f64>, Vec<f64>) {
     let n = model.beam.dof_count();
-    let base = model.initial_state(amp * rng.next(), [1.4, 0.35]).unwrap();
+    let base = model
+        .initial_state(amp * rng.symmetric(1.0), [1.4, 0.35])
+        .unwrap();
     let q: Vec<f64> = base
         .q
         .iter()
-        .map(|x| x * (1.0 + 0.2 * rng.next()) + 1e-5 * rng.next())
+        .map(|x| x * (1.0 + 0.2 * rng.symmetric(1.0)) + 1e-5 * rng.symmetric(1.0))
         .collect();
-    let v: Vec<f64> = (0..n).map(|_| 0.05 * rng.next()).collect();
+    let v: Vec<f64> = (0..n).map(|_| 0.05 * rng.symmetric(1.0)).collect();
     (q, v)
 }
 
@@ -80,7 +72,7 @@ fn reduced_model_equals_full_constrained_model_in_accelerations() {
         let (model, _) =
             build_model(&sc.setup, &double_bar_model(), double_bar(), connected).unwrap();
         let mass_factor: BandedFactor = model.beam.mass().factorize().unwrap();
-        let mut rng = Rng(17);
+        let mut rng = SplitMix64::new(17);
         for _ in 0..20 {
             let (q, v) = random_state(&model, &mut rng, 2e-3);
             let t = 0.3;
@@ -590,7 +582,7 @@ fn structured_fast_path_equals_general_partitioning() {
     let (model, _) = build_model(&sc.setup, &double_bar_model(), double_bar(), true).unwrap();
     let n = model.beam.dof_count();
     let mass_factor = model.beam.mass().factorize().unwrap();
-    let mut rng = Rng(99);
+    let mut rng = SplitMix64::new(99);
     for _ in 0..10 {
         let (q, v) = random_state(&model, &mut rng, 2e-3);
         let link = model.follow(0.1, &q, &v, 0.0, [1.4, 0.35]).unwrap();

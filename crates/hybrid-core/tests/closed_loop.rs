@@ -15,23 +15,11 @@ use hybrid_core::closed_loop::{
 use hybrid_core::closed_loop::{Settings, assemble_positions};
 use hybrid_core::partition::{Partition, choose_partition, dependent_accelerations, reduce};
 use mbs_symbolic::model::{self, Format, Model};
+use mbs_symbolic::samples::SplitMix64;
 use nalgebra::{DMatrix, DVector};
 
 // ---------------------------------------------------------------------------------------
 // Helpers
-
-/// SplitMix64: a tiny deterministic generator.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    }
-}
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -121,17 +109,17 @@ fn four_bar_state(sys: &dyn System, q1: f64, guess: (f64, f64), w1: f64) -> (Vec
 /// automatic and for arbitrary non-singular partitions. Tolerance 1e-10 relative.
 #[test]
 fn reduce_matches_the_augmented_system_on_random_data() {
-    let mut rng = Rng(7);
+    let mut rng = SplitMix64::new(7);
     let mut worst = 0.0f64;
     for trial in 0..200 {
         let n = 2 + trial % 7;
         let r = 1 + (trial / 7) % (n - 1);
-        let x = DMatrix::from_fn(n, n, |_, _| rng.next());
+        let x = DMatrix::from_fn(n, n, |_, _| rng.symmetric(1.0));
         let m = &x * x.transpose() + DMatrix::identity(n, n) * (n as f64);
-        let j = DMatrix::from_fn(r, n, |_, _| rng.next());
-        let f = DVector::from_fn(n, |_, _| rng.next());
-        let q = DVector::from_fn(n, |_, _| rng.next());
-        let a = DVector::from_fn(r, |_, _| rng.next());
+        let j = DMatrix::from_fn(r, n, |_, _| rng.symmetric(1.0));
+        let f = DVector::from_fn(n, |_, _| rng.symmetric(1.0));
+        let q = DVector::from_fn(n, |_, _| rng.symmetric(1.0));
+        let a = DVector::from_fn(r, |_, _| rng.symmetric(1.0));
         let mut aug = DMatrix::zeros(n + r, n + r);
         aug.view_mut((0, 0), (n, n)).copy_from(&m);
         aug.view_mut((0, n), (n, r)).copy_from(&j.transpose());
