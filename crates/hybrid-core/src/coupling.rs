@@ -229,15 +229,13 @@ impl<M: System> MechanismLink<M> {
         let ws = &mut *self.ws.borrow_mut();
         self.mechanism
             .point_kinematics(self.attachment.point, q, qd, ws);
-        let pj = &ws.point_j;
+        // Column-major 3 x 2.
+        let pj = &ws.point_j.as_slice()[..6];
+        let (p, a) = (ws.point_p, ws.point_a);
         (
-            [ws.point_p[0], ws.point_p[1], ws.point_p[2]],
-            [
-                [pj[(0, 0)], pj[(0, 1)]],
-                [pj[(1, 0)], pj[(1, 1)]],
-                [pj[(2, 0)], pj[(2, 1)]],
-            ],
-            [ws.point_a[0], ws.point_a[1], ws.point_a[2]],
+            [p[0], p[1], p[2]],
+            [[pj[0], pj[3]], [pj[1], pj[4]], [pj[2], pj[5]]],
+            [a[0], a[1], a[2]],
         )
     }
 
@@ -254,11 +252,10 @@ impl<M: System> MechanismLink<M> {
         let ws = &mut *self.ws.borrow_mut();
         self.mechanism.evaluate(q, qd, t, ws);
         generator.add_to_equations(self.generator_joint, current, &mut ws.m, &mut ws.q);
-        (
-            [[ws.m[(0, 0)], ws.m[(0, 1)]], [ws.m[(1, 0)], ws.m[(1, 1)]]],
-            [ws.f[0], ws.f[1]],
-            [ws.q[0], ws.q[1]],
-        )
+        // Column-major 2 x 2.
+        let m = &ws.m.as_slice()[..4];
+        let (f, qv) = (&ws.f.as_slice()[..2], &ws.q.as_slice()[..2]);
+        ([[m[0], m[2]], [m[1], m[3]]], [f[0], f[1]], [qv[0], qv[1]])
     }
 
     /// Potential energy `V(q^b)` of the mechanism (gravity, springs).

@@ -31,6 +31,16 @@ fn owned(names: &[&str]) -> Vec<String> {
     names.iter().map(|s| s.to_string()).collect()
 }
 
+/// Copies `R` rows of `C` into a column-major `R x C` buffer.
+fn copy_rows<const R: usize, const C: usize>(rows: &[[f64; C]; R], out: &mut [f64]) {
+    let out = &mut out[..R * C];
+    for (r, row) in rows.iter().enumerate() {
+        for (c, v) in row.iter().enumerate() {
+            out[c * R + r] = *v;
+        }
+    }
+}
+
 fn array<const N: usize>(v: &[f64]) -> [f64; N] {
     let mut a = [0.0; N];
     a.copy_from_slice(v);
@@ -129,20 +139,14 @@ where
         // One fused generated body: trigonometric leaves and rotations computed once.
         let mut e = Evaluation::<N, NC>::default();
         self.mech.evaluate(&q, &qd, t, &mut e);
-        for r in 0..N {
-            for c in 0..N {
-                ws.m[(r, c)] = e.mass[r][c];
-            }
-            ws.f[r] = e.f[r];
-            ws.q[r] = e.q[r];
-        }
-        for r in 0..NC {
-            ws.h[r] = e.h[r];
-            ws.a[r] = e.a[r];
-            for c in 0..N {
-                ws.j[(r, c)] = e.j[r][c];
-            }
-        }
+        // Column-major copies through the raw slices (no per-entry bounds checks: this is
+        // on every step of the damper).
+        copy_rows(&e.mass, ws.m.as_mut_slice());
+        ws.f.as_mut_slice().copy_from_slice(&e.f);
+        ws.q.as_mut_slice().copy_from_slice(&e.q);
+        ws.h.as_mut_slice().copy_from_slice(&e.h);
+        ws.a.as_mut_slice().copy_from_slice(&e.a);
+        copy_rows(&e.j, ws.j.as_mut_slice());
     }
 
     fn evaluate_positions(&self, q: &[f64], ws: &mut Workspace) {
@@ -171,13 +175,9 @@ where
         {
             return false;
         }
-        for r in 0..3 {
-            ws.point_p[r] = pk.p[r];
-            ws.point_a[r] = pk.a[r];
-            for c in 0..N {
-                ws.point_j[(r, c)] = pk.j[r][c];
-            }
-        }
+        ws.point_p.as_mut_slice().copy_from_slice(&pk.p);
+        ws.point_a.as_mut_slice().copy_from_slice(&pk.a);
+        copy_rows(&pk.j, ws.point_j.as_mut_slice());
         true
     }
 
