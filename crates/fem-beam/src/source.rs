@@ -118,41 +118,9 @@ mod tests {
     use super::*;
     use crate::error::Entity;
 
-    const SAMPLE: &str = r#"
-name = "x"
-
-[[segment]]
-length = 1.0
-youngs_modulus = 2e11
-density = 7800.0
-width = 0.04
-height = 0.008
-elements = 4
-
-[[segment]]
-length = 0.5
-youngs_modulus = 2e11
-density = 7800.0
-area = 1e-4
-second_moment = 1e-9
-elements = 2
-
-[[support]]
-node = 0
-kind = "clamped"
-
-[[support]]
-x = 1.5
-locked = ["transverse"]
-
-[damping]
-ratios = [{ mode = 1, ratio = 0.01 }, { mode = 2, ratio = 0.02 }]
-
-[[load]]
-x = 1.0
-force = -3.0
-time = { kind = "harmonic", frequency_hz = 5.0 }
-"#;
+    // The spec module's sample beam file (the same lines; it only adds a distributed load at
+    // the end).
+    use crate::spec::tests::SAMPLE;
 
     fn line_of(key: &str, index: Option<usize>, field: Option<&str>) -> Option<usize> {
         let map = SourceMap::new(SAMPLE);

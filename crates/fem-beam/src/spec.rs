@@ -347,10 +347,11 @@ impl BeamSpec {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    const SAMPLE: &str = r#"
+    /// A beam file using every table (shared with the source-map tests).
+    pub(crate) const SAMPLE: &str = r#"
 name = "x"
 
 [[segment]]
