@@ -68,6 +68,7 @@ pub fn run(args: Args) -> Result<(), Error> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(stem.clone().unwrap_or_else(|| "run".into())));
     let progress = !args.quiet;
+    check_out_dir(&out)?;
     match sc {
         Scenario::Damper(sc) => damper(&args.scenario, &out, &sc, progress),
         Scenario::Mechanism(sc) => {
@@ -77,19 +78,20 @@ pub fn run(args: Args) -> Result<(), Error> {
     }
 }
 
-fn create_dir(out: &Path) -> Result<(), Error> {
-    if !out.is_dir() {
-        std::fs::create_dir_all(out).map_err(|error| Error::CreateDir {
-            path: out.to_path_buf(),
-            error,
-        })?;
+/// Checks before any work that the output directory can be used: it is a directory or does
+/// not exist yet (it is created by the commit, when the run has its outputs).
+fn check_out_dir(out: &Path) -> Result<(), Error> {
+    match std::fs::metadata(out) {
+        Ok(m) if !m.is_dir() => Err(Error::Usage(format!(
+            "output directory {} is not a directory",
+            out.display()
+        ))),
+        _ => Ok(()),
     }
-    Ok(())
 }
 
 fn damper(path: &Path, out: &Path, sc: &DamperScenario, progress: bool) -> Result<(), Error> {
     let model = mbs_symbolic::model::load(&sc.model_path)?;
-    create_dir(out)?;
     let outcome = run::damper(sc, &model, progress)?;
     let files = damper_files(path, out, sc, &model, &outcome)?;
     commit_files(&files).map_err(ReportError::from)?;
@@ -226,7 +228,6 @@ fn mechanism(
             bytes: json_bytes(&summary).map_err(ReportError::from)?,
         },
     ];
-    create_dir(out)?;
     commit_files(&files).map_err(ReportError::from)?;
     let stats = &outcome.stats;
     eprintln!(
