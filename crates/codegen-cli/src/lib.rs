@@ -23,6 +23,7 @@
 
 #![warn(missing_docs)]
 
+pub mod budget;
 pub mod commands;
 pub mod interrupt;
 pub mod report;
@@ -83,6 +84,10 @@ pub enum Error {
     /// An output file cannot be produced or written.
     #[error(transparent)]
     Report(#[from] report::ReportError),
+    /// The estimated work of a run is above the limits of [`budget`] (lifted by
+    /// `--allow-long`).
+    #[error("{0}")]
+    TooLong(String),
     /// Invalid command-line input.
     #[error("{0}")]
     Usage(String),
