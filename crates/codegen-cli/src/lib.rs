@@ -15,16 +15,22 @@
 //! Standard output closed early (`damper modes .. | head -1`) is [`Error::Stdout`] with
 //! [`std::io::ErrorKind::BrokenPipe`]; the binary exits quietly with status 141
 //! (128 + SIGPIPE).
+//!
+//! SIGINT and SIGTERM follow one policy for every command ([`interrupt`]): an interrupted
+//! run writes nothing (outputs are committed as a set at the end by the one writer,
+//! [`report::writer`], which follows symbolic links and writes devices and fifos directly)
+//! and exits with 128 + signal.
 
 #![warn(missing_docs)]
 
+pub mod budget;
 pub mod commands;
+pub mod interrupt;
 pub mod report;
 pub mod run;
 pub mod scenario;
 
 use std::io::Write;
-use std::path::PathBuf;
 
 use diagnostic::Diagnostics;
 
@@ -75,17 +81,13 @@ pub enum Error {
         /// Why.
         error: hybrid_core::closed_loop::SimError,
     },
-    /// The output directory cannot be created.
-    #[error("cannot create the output directory {}: {error}", path.display())]
-    CreateDir {
-        /// The directory.
-        path: PathBuf,
-        /// Why.
-        error: std::io::Error,
-    },
     /// An output file cannot be produced or written.
     #[error(transparent)]
     Report(#[from] report::ReportError),
+    /// The estimated work of a run is above the limits of [`budget`] (lifted by
+    /// `--allow-long`).
+    #[error("{0}")]
+    TooLong(String),
     /// Invalid command-line input.
     #[error("{0}")]
     Usage(String),

@@ -2,7 +2,9 @@
 //!
 //! A thin binary over the `codegen_cli` library: it parses arguments (clap) and calls the
 //! command. Every error is reported as one line on standard error with exit code 2 (bad
-//! input); standard output closed early by the reader exits quietly with 141.
+//! input); standard output closed early by the reader exits quietly with 141; SIGINT and
+//! SIGTERM end the run with 130 / 143 without writing anything half-way
+//! (`codegen_cli::interrupt`).
 
 use std::process::ExitCode;
 
@@ -64,6 +66,11 @@ fn main() -> ExitCode {
             return ExitCode::from(code);
         }
     };
+    if let Err(e) = codegen_cli::interrupt::install() {
+        eprintln!(
+            "warning: cannot handle SIGINT/SIGTERM ({e}); an interrupted run may leave temporary files"
+        );
+    }
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if broken_pipe(&e) => ExitCode::from(BROKEN_PIPE),

@@ -187,5 +187,10 @@ fn singular_run_fails_cleanly_and_writes_nothing() {
         "no output files: {:?}",
         files_in(&out)
     );
+    // The output directory is created only when the run has its outputs.
+    assert!(
+        !out.exists(),
+        "a failed run leaves no empty output directory"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -77,27 +77,33 @@ fn apply_params(model: &mut Model, overrides: &[String]) -> Result<Vec<usize>> {
     let mut applied = Vec::with_capacity(overrides.len());
     for o in overrides {
         let Some((name, value)) = o.split_once('=') else {
-            bail!("--param {o:?}: expected NAME=VALUE");
+            bail!(
+                "--param {:?}: expected NAME=VALUE",
+                diagnostic::truncate(o, 80)
+            );
         };
-        let name = name.trim();
+        let (name, shown) = (name.trim(), diagnostic::truncate(name.trim(), 80));
         let value: f64 = value
             .trim()
             .parse()
             .ok()
             .filter(|v: &f64| v.is_finite())
             .with_context(|| {
-                format!("--param {name}: {:?} is not a finite number", value.trim())
+                format!(
+                    "--param {shown}: {:?} is not a finite number",
+                    diagnostic::truncate(value.trim(), 80)
+                )
             })?;
         let Some(k) = model.param_index(name) else {
             let known: Vec<&str> = model.parameters.iter().map(|p| p.name.as_str()).collect();
             bail!(
-                "--param {name}: no such parameter in model {:?} (known: {})",
+                "--param {shown}: no such parameter in model {:?} (known: {})",
                 model.name,
                 known.join(", ")
             );
         };
         if model.parameters[k].derived {
-            bail!("--param {name}: parameter is derived from other parameters; set those instead");
+            bail!("--param {shown}: parameter is derived from other parameters; set those instead");
         }
         model.parameters[k].value = value;
         applied.push(k);
@@ -211,6 +217,13 @@ fn system(args: &Args, model: &Model, overrides: &[usize]) -> Result<Box<dyn Sys
 pub fn run(args: Args) -> Result<()> {
     let mut model = model::load(&args.model).map_err(|e| anyhow::anyhow!("{e}"))?;
     let overrides = apply_params(&mut model, &args.params)?;
+    // The same physical checks as the model file gets (masses > 0, inertias physical,
+    // lengths finite), at the overridden values.
+    model::check_parameter_values(&model, &model.default_params(), "--param")
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    if !args.t.is_finite() {
+        bail!("--t: the time must be a finite number");
+    }
     let n = model.dof();
     let q = state("q", &args.q, n)?;
     let qd = state("qd", &args.qd, n)?;

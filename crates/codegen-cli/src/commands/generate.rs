@@ -40,16 +40,22 @@ pub struct Args {
     pub struct_name: Option<String>,
 }
 
+/// Longest function name shown in the `--stats` table; longer ones (point names can be
+/// arbitrarily long) are truncated with an ellipsis.
+pub const STATS_NAME_WIDTH: usize = 60;
+
 /// The `--stats` table: one row per function and a final `all` row with the sums.
 pub fn stats_table(stats: &[(String, OpCount)]) -> String {
+    let shown = |name: &str| diagnostic::truncate(name, STATS_NAME_WIDTH);
     let width = stats
         .iter()
-        .map(|(name, _)| name.len())
+        .map(|(name, _)| shown(name).chars().count())
         .chain([8])
         .max()
         .unwrap_or(8);
     let mut out = String::new();
     let mut row = |name: &str, c: &OpCount| {
+        let name = shown(name);
         let _ = writeln!(
             out,
             "{name:<width$}  {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}",
@@ -113,7 +119,11 @@ pub fn run(args: Args) -> Result<(), Error> {
         ..EmitOptions::default()
     };
     let generated = generate(&model, &opts)?;
-    let wrote = write_if_changed(&args.output, &generated.source)?;
+    let wrote = {
+        // A signal while the file is being replaced is handled after it (crate::interrupt).
+        let _commit = crate::interrupt::commit_section();
+        write_if_changed(&args.output, &generated.source)?
+    };
     eprintln!(
         "{}: {} (struct {}, {} coordinates, {} constraint rows)",
         args.output.display(),
@@ -152,5 +162,18 @@ mod tests {
                 vec!["all", "7", "15", "2", "4", "0", "28"],
             ]
         );
+    }
+
+    /// `{name:<width$}` panics ("Formatting argument out of range") for widths over 65,535:
+    /// a point name of 70,000 characters must give a truncated row, not a panic.
+    #[test]
+    fn stats_table_with_a_name_over_65535_chars_truncates_instead_of_panicking() {
+        let long = format!("point_{}", "x".repeat(70_000));
+        let t = stats_table(&[(long.clone(), OpCount::default())]);
+        let row = t.lines().nth(1).unwrap();
+        let name = row.split_whitespace().next().unwrap();
+        assert_eq!(name.chars().count(), STATS_NAME_WIDTH + 1, "{name}"); // and the ellipsis
+        assert!(long.starts_with(name.trim_end_matches('…')));
+        assert!(t.len() < 1000);
     }
 }

@@ -38,6 +38,29 @@ fn report(args: &Args) -> Result<String, Error> {
     let modes = model.modes(args.count)?;
     let fe = modes.frequencies_hz();
     let reference = analytic::frequencies_hz(&beam, args.count);
+    // Physically absurd input (density 5e-324) overflows: refuse instead of printing inf/NaN.
+    let file = args.beam.display().to_string();
+    let not_finite = |what: &str, k: usize, f: f64| {
+        Error::Input(
+            diagnostic::Diagnostic::new(
+                diagnostic::Kind::InvalidValue,
+                file.clone(),
+                format!("{what} frequency of mode {} is {f}, not a finite number (check density, stiffness and sizes)", k + 1),
+            )
+            .entity(format!("beam {:?}", diagnostic::truncate(beam.name().unwrap_or("(unnamed)"), 80)))
+            .into(),
+        )
+    };
+    if let Some((k, f)) = fe.iter().enumerate().find(|(_, f)| !f.is_finite()) {
+        return Err(not_finite("the finite-element", k, *f));
+    }
+    if let Some((k, f)) = reference
+        .iter()
+        .flat_map(|(_, a)| a.iter().enumerate())
+        .find(|(_, f)| !f.is_finite())
+    {
+        return Err(not_finite("the analytic", k, *f));
+    }
 
     if args.json {
         // Written by hand to keep the documented key order (serde_json's map sorts keys).

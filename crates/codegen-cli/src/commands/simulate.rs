@@ -31,6 +31,7 @@ use hybrid_core::closed_loop::Method;
 use hybrid_core::study::Sample;
 
 use crate::Error;
+use crate::budget::Estimate;
 use crate::report::csv::{MechanismCsv, samples_csv};
 use crate::report::plot::plot_svg;
 use crate::report::summary::{
@@ -53,6 +54,10 @@ pub struct Args {
     /// No progress bar even on a terminal.
     #[arg(long)]
     pub quiet: bool,
+    /// Run even when the estimated steps, output rows or memory are above the limits
+    /// (`codegen_cli::budget`: 2e7 steps, 2e6 rows, 1 GiB).
+    #[arg(long)]
+    pub allow_long: bool,
 }
 
 /// Runs `damper simulate`.
@@ -68,28 +73,38 @@ pub fn run(args: Args) -> Result<(), Error> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(stem.clone().unwrap_or_else(|| "run".into())));
     let progress = !args.quiet;
+    check_out_dir(&out)?;
     match sc {
-        Scenario::Damper(sc) => damper(&args.scenario, &out, &sc, progress),
+        Scenario::Damper(sc) => damper(&args.scenario, &out, &sc, progress, args.allow_long),
         Scenario::Mechanism(sc) => {
             let stem = stem.unwrap_or_else(|| "mechanism".into());
-            mechanism(&sc, &out, &stem, progress, started)
+            mechanism(&sc, &out, &stem, progress, started, args.allow_long)
         }
     }
 }
 
-fn create_dir(out: &Path) -> Result<(), Error> {
-    if !out.is_dir() {
-        std::fs::create_dir_all(out).map_err(|error| Error::CreateDir {
-            path: out.to_path_buf(),
-            error,
-        })?;
+/// Checks before any work that the output directory can be used: it is a directory or does
+/// not exist yet (it is created by the commit, when the run has its outputs).
+fn check_out_dir(out: &Path) -> Result<(), Error> {
+    match std::fs::metadata(out) {
+        Ok(m) if !m.is_dir() => Err(Error::Usage(format!(
+            "output directory {} is not a directory",
+            out.display()
+        ))),
+        _ => Ok(()),
     }
-    Ok(())
 }
 
-fn damper(path: &Path, out: &Path, sc: &DamperScenario, progress: bool) -> Result<(), Error> {
+fn damper(
+    path: &Path,
+    out: &Path,
+    sc: &DamperScenario,
+    progress: bool,
+    allow_long: bool,
+) -> Result<(), Error> {
+    Estimate::damper(sc).check(&path.display().to_string(), allow_long)?;
     let model = mbs_symbolic::model::load(&sc.model_path)?;
-    create_dir(out)?;
+    sc.check_parameters(&model)?;
     let outcome = run::damper(sc, &model, progress)?;
     let files = damper_files(path, out, sc, &model, &outcome)?;
     commit_files(&files).map_err(ReportError::from)?;
@@ -189,8 +204,10 @@ fn mechanism(
     stem: &str,
     progress: bool,
     started: Instant,
+    allow_long: bool,
 ) -> Result<(), Error> {
     let model = mbs_symbolic::model::load(&sc.model)?;
+    Estimate::mechanism(sc, model.dof()).check(&sc.file, allow_long)?;
     let mut csv: Option<MechanismCsv> = None;
     let mut csv_error: Option<::csv::Error> = None;
     let outcome = run::mechanism(sc, &model, progress, &mut |names, row| {
@@ -226,7 +243,6 @@ fn mechanism(
             bytes: json_bytes(&summary).map_err(ReportError::from)?,
         },
     ];
-    create_dir(out)?;
     commit_files(&files).map_err(ReportError::from)?;
     let stats = &outcome.stats;
     eprintln!(
@@ -284,6 +300,8 @@ fn mechanism_summary(
     };
     let max_relative_drift = match (stats.max_energy_error, scale) {
         (Some(d), Some(s)) if s > 0.0 => Some(d / s),
+        // No energy at all (no gravity, at rest): nothing drifted; 0/0 is not reported.
+        (Some(0.0), Some(_)) => Some(0.0),
         _ => None,
     };
     let named = |values: &[f64]| names.iter().cloned().zip(values.iter().copied()).collect();

@@ -31,14 +31,17 @@ pub struct DamperSummary<'a> {
     /// Steps per second of wall-clock time.
     pub steps_per_second: f64,
     /// First natural frequency of the bare beam (Hz).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub beam_first_frequency_hz: Option<f64>,
     /// The state at t = 0.
     pub initial: InitialSummary,
     /// Largest |tip displacement| (m).
     pub peak_amplitude: f64,
     /// Equivalent damping ratio of the free decay with the generator.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub zeta_with_generator: Option<f64>,
     /// ... and with the generator disconnected.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub zeta_without_generator: Option<f64>,
     /// The energy account.
     pub energy: EnergySummary,
@@ -79,6 +82,7 @@ pub struct EnergySummary {
     /// Work of external forces.
     pub external_work: f64,
     /// The run with the generator disconnected.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub without_generator: Option<EnergyWithout>,
 }
 
@@ -97,6 +101,7 @@ pub struct MechanismSummary {
     /// The scenario file.
     pub scenario: String,
     /// Its description.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub description: Option<String>,
     /// The model file.
     pub model: String,
@@ -109,6 +114,7 @@ pub struct MechanismSummary {
     /// `completed` or `stopped`.
     pub status: &'static str,
     /// Why the run stopped.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
     /// Integration settings.
     pub settings: MechanismSettings,
@@ -176,8 +182,10 @@ pub enum IntegratorSummary {
         /// Absolute tolerance.
         atol: f64,
         /// First step.
+        #[serde(skip_serializing_if = "Option::is_none")]
         initial_step: Option<f64>,
         /// Largest step.
+        #[serde(skip_serializing_if = "Option::is_none")]
         max_step: Option<f64>,
     },
     /// Fixed-step RK4.
@@ -237,14 +245,18 @@ pub struct ChangeSummary {
 #[derive(Clone, Debug, Serialize)]
 pub struct DriftSummary {
     /// Total energy at the start.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub initial_total: Option<f64>,
     /// Largest |E - E0|.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub max_abs_drift: Option<f64>,
     /// ... relative to `relative_to`.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub max_relative_drift: Option<f64>,
     /// What the relative drift is relative to.
     pub relative_to: &'static str,
     /// E - E0 at the end.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub final_drift: Option<f64>,
 }
 
@@ -259,9 +271,77 @@ pub struct FinalState {
     pub qd: BTreeMap<String, f64>,
 }
 
-/// Pretty-printed JSON of a summary, with a final newline.
+/// Pretty-printed JSON of a summary, with a final newline. A summary has no `null`: absent
+/// values are left out, and a non-finite number (which JSON cannot hold and `serde_json`
+/// would print as `null`) is an error naming the field, e.g. `energy.max_relative_drift`.
 pub fn json_bytes<T: Serialize>(value: &T) -> Result<Vec<u8>, serde_json::Error> {
-    let mut v = serde_json::to_vec_pretty(value)?;
+    let tree = serde_json::to_value(value)?;
+    if let Some(path) = first_null(&tree, String::new()) {
+        return Err(serde::ser::Error::custom(format!(
+            "summary field `{path}` is not a finite number"
+        )));
+    }
+    let mut v = serde_json::to_vec_pretty(&tree)?;
     v.push(b'\n');
     Ok(v)
+}
+
+/// The path of the first `null` in a JSON tree (`a.b[2]`).
+fn first_null(v: &serde_json::Value, path: String) -> Option<String> {
+    use serde_json::Value;
+    match v {
+        Value::Null => Some(path),
+        Value::Array(items) => items
+            .iter()
+            .enumerate()
+            .find_map(|(i, x)| first_null(x, format!("{path}[{i}]"))),
+        Value::Object(map) => map.iter().find_map(|(k, x)| {
+            let key = diagnostic::truncate(k, 80);
+            first_null(
+                x,
+                if path.is_empty() {
+                    key
+                } else {
+                    format!("{path}.{key}")
+                },
+            )
+        }),
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Serialize)]
+    struct Drift {
+        energy: Inner,
+    }
+    #[derive(Serialize)]
+    struct Inner {
+        #[serde(skip_serializing_if = "Option::is_none")]
+        absent: Option<f64>,
+        max_relative_drift: f64,
+    }
+
+    #[test]
+    fn nan_in_a_summary_is_an_error_naming_the_field_not_null() {
+        let bad = Drift {
+            energy: Inner {
+                absent: None,
+                max_relative_drift: f64::NAN,
+            },
+        };
+        let e = json_bytes(&bad).unwrap_err().to_string();
+        assert!(e.contains("energy.max_relative_drift"), "{e}");
+        let good = Drift {
+            energy: Inner {
+                absent: None,
+                max_relative_drift: 0.0,
+            },
+        };
+        let text = String::from_utf8(json_bytes(&good).unwrap()).unwrap();
+        assert!(!text.contains("null") && !text.contains("absent"), "{text}");
+    }
 }

@@ -1,8 +1,21 @@
 //! The one writer of output files: every file of a run is prepared in memory, then
-//! committed as a set ([`commit_files`]). Each goes to a temporary file next to its final
-//! name (same directory, so the rename is atomic), and only when every file has been written
-//! are they renamed over their final names; an error removes the temporary files. An
-//! interrupted run leaves no half-written file under a final name.
+//! committed as a set ([`commit_files`]).
+//!
+//! Each output path is first resolved with the user's path semantics ([`target`]):
+//!
+//! - a **regular file** (existing or not) is replaced atomically: the bytes go to a temporary
+//!   file next to it (same directory, so the rename is atomic), renamed over the final name
+//!   only when every file of the set has been written; an error removes the temporary files;
+//! - a **symbolic link** is followed: its target is replaced atomically and the link is kept
+//!   (also a dangling link, whose target is created);
+//! - a **non-regular file** (character device such as `/dev/null`, a terminal, a fifo,
+//!   `/dev/stdout` on a pipe) is opened for writing and written to directly, streaming: it
+//!   is never read, never renamed over and never replaced.
+//!
+//! Missing directories of the output paths are created at the commit, when the run has its
+//! outputs, and removed again (when still empty) if the commit fails. A signal during the
+//! commit is handled once the commit is over ([`crate::interrupt`]), so an interrupted run
+//! leaves either nothing or the complete set, and never a temporary file.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -18,53 +31,186 @@ pub struct OutputFile {
 
 /// An output file that could not be written.
 #[derive(Debug, thiserror::Error)]
-#[error("cannot write {}: {error}", path.display())]
+#[error("cannot {what} {}: {error}", path.display())]
 pub struct WriteError {
-    /// The final path.
+    /// What failed: `write` (the file) or `create the directory`.
+    pub what: &'static str,
+    /// The path as the user gave it (or the directory).
     pub path: PathBuf,
     /// The I/O error.
     pub error: std::io::Error,
 }
 
-/// Writes all files atomically as a set: each to a temporary file next to its final name,
-/// then renames them. On any error the temporary files are removed and no final name is
-/// touched before every file has been written.
-pub fn commit_files(files: &[OutputFile]) -> Result<(), WriteError> {
-    let tmp_of = |p: &Path| {
-        let mut name = p.file_name().map(|n| n.to_os_string()).unwrap_or_default();
-        name.push(format!(".tmp-{}", std::process::id()));
-        p.with_file_name(name)
-    };
-    let mut written: Vec<PathBuf> = vec![];
-    let cleanup = |written: &[PathBuf]| {
-        for t in written {
-            let _ = std::fs::remove_file(t);
+/// Where the bytes of an output path go.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Target {
+    /// A regular file (existing or to be created), symbolic links followed: replaced
+    /// atomically through a temporary file in its directory.
+    Replace(PathBuf),
+    /// An existing file that is not a regular file (device, fifo, socket): opened for
+    /// writing and written directly, never read and never renamed over.
+    Direct(PathBuf),
+}
+
+/// Resolves an output path with the user's path semantics: a symbolic link is followed to
+/// the file it names (a dangling link to the path it would create), a non-regular file is
+/// written directly, a directory is an error. Only looks at the file system (`stat`,
+/// `readlink`); opens nothing.
+pub fn target(path: &Path) -> std::io::Result<Target> {
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_file() => Ok(Target::Replace(std::fs::canonicalize(path)?)),
+        Ok(m) if m.is_dir() => Err(std::io::Error::new(
+            std::io::ErrorKind::IsADirectory,
+            "is a directory, not a file",
+        )),
+        Ok(_) => Ok(Target::Direct(path.to_path_buf())),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            // Not there, or a dangling symbolic link: follow the chain to the path to create.
+            let mut p = path.to_path_buf();
+            for _ in 0..40 {
+                match std::fs::symlink_metadata(&p) {
+                    Ok(m) if m.file_type().is_symlink() => {
+                        let link = std::fs::read_link(&p)?;
+                        p = match p.parent() {
+                            Some(dir) if link.is_relative() => dir.join(link),
+                            _ => link,
+                        };
+                    }
+                    _ => return Ok(Target::Replace(p)),
+                }
+            }
+            Err(std::io::Error::other("too many levels of symbolic links"))
         }
+        Err(e) => Err(e),
+    }
+}
+
+/// The temporary file next to `final_path`.
+fn tmp_of(final_path: &Path) -> PathBuf {
+    let mut name = final_path
+        .file_name()
+        .map(|n| n.to_os_string())
+        .unwrap_or_default();
+    name.push(format!(".tmp-{}", std::process::id()));
+    final_path.with_file_name(name)
+}
+
+/// Creates the missing ancestors of `dir`; returns the ones it created, outermost first.
+fn create_dirs(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let missing: Vec<PathBuf> = dir
+        .ancestors()
+        .filter(|a| !a.as_os_str().is_empty())
+        .take_while(|a| std::fs::symlink_metadata(a).is_err())
+        .map(Path::to_path_buf)
+        .collect();
+    let mut created = vec![];
+    for d in missing.into_iter().rev() {
+        match std::fs::create_dir(&d) {
+            Ok(()) => created.push(d),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+            Err(e) => {
+                remove_dirs(&created);
+                return Err(e);
+            }
+        }
+    }
+    Ok(created)
+}
+
+/// Removes directories created by [`create_dirs`] (innermost first) if they are empty.
+fn remove_dirs(created: &[PathBuf]) {
+    for d in created.iter().rev() {
+        let _ = std::fs::remove_dir(d);
+    }
+}
+
+/// Writes all files as a set: regular files (symbolic links followed) each to a temporary
+/// file next to its final name, then renamed; non-regular files (devices, fifos) directly.
+/// Missing directories are created here and removed again if the commit fails. On any error
+/// the temporary files are removed and no final name has been touched before every file
+/// was written.
+pub fn commit_files(files: &[OutputFile]) -> Result<(), WriteError> {
+    let _section = crate::interrupt::commit_section();
+    let fail = |what: &'static str, path: &Path, error: std::io::Error| WriteError {
+        what,
+        path: path.to_path_buf(),
+        error,
+    };
+    let mut created_dirs: Vec<PathBuf> = vec![];
+    let mut staged: Vec<(PathBuf, PathBuf)> = vec![]; // (temporary, final)
+    let cleanup = |staged: &[(PathBuf, PathBuf)], dirs: &[PathBuf]| {
+        for (tmp, _) in staged {
+            let _ = std::fs::remove_file(tmp);
+        }
+        remove_dirs(dirs);
     };
     for f in files {
-        let tmp = tmp_of(&f.path);
-        let res = std::fs::File::create(&tmp).and_then(|mut file| {
-            file.write_all(&f.bytes)?;
-            file.sync_all()
-        });
+        let resolved = match target(&f.path) {
+            Ok(t) => t,
+            Err(e) => {
+                cleanup(&staged, &created_dirs);
+                return Err(fail("write", &f.path, e));
+            }
+        };
+        let res = match resolved {
+            Target::Direct(p) => write_direct(&p, &f.bytes),
+            Target::Replace(p) => {
+                if let Some(dir) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
+                    match create_dirs(dir) {
+                        Ok(c) => created_dirs.extend(c),
+                        Err(e) => {
+                            cleanup(&staged, &created_dirs);
+                            return Err(fail("create the directory", dir, e));
+                        }
+                    }
+                }
+                let tmp = tmp_of(&p);
+                let res = std::fs::File::create(&tmp).and_then(|mut file| {
+                    file.write_all(&f.bytes)?;
+                    file.sync_all()
+                });
+                staged.push((tmp, p));
+                res
+            }
+        };
         if let Err(e) = res {
-            cleanup(&written);
-            let _ = std::fs::remove_file(&tmp);
-            return Err(WriteError {
-                path: f.path.clone(),
-                error: e,
-            });
+            cleanup(&staged, &created_dirs);
+            return Err(fail("write", &f.path, e));
         }
-        written.push(tmp);
     }
-    for (f, tmp) in files.iter().zip(&written) {
-        if let Err(e) = std::fs::rename(tmp, &f.path) {
-            cleanup(&written);
-            return Err(WriteError {
-                path: f.path.clone(),
-                error: e,
-            });
+    for (tmp, p) in &staged {
+        if let Err(e) = std::fs::rename(tmp, p) {
+            cleanup(&staged, &[]);
+            return Err(fail("write", p, e));
         }
     }
     Ok(())
+}
+
+/// Writes `bytes` to an existing non-regular file (device, fifo): opened for writing only
+/// (no create, no truncate, no read), streamed.
+pub fn write_direct(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let mut file = std::fs::OpenOptions::new().write(true).open(path)?;
+    file.write_all(bytes)?;
+    file.flush()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_character_device_is_written_directly_never_replaced() {
+        // Only `stat`: the real device is not opened by this test.
+        assert_eq!(
+            target(Path::new("/dev/null")).unwrap(),
+            Target::Direct(PathBuf::from("/dev/null"))
+        );
+    }
+
+    #[test]
+    fn a_directory_is_not_an_output_file() {
+        let e = target(&std::env::temp_dir()).unwrap_err();
+        assert_eq!(e.kind(), std::io::ErrorKind::IsADirectory);
+    }
 }

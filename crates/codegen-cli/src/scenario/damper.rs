@@ -39,6 +39,7 @@ use fem_beam::{Beam, BeamSpec};
 use hybrid_core::damper::Method;
 use hybrid_core::generator::GeneratorSpec;
 use hybrid_core::study::{DamperSetup, Placement, SetupError, SetupField};
+use mbs_symbolic::model::Model;
 use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
@@ -193,6 +194,36 @@ impl DamperScenario {
             )
             .into()),
         }
+    }
+
+    /// Checks the run-time parameter overrides (`[mechanism] parameters`) against the
+    /// mechanism model with the same physical checks as the model file gets (masses > 0,
+    /// inertias physical, lengths finite; [`mbs_symbolic::model::check_parameter_values`]).
+    /// Names the model does not have are left to the setup (which lists the known ones).
+    pub fn check_parameters(&self, model: &Model) -> Result<(), Diagnostics> {
+        let mut values = model.default_params();
+        for (name, value) in &self.setup.parameters {
+            if let Some(k) = model.param_index(name) {
+                values[k] = *value;
+            }
+        }
+        let file = self.path.display().to_string();
+        mbs_symbolic::model::check_parameter_values(model, &values, &file).map_err(|d| {
+            let at = self.spans.get("parameters").map(|s| s.start);
+            d.into_iter()
+                .map(|mut d| {
+                    d.entity = Some(format!(
+                        "[mechanism] parameters: {}",
+                        d.entity.take().unwrap_or_default()
+                    ));
+                    match at {
+                        Some(at) => d.at_offset(&self.index, at),
+                        None => d,
+                    }
+                })
+                .collect::<Vec<_>>()
+                .into()
+        })
     }
 
     /// The problem of a setup that does not fit its model or beam, at the field it is about.
@@ -405,6 +436,19 @@ fn check_integrator(doc: &mut Doc<'_>, ig: &IntegratorSpec) -> Option<Method> {
         let msg = format!("must be positive (got {})", ig.t_end);
         let span = at(doc, "t_end");
         doc.push(Kind::InvalidValue, span, Some("[integrator] t_end"), msg);
+        ok = false;
+    }
+    if ok && ig.dt > ig.t_end {
+        let msg = format!(
+            "must not exceed t_end (dt = {}, t_end = {}: not one step would be taken)",
+            ig.dt, ig.t_end
+        );
+        doc.push(
+            Kind::InvalidValue,
+            at(doc, "dt"),
+            Some("[integrator] dt"),
+            msg,
+        );
         ok = false;
     }
     if ok && ig.t_end / ig.dt > 1e9 {

@@ -88,6 +88,9 @@
 //!
 //! # What validation checks
 //!
+//! Parameter values given later (`damper eval --param`, a scenario's overrides) pass the
+//! same physical checks through [`check_parameter_values`].
+//!
 //! Syntax (with the parser's line); unknown keys and wrong value types; duplicate names of
 //! parameters, bodies, coordinates, points, forces and constraints; parameter names (an
 //! identifier, not `pi` or a function) and their use of earlier parameters only; unknown
@@ -101,6 +104,7 @@
 //! so they are exact for both formats: the line of the offending key or value, or of the
 //! entity's `name` for problems of a whole entity.
 
+mod check;
 mod expr_parse;
 mod load;
 mod node;
@@ -109,6 +113,7 @@ mod source;
 pub mod types;
 mod validate;
 
+pub use check::check_parameter_values;
 pub use diagnostic::{Diagnostic, Diagnostics, Kind};
 pub use load::{Format, load, parse_str};
 pub use types::*;

@@ -19,6 +19,7 @@ use super::types::{Axis, Body, Joint, JointKind, Model, Parameter, Point, Scalar
 use diagnostic::{Diagnostic, Kind};
 
 mod bodies;
+pub(crate) use bodies::inertia_problem;
 mod refs;
 
 const TOP_LEVEL_KEYS: [&str; 8] = [
@@ -132,7 +133,7 @@ fn with<'a>(path: &[Seg<'a>], seg: Seg<'a>) -> Vec<Seg<'a>> {
 }
 
 /// Short number formatting for messages (6 significant digits).
-fn fmt_num(x: f64) -> String {
+pub(crate) fn fmt_num(x: f64) -> String {
     if x == 0.0 || !x.is_finite() {
         return format!("{x}");
     }
