@@ -315,10 +315,21 @@ impl<M: System> MechanismLink<M> {
                 });
             }
         }
-        let (h, _) = self.residual(&q, y);
+        let (h, jb) = self.residual(&q, y);
+        let residual = h[0].hypot(h[1]);
+        if residual <= 1e-12 * scale {
+            // The point is reached (h = 0 to rounding) but the Newton steps do not settle:
+            // J^b is too ill-conditioned to pin q^b down — the toggle, not the reach.
+            let (smax, smin) = singular_values2(&jb);
+            return Err(KinematicError::Singular {
+                condition: if smin > 0.0 { smax / smin } else { f64::INFINITY },
+                sigma_min: smin,
+                q,
+            });
+        }
         Err(KinematicError::NoAssembly {
             reach: self.reach,
-            residual: h[0].hypot(h[1]),
+            residual,
             iterations: 60,
             q,
         })
