@@ -104,9 +104,10 @@ position = [0, "fn", 0]
 "#,
     );
     let (source, file) = generate_parsed(&model, &EmitOptions::default());
+    // The run-time parameters, then the private cache of parameter-only subexpressions.
     assert_eq!(
         field_names(&file, "MyWeirdModel2"),
-        ["type_", "self_", "Self_", "_1", "__", "g"]
+        ["type_", "self_", "Self_", "_1", "__", "g", "hoisted"]
     );
     assert!(
         source.contains(
@@ -129,7 +130,16 @@ position = [0, "fn", 0]
         source.contains("impl ::core::default::Default for Default"),
         "{source}"
     );
-    assert_eq!(field_names(&file, "Default").len(), 6);
+    assert_eq!(field_names(&file, "Default").len(), 7);
+
+    // A parameter named like the cache field pushes the cache to another name.
+    let mut cache_clash = model.clone();
+    cache_clash.parameters[0].name = "hoisted".into();
+    let (_, file) = generate_parsed(&cache_clash, &EmitOptions::default());
+    assert_eq!(
+        field_names(&file, "MyWeirdModel2"),
+        ["hoisted", "self_", "Self_", "_1", "__", "g", "hoisted_"]
+    );
 
     // Struct names: sanitised from odd model names, validated when given explicitly.
     for (name, want) in [
