@@ -10,6 +10,7 @@
 //! formatted (see `mod.rs`).
 
 use std::collections::BTreeSet;
+use std::fmt::Write as _;
 
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::{format_ident, quote};
@@ -31,8 +32,62 @@ pub(super) struct Methods<'a> {
     pub rt: &'a syn::Path,
     /// Operation count of each emitted function, in emission order.
     pub stats: Vec<(String, OpCount)>,
-    /// The text of each body, by marker index.
-    pub bodies: Vec<String>,
+    /// The body of each marker, by marker index, to be written by [`write_bodies`].
+    pub jobs: Vec<Job<'a>>,
+}
+
+/// One function body to write: its statements, then `tail` (lines already written).
+pub(super) struct Job<'a> {
+    em: FnEmitter<'a>,
+    outs: Vec<(Id, Dest)>,
+    /// The nodes the outputs need, in evaluation order.
+    order: Vec<Id>,
+    tail: String,
+}
+
+/// Writes the bodies of `jobs` (by index) on the available cores: the bodies are
+/// independent, and each is written by one thread, so the text does not depend on the
+/// scheduling.
+pub(super) fn write_bodies(jobs: &[Job<'_>]) -> Vec<String> {
+    let write = |job: &Job<'_>| {
+        let mut text = job.em.body(&job.outs, &job.order);
+        text.push_str(&job.tail);
+        text
+    };
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(jobs.len());
+    if threads <= 1 {
+        return jobs.iter().map(write).collect();
+    }
+    // Largest bodies first, so that the threads finish together.
+    let mut by_size: Vec<usize> = (0..jobs.len()).collect();
+    by_size.sort_by_key(|&k| std::cmp::Reverse(jobs[k].order.len()));
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut bodies: Vec<String> = vec![String::new(); jobs.len()];
+    let done: Vec<Vec<(usize, String)>> = std::thread::scope(|s| {
+        let workers: Vec<_> = (0..threads)
+            .map(|_| {
+                s.spawn(|| {
+                    let mut mine = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some(&k) = by_size.get(i) else { break };
+                        mine.push((k, write(&jobs[k])));
+                    }
+                    mine
+                })
+            })
+            .collect();
+        workers
+            .into_iter()
+            .map(|w| w.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+            .collect()
+    });
+    for (k, text) in done.into_iter().flatten() {
+        bodies[k] = text;
+    }
+    bodies
 }
 
 /// The marker statement standing for body `k` in the token skeleton.
@@ -130,43 +185,53 @@ pub(super) fn per_call_count(dag: &Dag, roots: &[Id], hoisted: &[Id]) -> OpCount
 }
 
 /// `name[i][j] = name[j][i];` for the lower triangle (the mass matrix is symmetric).
-fn mirror(n: usize, name: &Ident) -> TokenStream {
-    let mut mirror = TokenStream::new();
+fn mirror(n: usize, name: &str) -> String {
+    let mut mirror = String::new();
+    let pad = " ".repeat(super::statements::BODY_INDENT);
     for i in 0..n {
         for j in 0..i {
-            let (il, jl) = (Literal::usize_unsuffixed(i), Literal::usize_unsuffixed(j));
-            mirror.extend(quote! { #name[#il][#jl] = #name[#jl][#il]; });
+            let _ = writeln!(mirror, "{pad}{name}[{i}][{j}] = {name}[{j}][{i}];");
         }
     }
     mirror
 }
 
-impl Methods<'_> {
+impl<'a> Methods<'a> {
     /// Records the operation count of `outs` under `name`, emits their statements and
     /// returns the marker statement standing for them (nothing for an empty body) and the
     /// inputs they read.
     fn body(&mut self, name: &str, outs: &[(Id, Dest)]) -> (TokenStream, BTreeSet<&'static str>) {
-        self.body_with(self.em, name, outs)
+        self.body_with(self.em, name, outs, String::new())
     }
 
     /// [`Methods::body`] with another statement emitter.
+    ///
+    /// The statements themselves are written later, all bodies at once
+    /// ([`write_bodies`]); the skeleton only needs the marker and the inputs.
     fn body_with(
         &mut self,
-        em: FnEmitter<'_>,
+        em: FnEmitter<'a>,
         name: &str,
         outs: &[(Id, Dest)],
+        tail: String,
     ) -> (TokenStream, BTreeSet<&'static str>) {
         let roots: Vec<Id> = outs.iter().map(|o| o.0).collect();
-        let hoisted = em.hoisted_in(&em.reachable(&roots));
+        let order = em.reachable(&roots);
+        let hoisted = em.hoisted_in(&order);
         self.stats
             .push((name.to_string(), per_call_count(em.dag, &roots, &hoisted)));
-        let body = em.body(outs);
-        if body.text.is_empty() {
-            return (TokenStream::new(), body.inputs);
+        let inputs = em.inputs(&order);
+        if outs.is_empty() && tail.is_empty() {
+            return (TokenStream::new(), inputs);
         }
-        let k = Literal::usize_unsuffixed(self.bodies.len());
-        self.bodies.push(body.text);
-        (quote! { __mbs_body!(#k); }, body.inputs)
+        let k = Literal::usize_unsuffixed(self.jobs.len());
+        self.jobs.push(Job {
+            em,
+            outs: outs.to_vec(),
+            order,
+            tail,
+        });
+        (quote! { __mbs_body!(#k); }, inputs)
     }
 
     fn nl(&self) -> Literal {
@@ -179,13 +244,12 @@ impl Methods<'_> {
 
     /// `mass_matrix`: `M^b(q)` (eq. 11), the lower triangle copied from the upper one.
     pub fn mass_matrix(&mut self, sym: &Symbolic) -> TokenStream {
-        let m_id = format_ident!("m");
-        let (body, inputs) = self.body("mass_matrix", &mass_outputs(sym, "m"));
-        let mirror = mirror(self.n, &m_id);
+        let tail = mirror(self.n, "m");
+        let (body, inputs) = self.body_with(self.em, "mass_matrix", &mass_outputs(sym, "m"), tail);
         let (q, nl) = (arg(&inputs, "q"), self.nl());
         quote! {
             /// Mass matrix `M^b(q)` (eq. 11).
-            pub fn mass_matrix(&self, #q: &[f64; #nl], m: &mut [[f64; #nl]; #nl]) { #body #mirror }
+            pub fn mass_matrix(&self, #q: &[f64; #nl], m: &mut [[f64; #nl]; #nl]) { #body }
         }
     }
 
@@ -263,10 +327,10 @@ impl Methods<'_> {
 
     /// `evaluate`: everything of eqs. 11–16 in one body, every intermediate computed once.
     pub fn evaluate(&mut self, sym: &Symbolic, cons: &ConstraintExprs) -> TokenStream {
-        let mass_id = format_ident!("mass");
-        let (body, inputs) = self.body("evaluate", &evaluate_outputs(sym, cons));
+        let tail = mirror(self.n, "mass");
+        let (body, inputs) =
+            self.body_with(self.em, "evaluate", &evaluate_outputs(sym, cons), tail);
         let (q, qd, t) = (arg(&inputs, "q"), arg(&inputs, "qd"), arg(&inputs, "t"));
-        let mirror = mirror(self.n, &mass_id);
         let (nl, ncl, rt) = (self.nl(), self.ncl(), self.rt);
         quote! {
             /// `M^b`, `F^b`, `Q^b`, `h`, `J` and `A` at once (eqs. 11–16): one body in which every
@@ -275,7 +339,6 @@ impl Methods<'_> {
             pub fn evaluate(&self, #q: &[f64; #nl], #qd: &[f64; #nl], #t: f64, out: &mut #rt::Evaluation<#nl, #ncl>) {
                 let #rt::Evaluation { mass, f, q: qf, h, j, a } = out;
                 #body
-                #mirror
             }
         }
     }
@@ -312,9 +375,9 @@ impl Methods<'_> {
         for (k, pt) in pts.iter().enumerate() {
             outs.extend(point_outputs(pt, &format!("pt{k}_")));
         }
-        let (body, inputs) = self.body("evaluate_with_points", &outs);
+        let tail = mirror(self.n, "mass");
+        let (body, inputs) = self.body_with(self.em, "evaluate_with_points", &outs, tail);
         let (q, qd, t) = (arg(&inputs, "q"), arg(&inputs, "qd"), arg(&inputs, "t"));
-        let mirror = mirror(self.n, &format_ident!("mass"));
         let (nl, ncl, rt) = (self.nl(), self.ncl(), self.rt);
         let npts = Literal::usize_unsuffixed(pts.len());
         let pt = |k: usize, what: &str| format_ident!("pt{k}_{what}");
@@ -342,7 +405,6 @@ impl Methods<'_> {
                 let [#(#whole),*] = points;
                 #( let #rt::PointKinematics { p: #pp, j: #pj, a: #pa } = #whole; )*
                 #body
-                #mirror
             }
         }
     }
@@ -359,7 +421,7 @@ impl Methods<'_> {
             .enumerate()
             .map(|(k, &id)| (id, Dest::Vec("v".into(), k)))
             .collect();
-        let (body, _) = self.body_with(em, "hoisted_values", &outs);
+        let (body, _) = self.body_with(em, "hoisted_values", &outs, String::new());
         let len = Literal::usize_unsuffixed(frontier.len());
         quote! {
             /// The parameter-only subexpressions of the equations, computed from the run-time

@@ -190,7 +190,7 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
         nc,
         rt: &rt,
         stats: Vec::new(),
-        bodies: Vec::new(),
+        jobs: Vec::new(),
     };
     let mut methods = TokenStream::new();
     methods.extend(m.mass_matrix(&sym));
@@ -209,7 +209,7 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
         methods.extend(m.hoisted_values(&hoisting.frontier));
     }
     let stats = m.stats;
-    let bodies = m.bodies;
+    let bodies = methods::write_bodies(&m.jobs);
 
     let items = items::Items {
         model,

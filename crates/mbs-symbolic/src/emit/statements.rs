@@ -12,10 +12,11 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 
-use super::printer::{E, write_statement};
+use super::printer::{E, MAX_WIDTH, write_statement};
 use crate::expr::{Dag, Fun, Id, Node, Var};
 
 /// Where a function's output value goes (the text before ` = `).
+#[derive(Clone)]
 pub(super) enum Dest {
     /// `name`
     Scalar(String),
@@ -33,15 +34,6 @@ impl Dest {
             Dest::Mat(n, i, j) => format!("{n}[{i}][{j}]"),
         }
     }
-}
-
-/// The statements of one function body and the inputs they read.
-pub(super) struct Body {
-    /// One statement per line (possibly broken over several lines), each line indented by
-    /// [`BODY_INDENT`] spaces, ending with a newline.
-    pub text: String,
-    /// The inputs read: `"q"`, `"qd"`, `"qdd"`, `"t"`, `"self"`.
-    pub inputs: BTreeSet<&'static str>,
 }
 
 /// Indentation of the statements of a method body inside an `impl` block.
@@ -103,22 +95,30 @@ impl FnEmitter<'_> {
             .collect()
     }
 
-    /// Emits the body of a function computing `outputs` into their destinations.
-    pub fn body(&self, outputs: &[(Id, Dest)]) -> Body {
+    /// Emits the body of a function computing `outputs` into their destinations: one
+    /// statement per line (possibly broken over several lines), each line indented by
+    /// [`BODY_INDENT`] spaces, ending with a newline.
+    /// `order` is the result of [`FnEmitter::reachable`] on the outputs.
+    pub fn body(&self, outputs: &[(Id, Dest)], order: &[Id]) -> String {
         let dag = self.dag;
         let roots: Vec<Id> = outputs.iter().map(|(id, _)| *id).collect();
-        let order = self.reachable(&roots);
-        let mut uses = vec![0u32; dag.len()];
+        // Per-node data indexed by position in `order`.
+        let mut pos = vec![u32::MAX; dag.len()];
+        for (k, id) in order.iter().enumerate() {
+            pos[id.index()] = k as u32;
+        }
+        let at = |id: Id| pos[id.index()] as usize;
+        let mut uses = vec![0u32; order.len()];
         // sin and cos of the same argument: computed together by one `f64::sin_cos`.
         let mut sin_of: BTreeMap<Id, Id> = BTreeMap::new();
         let mut cos_of: BTreeMap<Id, Id> = BTreeMap::new();
-        for &id in &order {
+        for &id in order {
             if self.hoisted_index(id).is_some() {
                 continue;
             }
             let node = dag.node(id);
             for c in node.children() {
-                uses[c.index()] += 1;
+                uses[at(c)] += 1;
             }
             match node {
                 Node::Fun(Fun::Sin, a) => {
@@ -130,17 +130,18 @@ impl FnEmitter<'_> {
                 _ => {}
             }
         }
-        for r in &roots {
-            uses[r.index()] += 1;
+        for &r in &roots {
+            uses[at(r)] += 1;
         }
         // Decide which nodes get a `let`: shared nodes, trigonometric leaves, named nodes,
         // and nodes whose inlined expression would grow too deep.
-        let mut named: Vec<Option<String>> = vec![None; dag.len()];
-        let mut depth = vec![0usize; dag.len()];
+        let mut named: Vec<Option<String>> = vec![None; order.len()];
+        let mut depth = vec![0u32; order.len()];
         let mut taken: BTreeSet<String> = BTreeSet::new();
-        let mut inputs: BTreeSet<&'static str> = BTreeSet::new();
         let mut text = String::new();
         let mut tmp = 0usize;
+        // The temporaries `x1`, `x2`, ... are unique by construction; the other names
+        // (sines, cosines: `s`, `c` and digits, `_`) are checked among themselves.
         let unique = |base: String, taken: &mut BTreeSet<String>| {
             let mut name = base.clone();
             let mut k = 1;
@@ -150,30 +151,22 @@ impl FnEmitter<'_> {
             }
             name
         };
-        for &id in &order {
+        for (k, &id) in order.iter().enumerate() {
             if self.hoisted_index(id).is_some() {
-                inputs.insert("self");
                 continue;
             }
             let node = dag.node(id);
-            match node {
-                Node::Const(_) => continue,
-                Node::Var(v) => {
-                    inputs.insert(match v {
-                        Var::Q(_) => "q",
-                        Var::Qd(_) => "qd",
-                        Var::Qdd(_) => "qdd",
-                        Var::Time => "t",
-                        Var::Param(_) => "self",
-                    });
-                    continue;
-                }
-                _ => {}
+            if matches!(node, Node::Const(_) | Node::Var(_)) {
+                continue;
             }
-            if named[id.index()].is_some() {
+            if named[k].is_some() {
                 // The cosine of a `sin_cos` pair, named with its sine.
                 continue;
             }
+            let names = Names {
+                pos: &pos,
+                named: &named,
+            };
             // `let (s1, c1) = f64::sin_cos(q[0]);` when both are needed: one libm `sincos`.
             // (LLVM merges separate `sin` and `cos` calls of one argument into the same
             // `sincos` call; measured on the development machine: 47 ns for two angles
@@ -184,43 +177,138 @@ impl FnEmitter<'_> {
                 if let (Some(&s), Some(&c)) = (sin_of.get(&a), cos_of.get(&a)) {
                     let sname = unique(self.name_of(s), &mut taken);
                     let cname = unique(self.name_of(c), &mut taken);
-                    let arg = self.expr(a, &named);
-                    let mut line = String::new();
-                    let _ = write!(line, "let ({sname}, {cname}) = ");
-                    write_statement(
-                        &mut text,
-                        BODY_INDENT,
-                        &line,
-                        &E::call("f64::sin_cos", vec![arg]),
-                    );
-                    named[s.index()] = Some(sname);
-                    named[c.index()] = Some(cname);
+                    let head = format!("let ({sname}, {cname}) = ");
+                    let call = E::call("f64::sin_cos", vec![self.expr(a, &names)]);
+                    write_statement(&mut text, BODY_INDENT, &head, &call);
+                    named[at(s)] = Some(sname);
+                    named[at(c)] = Some(cname);
                     continue;
                 }
             }
-            let d = 1 + node.children().map(|c| depth[c.index()]).max().unwrap_or(0);
+            let d = 1 + node.children().map(|c| depth[at(c)]).max().unwrap_or(0);
             let trig = trig_name(dag, id);
-            let shared = uses[id.index()] > 1;
+            let shared = uses[k] > 1;
             let preset = self.names.contains_key(&id);
             if shared || trig.is_some() || preset || d > 12 {
-                let base = self.names.get(&id).cloned().or(trig).unwrap_or_else(|| {
-                    tmp += 1;
-                    format!("x{tmp}")
-                });
-                let name = unique(base, &mut taken);
-                let e = self.expr(id, &named);
-                write_statement(&mut text, BODY_INDENT, &format!("let {name} = "), &e);
-                named[id.index()] = Some(name);
-                depth[id.index()] = 0;
+                let name = match self.names.get(&id).cloned().or(trig) {
+                    Some(base) => unique(base, &mut taken),
+                    None => {
+                        tmp += 1;
+                        format!("x{tmp}")
+                    }
+                };
+                let head = format!("let {name} = ");
+                self.statement(&mut text, &head, id, &names);
+                named[k] = Some(name);
+                depth[k] = 0;
             } else {
-                depth[id.index()] = d;
+                depth[k] = d;
             }
         }
+        let names = Names {
+            pos: &pos,
+            named: &named,
+        };
         for (id, dest) in outputs {
-            let e = self.expr(*id, &named);
-            write_statement(&mut text, BODY_INDENT, &format!("{} = ", dest.text()), &e);
+            let head = format!("{} = ", dest.text());
+            self.statement(&mut text, &head, *id, &names);
         }
-        Body { text, inputs }
+        text
+    }
+
+    /// The inputs read by the nodes of `order` (a result of [`FnEmitter::reachable`]):
+    /// `"q"`, `"qd"`, `"qdd"`, `"t"`, `"self"`.
+    pub fn inputs(&self, order: &[Id]) -> BTreeSet<&'static str> {
+        let mut inputs = BTreeSet::new();
+        for &id in order {
+            if self.hoisted_index(id).is_some() {
+                inputs.insert("self");
+            } else if let Node::Var(v) = self.dag.node(id) {
+                inputs.insert(match v {
+                    Var::Q(_) => "q",
+                    Var::Qd(_) => "qd",
+                    Var::Qdd(_) => "qdd",
+                    Var::Time => "t",
+                    Var::Param(_) => "self",
+                });
+            }
+        }
+        inputs
+    }
+
+    /// Appends the statement `{head}{expression of id};`: written flat directly when it
+    /// fits on one line (most statements), else laid out by the printer.
+    fn statement(&self, text: &mut String, head: &str, id: Id, names: &Names<'_>) {
+        let start = text.len();
+        text.extend(std::iter::repeat_n(' ', BODY_INDENT));
+        text.push_str(head);
+        self.flat(id, names, text);
+        text.push_str(";\n");
+        if text.len() - start - 1 > MAX_WIDTH {
+            text.truncate(start);
+            write_statement(text, BODY_INDENT, head, &self.expr(id, names));
+        }
+    }
+
+    /// The one-line text of a node's expression, appended to `out`.
+    fn flat(&self, id: Id, names: &Names<'_>, out: &mut String) {
+        if let Some(n) = names.get(id) {
+            out.push_str(n);
+            return;
+        }
+        if let Some(k) = self.hoisted_index(id) {
+            let _ = write!(out, "self.{}[{k}]", self.cache_field);
+            return;
+        }
+        let bin = |a: Id, op: &str, b: Id, out: &mut String| {
+            out.push('(');
+            self.flat(a, names, out);
+            out.push(' ');
+            out.push_str(op);
+            out.push(' ');
+            self.flat(b, names, out);
+            out.push(')');
+        };
+        match self.dag.node(id) {
+            Node::Const(bits) => push_float(f64::from_bits(bits), out),
+            Node::Var(Var::Q(i)) => {
+                let _ = write!(out, "q[{i}]");
+            }
+            Node::Var(Var::Qd(i)) => {
+                let _ = write!(out, "qd[{i}]");
+            }
+            Node::Var(Var::Qdd(i)) => {
+                let _ = write!(out, "qdd[{i}]");
+            }
+            Node::Var(Var::Time) => out.push('t'),
+            Node::Var(Var::Param(k)) => {
+                out.push_str("self.");
+                out.push_str(&self.params[k as usize]);
+            }
+            Node::Neg(a) => {
+                out.push_str("(-");
+                self.flat(a, names, out);
+                out.push(')');
+            }
+            Node::Add(a, b) => bin(a, "+", b, out),
+            Node::Sub(a, b) => bin(a, "-", b, out),
+            Node::Mul(a, b) => bin(a, "*", b, out),
+            Node::Div(a, b) => bin(a, "/", b, out),
+            Node::Pow(a, b) => {
+                out.push_str("f64::powf(");
+                self.flat(a, names, out);
+                out.push_str(", ");
+                self.flat(b, names, out);
+                out.push(')');
+            }
+            Node::Fun(f, a) => {
+                out.push_str("f64::");
+                out.push_str(f.name());
+                out.push('(');
+                self.flat(a, names, out);
+                out.push(')');
+            }
+        }
     }
 
     /// The base name of a trigonometric node (`s1`, `c12`, or `x` for other arguments).
@@ -233,14 +321,14 @@ impl FnEmitter<'_> {
     }
 
     /// The expression of a node: its name if it has one, else built from its children.
-    fn expr(&self, id: Id, named: &[Option<String>]) -> E {
-        if let Some(n) = &named[id.index()] {
-            return E::atom(n.clone());
+    fn expr(&self, id: Id, names: &Names<'_>) -> E {
+        if let Some(n) = names.get(id) {
+            return E::atom(n.to_string());
         }
         if let Some(k) = self.hoisted_index(id) {
             return E::atom(format!("self.{}[{k}]", self.cache_field));
         }
-        let sub = |c: Id| self.expr(c, named);
+        let sub = |c: Id| self.expr(c, names);
         match self.dag.node(id) {
             Node::Const(bits) => float_literal(f64::from_bits(bits)),
             Node::Var(Var::Q(i)) => E::atom(format!("q[{i}]")),
@@ -259,28 +347,44 @@ impl FnEmitter<'_> {
     }
 }
 
+/// The names given so far in one body, by node.
+struct Names<'a> {
+    /// Position of each node in the body's evaluation order (`u32::MAX`: not in it).
+    pos: &'a [u32],
+    /// The name of each node of the order that has one.
+    named: &'a [Option<String>],
+}
+
+impl Names<'_> {
+    fn get(&self, id: Id) -> Option<&str> {
+        let k = *self.pos.get(id.index())?;
+        self.named.get(k as usize)?.as_deref()
+    }
+}
+
 /// A float literal that round-trips exactly (negative values parenthesised).
 fn float_literal(v: f64) -> E {
+    let mut s = String::new();
+    push_float(v, &mut s);
+    E::atom(s)
+}
+
+/// Appends a float literal that round-trips exactly (negative values parenthesised).
+fn push_float(v: f64, out: &mut String) {
     if v.is_nan() {
-        return E::atom("f64::NAN".into());
-    }
-    if v.is_infinite() {
-        return E::atom(
-            if v > 0.0 {
-                "f64::INFINITY"
-            } else {
-                "f64::NEG_INFINITY"
-            }
-            .into(),
-        );
-    }
-    // `{:?}` is the shortest representation that reads back to the same value, always
-    // with a `.` or an exponent (a float literal).
-    let lit = format!("{:?}", v.abs());
-    if v < 0.0 {
-        E::atom(format!("(-{lit})"))
+        out.push_str("f64::NAN");
+    } else if v.is_infinite() {
+        out.push_str(if v > 0.0 {
+            "f64::INFINITY"
+        } else {
+            "f64::NEG_INFINITY"
+        });
+    } else if v < 0.0 {
+        // `{:?}` is the shortest representation that reads back to the same value, always
+        // with a `.` or an exponent (a float literal).
+        let _ = write!(out, "(-{:?})", -v);
     } else {
-        E::atom(lit)
+        let _ = write!(out, "{v:?}");
     }
 }
 
