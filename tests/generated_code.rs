@@ -176,6 +176,89 @@ fn compare<const N: usize, const NC: usize>(
         }
         let mut pk = PointKinematics::<N>::default();
         assert!(!generated.point_kinematics(pts.len(), &q, &qd, &mut pk));
+
+        // The fused entry point with every named point: bit for bit the same as `evaluate`
+        // and the separate point methods (one plan of the shared intermediates for all).
+        let mut fused = Evaluation::<N, NC>::default();
+        let mut points = vec![PointKinematics::<N>::default(); pts.len()];
+        assert!(generated.evaluate_with_points(&q, &qd, t, &mut fused, &mut points));
+        assert_eq!(
+            evaluation_bits(&fused),
+            evaluation_bits(&all),
+            "{rel}: evaluate_with_points vs evaluate"
+        );
+        for (k, got) in points.iter().enumerate() {
+            let mut want = PointKinematics::<N>::default();
+            assert!(generated.point_kinematics(k, &q, &qd, &mut want));
+            assert_eq!(
+                point_bits(got),
+                point_bits(&want),
+                "{rel}: evaluate_with_points vs point {k}"
+            );
+        }
+        // A points buffer of the wrong length is refused, nothing written.
+        let mut wrong = vec![PointKinematics::<N>::default(); pts.len() + 1];
+        let mut untouched = Evaluation::<N, NC>::default();
+        assert!(!generated.evaluate_with_points(&q, &qd, t, &mut untouched, &mut wrong));
+        assert_eq!(untouched, Evaluation::<N, NC>::default());
+    }
+}
+
+/// The bits of every entry of an evaluation (`-0.0` and `0.0` differ).
+fn evaluation_bits<const N: usize, const NC: usize>(e: &Evaluation<N, NC>) -> Vec<u64> {
+    let mut v: Vec<f64> = e.mass.iter().flatten().copied().collect();
+    v.extend(e.f.iter().chain(&e.q).chain(&e.h));
+    v.extend(e.j.iter().flatten().chain(&e.a));
+    v.iter().map(|x| x.to_bits()).collect()
+}
+
+/// The bits of every entry of a point's kinematics.
+fn point_bits<const N: usize>(p: &PointKinematics<N>) -> Vec<u64> {
+    p.p.iter()
+        .chain(p.j.iter().flatten())
+        .chain(&p.a)
+        .map(|x| x.to_bits())
+        .collect()
+}
+
+/// The cache of parameter-only subexpressions after `set_param` is the one a fresh struct
+/// built with the same parameters computes: equal structs (cache included) and bit-identical
+/// results; and the parameters read back.
+#[test]
+fn set_param_refreshes_the_hoisted_cache() {
+    let built = include_str!(concat!(env!("OUT_DIR"), "/spatial_arm.rs"));
+    assert!(
+        built.contains("fn hoisted_values("),
+        "the fixture must have hoisted subexpressions for this test to mean something"
+    );
+    let mut changed = SpatialArm::default();
+    for (name, v) in [("m_base", 3.5), ("k_slide", 321.0), ("g", 9.5)] {
+        assert!(changed.set_param(name, v));
+        assert_eq!(changed.param(name), Some(v));
+    }
+    assert_eq!(changed.param("no_such_parameter"), None);
+    let values = SpatialArm::PARAM_NAMES.map(|name| changed.param(name).unwrap());
+    let fresh = SpatialArm::with_params(values);
+    assert_eq!(changed, fresh, "set_param vs with_params (cache included)");
+    assert_ne!(changed, SpatialArm::default());
+    let mut rng = SplitMix64::new(0xCAC4E);
+    for _ in 0..5 {
+        let q: [f64; 4] = rng.array(1.5);
+        let qd: [f64; 4] = rng.array(2.0);
+        let (mut a, mut b) = (Evaluation::<4, 1>::default(), Evaluation::<4, 1>::default());
+        let mut pa = [PointKinematics::<4>::default(); SpatialArm::POINT_NAMES.len()];
+        let mut pb = pa;
+        // The inherent method: a fixed-size array, one entry per named point.
+        changed.evaluate_with_points(&q, &qd, 0.3, &mut a, &mut pa);
+        fresh.evaluate_with_points(&q, &qd, 0.3, &mut b, &mut pb);
+        assert_eq!(evaluation_bits(&a), evaluation_bits(&b));
+        for (x, y) in pa.iter().zip(&pb) {
+            assert_eq!(point_bits(x), point_bits(y));
+        }
+        assert_eq!(
+            changed.potential_energy(&q).to_bits(),
+            fresh.potential_energy(&q).to_bits()
+        );
     }
 }
 

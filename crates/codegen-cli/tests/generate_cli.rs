@@ -134,7 +134,9 @@ fn stats_prints_one_row_per_function_and_the_sums() {
             "constraint_bias",
             "potential_energy",
             "evaluate",
-            "point_tip"
+            "point_tip",
+            "evaluate_with_points",
+            "hoisted_values"
         ]
     );
     let _ = std::fs::remove_dir_all(&dir);

@@ -4,37 +4,48 @@
 //! Rust module: a struct holding the model's run-time parameters and methods that evaluate
 //! `M^b`, `F^b`, `Q^b` (eqs. 11–13), `h`, `J`, `A` (eqs. 14–16) and point kinematics
 //! (eqs. 49–50) into caller-owned fixed-size arrays. Each method computes only the nodes its
-//! outputs need, as scalar intermediate variables (`s1 = q[0].sin()`, `x12 = ...`); a node
-//! used once is inlined into its user, zero terms were never built. Only `core` float
-//! arithmetic is used: no allocation, no panics (all indices are constants into fixed-size
-//! arrays), no `unsafe`.
+//! outputs need, as scalar intermediate variables (`let (s1, c1) = f64::sin_cos(q[0]);`,
+//! `x12 = ...`); a node used once is inlined into its user, zero terms were never built.
+//! Subexpressions of the run-time parameters alone are computed once per parameter change
+//! into a private cache (`hoist.rs`). `evaluate_with_points` computes everything, the named
+//! points included, in one body. Only `core` float arithmetic is used: no allocation, no
+//! panics (all indices are constants into fixed-size arrays), no `unsafe`.
 //!
-//! Tokens are built with `quote`, parsed as a `syn::File` (a failure reports the tokens) and
-//! formatted with `prettyplease`; the same model always produces byte-identical source.
+//! The small skeleton (struct, impls, signatures) is built with `quote`, parsed as a
+//! `syn::File` (a failure reports the tokens) and formatted with `prettyplease`; each method
+//! body in it is a marker statement `__mbs_body!(k);`, replaced afterwards by the body's text,
+//! which `statements.rs` and `printer.rs` write directly in the same layout. Re-parsing and
+//! re-printing the large straight-line bodies was most of the generation time. The same
+//! model always produces byte-identical source.
 //!
 //! # Layout
 //!
 //! * `names.rs`: the struct, field and point-method names (checked identifiers, no clashes).
-//! * `statements.rs`: DAG expressions to `let` statements and output assignments.
+//! * `hoist.rs`: the parameter-only subexpressions cached in the struct.
+//! * `statements.rs`: DAG expressions to `let` statements and output assignments;
+//!   `printer.rs`: their text layout.
 //! * `methods.rs`: one function per emitted evaluation method (eqs. 11–16, 49–50).
-//! * `items.rs`: the struct, its `Default`, the inherent `impl` and the `Mechanism` impl.
+//! * `items.rs`: the struct, its constructors, the inherent `impl` and the `Mechanism` impl.
 //! * `header.rs`: the `// @generated` header (version, content hash, operation counts).
 //! * `write.rs`: write-if-changed; `build.rs`: the build-script entry point
 //!   [`compile_model`], returning [`Compiled`].
 
 mod build;
 mod header;
+mod hoist;
 mod items;
 mod methods;
 mod names;
+mod printer;
 mod statements;
+mod trig;
 mod write;
 
 use proc_macro2::{Ident, Span, TokenStream};
 
 use crate::constraints::{self, ConstraintExprs, PointExprs};
 use crate::dynamics::Symbolic;
-use crate::expr::OpCount;
+use crate::expr::{Id, OpCount};
 use crate::model::Model;
 
 pub use build::{Compiled, compile_model};
@@ -123,8 +134,8 @@ pub struct Generated {
 pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitError> {
     let n = model.dof();
     let mut sym = Symbolic::derive(model);
-    let pts: Vec<PointExprs> = constraints::points(model, &mut sym);
-    let cons: ConstraintExprs = constraints::constraints(model, &mut sym);
+    let mut pts: Vec<PointExprs> = constraints::points(model, &mut sym);
+    let mut cons: ConstraintExprs = constraints::constraints(model, &mut sym);
     let nc = cons.h.len();
 
     let param_idents = names::param_idents(model)?;
@@ -136,15 +147,50 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
         tokens: opts.runtime_path.clone(),
     })?;
 
+    // Sines and cosines of angle sums by angle addition, decided once for all the functions
+    // that must stay bit-identical (the separate methods, `evaluate`, the points and
+    // `evaluate_with_points`); `potential_energy` is tied to none of them and decides alone.
+    let potential = sym.potential;
+    sym.potential = sym.dag.zero();
+    let roots = all_roots(&sym, &cons, &pts);
+    let mut rewrite = trig::angle_addition(&mut sym.dag, &roots);
+    rewrite.map_all(&mut sym.mass);
+    rewrite.map_all(&mut sym.f);
+    rewrite.map_all(&mut sym.q);
+    rewrite.map_all(&mut cons.h);
+    for row in &mut cons.j {
+        rewrite.map_all(row);
+    }
+    rewrite.map_all(&mut cons.a);
+    for pt in &mut pts {
+        rewrite.map_all(&mut pt.p);
+        for row in &mut pt.j {
+            rewrite.map_all(row);
+        }
+        rewrite.map_all(&mut pt.a);
+    }
+    let alone = trig::angle_addition(&mut sym.dag, &[potential]);
+    sym.potential = alone.map(potential);
+    rewrite.names.extend(alone.names);
+    // The cache of parameter-only subexpressions, over everything any method computes.
+    let hoisting = hoist::hoist(&sym.dag, &all_roots(&sym, &cons, &pts));
+    let cache_field = names::cache_field(&param_idents);
+    let param_names: Vec<String> = param_idents.iter().map(ToString::to_string).collect();
+    let cache_name = cache_field.to_string();
+
     let mut m = methods::Methods {
         em: statements::FnEmitter {
             dag: &sym.dag,
-            params: &param_idents,
+            params: &param_names,
+            names: &rewrite.names,
+            hoisted: &hoisting.index,
+            cache_field: &cache_name,
         },
         n,
         nc,
         rt: &rt,
         stats: Vec::new(),
+        jobs: Vec::new(),
     };
     let mut methods = TokenStream::new();
     methods.extend(m.mass_matrix(&sym));
@@ -158,7 +204,12 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
     for (pt, fname) in pts.iter().zip(&point_fns) {
         methods.extend(m.point(pt, fname));
     }
+    methods.extend(m.evaluate_with_points(&sym, &cons, &pts));
+    if !hoisting.frontier.is_empty() {
+        methods.extend(m.hoisted_values(&hoisting.frontier));
+    }
     let stats = m.stats;
+    let bodies = methods::write_bodies(&m.jobs);
 
     let items = items::Items {
         model,
@@ -167,6 +218,8 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
         param_idents: &param_idents,
         n,
         nc,
+        hoisted: hoisting.frontier.len(),
+        cache_field: &cache_field,
     };
     let names = items::Names {
         points: model.points.iter().map(|p| p.name.as_str()).collect(),
@@ -183,10 +236,64 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
         tokens: tokens.to_string(),
     })?;
     let mut source = header::header(model, &stats);
-    source.push_str(&prettyplease::unparse(&file));
+    splice(&prettyplease::unparse(&file), &bodies, &mut source)?;
     Ok(Generated {
         source,
         struct_name,
         stats,
     })
+}
+
+/// Every output of every emitted function.
+fn all_roots(sym: &Symbolic, cons: &ConstraintExprs, pts: &[PointExprs]) -> Vec<Id> {
+    let mut roots: Vec<Id> = sym.mf_roots();
+    roots.extend(&sym.q);
+    roots.extend(&cons.h);
+    roots.extend(cons.j.iter().flatten());
+    roots.extend(&cons.a);
+    roots.push(sym.potential);
+    for pt in pts {
+        roots.extend(pt.p.iter().chain(pt.j.iter().flatten()).chain(&pt.a));
+    }
+    roots
+}
+
+/// Appends `skeleton` to `out` with every marker line `__mbs_body!(k);` replaced by
+/// `bodies[k]` (written for an indentation of `statements::BODY_INDENT`, re-indented if the
+/// marker sits elsewhere).
+fn splice(skeleton: &str, bodies: &[String], out: &mut String) -> Result<(), EmitError> {
+    out.reserve(skeleton.len() + bodies.iter().map(String::len).sum::<usize>());
+    let mut used = vec![false; bodies.len()];
+    for line in skeleton.split_inclusive('\n') {
+        let trimmed = line.trim_start();
+        let Some(k) = trimmed
+            .strip_prefix(methods::MARKER)
+            .and_then(|rest| rest.trim_end().strip_suffix(");"))
+            .and_then(|k| k.parse::<usize>().ok())
+            .filter(|&k| k < bodies.len())
+        else {
+            out.push_str(line);
+            continue;
+        };
+        used[k] = true;
+        let indent = line.len() - trimmed.len();
+        if indent == statements::BODY_INDENT {
+            out.push_str(&bodies[k]);
+        } else {
+            for body_line in bodies[k].split_inclusive('\n') {
+                let text = body_line.trim_start_matches(' ');
+                let own = body_line.len() - text.len();
+                let depth = (own + indent).saturating_sub(statements::BODY_INDENT);
+                out.extend(std::iter::repeat_n(' ', depth));
+                out.push_str(text);
+            }
+        }
+    }
+    if let Some(k) = used.iter().position(|u| !u) {
+        return Err(EmitError::Parse {
+            message: format!("body marker {k} not found in the formatted skeleton"),
+            tokens: skeleton.to_string(),
+        });
+    }
+    Ok(())
 }

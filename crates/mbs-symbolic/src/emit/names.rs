@@ -107,3 +107,13 @@ pub(super) fn point_fns(model: &Model) -> Result<Vec<Ident>, EmitError> {
     }
     Ok(fns)
 }
+
+/// The name of the cache field of hoisted subexpressions: `hoisted`, with `_` appended
+/// until it differs from every parameter field.
+pub(super) fn cache_field(param_idents: &[Ident]) -> Ident {
+    let mut name = String::from("hoisted");
+    while param_idents.iter().any(|p| *p == name) {
+        name.push('_');
+    }
+    Ident::new(&name, Span::call_site())
+}

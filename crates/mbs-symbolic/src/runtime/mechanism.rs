@@ -103,6 +103,31 @@ pub trait Mechanism<const N: usize, const NC: usize> {
         self.constraint_bias(q, qd, &mut out.a);
     }
 
+    /// `M^b`, `F^b`, `Q^b`, `h`, `J`, `A` (eqs. 11–16) and the kinematics of every named
+    /// point (eqs. 49–50; `points[k]` for [`Mechanism::point_names`]`[k]`) at once. `false`,
+    /// with nothing written, when `points` does not hold exactly one entry per named point.
+    /// The default calls [`Mechanism::evaluate`] and [`Mechanism::point_kinematics`];
+    /// generated code overrides it with one fused body in which the trigonometric leaves and
+    /// rotation products are shared between the dynamics and the points. Results are
+    /// bit-identical to the separate methods'.
+    fn evaluate_with_points(
+        &self,
+        q: &[f64; N],
+        qd: &[f64; N],
+        t: f64,
+        out: &mut Evaluation<N, NC>,
+        points: &mut [PointKinematics<N>],
+    ) -> bool {
+        if points.len() != self.point_names().len() {
+            return false;
+        }
+        self.evaluate(q, qd, t, out);
+        for (k, p) in points.iter_mut().enumerate() {
+            self.point_kinematics(k, q, qd, p);
+        }
+        true
+    }
+
     /// Kinematics of point `k` (index into [`Mechanism::point_names`]); `false` when there is
     /// no such point (the output is then left unchanged).
     fn point_kinematics(
