@@ -322,7 +322,11 @@ impl<M: System> MechanismLink<M> {
             // J^b is too ill-conditioned to pin q^b down — the toggle, not the reach.
             let (smax, smin) = singular_values2(&jb);
             return Err(KinematicError::Singular {
-                condition: if smin > 0.0 { smax / smin } else { f64::INFINITY },
+                condition: if smin > 0.0 {
+                    smax / smin
+                } else {
+                    f64::INFINITY
+                },
                 sigma_min: smin,
                 q,
             });

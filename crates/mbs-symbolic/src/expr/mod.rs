@@ -14,17 +14,23 @@
 //!
 //! Construction folds constants and eliminates `0` and `±1` (`x + 0 = x`, `x * 1 = x`,
 //! `x * 0 = 0`, `-(-x) = x`, `c1 * (c2 * x) = (c1 c2) * x`, ...), and orders the operands of
-//! commutative operations by id so that `a + b` and `b + a` are the same node.
+//! commutative operations by id so that `a + b` and `b + a` are the same node. Sums also
+//! merge constants and collect like terms with constant coefficients ([`algebra`]; common
+//! constant factors and reciprocals of inexact divisors are opt-in:
+//! [`Dag::set_factor_constants`], [`Dag::set_reciprocal_constants`]).
 //!
-//! Submodules: [`diff`] (symbolic differentiation, time derivatives along the motion),
-//! [`eval`] (the interpreter), [`count`] (operation counts), and s-expression display.
+//! Submodules: [`algebra`] (the algebra of sums), [`diff`] (symbolic differentiation, time
+//! derivatives along the motion), [`eval`] (the interpreter), [`count`] (operation counts),
+//! [`sexpr`] (s-expression display and parsing, for table-style tests).
 
 use std::collections::HashMap;
 use std::fmt;
 
+pub mod algebra;
 pub mod count;
 pub mod diff;
 pub mod eval;
+pub mod sexpr;
 
 pub use count::OpCount;
 pub use eval::{EvalInput, Tape};
@@ -102,6 +108,13 @@ impl Node {
 pub struct Dag {
     nodes: Vec<Node>,
     index: HashMap<Node, Id>,
+    /// Number of nodes built so far with this node as an operand (the algebra of sums
+    /// rewrites only subtrees nobody else uses yet, so that it cannot undo sharing).
+    parents: Vec<u32>,
+    /// See [`Dag::set_reciprocal_constants`].
+    reciprocal_constants: bool,
+    /// See [`Dag::set_factor_constants`].
+    factor_constants: bool,
 }
 
 impl fmt::Debug for Dag {
@@ -114,6 +127,24 @@ impl Dag {
     /// An empty DAG.
     pub fn new() -> Dag {
         Dag::default()
+    }
+
+    /// Opt-in: divisions by a constant `c` whose reciprocal is inexact (`x / 3`, `x / 12`)
+    /// become multiplications by `1/c` (rounded), which are several times cheaper. Off by
+    /// default: `x * (1/c)` can differ from `x / c` by one unit in the last place, so the
+    /// generated code is then no longer bit-faithful to the model's written divisions
+    /// (the deviation is far below the 1e-12 agreement of the tests). Divisions by powers
+    /// of two are always multiplications (exact). Applies to nodes built after the call.
+    pub fn set_reciprocal_constants(&mut self, on: bool) {
+        self.reciprocal_constants = on;
+    }
+
+    /// Opt-in: extraction of common constant factors, `c x + c y = c (x + y)` (and
+    /// `x / c + y / c = (x + y) / c`), when the sum is built. Off by default: measured on
+    /// the planar chains it adds operations (the products `c x` are often used elsewhere
+    /// as well, and then computed anyway). Applies to sums built after the call.
+    pub fn set_factor_constants(&mut self, on: bool) {
+        self.factor_constants = on;
     }
 
     /// Number of nodes in the arena.
@@ -141,7 +172,11 @@ impl Dag {
             return id;
         }
         let id = Id(u32::try_from(self.nodes.len()).expect("expression DAG exceeds 2^32 nodes"));
+        for c in node.children() {
+            self.parents[c.index()] += 1;
+        }
         self.nodes.push(node);
+        self.parents.push(0);
         self.index.insert(node, id);
         id
     }
@@ -206,8 +241,30 @@ impl Dag {
         }
     }
 
-    /// `a + b`, folded.
+    /// `a + b`, folded, with like terms, constants and common constant factors collected
+    /// (see [`algebra`]).
     pub fn add(&mut self, a: Id, b: Id) -> Id {
+        self.add_impl(a, b, true)
+    }
+
+    /// `a - b`, folded, with like terms, constants and common constant factors collected
+    /// (see [`algebra`]).
+    pub fn sub(&mut self, a: Id, b: Id) -> Id {
+        self.sub_impl(a, b, true)
+    }
+
+    /// `a + b` with the local folds only (zeros, constants, negations); the rebuilding
+    /// step of [`algebra`].
+    fn add_folded(&mut self, a: Id, b: Id) -> Id {
+        self.add_impl(a, b, false)
+    }
+
+    /// `a - b` with the local folds only.
+    fn sub_folded(&mut self, a: Id, b: Id) -> Id {
+        self.sub_impl(a, b, false)
+    }
+
+    fn add_impl(&mut self, a: Id, b: Id, collect: bool) -> Id {
         match (self.node(a), self.node(b)) {
             (Node::Const(x), Node::Const(y)) => {
                 return self.constant(f64::from_bits(x) + f64::from_bits(y));
@@ -215,52 +272,49 @@ impl Dag {
             (Node::Const(x), _) if f64::from_bits(x) == 0.0 => return b,
             (_, Node::Const(y)) if f64::from_bits(y) == 0.0 => return a,
             (Node::Neg(x), Node::Neg(y)) => {
-                let s = self.add(x, y);
+                let s = self.add_impl(x, y, collect);
                 return self.neg(s);
             }
-            (_, Node::Neg(y)) => return self.sub(a, y),
-            (Node::Neg(x), _) => return self.sub(b, x),
+            (_, Node::Neg(y)) => return self.sub_impl(a, y, collect),
+            (Node::Neg(x), _) => return self.sub_impl(b, x, collect),
             _ => {}
         }
         if a == b {
             let two = self.constant(2.0);
             return self.mul(two, a);
         }
-        // c1 + (c2 + y) = (c1 + c2) + y: constants of nested sums merge.
-        for (c, other) in [(a, b), (b, a)] {
-            if let Some(c1) = self.as_const(c) {
-                if let Node::Add(y1, y2) = self.node(other) {
-                    for (k, y) in [(y1, y2), (y2, y1)] {
-                        if let Some(c2) = self.as_const(k) {
-                            let s = self.constant(c1 + c2);
-                            return self.add(s, y);
-                        }
-                    }
-                }
+        if collect {
+            if let Some(r) = self.collect_sum(a, b, false) {
+                return r;
             }
         }
         let (a, b) = if a <= b { (a, b) } else { (b, a) };
         self.intern(Node::Add(a, b))
     }
 
-    /// `a - b`, folded.
-    pub fn sub(&mut self, a: Id, b: Id) -> Id {
+    fn sub_impl(&mut self, a: Id, b: Id, collect: bool) -> Id {
         if a == b {
             return self.zero();
         }
         match (self.node(a), self.node(b)) {
             (Node::Const(x), Node::Const(y)) => {
-                self.constant(f64::from_bits(x) - f64::from_bits(y))
+                return self.constant(f64::from_bits(x) - f64::from_bits(y));
             }
-            (_, Node::Const(y)) if f64::from_bits(y) == 0.0 => a,
-            (Node::Const(x), _) if f64::from_bits(x) == 0.0 => self.neg(b),
-            (_, Node::Neg(y)) => self.add(a, y),
+            (_, Node::Const(y)) if f64::from_bits(y) == 0.0 => return a,
+            (Node::Const(x), _) if f64::from_bits(x) == 0.0 => return self.neg(b),
+            (_, Node::Neg(y)) => return self.add_impl(a, y, collect),
             (Node::Neg(x), _) => {
-                let s = self.add(x, b);
-                self.neg(s)
+                let s = self.add_impl(x, b, collect);
+                return self.neg(s);
             }
-            _ => self.intern(Node::Sub(a, b)),
+            _ => {}
         }
+        if collect {
+            if let Some(r) = self.collect_sum(a, b, true) {
+                return r;
+            }
+        }
+        self.intern(Node::Sub(a, b))
     }
 
     /// `a * b`, folded: constants multiplied out, `0`, `1` and `-1` eliminated, negations
@@ -356,6 +410,15 @@ impl Dag {
             (_, Node::Const(y)) if exact_reciprocal(f64::from_bits(y)).is_some() => {
                 let r = exact_reciprocal(f64::from_bits(y)).unwrap_or(1.0);
                 let k = self.constant(r);
+                self.mul(k, a)
+            }
+            // Any other nonzero finite constant when the user opted in (rounded reciprocal).
+            (_, Node::Const(y))
+                if self.reciprocal_constants
+                    && f64::from_bits(y) != 0.0
+                    && (1.0 / f64::from_bits(y)).is_normal() =>
+            {
+                let k = self.constant(1.0 / f64::from_bits(y));
                 self.mul(k, a)
             }
             (Node::Neg(x), _) => {
@@ -503,52 +566,6 @@ impl Dag {
             .filter(|(_, m)| **m)
             .map(|(i, _)| Id(i as u32))
             .collect()
-    }
-
-    /// Writes the expression as an s-expression, e.g. `(+ q0 (* 2 qd1))`. Variables print as
-    /// `q0`, `qd0`, `qdd0`, `t`, `p0`.
-    pub fn sexpr(&self, id: Id) -> String {
-        let mut s = String::new();
-        self.write_sexpr(id, &mut s);
-        s
-    }
-
-    fn write_sexpr(&self, id: Id, out: &mut String) {
-        use std::fmt::Write;
-        let bin = |op: &str, a: Id, b: Id, out: &mut String| {
-            out.push('(');
-            out.push_str(op);
-            out.push(' ');
-            self.write_sexpr(a, out);
-            out.push(' ');
-            self.write_sexpr(b, out);
-            out.push(')');
-        };
-        match self.node(id) {
-            Node::Const(bits) => {
-                let _ = write!(out, "{}", f64::from_bits(bits));
-            }
-            Node::Var(v) => {
-                let _ = write!(out, "{v}");
-            }
-            Node::Neg(a) => {
-                out.push_str("(- ");
-                self.write_sexpr(a, out);
-                out.push(')');
-            }
-            Node::Add(a, b) => bin("+", a, b, out),
-            Node::Sub(a, b) => bin("-", a, b, out),
-            Node::Mul(a, b) => bin("*", a, b, out),
-            Node::Div(a, b) => bin("/", a, b, out),
-            Node::Pow(a, b) => bin("^", a, b, out),
-            Node::Fun(f, a) => {
-                out.push('(');
-                out.push_str(f.name());
-                out.push(' ');
-                self.write_sexpr(a, out);
-                out.push(')');
-            }
-        }
     }
 }
 

@@ -1,0 +1,235 @@
+//! Operation counts pinned: `M^b + F^b` (eqs. 11–12) and every generated function of the
+//! bundled models and the benchmark chains may only get cheaper.
+//!
+//! Each pin is the count measured after the DAG algebra rewrites (constant merging, like
+//! terms; `expr/algebra.rs`), the angle-addition trigonometry and the parameter hoisting
+//! went in. The count weighs a libm `sin`/`cos` call as one operation: where angle
+//! addition replaces a call by 4 mul + 2 add (standalone `point_*` and constraint
+//! functions, and `f_vector`/`evaluate` of the planar chains) the raw count grew by up to
+//! 5 per replaced call while the cost fell (one libm call ~ 20 flops here). A
+//! count above its pin fails; a count below it is reported (lower the pin deliberately
+//! when the improvement is meant to stay). The table of counts is printed
+//! (`cargo test -p mbs-symbolic --release --test op_counts -- --nocapture`).
+
+use std::path::PathBuf;
+
+use mbs_symbolic::dynamics::Symbolic;
+use mbs_symbolic::emit::{EmitOptions, generate};
+use mbs_symbolic::model::{self, Model};
+use mbs_symbolic::samples::{planar_chain, spatial_chain};
+
+/// (model, row, pinned total operation count).
+const PINS: &[(&str, &str, usize)] = &[
+    ("models/double_bar.toml", "M+F", 52),
+    ("models/double_bar.toml", "mass_matrix", 8),
+    ("models/double_bar.toml", "f_vector", 37),
+    ("models/double_bar.toml", "q_vector", 0),
+    ("models/double_bar.toml", "constraints", 0),
+    ("models/double_bar.toml", "constraint_jacobian", 0),
+    ("models/double_bar.toml", "constraint_bias", 0),
+    ("models/double_bar.toml", "potential_energy", 25),
+    ("models/double_bar.toml", "evaluate", 44),
+    ("models/double_bar.toml", "point_tip", 35),
+    ("models/double_bar.toml", "evaluate_with_points", 74),
+    ("models/double_bar.toml", "hoisted_values", 8),
+    ("models/four_bar.toml", "M+F", 54),
+    ("models/four_bar.toml", "mass_matrix", 8),
+    ("models/four_bar.toml", "f_vector", 34),
+    ("models/four_bar.toml", "q_vector", 0),
+    ("models/four_bar.toml", "constraints", 23),
+    ("models/four_bar.toml", "constraint_jacobian", 23),
+    ("models/four_bar.toml", "constraint_bias", 35),
+    ("models/four_bar.toml", "potential_energy", 17),
+    ("models/four_bar.toml", "evaluate", 84),
+    ("models/four_bar.toml", "point_coupler_end", 35),
+    ("models/four_bar.toml", "point_rocker_end", 14),
+    ("models/four_bar.toml", "evaluate_with_points", 90),
+    ("models/four_bar.toml", "hoisted_values", 13),
+    ("models/slider_crank.toml", "M+F", 46),
+    ("models/slider_crank.toml", "mass_matrix", 8),
+    ("models/slider_crank.toml", "f_vector", 30),
+    ("models/slider_crank.toml", "q_vector", 0),
+    ("models/slider_crank.toml", "constraints", 18),
+    ("models/slider_crank.toml", "constraint_jacobian", 18),
+    ("models/slider_crank.toml", "constraint_bias", 25),
+    ("models/slider_crank.toml", "potential_energy", 12),
+    ("models/slider_crank.toml", "evaluate", 67),
+    ("models/slider_crank.toml", "point_rod_end", 35),
+    ("models/slider_crank.toml", "point_piston_pin", 0),
+    ("models/slider_crank.toml", "evaluate_with_points", 70),
+    ("models/slider_crank.toml", "hoisted_values", 9),
+    ("models/pendulum.json", "M+F", 8),
+    ("models/pendulum.json", "mass_matrix", 0),
+    ("models/pendulum.json", "f_vector", 5),
+    ("models/pendulum.json", "q_vector", 1),
+    ("models/pendulum.json", "constraints", 0),
+    ("models/pendulum.json", "constraint_jacobian", 0),
+    ("models/pendulum.json", "constraint_bias", 0),
+    ("models/pendulum.json", "potential_energy", 5),
+    ("models/pendulum.json", "evaluate", 6),
+    ("models/pendulum.json", "point_bob", 13),
+    ("models/pendulum.json", "evaluate_with_points", 18),
+    ("models/pendulum.json", "hoisted_values", 3),
+    ("planar_chain(2)", "M+F", 27),
+    ("planar_chain(2)", "mass_matrix", 4),
+    ("planar_chain(2)", "f_vector", 28),
+    ("planar_chain(2)", "q_vector", 0),
+    ("planar_chain(2)", "constraints", 0),
+    ("planar_chain(2)", "constraint_jacobian", 0),
+    ("planar_chain(2)", "constraint_bias", 0),
+    ("planar_chain(2)", "potential_energy", 8),
+    ("planar_chain(2)", "evaluate", 31),
+    ("planar_chain(2)", "point_tip", 27),
+    ("planar_chain(2)", "evaluate_with_points", 47),
+    ("planar_chain(4)", "M+F", 114),
+    ("planar_chain(4)", "mass_matrix", 46),
+    ("planar_chain(4)", "f_vector", 74),
+    ("planar_chain(4)", "q_vector", 0),
+    ("planar_chain(4)", "constraints", 0),
+    ("planar_chain(4)", "constraint_jacobian", 0),
+    ("planar_chain(4)", "constraint_bias", 0),
+    ("planar_chain(4)", "potential_energy", 22),
+    ("planar_chain(4)", "evaluate", 114),
+    ("planar_chain(4)", "point_tip", 69),
+    ("planar_chain(4)", "evaluate_with_points", 170),
+    ("planar_chain(8)", "M+F", 364),
+    ("planar_chain(8)", "mass_matrix", 208),
+    ("planar_chain(8)", "f_vector", 170),
+    ("planar_chain(8)", "q_vector", 0),
+    ("planar_chain(8)", "constraints", 0),
+    ("planar_chain(8)", "constraint_jacobian", 0),
+    ("planar_chain(8)", "constraint_bias", 0),
+    ("planar_chain(8)", "potential_energy", 50),
+    ("planar_chain(8)", "evaluate", 364),
+    ("planar_chain(8)", "point_tip", 177),
+    ("planar_chain(8)", "evaluate_with_points", 516),
+    ("planar_chain(16)", "M+F", 1200),
+    ("planar_chain(16)", "mass_matrix", 868),
+    ("planar_chain(16)", "f_vector", 362),
+    ("planar_chain(16)", "q_vector", 0),
+    ("planar_chain(16)", "constraints", 0),
+    ("planar_chain(16)", "constraint_jacobian", 0),
+    ("planar_chain(16)", "constraint_bias", 0),
+    ("planar_chain(16)", "potential_energy", 106),
+    ("planar_chain(16)", "evaluate", 1200),
+    ("planar_chain(16)", "point_tip", 489),
+    ("planar_chain(16)", "evaluate_with_points", 1640),
+    ("spatial_chain(2)", "M+F", 115),
+    ("spatial_chain(2)", "mass_matrix", 28),
+    ("spatial_chain(2)", "f_vector", 89),
+    ("spatial_chain(2)", "q_vector", 0),
+    ("spatial_chain(2)", "constraints", 0),
+    ("spatial_chain(2)", "constraint_jacobian", 0),
+    ("spatial_chain(2)", "constraint_bias", 0),
+    ("spatial_chain(2)", "potential_energy", 7),
+    ("spatial_chain(2)", "evaluate", 115),
+    ("spatial_chain(2)", "point_tip", 24),
+    ("spatial_chain(2)", "evaluate_with_points", 139),
+    ("spatial_chain(4)", "M+F", 429),
+    ("spatial_chain(4)", "mass_matrix", 138),
+    ("spatial_chain(4)", "f_vector", 296),
+    ("spatial_chain(4)", "q_vector", 0),
+    ("spatial_chain(4)", "constraints", 0),
+    ("spatial_chain(4)", "constraint_jacobian", 0),
+    ("spatial_chain(4)", "constraint_bias", 0),
+    ("spatial_chain(4)", "potential_energy", 26),
+    ("spatial_chain(4)", "evaluate", 429),
+    ("spatial_chain(4)", "point_tip", 210),
+    ("spatial_chain(4)", "evaluate_with_points", 632),
+    ("spatial_chain(8)", "M+F", 1401),
+    ("spatial_chain(8)", "mass_matrix", 620),
+    ("spatial_chain(8)", "f_vector", 793),
+    ("spatial_chain(8)", "q_vector", 0),
+    ("spatial_chain(8)", "constraints", 0),
+    ("spatial_chain(8)", "constraint_jacobian", 0),
+    ("spatial_chain(8)", "constraint_bias", 0),
+    ("spatial_chain(8)", "potential_energy", 88),
+    ("spatial_chain(8)", "evaluate", 1401),
+    ("spatial_chain(8)", "point_tip", 979),
+    ("spatial_chain(8)", "evaluate_with_points", 2367),
+    ("spatial_chain(16)", "M+F", 4040),
+    ("spatial_chain(16)", "mass_matrix", 2281),
+    ("spatial_chain(16)", "f_vector", 1785),
+    ("spatial_chain(16)", "q_vector", 0),
+    ("spatial_chain(16)", "constraints", 0),
+    ("spatial_chain(16)", "constraint_jacobian", 0),
+    ("spatial_chain(16)", "constraint_bias", 0),
+    ("spatial_chain(16)", "potential_energy", 212),
+    ("spatial_chain(16)", "evaluate", 4040),
+    ("spatial_chain(16)", "point_tip", 3376),
+    ("spatial_chain(16)", "evaluate_with_points", 7389),
+    ("spatial_chain(32)", "M+F", 12299),
+    ("spatial_chain(32)", "mass_matrix", 8584),
+    ("spatial_chain(32)", "f_vector", 3769),
+    ("spatial_chain(32)", "q_vector", 0),
+    ("spatial_chain(32)", "constraints", 0),
+    ("spatial_chain(32)", "constraint_jacobian", 0),
+    ("spatial_chain(32)", "constraint_bias", 0),
+    ("spatial_chain(32)", "potential_energy", 460),
+    ("spatial_chain(32)", "evaluate", 12299),
+    ("spatial_chain(32)", "point_tip", 11553),
+    ("spatial_chain(32)", "evaluate_with_points", 23797),
+];
+
+fn models() -> Vec<(String, Model)> {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mut out = vec![];
+    for file in [
+        "models/double_bar.toml",
+        "models/four_bar.toml",
+        "models/slider_crank.toml",
+        "models/pendulum.json",
+    ] {
+        let m = model::load(&root.join(file)).unwrap_or_else(|e| panic!("{e}"));
+        out.push((file.to_string(), m));
+    }
+    for n in [2, 4, 8, 16] {
+        out.push((format!("planar_chain({n})"), planar_chain(n)));
+    }
+    for n in [2, 4, 8, 16, 32] {
+        out.push((format!("spatial_chain({n})"), spatial_chain(n)));
+    }
+    out
+}
+
+/// Measured rows: `M+F` then one per generated function.
+fn measure(m: &Model) -> Vec<(String, usize)> {
+    let mut rows = vec![("M+F".to_string(), Symbolic::derive(m).op_count_mf().total())];
+    let g = generate(m, &EmitOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    rows.extend(g.stats.into_iter().map(|(f, c)| (f, c.total())));
+    rows
+}
+
+#[test]
+fn operation_counts_do_not_grow() {
+    let mut failures = vec![];
+    let mut measured = vec![];
+    println!(
+        "{:<28} {:<22} {:>7} {:>7}",
+        "model", "function", "pinned", "now"
+    );
+    for (name, m) in models() {
+        for (row, count) in measure(&m) {
+            let pin = PINS
+                .iter()
+                .find(|(pm, pr, _)| *pm == name && *pr == row)
+                .map(|p| p.2);
+            let pinned = pin.map_or_else(|| "-".to_string(), |p| p.to_string());
+            println!("{name:<28} {row:<22} {pinned:>7} {count:>7}");
+            match pin {
+                Some(p) if count > p => {
+                    failures.push(format!("{name} {row}: {count} operations, pinned {p}"));
+                }
+                Some(_) => {}
+                None => failures.push(format!("{name} {row}: {count} operations, no pin")),
+            }
+            measured.push((name.clone(), row));
+        }
+    }
+    for (pm, pr, _) in PINS {
+        if !measured.iter().any(|(m, r)| m == pm && r == pr) {
+            failures.push(format!("{pm} {pr}: pinned but no longer measured"));
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
