@@ -41,49 +41,7 @@ pub struct WriteError {
     pub error: std::io::Error,
 }
 
-/// Where the bytes of an output path go.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Target {
-    /// A regular file (existing or to be created), symbolic links followed: replaced
-    /// atomically through a temporary file in its directory.
-    Replace(PathBuf),
-    /// An existing file that is not a regular file (device, fifo, socket): opened for
-    /// writing and written directly, never read and never renamed over.
-    Direct(PathBuf),
-}
-
-/// Resolves an output path with the user's path semantics: a symbolic link is followed to
-/// the file it names (a dangling link to the path it would create), a non-regular file is
-/// written directly, a directory is an error. Only looks at the file system (`stat`,
-/// `readlink`); opens nothing.
-pub fn target(path: &Path) -> std::io::Result<Target> {
-    match std::fs::metadata(path) {
-        Ok(m) if m.is_file() => Ok(Target::Replace(std::fs::canonicalize(path)?)),
-        Ok(m) if m.is_dir() => Err(std::io::Error::new(
-            std::io::ErrorKind::IsADirectory,
-            "is a directory, not a file",
-        )),
-        Ok(_) => Ok(Target::Direct(path.to_path_buf())),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            // Not there, or a dangling symbolic link: follow the chain to the path to create.
-            let mut p = path.to_path_buf();
-            for _ in 0..40 {
-                match std::fs::symlink_metadata(&p) {
-                    Ok(m) if m.file_type().is_symlink() => {
-                        let link = std::fs::read_link(&p)?;
-                        p = match p.parent() {
-                            Some(dir) if link.is_relative() => dir.join(link),
-                            _ => link,
-                        };
-                    }
-                    _ => return Ok(Target::Replace(p)),
-                }
-            }
-            Err(std::io::Error::other("too many levels of symbolic links"))
-        }
-        Err(e) => Err(e),
-    }
-}
+pub use mbs_symbolic::emit::{Target, target};
 
 /// The temporary file next to `final_path`.
 fn tmp_of(final_path: &Path) -> PathBuf {

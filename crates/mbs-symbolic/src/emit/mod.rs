@@ -50,7 +50,7 @@ use crate::model::Model;
 
 pub use build::{Compiled, compile_model};
 pub use names::sanitize_ident;
-pub use write::write_if_changed;
+pub use write::{Target, target, write_if_changed};
 
 /// Version of the generator, written into every `@generated` header.
 pub const GENERATOR_VERSION: &str = env!("CARGO_PKG_VERSION");

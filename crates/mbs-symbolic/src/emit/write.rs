@@ -11,26 +11,32 @@ use std::path::{Path, PathBuf};
 
 use super::EmitError;
 
-/// Where [`write_if_changed`] puts the bytes.
-#[derive(Debug, PartialEq, Eq)]
-enum Target {
-    /// A regular file (or none yet), symbolic links followed.
-    Regular(PathBuf),
-    /// An existing non-regular file: written directly.
-    Special,
+/// Where the bytes of an output path go (the one classification of output paths, shared by
+/// [`write_if_changed`] and the CLI's atomic writer).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Target {
+    /// A regular file (existing or to be created), symbolic links followed: replaced
+    /// atomically through a temporary file in its directory.
+    Replace(PathBuf),
+    /// An existing file that is not a regular file (device, fifo, socket): opened for
+    /// writing and written directly, never read and never renamed over.
+    Direct(PathBuf),
 }
 
-/// Resolves `path`: a regular file or a missing one (symbolic links followed, also
-/// dangling ones), or an existing non-regular file. Only `stat` and `readlink`.
-fn target(path: &Path) -> std::io::Result<Target> {
+/// Resolves an output path with the user's path semantics: a symbolic link is followed to
+/// the file it names (a dangling link to the path it would create), a non-regular file is
+/// written directly, a directory is an error. Only looks at the file system (`stat`,
+/// `readlink`); opens nothing.
+pub fn target(path: &Path) -> std::io::Result<Target> {
     match std::fs::metadata(path) {
-        Ok(m) if m.is_file() => Ok(Target::Regular(std::fs::canonicalize(path)?)),
+        Ok(m) if m.is_file() => Ok(Target::Replace(std::fs::canonicalize(path)?)),
         Ok(m) if m.is_dir() => Err(std::io::Error::new(
             std::io::ErrorKind::IsADirectory,
             "is a directory, not a file",
         )),
-        Ok(_) => Ok(Target::Special),
+        Ok(_) => Ok(Target::Direct(path.to_path_buf())),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            // Not there, or a dangling symbolic link: follow the chain to the path to create.
             let mut p = path.to_path_buf();
             for _ in 0..40 {
                 match std::fs::symlink_metadata(&p) {
@@ -41,7 +47,7 @@ fn target(path: &Path) -> std::io::Result<Target> {
                             _ => link,
                         };
                     }
-                    _ => return Ok(Target::Regular(p)),
+                    _ => return Ok(Target::Replace(p)),
                 }
             }
             Err(std::io::Error::other("too many levels of symbolic links"))
@@ -61,14 +67,14 @@ pub fn write_if_changed(path: &Path, contents: &str) -> Result<bool, EmitError> 
         source: e,
     };
     let regular = match target(path).map_err(io)? {
-        Target::Special => {
+        Target::Direct(_) => {
             let written = std::fs::OpenOptions::new()
                 .write(true)
                 .open(path)
                 .and_then(|mut f| f.write_all(contents.as_bytes()).and_then(|()| f.flush()));
             return written.map(|()| true).map_err(io);
         }
-        Target::Regular(p) => p,
+        Target::Replace(p) => p,
     };
     if std::fs::read(&regular).ok().as_deref() == Some(contents.as_bytes()) {
         return Ok(false);
@@ -102,7 +108,10 @@ mod tests {
     #[test]
     fn dev_null_is_classified_special_so_it_is_never_renamed_over() {
         // Only `stat`: the real device is not opened by this test.
-        assert_eq!(target(Path::new("/dev/null")).unwrap(), Target::Special);
+        assert_eq!(
+            target(Path::new("/dev/null")).unwrap(),
+            Target::Direct(PathBuf::from("/dev/null"))
+        );
     }
 
     #[cfg(unix)]
