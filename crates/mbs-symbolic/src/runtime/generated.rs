@@ -2,17 +2,14 @@
 //! compiled in) behind the dynamic [`System`] interface.
 
 use super::mechanism::{Evaluation, Mechanism, PointKinematics};
-use super::system::{Backend, ParamError, System, Workspace};
+use super::system::{Backend, Names, ParamError, System, Workspace};
 
 /// Generated code as a [`System`]: the fixed-size outputs are copied into the workspace
 /// buffers. Allocation-free.
 #[derive(Clone, Debug)]
 pub struct GeneratedSystem<T, const N: usize, const NC: usize> {
     mech: T,
-    coords: Vec<String>,
-    cons: Vec<String>,
-    points: Vec<String>,
-    params: Vec<String>,
+    names: Names,
 }
 
 /// A list of names whose length does not match the mechanism's size.
@@ -70,11 +67,13 @@ impl<T: Mechanism<N, NC>, const N: usize, const NC: usize> GeneratedSystem<T, N,
             });
         }
         Ok(GeneratedSystem {
-            points: owned(mech.point_names()),
-            params: owned(mech.param_names()),
+            names: Names {
+                coordinates: owned(coordinate_names),
+                constraints: owned(constraint_names),
+                points: owned(mech.point_names()),
+                params: owned(mech.param_names()),
+            },
             mech,
-            coords: owned(coordinate_names),
-            cons: owned(constraint_names),
         })
     }
 
@@ -102,32 +101,12 @@ where
     fn rows(&self) -> usize {
         NC
     }
-    fn coordinate_names(&self) -> &[String] {
-        &self.coords
-    }
-    fn constraint_names(&self) -> &[String] {
-        &self.cons
-    }
-    fn point_names(&self) -> &[String] {
-        &self.points
-    }
-    fn param_names(&self) -> &[String] {
-        &self.params
+    fn names(&self) -> &Names {
+        &self.names
     }
 
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), ParamError> {
-        if !self.params.iter().any(|p| p == name) {
-            return Err(ParamError::Unknown {
-                name: name.to_string(),
-                available: self.params.clone(),
-            });
-        }
-        if !value.is_finite() {
-            return Err(ParamError::NotFinite {
-                name: name.to_string(),
-                value,
-            });
-        }
+        self.names.param(name, value)?;
         // The name is one of the mechanism's own: the generated setter accepts it.
         let known = self.mech.set_param(name, value);
         debug_assert!(known);

@@ -8,7 +8,7 @@ use crate::expr::{EvalInput, Id, Tape};
 use crate::model::Model;
 
 use super::system::{
-    Backend, ParamError, System, Workspace, coordinate_names, find_param, runtime_params,
+    Backend, Names, ParamError, System, Workspace, coordinate_names, runtime_params,
 };
 
 /// The symbolic equations of a model evaluated by the DAG interpreter: complete — `M`, `F`,
@@ -24,10 +24,7 @@ pub struct InterpretedSystem {
     potential: Tape,
     point_tapes: Vec<Tape>,
     values: Vec<f64>,
-    coords: Vec<String>,
-    cons: Vec<String>,
-    points: Vec<String>,
-    params: Vec<String>,
+    names: Names,
     param_index: Vec<usize>,
 }
 
@@ -72,10 +69,12 @@ impl InterpretedSystem {
             potential: Tape::new(&sym.dag, &[sym.potential]),
             point_tapes,
             values: model.default_params(),
-            coords: coordinate_names(model),
-            cons: cons.names,
-            points: pts.into_iter().map(|p| p.name).collect(),
-            params,
+            names: Names {
+                coordinates: coordinate_names(model),
+                constraints: cons.names,
+                points: pts.into_iter().map(|p| p.name).collect(),
+                params,
+            },
             param_index,
         }
     }
@@ -135,21 +134,12 @@ impl System for InterpretedSystem {
     fn rows(&self) -> usize {
         self.rows
     }
-    fn coordinate_names(&self) -> &[String] {
-        &self.coords
-    }
-    fn constraint_names(&self) -> &[String] {
-        &self.cons
-    }
-    fn point_names(&self) -> &[String] {
-        &self.points
-    }
-    fn param_names(&self) -> &[String] {
-        &self.params
+    fn names(&self) -> &Names {
+        &self.names
     }
 
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), ParamError> {
-        let k = find_param(&self.params, &self.param_index, name, value)?;
+        let k = self.param_index[self.names.param(name, value)?];
         self.values[k] = value;
         Ok(())
     }

@@ -28,4 +28,6 @@ pub use generated::NameCount;
 pub use interpreted::InterpretedSystem;
 pub use mechanism::{Evaluation, Mechanism, PointKinematics};
 pub use numeric::NumericSystem;
-pub use system::{Backend, ParamError, System, Workspace, constraint_row_names, coordinate_names};
+pub use system::{
+    Backend, Names, ParamError, System, Workspace, constraint_row_names, coordinate_names,
+};

@@ -5,7 +5,7 @@ use crate::model::Model;
 use crate::numeric::NumericModel;
 
 use super::system::{
-    Backend, ParamError, System, Workspace, constraint_row_names, coordinate_names, find_param,
+    Backend, Names, ParamError, System, Workspace, constraint_row_names, coordinate_names,
     runtime_params,
 };
 
@@ -16,10 +16,7 @@ pub struct NumericSystem {
     model: Model,
     values: Vec<f64>,
     numeric: NumericModel,
-    coords: Vec<String>,
-    cons: Vec<String>,
-    points: Vec<String>,
-    params: Vec<String>,
+    names: Names,
     param_index: Vec<usize>,
 }
 
@@ -32,10 +29,12 @@ impl NumericSystem {
             numeric: NumericModel::new(model, &values),
             model: model.clone(),
             values,
-            coords: coordinate_names(model),
-            cons: constraint_row_names(model),
-            points: model.points.iter().map(|p| p.name.clone()).collect(),
-            params,
+            names: Names {
+                coordinates: coordinate_names(model),
+                constraints: constraint_row_names(model),
+                points: model.points.iter().map(|p| p.name.clone()).collect(),
+                params,
+            },
             param_index,
         }
     }
@@ -56,21 +55,12 @@ impl System for NumericSystem {
     fn rows(&self) -> usize {
         self.numeric.constraint_rows()
     }
-    fn coordinate_names(&self) -> &[String] {
-        &self.coords
-    }
-    fn constraint_names(&self) -> &[String] {
-        &self.cons
-    }
-    fn point_names(&self) -> &[String] {
-        &self.points
-    }
-    fn param_names(&self) -> &[String] {
-        &self.params
+    fn names(&self) -> &Names {
+        &self.names
     }
 
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), ParamError> {
-        let k = find_param(&self.params, &self.param_index, name, value)?;
+        let k = self.param_index[self.names.param(name, value)?];
         self.values[k] = value;
         self.numeric = NumericModel::new(&self.model, &self.values);
         Ok(())
@@ -94,7 +84,7 @@ impl System for NumericSystem {
     }
 
     fn point_kinematics(&self, k: usize, q: &[f64], qd: &[f64], ws: &mut Workspace) -> bool {
-        if k >= self.points.len() {
+        if k >= self.names.points.len() {
             return false;
         }
         ws.point_p = self.numeric.point_position(k, q);

@@ -130,19 +130,30 @@ pub trait System: Send + Sync {
     /// Number of constraint rows (the length of `h`).
     fn rows(&self) -> usize;
 
+    /// The names of the coordinates, constraint rows, points and run-time parameters.
+    fn names(&self) -> &Names;
+
     /// Names of the coordinates, in the model's order.
-    fn coordinate_names(&self) -> &[String];
+    fn coordinate_names(&self) -> &[String] {
+        &self.names().coordinates
+    }
 
     /// Names of the constraint rows (`"<constraint>.<component>"`), in the model's order.
-    fn constraint_names(&self) -> &[String];
+    fn constraint_names(&self) -> &[String] {
+        &self.names().constraints
+    }
 
     /// Names of the named points, in the model's order (indices for
     /// [`System::point_kinematics`]).
-    fn point_names(&self) -> &[String];
+    fn point_names(&self) -> &[String] {
+        &self.names().points
+    }
 
     /// Names of the run-time parameters (those [`System::set_param`] accepts), in the
     /// model's order.
-    fn param_names(&self) -> &[String];
+    fn param_names(&self) -> &[String] {
+        &self.names().params
+    }
 
     /// Sets a run-time parameter.
     fn set_param(&mut self, name: &str, value: f64) -> Result<(), ParamError>;
@@ -215,17 +226,8 @@ macro_rules! forward_system {
             fn rows(&self) -> usize {
                 (**self).rows()
             }
-            fn coordinate_names(&self) -> &[String] {
-                (**self).coordinate_names()
-            }
-            fn constraint_names(&self) -> &[String] {
-                (**self).constraint_names()
-            }
-            fn point_names(&self) -> &[String] {
-                (**self).point_names()
-            }
-            fn param_names(&self) -> &[String] {
-                (**self).param_names()
+            fn names(&self) -> &Names {
+                (**self).names()
             }
             fn set_param(&mut self, name: &str, value: f64) -> Result<(), ParamError> {
                 (**self).set_param(name, value)
@@ -296,24 +298,36 @@ pub(super) fn runtime_params(model: &Model) -> (Vec<String>, Vec<usize>) {
         .unzip()
 }
 
-/// Checks a parameter value and finds its model index among the run-time parameters.
-pub(super) fn find_param(
-    names: &[String],
-    indices: &[usize],
-    name: &str,
-    value: f64,
-) -> Result<usize, ParamError> {
-    let Some(k) = names.iter().position(|n| n == name) else {
-        return Err(ParamError::Unknown {
-            name: name.to_string(),
-            available: names.to_vec(),
-        });
-    };
-    if !value.is_finite() {
-        return Err(ParamError::NotFinite {
-            name: name.to_string(),
-            value,
-        });
+/// The names of a mechanism's coordinates, constraint rows, points and run-time
+/// parameters (each in the model's order), owned by every backend.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Names {
+    /// Coordinates.
+    pub coordinates: Vec<String>,
+    /// Constraint rows.
+    pub constraints: Vec<String>,
+    /// Named points.
+    pub points: Vec<String>,
+    /// Run-time parameters.
+    pub params: Vec<String>,
+}
+
+impl Names {
+    /// The position of run-time parameter `name` in [`Names::params`], after checking that
+    /// `value` is finite.
+    pub fn param(&self, name: &str, value: f64) -> Result<usize, ParamError> {
+        let Some(k) = self.params.iter().position(|n| n == name) else {
+            return Err(ParamError::Unknown {
+                name: name.to_string(),
+                available: self.params.clone(),
+            });
+        };
+        if !value.is_finite() {
+            return Err(ParamError::NotFinite {
+                name: name.to_string(),
+                value,
+            });
+        }
+        Ok(k)
     }
-    Ok(indices[k])
 }
