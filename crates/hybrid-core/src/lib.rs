@@ -5,6 +5,8 @@
 //!
 //! - [`coupling`]: the pin between a beam point and the mechanism point, eqs. (45)–(54), and
 //!   the reduction to beam coordinates (55)–(58) as a rank-one term;
+//! - [`hybrid`]: hybrid systems of any shape (any mechanisms, attachments, force elements
+//!   and excitations), partitioned and integrated in O(n) per step;
 //! - [`generator`]: the DC generator (THEORY.md section 7);
 //! - [`damper`]: the coupled model and its Newmark / HHT-alpha integration, O(n) per step;
 //! - [`study`]: a damper run from a checked setup, the damping ratio from the free decay
@@ -16,5 +18,6 @@ pub mod closed_loop;
 pub mod coupling;
 pub mod damper;
 pub mod generator;
+pub mod hybrid;
 pub mod partition;
 pub mod study;

@@ -529,3 +529,64 @@ pub enum RunError {
     #[error(transparent)]
     Sim(#[from] SimError),
 }
+
+/// The damper of a setup as a general [`crate::hybrid::HybridModel`]: the double bar
+/// mounted with its pivot at `(x - x0, -y0)` in the beam frame (axes aligned), its point
+/// pinned to the beam point at `x` (eqs. 45–46), the generator on its joint; and the beam's
+/// initial deflection (the static shape of a load at the beam point scaled to the setup's
+/// initial displacement).
+pub fn hybrid_of(
+    setup: &DamperSetup,
+    coupled: &DamperModel<Box<dyn System>>,
+    guess: [f64; 2],
+) -> Result<(crate::hybrid::HybridModel, Vec<f64>), SetupError> {
+    use crate::hybrid::{
+        Attachment as Pin, AttachmentKind, BeamPoint, ForceKind, HybridModel, JointForce, Mount,
+        MountedMechanism,
+    };
+    let link = &coupled.link;
+    let beam = coupled.beam.clone();
+    let point = BeamPoint {
+        x: setup.x,
+        weights: coupled.coupling.clone(),
+    };
+    let mut p = vec![0.0; beam.dof_count()];
+    point.add_force(1.0, &mut p);
+    let shape = beam.static_deflection(&p).map_err(SetupError::Beam)?;
+    let y1 = point.value(&shape);
+    let q0: Vec<f64> = shape
+        .iter()
+        .map(|s| s * setup.initial_displacement / y1)
+        .collect();
+    let mechanism = MountedMechanism {
+        name: "damper".into(),
+        system: link.mechanism.clone_box(),
+        mount: Mount {
+            origin: [setup.x - link.attachment.x0, -link.attachment.y0],
+            angle: 0.0,
+        },
+        max_condition: link.max_condition,
+        reach: link.reach,
+        initial_q: guess.to_vec(),
+    };
+    let model = HybridModel::new(
+        Some(beam),
+        vec![mechanism],
+        vec![Pin {
+            name: "tip".into(),
+            mechanism: 0,
+            point: link.attachment.point,
+            kind: AttachmentKind::Pin,
+            beam: point,
+        }],
+        vec![JointForce {
+            name: "generator".into(),
+            mechanism: 0,
+            joint: link.generator_joint,
+            kind: ForceKind::Generator(coupled.generator.clone()),
+        }],
+        vec![],
+    )
+    .expect("a checked damper setup is a valid hybrid model");
+    Ok((model, q0))
+}

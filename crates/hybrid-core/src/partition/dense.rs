@@ -17,20 +17,20 @@ use nalgebra::{DMatrix, DVector};
 use super::PartitionError;
 
 /// Resizes a matrix buffer only when its shape differs (contents are then unspecified).
-pub(super) fn resize(m: &mut DMatrix<f64>, r: usize, c: usize) {
+pub(crate) fn resize(m: &mut DMatrix<f64>, r: usize, c: usize) {
     if m.shape() != (r, c) {
         *m = DMatrix::zeros(r, c);
     }
 }
 
-pub(super) fn resize_v(v: &mut DVector<f64>, n: usize) {
+pub(crate) fn resize_v(v: &mut DVector<f64>, n: usize) {
     if v.len() != n {
         *v = DVector::zeros(n);
     }
 }
 
 /// 1-norm of a matrix: the largest column sum of absolute values.
-pub(super) fn norm1(a: &DMatrix<f64>) -> f64 {
+pub(crate) fn norm1(a: &DMatrix<f64>) -> f64 {
     a.column_iter()
         .map(|c| c.iter().map(|x| x.abs()).sum::<f64>())
         .fold(0.0, f64::max)
@@ -38,7 +38,7 @@ pub(super) fn norm1(a: &DMatrix<f64>) -> f64 {
 
 /// LU factorisation with partial (row) pivoting in place: `P a = L U`, unit lower `L`
 /// below the diagonal, `U` on and above. Returns `false` on an exactly zero pivot.
-pub(super) fn lu_in_place(a: &mut DMatrix<f64>, piv: &mut Vec<usize>) -> bool {
+pub(crate) fn lu_in_place(a: &mut DMatrix<f64>, piv: &mut Vec<usize>) -> bool {
     let n = a.nrows();
     piv.clear();
     for k in 0..n {
@@ -70,7 +70,7 @@ pub(super) fn lu_in_place(a: &mut DMatrix<f64>, piv: &mut Vec<usize>) -> bool {
 }
 
 /// Solves `A x = b` in place with the factors of [`lu_in_place`].
-pub(super) fn lu_solve(lu: &DMatrix<f64>, piv: &[usize], b: &mut DVector<f64>) {
+pub(crate) fn lu_solve(lu: &DMatrix<f64>, piv: &[usize], b: &mut DVector<f64>) {
     let n = lu.nrows();
     for (k, &p) in piv.iter().enumerate() {
         if p != k {
@@ -95,7 +95,7 @@ pub(super) fn lu_solve(lu: &DMatrix<f64>, piv: &[usize], b: &mut DVector<f64>) {
 
 /// Cholesky factorisation in place (lower triangle; the upper one is left untouched and
 /// ignored). Fails on a non-positive pivot.
-pub(super) fn cholesky_in_place(a: &mut DMatrix<f64>) -> Result<(), PartitionError> {
+pub(crate) fn cholesky_in_place(a: &mut DMatrix<f64>) -> Result<(), PartitionError> {
     let n = a.nrows();
     for j in 0..n {
         let mut d = a[(j, j)];
@@ -119,7 +119,7 @@ pub(super) fn cholesky_in_place(a: &mut DMatrix<f64>) -> Result<(), PartitionErr
 }
 
 /// Solves `L L^T x = b` in place with the factor of [`cholesky_in_place`].
-pub(super) fn cholesky_solve(l: &DMatrix<f64>, b: &mut DVector<f64>) {
+pub(crate) fn cholesky_solve(l: &DMatrix<f64>, b: &mut DVector<f64>) {
     let n = l.nrows();
     for i in 0..n {
         let mut s = b[i];
@@ -134,5 +134,128 @@ pub(super) fn cholesky_solve(l: &DMatrix<f64>, b: &mut DVector<f64>) {
             s -= l[(k, i)] * b[k];
         }
         b[i] = s / l[(i, i)];
+    }
+}
+
+/// Solves `A^T x = b` in place with the factors of [`lu_in_place`] (`P A = L U`, so
+/// `A^T = U^T L^T P`).
+pub(crate) fn lu_solve_transpose(lu: &DMatrix<f64>, piv: &[usize], b: &mut DVector<f64>) {
+    let n = lu.nrows();
+    for i in 0..n {
+        let mut s = b[i];
+        for j in 0..i {
+            s -= lu[(j, i)] * b[j];
+        }
+        b[i] = s / lu[(i, i)];
+    }
+    for i in (0..n).rev() {
+        let mut s = b[i];
+        for j in i + 1..n {
+            s -= lu[(j, i)] * b[j];
+        }
+        b[i] = s;
+    }
+    for (k, &p) in piv.iter().enumerate().rev() {
+        if p != k {
+            b.swap_rows(k, p);
+        }
+    }
+}
+
+/// Extreme singular values `(smallest, largest)` of the square matrix `a`, from the
+/// eigenvalues of `a^T a` by cyclic Jacobi rotations in the caller's buffer `w` (no
+/// allocation once `w` has the shape; closed forms for sizes 1 and 2).
+pub(crate) fn singular_range(a: &DMatrix<f64>, w: &mut DMatrix<f64>) -> (f64, f64) {
+    let n = a.nrows();
+    match n {
+        0 => return (0.0, 0.0),
+        1 => return (a[(0, 0)].abs(), a[(0, 0)].abs()),
+        2 => {
+            let fro2 = a.iter().map(|x| x * x).sum::<f64>();
+            let d = (a[(0, 0)] * a[(1, 1)] - a[(0, 1)] * a[(1, 0)]).abs();
+            // s_max^2 + s_min^2 = |a|_F^2, s_max s_min = |det a|.
+            let disc = (fro2 * fro2 - 4.0 * d * d).max(0.0).sqrt();
+            let smax = ((fro2 + disc) / 2.0).sqrt();
+            let smin = if smax > 0.0 { d / smax } else { 0.0 };
+            return (smin, smax);
+        }
+        _ => {}
+    }
+    resize(w, n, n);
+    a.tr_mul_to(a, w);
+    for _sweep in 0..30 {
+        let mut off = 0.0;
+        for p in 0..n {
+            for q in p + 1..n {
+                off += w[(p, q)] * w[(p, q)];
+            }
+        }
+        let diag = (0..n).map(|i| w[(i, i)] * w[(i, i)]).sum::<f64>();
+        if off <= 1e-30 * diag {
+            break;
+        }
+        for p in 0..n {
+            for q in p + 1..n {
+                let apq = w[(p, q)];
+                if apq == 0.0 {
+                    continue;
+                }
+                let theta = (w[(q, q)] - w[(p, p)]) / (2.0 * apq);
+                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+                let t = if theta == 0.0 { 1.0 } else { t };
+                let c = 1.0 / (t * t + 1.0).sqrt();
+                let s = t * c;
+                for k in 0..n {
+                    let (wkp, wkq) = (w[(k, p)], w[(k, q)]);
+                    w[(k, p)] = c * wkp - s * wkq;
+                    w[(k, q)] = s * wkp + c * wkq;
+                }
+                for k in 0..n {
+                    let (wpk, wqk) = (w[(p, k)], w[(q, k)]);
+                    w[(p, k)] = c * wpk - s * wqk;
+                    w[(q, k)] = s * wpk + c * wqk;
+                }
+            }
+        }
+    }
+    let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+    for i in 0..n {
+        let e = w[(i, i)].max(0.0).sqrt();
+        lo = lo.min(e);
+        hi = hi.max(e);
+    }
+    (lo, hi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn transpose_solve_and_singular_values_match_nalgebra() {
+        let a = DMatrix::from_row_slice(
+            4,
+            4,
+            &[
+                0.3, -1.2, 2.0, 0.1, 1.5, 0.2, -0.7, 0.9, -0.4, 0.8, 0.6, -1.1, 2.2, -0.3, 0.5, 0.4,
+            ],
+        );
+        let mut lu = a.clone();
+        let mut piv = Vec::new();
+        assert!(lu_in_place(&mut lu, &mut piv));
+        let b = DVector::from_vec(vec![1.0, -2.0, 0.5, 3.0]);
+        let mut x = b.clone();
+        lu_solve_transpose(&lu, &piv, &mut x);
+        let r = a.transpose() * &x - &b;
+        assert!(r.amax() < 1e-13, "{r}");
+        let s = a.clone().svd(false, false).singular_values;
+        let mut w = DMatrix::zeros(0, 0);
+        let (lo, hi) = singular_range(&a, &mut w);
+        assert!((lo - s.min()).abs() < 1e-12 * s.max(), "{lo} {s}");
+        assert!((hi - s.max()).abs() < 1e-12 * s.max(), "{hi} {s}");
+        let a2 = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, -0.5, 0.3]);
+        let s2 = a2.clone().svd(false, false).singular_values;
+        let (lo, hi) = singular_range(&a2, &mut w);
+        assert!((lo - s2.min()).abs() < 1e-14 && (hi - s2.max()).abs() < 1e-14);
     }
 }

@@ -39,7 +39,7 @@
 //! once the workspace has the right shape. [`reduce`] is the allocating convenience form.
 
 mod choice;
-mod dense;
+pub(crate) mod dense;
 mod reduce;
 
 pub use choice::{PartitionChoice, choose_partition};

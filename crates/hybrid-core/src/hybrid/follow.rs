@@ -1,0 +1,481 @@
+//! One mechanism following its attached beam points and its own free coordinates: the
+//! dependent coordinates by Newton on `h = 0`, velocities and accelerations by eqs. (18)–(19)
+//! and the projection `phi = R^T (M q'' + F + Q)` of its equations on the tangent space of
+//! its constraints (eqs. 51–58 for any partition; see the module documentation of
+//! [`crate::hybrid`]).
+//!
+//! The constraint rows of a mechanism are its own loop rows (eq. 14), then per attachment a
+//! transverse row `P_y - w(x_b)` and, for a pin, an axial row `P_x - x_b` (eqs. 45–46), with
+//! `P = origin + R(angle) p(q)` the point in the beam frame. Only the transverse rows depend
+//! on the beam, through `w = n^T q^c` (eq. 35), so `J^c` has one row `-n^T` per attachment
+//! (eq. 54) and the beam sees the mechanism through one scalar per attachment.
+
+use mbs_symbolic::runtime::Workspace;
+use nalgebra::{DMatrix, DVector};
+
+use super::model::{AttachmentKind, HybridModel};
+use crate::partition::dense::{lu_in_place, lu_solve, lu_solve_transpose, singular_range};
+
+/// One attachment as seen by its mechanism.
+#[derive(Clone, Debug)]
+pub(crate) struct AttachRow {
+    /// Index into the model's attachments.
+    pub attachment: usize,
+    /// Mechanism point index.
+    pub point: usize,
+    /// Row of the transverse constraint in this mechanism's rows.
+    pub row: usize,
+    /// Row of the axial constraint (pins only).
+    pub axial_row: Option<usize>,
+    /// Abscissa of the beam point (the axial target).
+    pub x: f64,
+}
+
+/// Why a mechanism could not follow.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum FollowError {
+    /// `J_d` singular or beyond the mechanism's `max_condition`.
+    Singular {
+        /// 2-norm condition number of `J_d`.
+        condition: f64,
+        /// Smallest singular value of `J_d`.
+        sigma_min: f64,
+    },
+    /// Newton on `h = 0` did not converge.
+    NoAssembly {
+        /// Residual norm at the last iterate.
+        residual: f64,
+        /// Iterations made.
+        iterations: usize,
+    },
+}
+
+/// How the currents of inductive generators advance over the step (trapezoidal rule, the
+/// electrical counterpart of the average-acceleration rule): `L i' + R i = k_e n q'`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct CurrentRule<'a> {
+    /// Step size (0: the current stays at its old value).
+    pub h: f64,
+    /// Currents at the start of the step, per force element.
+    pub old: &'a [f64],
+    /// Their rates at the start of the step.
+    pub rate: &'a [f64],
+}
+
+/// Buffers and partition of one mechanism.
+#[derive(Clone, Debug)]
+pub(crate) struct Follower {
+    /// Index into the model's mechanisms.
+    pub mech: usize,
+    n: usize,
+    nb: usize,
+    loops: usize,
+    rows: usize,
+    /// Its attachments.
+    pub atts: Vec<AttachRow>,
+    /// Dependent coordinates (one per row).
+    pub dep: Vec<usize>,
+    /// Independent (free) coordinates.
+    pub free: Vec<usize>,
+    /// Offset of its free coordinates in the global free-coordinate list.
+    pub free_offset: usize,
+    /// Its force elements (indices into the model's forces).
+    forces: Vec<usize>,
+    ws: Workspace,
+    jfull: DMatrix<f64>,
+    h: DVector<f64>,
+    bias: DVector<f64>,
+    lu: DMatrix<f64>,
+    piv: Vec<usize>,
+    rhs: DVector<f64>,
+    svd: DMatrix<f64>,
+    jd: DMatrix<f64>,
+    zero: DVector<f64>,
+    /// Coordinates (last evaluation).
+    pub q: DVector<f64>,
+    /// Velocities.
+    pub qd: DVector<f64>,
+    /// Accelerations.
+    pub qdd: DVector<f64>,
+    g: DVector<f64>,
+    /// 2-norm condition number of `J_d` at the last evaluation.
+    pub condition: f64,
+    /// Smallest singular value of `J_d`.
+    pub sigma_min: f64,
+    /// Constraint residual norm after the position solve.
+    pub residual: f64,
+}
+
+impl Follower {
+    /// Buffers for mechanism `mech` of `model` with partition `free` (the rest dependent).
+    pub fn new(model: &HybridModel, mech: usize, free: Vec<usize>, free_offset: usize) -> Self {
+        let sys = &model.mechanisms[mech].system;
+        let (n, loops) = (sys.dof(), sys.rows());
+        let mut atts = Vec::new();
+        let mut row = loops;
+        for (i, a) in model.attachments.iter().enumerate() {
+            if a.mechanism != mech {
+                continue;
+            }
+            let axial_row = (a.kind == AttachmentKind::Pin).then_some(row + 1);
+            atts.push(AttachRow {
+                attachment: i,
+                point: a.point,
+                row,
+                axial_row,
+                x: a.beam.x,
+            });
+            row += a.kind.rows();
+        }
+        let rows = row;
+        let dep = (0..n).filter(|c| !free.contains(c)).collect();
+        let forces = (0..model.forces.len())
+            .filter(|&f| model.forces[f].mechanism == mech)
+            .collect();
+        let q = DVector::from_column_slice(&model.mechanisms[mech].initial_q);
+        Follower {
+            mech,
+            n,
+            nb: model.attachments.len(),
+            loops,
+            rows,
+            atts,
+            dep,
+            free,
+            free_offset,
+            forces,
+            ws: sys.workspace(),
+            jfull: DMatrix::zeros(rows, n),
+            h: DVector::zeros(rows),
+            bias: DVector::zeros(rows),
+            lu: DMatrix::zeros(rows, rows),
+            piv: Vec::with_capacity(rows),
+            rhs: DVector::zeros(rows),
+            svd: DMatrix::zeros(rows, rows),
+            jd: DMatrix::zeros(rows, rows),
+            zero: DVector::zeros(n),
+            q,
+            qd: DVector::zeros(n),
+            qdd: DVector::zeros(n),
+            g: DVector::zeros(n),
+            condition: 1.0,
+            sigma_min: 1.0,
+            residual: 0.0,
+        }
+    }
+
+    /// Constraint rows (loops + attachments).
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// The full constraint Jacobian `dh/dq` of the last position evaluation.
+    pub fn jacobian(&self) -> &DMatrix<f64> {
+        &self.jfull
+    }
+
+    /// Changes the partition (free coordinates; the rest dependent).
+    pub fn set_free(&mut self, free: &[usize]) {
+        self.free.clear();
+        self.free.extend_from_slice(free);
+        self.dep.clear();
+        let f = &self.free;
+        self.dep.extend((0..self.n).filter(|c| !f.contains(c)));
+    }
+
+    /// `h` and `J` at `self.q` for beam-point displacements `w` (global attachment order).
+    pub fn eval_rows(&mut self, model: &HybridModel, w: &[f64]) {
+        let m = &model.mechanisms[self.mech];
+        if self.loops > 0 {
+            m.system.evaluate_positions(self.q.as_slice(), &mut self.ws);
+            for r in 0..self.loops {
+                self.h[r] = self.ws.h[r];
+                for c in 0..self.n {
+                    self.jfull[(r, c)] = self.ws.j[(r, c)];
+                }
+            }
+        }
+        let (cs, sn) = m.mount.rotation();
+        for a in &self.atts {
+            m.system.point_kinematics(
+                a.point,
+                self.q.as_slice(),
+                self.zero.as_slice(),
+                &mut self.ws,
+            );
+            let p = m.mount.to_beam([self.ws.point_p[0], self.ws.point_p[1]]);
+            self.h[a.row] = p[1] - w[a.attachment];
+            for c in 0..self.n {
+                let (jx, jy) = (self.ws.point_j[(0, c)], self.ws.point_j[(1, c)]);
+                self.jfull[(a.row, c)] = sn * jx + cs * jy;
+                if let Some(r) = a.axial_row {
+                    self.jfull[(r, c)] = cs * jx - sn * jy;
+                }
+            }
+            if let Some(r) = a.axial_row {
+                self.h[r] = p[0] - a.x;
+            }
+        }
+    }
+
+    /// Copies `J_d = J[:, dep]` into the LU buffer and factorises it.
+    fn factor_dependent(&mut self) -> bool {
+        for (k, &c) in self.dep.iter().enumerate() {
+            for r in 0..self.rows {
+                self.lu[(r, k)] = self.jfull[(r, c)];
+            }
+        }
+        lu_in_place(&mut self.lu, &mut self.piv)
+    }
+
+    /// 2-norm condition of `J_d` (from the current `jfull`) into `condition`, `sigma_min`.
+    pub fn refresh_condition(&mut self) {
+        self.measure_condition();
+    }
+
+    /// Kinetic energy `q'^T M q' / 2` (rotors included) and potential energy (gravity and
+    /// model springs) at `(q, q')`.
+    pub fn energies(
+        &mut self,
+        model: &HybridModel,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        currents: &[f64],
+    ) -> (f64, f64) {
+        let sys = &model.mechanisms[self.mech].system;
+        sys.evaluate(q, qd, t, &mut self.ws);
+        model.add_joint_forces(
+            self.mech,
+            t,
+            q,
+            qd,
+            currents,
+            &mut self.ws.m,
+            &mut self.ws.q,
+        );
+        let mut ke = 0.0;
+        for i in 0..self.n {
+            for j in 0..self.n {
+                ke += qd[i] * self.ws.m[(i, j)] * qd[j];
+            }
+        }
+        (0.5 * ke, sys.potential_energy(q, &mut self.ws))
+    }
+
+    fn measure_condition(&mut self) {
+        for (k, &c) in self.dep.iter().enumerate() {
+            for r in 0..self.rows {
+                self.jd[(r, k)] = self.jfull[(r, c)];
+            }
+        }
+        let (lo, hi) = singular_range(&self.jd, &mut self.svd);
+        self.sigma_min = lo;
+        self.condition = if lo > 0.0 { hi / lo } else { f64::INFINITY };
+    }
+
+    /// Solves `h(q) = 0` for the dependent coordinates with the free ones at their values in
+    /// `self.q`, from the dependent values in `self.q` (the guess selects the assembly
+    /// branch). Step length limited to 0.3. On success `jfull` and the LU of `J_d` hold the
+    /// solution's values (to the last, below-tolerance Newton step).
+    pub fn solve_positions(&mut self, model: &HybridModel, w: &[f64]) -> Result<(), FollowError> {
+        if self.rows == 0 {
+            self.residual = 0.0;
+            self.condition = 1.0;
+            self.sigma_min = 1.0;
+            return Ok(());
+        }
+        let scale = 1.0
+            + self
+                .atts
+                .iter()
+                .map(|a| a.x.abs() + w[a.attachment].abs())
+                .sum::<f64>()
+            + model.mechanisms[self.mech]
+                .mount
+                .origin
+                .iter()
+                .map(|x| x.abs())
+                .sum::<f64>();
+        let mut last = f64::INFINITY;
+        for it in 0..60 {
+            self.eval_rows(model, w);
+            let rn = self.h.norm();
+            if !rn.is_finite() {
+                return Err(FollowError::NoAssembly {
+                    residual: rn,
+                    iterations: it,
+                });
+            }
+            last = rn;
+            let jmax = self.jfull.amax();
+            if !self.factor_dependent()
+                || (0..self.rows).any(|i| self.lu[(i, i)].abs() <= 1e-14 * jmax.max(1e-300))
+            {
+                self.measure_condition();
+                return Err(FollowError::Singular {
+                    condition: f64::INFINITY,
+                    sigma_min: self.sigma_min,
+                });
+            }
+            self.rhs.copy_from(&self.h);
+            lu_solve(&self.lu, &self.piv, &mut self.rhs);
+            let mut len = self.rhs.norm();
+            let mut step = 1.0;
+            if len > 0.3 {
+                step = 0.3 / len;
+                len = 0.3;
+            }
+            for (k, &c) in self.dep.iter().enumerate() {
+                self.q[c] -= step * self.rhs[k];
+            }
+            if len <= 1e-13 * (1.0 + self.q.iter().map(|x| x.abs()).sum::<f64>()) {
+                if rn <= 1e-12 * scale {
+                    self.residual = rn;
+                    return Ok(());
+                }
+                return Err(FollowError::NoAssembly {
+                    residual: rn,
+                    iterations: it + 1,
+                });
+            }
+        }
+        if last <= 1e-12 * scale {
+            // Reached to rounding, but the Newton steps do not settle: J_d is too
+            // ill-conditioned to pin the coordinates down — the toggle, not the reach.
+            self.measure_condition();
+            return Err(FollowError::Singular {
+                condition: self.condition,
+                sigma_min: self.sigma_min,
+            });
+        }
+        Err(FollowError::NoAssembly {
+            residual: last,
+            iterations: 60,
+        })
+    }
+
+    /// Follows: `pos`, `vel`, `acc` hold the attachment displacements `w` (first the
+    /// model's attachments, in order) then the free coordinates of every mechanism (global
+    /// order); writes this mechanism's projected equations `phi` into the same layout, and
+    /// the currents of its force elements into `currents`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn follow(
+        &mut self,
+        model: &HybridModel,
+        t: f64,
+        pos: &[f64],
+        vel: &[f64],
+        acc: &[f64],
+        rule: CurrentRule<'_>,
+        currents: &mut [f64],
+        phi: &mut [f64],
+    ) -> Result<(), FollowError> {
+        let off = self.nb + self.free_offset;
+        for (k, &c) in self.free.iter().enumerate() {
+            self.q[c] = pos[off + k];
+        }
+        self.solve_positions(model, pos)?;
+        self.measure_condition();
+        if self.condition > model.mechanisms[self.mech].max_condition {
+            return Err(FollowError::Singular {
+                condition: self.condition,
+                sigma_min: self.sigma_min,
+            });
+        }
+        // Velocities (18): J_d qd_d = E w' - J_f u'.
+        for (k, &c) in self.free.iter().enumerate() {
+            self.qd[c] = vel[off + k];
+        }
+        self.constraint_rhs(vel);
+        lu_solve(&self.lu, &self.piv, &mut self.rhs);
+        for (k, &c) in self.dep.iter().enumerate() {
+            self.qd[c] = self.rhs[k];
+        }
+        // Dynamics and the constraint bias A = J' q' (16), (50).
+        let m = &model.mechanisms[self.mech];
+        let (cs, sn) = m.mount.rotation();
+        self.bias.fill(0.0);
+        for a in &self.atts {
+            m.system
+                .point_kinematics(a.point, self.q.as_slice(), self.qd.as_slice(), &mut self.ws);
+            let (ax, ay) = (self.ws.point_a[0], self.ws.point_a[1]);
+            self.bias[a.row] = sn * ax + cs * ay;
+            if let Some(r) = a.axial_row {
+                self.bias[r] = cs * ax - sn * ay;
+            }
+        }
+        m.system
+            .evaluate(self.q.as_slice(), self.qd.as_slice(), t, &mut self.ws);
+        for r in 0..self.loops {
+            self.bias[r] = self.ws.a[r];
+        }
+        for &f in &self.forces {
+            let force = &model.forces[f];
+            let w = self.qd[force.joint];
+            currents[f] = if force.has_current_state() {
+                let g = force.generator().expect("a current state is a generator's");
+                let (l, r) = (g.inductance, g.resistance());
+                let h = rule.h;
+                (rule.old[f] + 0.5 * h * rule.rate[f] + 0.5 * h * g.ke * g.gear_ratio * w / l)
+                    / (1.0 + 0.5 * h * r / l)
+            } else {
+                force.quasi_static_current(w)
+            };
+        }
+        model.add_joint_forces(
+            self.mech,
+            t,
+            self.q.as_slice(),
+            self.qd.as_slice(),
+            currents,
+            &mut self.ws.m,
+            &mut self.ws.q,
+        );
+        // Accelerations (19): J_d qdd_d = E w'' - J_f u'' - A.
+        for (k, &c) in self.free.iter().enumerate() {
+            self.qdd[c] = acc[off + k];
+        }
+        self.constraint_rhs(acc);
+        self.rhs -= &self.bias;
+        lu_solve(&self.lu, &self.piv, &mut self.rhs);
+        for (k, &c) in self.dep.iter().enumerate() {
+            self.qdd[c] = self.rhs[k];
+        }
+        // g = M q'' + F + Q; phi = R^T g with R = [J_d^-1 E, e_f - J_d^-1 J_f]:
+        // mu = J_d^-T g_d, phi_w = E^T mu, phi_u = g_f - J_f^T mu.
+        self.ws.m.mul_to(&self.qdd, &mut self.g);
+        self.g += &self.ws.f;
+        self.g += &self.ws.q;
+        for (k, &c) in self.dep.iter().enumerate() {
+            self.rhs[k] = self.g[c];
+        }
+        lu_solve_transpose(&self.lu, &self.piv, &mut self.rhs);
+        for a in &self.atts {
+            phi[a.attachment] = self.rhs[a.row];
+        }
+        for (k, &c) in self.free.iter().enumerate() {
+            let mut s = self.g[c];
+            for r in 0..self.rows {
+                s -= self.jfull[(r, c)] * self.rhs[r];
+            }
+            phi[off + k] = s;
+        }
+        Ok(())
+    }
+
+    /// `rhs = E x_w - J_f x_u` for a position-level vector `x` in the global layout.
+    fn constraint_rhs(&mut self, x: &[f64]) {
+        self.rhs.fill(0.0);
+        for a in &self.atts {
+            self.rhs[a.row] = x[a.attachment];
+        }
+        let off = self.nb + self.free_offset;
+        for (k, &c) in self.free.iter().enumerate() {
+            let u = x[off + k];
+            for r in 0..self.rows {
+                self.rhs[r] -= self.jfull[(r, c)] * u;
+            }
+        }
+    }
+}

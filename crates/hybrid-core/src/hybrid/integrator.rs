@@ -1,0 +1,756 @@
+//! Newmark / HHT-alpha time integration of a [`HybridModel`] with a quasi-Newton iteration
+//! on the small vector of reduced unknowns (see the module documentation of
+//! [`crate::hybrid`]). A step costs one banded solve, `O(n)` vector work and a few
+//! mechanism evaluations, and allocates nothing.
+
+use fem_beam::{BandedFactor, BandedSym};
+use nalgebra::{DMatrix, DVector};
+
+use super::error::HybridError;
+use super::follow::{CurrentRule, FollowError, Follower};
+use super::model::{ExcitationTarget, HybridModel};
+use crate::damper::Method;
+use crate::partition::choose_partition;
+use crate::partition::dense::{lu_in_place, lu_solve};
+
+/// The state of one mechanism.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MechanismState {
+    /// Coordinates.
+    pub q: Vec<f64>,
+    /// Velocities.
+    pub qd: Vec<f64>,
+    /// Accelerations.
+    pub qdd: Vec<f64>,
+    /// Independent (free) coordinates of the current partition, sorted.
+    pub free: Vec<usize>,
+    /// 2-norm condition number of the dependent Jacobian `J_d`.
+    pub condition: f64,
+    /// Smallest singular value of `J_d`.
+    pub sigma_min: f64,
+    /// Constraint residual norm after the position solve.
+    pub residual: f64,
+}
+
+/// Integrals of the energy account since `t = 0` (J).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Account {
+    /// Dissipated by the beam's Rayleigh damping, `integral v^T B v dt`.
+    pub dissipated_structure: f64,
+    /// Work of the beam's own loads (fem-beam loads), `integral P^T v dt`.
+    pub beam_load_work: f64,
+    /// Dissipated by each force element (generator: `(R_a + R_L) i^2`; damper: `c q'^2`).
+    pub dissipated: Vec<f64>,
+    /// Work done by each excitation.
+    pub excitation_work: Vec<f64>,
+}
+
+/// The state of a run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HybridState {
+    /// Time (s).
+    pub t: f64,
+    /// Beam DOFs.
+    pub q: Vec<f64>,
+    /// Beam velocities.
+    pub v: Vec<f64>,
+    /// Beam accelerations.
+    pub a: Vec<f64>,
+    /// Mechanisms.
+    pub mechanisms: Vec<MechanismState>,
+    /// Current through each force element (A; 0 for non-generators).
+    pub currents: Vec<f64>,
+    /// Its rate `di/dt` (A/s; inductive generators).
+    pub current_rates: Vec<f64>,
+    /// Energy integrals.
+    pub account: Account,
+    /// Steps taken.
+    pub steps: u64,
+}
+
+/// Stored energies at one state (J).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Stored {
+    /// `v^T A v / 2`.
+    pub beam_kinetic: f64,
+    /// `q^T C q / 2`.
+    pub beam_potential: f64,
+    /// Kinetic energy of each mechanism with its rotors, `q'^T M q' / 2`.
+    pub mechanism_kinetic: Vec<f64>,
+    /// Potential energy of each mechanism: gravity and model springs `V(q)` plus the
+    /// scenario's springs.
+    pub mechanism_potential: Vec<f64>,
+    /// Magnetic energy `L i^2 / 2` of the generators.
+    pub magnetic: f64,
+}
+
+impl Stored {
+    /// Total stored energy.
+    pub fn total(&self) -> f64 {
+        self.beam_kinetic
+            + self.beam_potential
+            + self.mechanism_kinetic.iter().sum::<f64>()
+            + self.mechanism_potential.iter().sum::<f64>()
+            + self.magnetic
+    }
+}
+
+/// A change of independent coordinates during a run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Repartition {
+    /// Time (s).
+    pub t: f64,
+    /// Mechanism index.
+    pub mechanism: usize,
+    /// Free coordinates before.
+    pub from: Vec<usize>,
+    /// Free coordinates after.
+    pub to: Vec<usize>,
+    /// cond(J_d) before and after.
+    pub condition: (f64, f64),
+}
+
+/// A time integrator bound to a model: the factorised iteration matrix, `K^-1 N` and
+/// work buffers.
+#[derive(Clone, Debug)]
+pub struct Integrator {
+    h: f64,
+    alpha: f64,
+    beta: f64,
+    gamma: f64,
+    factor: Option<BandedFactor>,
+    nb: usize,
+    nz: usize,
+    /// `K^-1 n_k` for each attachment, column-major `n x nb`.
+    zcols: Vec<f64>,
+    /// `S = N^T K^-1 N`.
+    s: DMatrix<f64>,
+    followers: Vec<Follower>,
+    q_hat: Vec<f64>,
+    v_hat: Vec<f64>,
+    r0: Vec<f64>,
+    p_new: Vec<f64>,
+    p_old: Vec<f64>,
+    v_mid: Vec<f64>,
+    pos_hat: Vec<f64>,
+    vel_hat: Vec<f64>,
+    pos: Vec<f64>,
+    vel: Vec<f64>,
+    z: Vec<f64>,
+    z_new: Vec<f64>,
+    phi: Vec<f64>,
+    res: Vec<f64>,
+    res_new: Vec<f64>,
+    a0w: Vec<f64>,
+    scale: Vec<f64>,
+    dz: DVector<f64>,
+    jdz: Vec<f64>,
+    jac: DMatrix<f64>,
+    jac_lu: DMatrix<f64>,
+    jac_piv: Vec<usize>,
+    jac_valid: bool,
+    currents: Vec<f64>,
+    checked_condition: Vec<f64>,
+    /// Changes of independent coordinates so far.
+    pub repartitions: Vec<Repartition>,
+}
+
+fn map_follow(
+    model: &HybridModel,
+    state_w: &[f64],
+    mech: usize,
+    t: f64,
+    e: FollowError,
+) -> HybridError {
+    let m = &model.mechanisms[mech];
+    let displacement = model
+        .attachments
+        .iter()
+        .position(|a| a.mechanism == mech)
+        .map_or(0.0, |k| state_w[k]);
+    match e {
+        FollowError::Singular {
+            condition,
+            sigma_min,
+        } => HybridError::Singular {
+            t,
+            mechanism: m.name.clone(),
+            displacement,
+            condition,
+            sigma_min,
+            reach: m.reach.map(|r| r - displacement),
+        },
+        FollowError::NoAssembly {
+            residual,
+            iterations,
+        } => HybridError::NoAssembly {
+            t,
+            mechanism: m.name.clone(),
+            displacement,
+            residual,
+            iterations,
+            reach: m.reach,
+        },
+    }
+}
+
+impl Integrator {
+    /// Prepares the scheme with time step `h` (`h = 0`: the integrator of the initial
+    /// accelerations): factorises `K = A + (1+alpha)(gamma h B + beta h^2 C)`, computes
+    /// `K^-1 N` and the first partition of every mechanism at `state`.
+    pub fn new(
+        model: &HybridModel,
+        method: Method,
+        h: f64,
+        state: &HybridState,
+    ) -> Result<Integrator, HybridError> {
+        let (alpha, beta, gamma) = method.coefficients();
+        let n = model.beam_dofs();
+        let nb = model.attachments.len();
+        let factor = match &model.beam {
+            Some(beam) => {
+                let fail = |e: &dyn std::fmt::Display| HybridError::Factorization(e.to_string());
+                let mut k: BandedSym = beam.mass().clone();
+                k.scaled_add((1.0 + alpha) * gamma * h, beam.damping())
+                    .map_err(|e| fail(&e))?;
+                k.scaled_add((1.0 + alpha) * beta * h * h, beam.stiffness())
+                    .map_err(|e| fail(&e))?;
+                Some(beam.factorize(&k).map_err(|e| fail(&e))?)
+            }
+            None => None,
+        };
+        let mut zcols = vec![0.0; n * nb];
+        let mut s = DMatrix::zeros(nb, nb);
+        if let Some(f) = &factor {
+            for (k, a) in model.attachments.iter().enumerate() {
+                let col = &mut zcols[k * n..(k + 1) * n];
+                a.beam.add_force(1.0, col);
+                f.solve_in_place(col);
+            }
+            for (i, a) in model.attachments.iter().enumerate() {
+                for k in 0..nb {
+                    s[(i, k)] = a.beam.value(&zcols[k * n..(k + 1) * n]);
+                }
+            }
+        }
+        let mut followers = Vec::with_capacity(model.mechanisms.len());
+        let mut offset = 0;
+        for (i, ms) in state.mechanisms.iter().enumerate() {
+            let mut f = Follower::new(model, i, ms.free.clone(), offset);
+            f.q.copy_from_slice(&ms.q);
+            f.qd.copy_from_slice(&ms.qd);
+            f.qdd.copy_from_slice(&ms.qdd);
+            offset += ms.free.len();
+            followers.push(f);
+        }
+        let nz = nb + offset;
+        let nf = model.forces.len();
+        Ok(Integrator {
+            h,
+            alpha,
+            beta,
+            gamma,
+            factor,
+            nb,
+            nz,
+            zcols,
+            s,
+            followers,
+            q_hat: vec![0.0; n],
+            v_hat: vec![0.0; n],
+            r0: vec![0.0; n],
+            p_new: vec![0.0; n],
+            p_old: vec![0.0; n],
+            v_mid: vec![0.0; n],
+            pos_hat: vec![0.0; nz],
+            vel_hat: vec![0.0; nz],
+            pos: vec![0.0; nz],
+            vel: vec![0.0; nz],
+            z: vec![0.0; nz],
+            z_new: vec![0.0; nz],
+            phi: vec![0.0; nz],
+            res: vec![0.0; nz],
+            res_new: vec![0.0; nz],
+            a0w: vec![0.0; nb],
+            scale: vec![0.0; nz],
+            dz: DVector::zeros(nz),
+            jdz: vec![0.0; nz],
+            jac: DMatrix::zeros(nz, nz),
+            jac_lu: DMatrix::zeros(nz, nz),
+            jac_piv: Vec::with_capacity(nz),
+            jac_valid: false,
+            currents: vec![0.0; nf],
+            checked_condition: state.mechanisms.iter().map(|m| m.condition).collect(),
+            repartitions: Vec::new(),
+        })
+    }
+
+    /// The time step.
+    pub fn step_size(&self) -> f64 {
+        self.h
+    }
+
+    /// The beam load `P(t)`: the beam's own loads plus the beam excitations.
+    fn load_into(model: &HybridModel, t: f64, out: &mut [f64]) {
+        if let Some(beam) = &model.beam {
+            beam.load_into(t, out);
+        }
+        model.add_beam_excitations(t, out);
+    }
+
+    /// Evaluates the reduced residual at `z` (into `res`); the followers hold the trial
+    /// state. `rule` advances inductive currents.
+    fn residual(
+        &mut self,
+        model: &HybridModel,
+        t: f64,
+        z_is_new: bool,
+        state: &HybridState,
+    ) -> Result<(), HybridError> {
+        let (bh2, gh) = (self.beta * self.h * self.h, self.gamma * self.h);
+        let z = if z_is_new { &self.z_new } else { &self.z };
+        for i in 0..self.nz {
+            self.pos[i] = self.pos_hat[i] + bh2 * z[i];
+            self.vel[i] = self.vel_hat[i] + gh * z[i];
+        }
+        let rule = CurrentRule {
+            h: self.h,
+            old: &state.currents,
+            rate: &state.current_rates,
+        };
+        for f in self.followers.iter_mut() {
+            let mech = f.mech;
+            f.follow(
+                model,
+                t,
+                &self.pos,
+                &self.vel,
+                z,
+                rule,
+                &mut self.currents,
+                &mut self.phi,
+            )
+            .map_err(|e| map_follow(model, &self.pos, mech, t, e))?;
+        }
+        let res = if z_is_new {
+            &mut self.res_new
+        } else {
+            &mut self.res
+        };
+        let nb = self.nb;
+        for i in 0..nb {
+            let mut r = z[i] - self.a0w[i];
+            for k in 0..nb {
+                r += self.s[(i, k)] * self.phi[k];
+            }
+            res[i] = r;
+        }
+        res[nb..self.nz].copy_from_slice(&self.phi[nb..self.nz]);
+        Ok(())
+    }
+
+    /// Finite-difference Jacobian of the residual at `z` (with `res` its residual).
+    fn fd_jacobian(
+        &mut self,
+        model: &HybridModel,
+        t: f64,
+        state: &HybridState,
+    ) -> Result<(), HybridError> {
+        for j in 0..self.nz {
+            self.z_new.copy_from_slice(&self.z);
+            let d = 1e-7 * self.scale[j];
+            self.z_new[j] += d;
+            self.residual(model, t, true, state)?;
+            for i in 0..self.nz {
+                self.jac[(i, j)] = (self.res_new[i] - self.res[i]) / d;
+            }
+        }
+        self.factor_jacobian();
+        Ok(())
+    }
+
+    fn factor_jacobian(&mut self) {
+        self.jac_lu.copy_from(&self.jac);
+        self.jac_valid = lu_in_place(&mut self.jac_lu, &mut self.jac_piv);
+    }
+
+    fn worst(&self, model: &HybridModel) -> (String, f64) {
+        self.followers
+            .iter()
+            .map(|f| (f.condition, f.mech))
+            .fold(None, |b: Option<(f64, usize)>, x| match b {
+                Some(b) if b.0 >= x.0 => Some(b),
+                _ => Some(x),
+            })
+            .map_or((String::new(), 0.0), |(c, m)| {
+                (model.mechanisms[m].name.clone(), c)
+            })
+    }
+
+    /// Solves the reduced equations at `t` for `z` (starting from `self.z`), leaving the
+    /// accepted trial in the followers, `phi` and `currents`.
+    fn solve(
+        &mut self,
+        model: &HybridModel,
+        t: f64,
+        state: &HybridState,
+    ) -> Result<(), HybridError> {
+        let nz = self.nz;
+        if nz == 0 {
+            // Beam alone (or mechanisms without free coordinates and attachments).
+            self.residual(model, t, false, state)?;
+            return Ok(());
+        }
+        self.residual(model, t, false, state)?;
+        if self.res.iter().all(|r| *r == 0.0) {
+            return Ok(());
+        }
+        let mut refreshed = false;
+        let mut iterations = 0;
+        loop {
+            if !self.jac_valid {
+                self.fd_jacobian(model, t, state)?;
+                refreshed = true;
+                if !self.jac_valid {
+                    let (mechanism, condition) = self.worst(model);
+                    return Err(HybridError::NoConvergence {
+                        t,
+                        residual: norm(&self.res),
+                        iterations,
+                        mechanism,
+                        condition,
+                    });
+                }
+            }
+            iterations += 1;
+            for i in 0..nz {
+                self.dz[i] = -self.res[i];
+            }
+            lu_solve(&self.jac_lu, &self.jac_piv, &mut self.dz);
+            for i in 0..nz {
+                self.z_new[i] = self.z[i] + self.dz[i];
+            }
+            if let Err(e) = self.residual(model, t, true, state) {
+                // A quasi-Newton step from a stale Jacobian may leave the mechanisms'
+                // reach: retry once from the last good iterate with a fresh one.
+                if refreshed {
+                    return Err(e);
+                }
+                self.residual(model, t, false, state)?;
+                self.jac_valid = false;
+                continue;
+            }
+            let converged = (0..nz)
+                .all(|i| self.dz[i].abs() <= 1e-13 * self.scale[i].max(self.z_new[i].abs()))
+                || self.res_new.iter().all(|r| *r == 0.0);
+            // Broyden's update J += ((dr - J dz) dz^T) / (dz^T dz) (the secant method in
+            // one dimension); not from the last, converged step, whose residual change is
+            // round-off.
+            let dd: f64 = self.dz.iter().map(|x| x * x).sum();
+            if dd > 0.0 && !converged {
+                for i in 0..nz {
+                    let mut jd = 0.0;
+                    for j in 0..nz {
+                        jd += self.jac[(i, j)] * self.dz[j];
+                    }
+                    self.jdz[i] = (self.res_new[i] - self.res[i] - jd) / dd;
+                }
+                for i in 0..nz {
+                    for j in 0..nz {
+                        self.jac[(i, j)] += self.jdz[i] * self.dz[j];
+                    }
+                }
+                self.factor_jacobian();
+            }
+            self.z.copy_from_slice(&self.z_new);
+            self.res.copy_from_slice(&self.res_new);
+            if converged {
+                return Ok(());
+            }
+            if iterations == 12 && !refreshed {
+                self.jac_valid = false;
+            }
+            if iterations >= 40 {
+                let (mechanism, condition) = self.worst(model);
+                return Err(HybridError::NoConvergence {
+                    t,
+                    residual: norm(&self.res),
+                    iterations,
+                    mechanism,
+                    condition,
+                });
+            }
+        }
+    }
+
+    /// Sets the per-unknown scales and the predictor of the attachment accelerations.
+    fn prepare(&mut self, model: &HybridModel) {
+        let n = self.r0.len();
+        for (k, a) in model.attachments.iter().enumerate() {
+            self.a0w[k] = if n > 0 { a.beam.value(&self.r0) } else { 0.0 };
+        }
+        for i in 0..self.nz {
+            let base = if i < self.nb { self.a0w[i].abs() } else { 0.0 };
+            self.scale[i] = 1e-9 + self.z[i].abs() + base;
+        }
+    }
+
+    /// Loads the predictors of the free coordinates and the warm start `z` from `state`.
+    fn predict_mechanisms(&mut self, model: &HybridModel, state: &HybridState) {
+        let (h, beta, gamma) = (self.h, self.beta, self.gamma);
+        for (k, a) in model.attachments.iter().enumerate() {
+            self.pos_hat[k] = a.beam.value(&self.q_hat);
+            self.vel_hat[k] = a.beam.value(&self.v_hat);
+            self.z[k] = a.beam.value(&state.a);
+        }
+        let mut i = self.nb;
+        for (f, ms) in self.followers.iter().zip(&state.mechanisms) {
+            for &c in &f.free {
+                self.pos_hat[i] = ms.q[c] + h * ms.qd[c] + h * h * (0.5 - beta) * ms.qdd[c];
+                self.vel_hat[i] = ms.qd[c] + h * (1.0 - gamma) * ms.qdd[c];
+                self.z[i] = ms.qdd[c];
+                i += 1;
+            }
+        }
+    }
+
+    /// Consistent initial accelerations of `state` (beam and mechanisms) and currents: the
+    /// reduced equations solved at fixed positions and velocities (an integrator built with
+    /// `h = 0`).
+    pub fn initial_accelerations(
+        &mut self,
+        model: &HybridModel,
+        state: &mut HybridState,
+    ) -> Result<(), HybridError> {
+        let n = state.q.len();
+        self.q_hat.copy_from_slice(&state.q);
+        self.v_hat.copy_from_slice(&state.v);
+        if let Some(beam) = &model.beam {
+            Self::load_into(model, state.t, &mut self.p_new);
+            self.r0.copy_from_slice(&self.p_new);
+            beam.damping().mul_add_into(-1.0, &state.v, &mut self.r0);
+            beam.stiffness().mul_add_into(-1.0, &state.q, &mut self.r0);
+            if let Some(f) = &self.factor {
+                f.solve_in_place(&mut self.r0);
+            }
+        }
+        self.predict_mechanisms(model, state);
+        self.prepare(model);
+        self.solve(model, state.t, state)?;
+        let _ = n;
+        self.accept(model, state, state.t, false);
+        Ok(())
+    }
+
+    /// Writes the accepted solution into `state` (beam accelerations from
+    /// `a = a0 - K^-1 N phi_w`, mechanisms from the followers).
+    fn accept(
+        &mut self,
+        model: &HybridModel,
+        state: &mut HybridState,
+        t_new: f64,
+        integrate: bool,
+    ) {
+        let n = state.q.len();
+        let (h, beta, gamma) = (self.h, self.beta, self.gamma);
+        for i in 0..n {
+            let mut a = self.r0[i];
+            for k in 0..self.nb {
+                a -= self.zcols[k * n + i] * self.phi[k];
+            }
+            state.a[i] = a;
+            if integrate {
+                state.q[i] = self.q_hat[i] + beta * h * h * a;
+                state.v[i] = self.v_hat[i] + gamma * h * a;
+            }
+        }
+        for (f, ms) in self.followers.iter().zip(state.mechanisms.iter_mut()) {
+            ms.q.copy_from_slice(f.q.as_slice());
+            ms.qd.copy_from_slice(f.qd.as_slice());
+            ms.qdd.copy_from_slice(f.qdd.as_slice());
+            ms.condition = f.condition;
+            ms.sigma_min = f.sigma_min;
+            ms.residual = f.residual;
+        }
+        for (k, f) in model.forces.iter().enumerate() {
+            let i = self.currents[k];
+            state.currents[k] = i;
+            state.current_rates[k] = match f.generator() {
+                Some(g) if f.has_current_state() => {
+                    let w = state.mechanisms[f.mechanism].qd[f.joint];
+                    (g.ke * g.gear_ratio * w - g.resistance() * i) / g.inductance
+                }
+                _ => 0.0,
+            };
+        }
+        let _ = t_new;
+    }
+
+    /// Advances `state` by one step. Allocates nothing (unless a mechanism is
+    /// re-partitioned, which is logged in [`Integrator::repartitions`]).
+    pub fn step(
+        &mut self,
+        model: &HybridModel,
+        state: &mut HybridState,
+    ) -> Result<(), HybridError> {
+        let (h, alpha, beta, gamma) = (self.h, self.alpha, self.beta, self.gamma);
+        let t_new = state.t + h;
+        let n = state.q.len();
+        if let Some(beam) = &model.beam {
+            for i in 0..n {
+                self.q_hat[i] = state.q[i] + h * state.v[i] + h * h * (0.5 - beta) * state.a[i];
+                self.v_hat[i] = state.v[i] + h * (1.0 - gamma) * state.a[i];
+            }
+            // r0 = (1+alpha)(P_{n+1} - B v^ - C q^) - alpha (P_n - B v_n - C q_n)
+            Self::load_into(model, t_new, &mut self.p_new);
+            Self::load_into(model, state.t, &mut self.p_old);
+            self.r0.copy_from_slice(&self.p_new);
+            beam.damping().mul_add_into(-1.0, &self.v_hat, &mut self.r0);
+            beam.stiffness()
+                .mul_add_into(-1.0, &self.q_hat, &mut self.r0);
+            if alpha != 0.0 {
+                for x in self.r0.iter_mut() {
+                    *x *= 1.0 + alpha;
+                }
+                for (r, p) in self.r0.iter_mut().zip(&self.p_old) {
+                    *r -= alpha * p;
+                }
+                beam.damping().mul_add_into(alpha, &state.v, &mut self.r0);
+                beam.stiffness().mul_add_into(alpha, &state.q, &mut self.r0);
+            }
+            if let Some(f) = &self.factor {
+                f.solve_in_place(&mut self.r0);
+            }
+        }
+        self.predict_mechanisms(model, state);
+        self.prepare(model);
+        self.solve(model, t_new, state)?;
+        // Energy account, part 1 (needs the old state): per force element and excitation,
+        // trapezoidal power.
+        let acc = &mut state.account;
+        for (k, f) in model.forces.iter().enumerate() {
+            let old =
+                f.dissipated_power(state.mechanisms[f.mechanism].qd[f.joint], state.currents[k]);
+            let new = f.dissipated_power(self.followers[f.mechanism].qd[f.joint], self.currents[k]);
+            acc.dissipated[k] += 0.5 * h * (old + new);
+        }
+        for (k, e) in model.excitations.iter().enumerate() {
+            if let ExcitationTarget::Joint { mechanism, joint } = e.target {
+                let old = e.value(state.t) * state.mechanisms[mechanism].qd[joint];
+                let new = e.value(t_new) * self.followers[mechanism].qd[joint];
+                acc.excitation_work[k] += 0.5 * h * (old + new);
+            }
+        }
+        for i in 0..n {
+            self.v_mid[i] = state.v[i];
+        }
+        self.accept(model, state, t_new, true);
+        let finite = state.q.iter().chain(&state.v).all(|x| x.is_finite())
+            && state
+                .mechanisms
+                .iter()
+                .all(|m| m.q.iter().chain(&m.qd).all(|x| x.is_finite()))
+            && state.currents.iter().all(|x| x.is_finite());
+        if !finite {
+            return Err(HybridError::Diverged { t: t_new });
+        }
+        // Energy account, part 2: midpoint velocity for the Rayleigh dissipation and the
+        // beam loads (exact for the linear part under the average-acceleration rule).
+        if let Some(beam) = &model.beam {
+            for i in 0..n {
+                self.v_mid[i] = 0.5 * (self.v_mid[i] + state.v[i]);
+            }
+            let acc = &mut state.account;
+            acc.dissipated_structure += h * beam.damping().quadratic_form(&self.v_mid);
+            // Beam loads: P (which includes the beam excitations) at the two ends.
+            let mut work = 0.0;
+            for i in 0..n {
+                work += 0.5 * (self.p_old[i] + self.p_new[i]) * self.v_mid[i];
+            }
+            let mut excited = 0.0;
+            for (k, e) in model.excitations.iter().enumerate() {
+                if let ExcitationTarget::Beam(p) = &e.target {
+                    let w = 0.5 * (e.value(state.t) + e.value(t_new)) * p.value(&self.v_mid);
+                    acc.excitation_work[k] += h * w;
+                    excited += w;
+                }
+            }
+            acc.beam_load_work += h * (work - excited);
+        }
+        state.t = t_new;
+        state.steps += 1;
+        self.check_partitions(state);
+        Ok(())
+    }
+
+    /// Re-chooses the free coordinates of a mechanism whose `J_d` has degraded (cond grown
+    /// by a factor 2 since the last check and above 10) when full pivoting finds a better
+    /// block; logs the change.
+    fn check_partitions(&mut self, state: &mut HybridState) {
+        for (i, f) in self.followers.iter_mut().enumerate() {
+            if f.free.is_empty() || f.rows() == 0 {
+                continue;
+            }
+            let c = f.condition;
+            if c.is_nan() || c <= 10.0 || c <= 2.0 * self.checked_condition[i] {
+                continue;
+            }
+            self.checked_condition[i] = c;
+            let choice = choose_partition(f.jacobian(), 1e-12);
+            if choice.partition.independent == f.free || choice.rank < f.rows() {
+                continue;
+            }
+            let from = f.free.clone();
+            f.set_free(&choice.partition.independent);
+            // Condition of the new block at the same state.
+            let old = c;
+            f.refresh_condition();
+            let new = f.condition;
+            if new >= old {
+                f.set_free(&from);
+                f.refresh_condition();
+                continue;
+            }
+            self.checked_condition[i] = new;
+            state.mechanisms[i].free.clone_from(&f.free);
+            state.mechanisms[i].condition = new;
+            self.repartitions.push(Repartition {
+                t: state.t,
+                mechanism: i,
+                from,
+                to: f.free.clone(),
+                condition: (old, new),
+            });
+            self.jac_valid = false;
+        }
+    }
+
+    /// Stored energies at `state`, into `out` (allocation-free once `out` has the sizes).
+    pub fn stored_into(&mut self, model: &HybridModel, state: &HybridState, out: &mut Stored) {
+        if let Some(beam) = &model.beam {
+            out.beam_kinetic = 0.5 * beam.mass().quadratic_form(&state.v);
+            out.beam_potential = 0.5 * beam.stiffness().quadratic_form(&state.q);
+        }
+        out.mechanism_kinetic.resize(model.mechanisms.len(), 0.0);
+        out.mechanism_potential.resize(model.mechanisms.len(), 0.0);
+        out.magnetic = 0.0;
+        for (i, f) in self.followers.iter_mut().enumerate() {
+            let ms = &state.mechanisms[i];
+            let (ke, pe) = f.energies(model, state.t, &ms.q, &ms.qd, &state.currents);
+            out.mechanism_kinetic[i] = ke;
+            out.mechanism_potential[i] = pe;
+        }
+        for (k, f) in model.forces.iter().enumerate() {
+            let q = state.mechanisms[f.mechanism].q[f.joint];
+            let e = f.stored_energy(q, state.currents[k]);
+            match f.kind {
+                super::model::ForceKind::Spring { .. } => out.mechanism_potential[f.mechanism] += e,
+                _ => out.magnetic += e,
+            }
+        }
+    }
+}
+
+fn norm(x: &[f64]) -> f64 {
+    x.iter().map(|v| v * v).sum::<f64>().sqrt()
+}

@@ -1,0 +1,566 @@
+//! What a hybrid system is made of: an optional beam, mechanisms placed in the beam's plane,
+//! attachments between mechanism points and beam points, force elements on joints and
+//! excitations — and the checks that make such a description usable.
+
+use fem_beam::{BeamModel, ShapeAt, TimeFunction};
+use mbs_symbolic::runtime::System;
+use nalgebra::{DMatrix, DVector};
+
+use crate::generator::GeneratorSpec;
+
+/// Where a mechanism's ground frame sits in the beam's plane: the beam frame has `x` along
+/// the undeformed beam axis and `y` along its transverse displacement `w`. A point `p` of the
+/// mechanism (its ground-frame `x`, `y`) is at `origin + R(angle) p` in the beam frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Mount {
+    /// Position of the mechanism's ground origin in the beam frame (m).
+    pub origin: [f64; 2],
+    /// Angle from the beam's `x` axis to the mechanism's `x` axis (rad).
+    pub angle: f64,
+}
+
+impl Mount {
+    /// `(cos, sin)` of the mounting angle.
+    pub fn rotation(&self) -> (f64, f64) {
+        (self.angle.cos(), self.angle.sin())
+    }
+
+    /// A mechanism-frame vector rotated into the beam frame.
+    pub fn rotate(&self, v: [f64; 2]) -> [f64; 2] {
+        let (c, s) = self.rotation();
+        [c * v[0] - s * v[1], s * v[0] + c * v[1]]
+    }
+
+    /// A mechanism-frame point in the beam frame.
+    pub fn to_beam(&self, p: [f64; 2]) -> [f64; 2] {
+        let r = self.rotate(p);
+        [self.origin[0] + r[0], self.origin[1] + r[1]]
+    }
+}
+
+/// A mechanism of the hybrid system: any [`System`] (generated, interpreted or numeric), with
+/// its loop constraints, placed in the beam's plane.
+#[derive(Clone, Debug)]
+pub struct MountedMechanism {
+    /// Name used in reports and messages.
+    pub name: String,
+    /// The mechanism's equations (run-time parameters already set).
+    pub system: Box<dyn System>,
+    /// Where its ground frame is.
+    pub mount: Mount,
+    /// 2-norm condition number of its dependent Jacobian `J_d` beyond which the run stops
+    /// (approach of a singular position).
+    pub max_condition: f64,
+    /// How far the first attached beam point can move from its undeformed position in the
+    /// direction that stretches the mechanism (m), where the geometry gives it (reported when
+    /// the mechanism cannot follow).
+    pub reach: Option<f64>,
+    /// Initial values of all coordinates: exact for the independent ones (the free
+    /// coordinates of the first partition), a guess (selecting the assembly branch) for the
+    /// dependent ones.
+    pub initial_q: Vec<f64>,
+}
+
+/// A point of the beam: its abscissa and the weights giving its transverse displacement
+/// `w = sum_k weight_k q_k` from the reduced beam DOFs (eq. 35).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BeamPoint {
+    /// Abscissa along the beam (m).
+    pub x: f64,
+    /// `(reduced DOF, weight)`; zero weights and locked DOFs are left out.
+    pub weights: Vec<(usize, f64)>,
+}
+
+impl BeamPoint {
+    /// The point at `x` of `beam`: one weight 1 at a node, up to four shape-function weights
+    /// inside an element (eq. 35). `None` when `x` is not on the beam.
+    pub fn on(beam: &BeamModel, x: f64) -> Option<BeamPoint> {
+        let shape: ShapeAt = beam.shape_at(x).ok()?;
+        let weights = (0..4)
+            .filter_map(|k| shape.dofs[k].map(|i| (i, shape.weights[0][k])))
+            .filter(|&(_, w)| w != 0.0)
+            .collect();
+        Some(BeamPoint { x, weights })
+    }
+
+    /// `w = sum_k weight_k x_k` for a beam DOF vector (displacements, velocities, ...).
+    pub fn value(&self, x: &[f64]) -> f64 {
+        self.weights.iter().map(|&(k, w)| w * x[k]).sum()
+    }
+
+    /// `out += f n` (the point's generalized force vector scaled by `f`).
+    pub fn add_force(&self, f: f64, out: &mut [f64]) {
+        for &(k, w) in &self.weights {
+            out[k] += w * f;
+        }
+    }
+
+    /// Whether every DOF of the point is locked (a support holds it).
+    pub fn is_locked(&self) -> bool {
+        self.weights.is_empty()
+    }
+}
+
+/// How a mechanism point follows a beam point (eqs. 45–46).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AttachmentKind {
+    /// Both directions: rows `P_y - w(x_b)` and `P_x - x_b` (2 rows).
+    Pin,
+    /// The transverse displacement only: row `P_y - w(x_b)`; the point slides freely along
+    /// the beam axis (1 row).
+    Roller,
+}
+
+impl AttachmentKind {
+    /// Constraint rows it adds.
+    pub fn rows(self) -> usize {
+        match self {
+            AttachmentKind::Pin => 2,
+            AttachmentKind::Roller => 1,
+        }
+    }
+
+    /// `"pin"` or `"roller"`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            AttachmentKind::Pin => "pin",
+            AttachmentKind::Roller => "roller",
+        }
+    }
+}
+
+/// A mechanism point attached to a beam point.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Attachment {
+    /// Name used in reports and messages.
+    pub name: String,
+    /// Index into [`HybridModel::mechanisms`].
+    pub mechanism: usize,
+    /// Index of the mechanism point ([`System::point_names`]).
+    pub point: usize,
+    /// Pin or roller.
+    pub kind: AttachmentKind,
+    /// The beam point.
+    pub beam: BeamPoint,
+}
+
+/// A force element on a joint, in the paper's sign (its contribution to `Q^b`, eq. 13).
+#[derive(Clone, Debug, PartialEq)]
+pub enum ForceKind {
+    /// The DC generator (THEORY.md section 7), with its current as a state when its
+    /// inductance is > 0.
+    Generator(GeneratorSpec),
+    /// Viscous damper: `Q_j += c q_j'`.
+    Damper {
+        /// Damping coefficient (N s/m or N m s/rad).
+        c: f64,
+    },
+    /// Linear spring: `Q_j += k (q_j - q0)`, energy `k (q_j - q0)^2 / 2`.
+    Spring {
+        /// Stiffness (N/m or N m/rad).
+        k: f64,
+        /// Unstretched value of the coordinate (m or rad).
+        q0: f64,
+    },
+}
+
+impl ForceKind {
+    /// `"generator"`, `"damper"` or `"spring"`.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            ForceKind::Generator(_) => "generator",
+            ForceKind::Damper { .. } => "damper",
+            ForceKind::Spring { .. } => "spring",
+        }
+    }
+}
+
+/// A force element on joint `joint` of mechanism `mechanism`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct JointForce {
+    /// Name used in reports and messages.
+    pub name: String,
+    /// Index into [`HybridModel::mechanisms`].
+    pub mechanism: usize,
+    /// Coordinate index of the joint.
+    pub joint: usize,
+    /// What it is.
+    pub kind: ForceKind,
+}
+
+impl JointForce {
+    /// The generator, if this is one.
+    pub fn generator(&self) -> Option<&GeneratorSpec> {
+        match &self.kind {
+            ForceKind::Generator(g) => Some(g),
+            _ => None,
+        }
+    }
+
+    /// Whether it carries a current state (a connected generator with inductance > 0).
+    pub fn has_current_state(&self) -> bool {
+        self.generator()
+            .is_some_and(GeneratorSpec::has_current_state)
+    }
+
+    /// The current through it at joint speed `qd` when it has no current state (0 for
+    /// elements that are not generators).
+    pub fn quasi_static_current(&self, qd: f64) -> f64 {
+        self.generator().map_or(0.0, |g| g.quasi_static_current(qd))
+    }
+
+    /// Adds the element to `M^b` (rotor inertia) and `Q^b` at joint position `q`, speed `qd`,
+    /// with generator current `current`.
+    pub fn add_to_equations(
+        &self,
+        q: f64,
+        qd: f64,
+        current: f64,
+        m: &mut DMatrix<f64>,
+        qv: &mut DVector<f64>,
+    ) {
+        let j = self.joint;
+        match &self.kind {
+            ForceKind::Generator(g) => g.add_to_equations(j, current, m, qv),
+            ForceKind::Damper { c } => qv[j] += c * qd,
+            ForceKind::Spring { k, q0 } => qv[j] += k * (q - q0),
+        }
+    }
+
+    /// Power dissipated at joint speed `qd` and current `current` (W): `(R_a + R_L) i^2` for
+    /// a generator, `c q'^2` for a damper, 0 for a spring.
+    pub fn dissipated_power(&self, qd: f64, current: f64) -> f64 {
+        match &self.kind {
+            ForceKind::Generator(g) => g.resistance() * current * current,
+            ForceKind::Damper { c } => c * qd * qd,
+            ForceKind::Spring { .. } => 0.0,
+        }
+    }
+
+    /// Stored energy at joint position `q` and current `current` (J): the spring's
+    /// `k (q - q0)^2 / 2`, the generator's magnetic `L i^2 / 2`.
+    pub fn stored_energy(&self, q: f64, current: f64) -> f64 {
+        match &self.kind {
+            ForceKind::Generator(g) => 0.5 * g.inductance * current * current,
+            ForceKind::Damper { .. } => 0.0,
+            ForceKind::Spring { k, q0 } => 0.5 * k * (q - q0).powi(2),
+        }
+    }
+}
+
+/// Where an excitation acts.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ExcitationTarget {
+    /// A transverse force at a beam point.
+    Beam(BeamPoint),
+    /// A torque (revolute) or force (prismatic) on a joint of a mechanism, driving the
+    /// coordinate: `Q_j -= f(t)`.
+    Joint {
+        /// Index into [`HybridModel::mechanisms`].
+        mechanism: usize,
+        /// Coordinate index of the joint.
+        joint: usize,
+    },
+}
+
+/// An external excitation: `amplitude * time(t)` at `target`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Excitation {
+    /// Name used in reports and messages.
+    pub name: String,
+    /// Where it acts.
+    pub target: ExcitationTarget,
+    /// Amplitude (N, or N m on a revolute joint).
+    pub amplitude: f64,
+    /// Time dependence (harmonic, step, piecewise-linear table, constant).
+    pub time: TimeFunction,
+}
+
+impl Excitation {
+    /// The force or torque at time `t`.
+    pub fn value(&self, t: f64) -> f64 {
+        self.amplitude * self.time.value(t)
+    }
+}
+
+/// A hybrid system: beam + mechanisms + attachments + force elements + excitations.
+///
+/// Built by [`HybridModel::new`], which checks that every index exists and that no
+/// mechanism is over-constrained (more loop and attachment rows than coordinates).
+#[derive(Clone, Debug)]
+pub struct HybridModel {
+    /// The beam's reduced matrices (eq. 44), if there is a beam.
+    pub beam: Option<BeamModel>,
+    /// The mechanisms.
+    pub mechanisms: Vec<MountedMechanism>,
+    /// The attachments (each joins one mechanism point to one beam point).
+    pub attachments: Vec<Attachment>,
+    /// Force elements on joints.
+    pub forces: Vec<JointForce>,
+    /// Excitations.
+    pub excitations: Vec<Excitation>,
+}
+
+/// Why a hybrid system description cannot be used; each names the entity.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ModelError {
+    /// An index out of range.
+    #[error("{entity}: {what}")]
+    Reference {
+        /// The entity (e.g. `attachment "tip"`).
+        entity: String,
+        /// What it refers to that does not exist.
+        what: String,
+    },
+    /// More constraint rows than coordinates.
+    #[error(
+        "mechanism \"{mechanism}\": over-constrained: {rows} constraint rows ({loops} loop row(s) + {attached} attachment row(s)) for {dof} coordinate(s)"
+    )]
+    OverConstrained {
+        /// The mechanism.
+        mechanism: String,
+        /// Total rows.
+        rows: usize,
+        /// Loop rows of the model.
+        loops: usize,
+        /// Rows from attachments.
+        attached: usize,
+        /// Coordinates.
+        dof: usize,
+    },
+    /// Attachments or beam excitations without a beam.
+    #[error("{entity}: there is no beam to attach to")]
+    NoBeam {
+        /// The entity.
+        entity: String,
+    },
+    /// A beam point held by a support.
+    #[error("{entity}: the beam cannot move transversely at x = {x} (a support locks it)")]
+    Locked {
+        /// The entity.
+        entity: String,
+        /// The abscissa.
+        x: f64,
+    },
+    /// A non-finite or non-physical value.
+    #[error("{entity}: {what}")]
+    Value {
+        /// The entity.
+        entity: String,
+        /// What is wrong.
+        what: String,
+    },
+}
+
+impl HybridModel {
+    /// Checks a description: indices, over-constraint, beam presence, values.
+    pub fn new(
+        beam: Option<BeamModel>,
+        mechanisms: Vec<MountedMechanism>,
+        attachments: Vec<Attachment>,
+        forces: Vec<JointForce>,
+        excitations: Vec<Excitation>,
+    ) -> Result<HybridModel, ModelError> {
+        let model = HybridModel {
+            beam,
+            mechanisms,
+            attachments,
+            forces,
+            excitations,
+        };
+        model.check()?;
+        Ok(model)
+    }
+
+    fn check(&self) -> Result<(), ModelError> {
+        let nm = self.mechanisms.len();
+        let reference = |entity: String, what: String| ModelError::Reference { entity, what };
+        for m in &self.mechanisms {
+            let entity = format!("mechanism \"{}\"", m.name);
+            if m.initial_q.len() != m.system.dof() {
+                return Err(ModelError::Value {
+                    entity,
+                    what: format!(
+                        "{} initial coordinate(s) given for {} coordinate(s)",
+                        m.initial_q.len(),
+                        m.system.dof()
+                    ),
+                });
+            }
+            let finite = m.mount.origin.iter().all(|x| x.is_finite())
+                && m.mount.angle.is_finite()
+                && m.initial_q.iter().all(|x| x.is_finite());
+            if !finite {
+                return Err(ModelError::Value {
+                    entity,
+                    what: "mounting position, angle and initial coordinates must be finite".into(),
+                });
+            }
+            if m.max_condition.is_nan() || m.max_condition <= 1.0 {
+                return Err(ModelError::Value {
+                    entity,
+                    what: format!("max_condition = {} must be > 1", m.max_condition),
+                });
+            }
+        }
+        for a in &self.attachments {
+            let entity = format!("attachment \"{}\"", a.name);
+            let Some(m) = self.mechanisms.get(a.mechanism) else {
+                return Err(reference(
+                    entity,
+                    format!("no mechanism number {}", a.mechanism),
+                ));
+            };
+            if a.point >= m.system.point_names().len() {
+                return Err(reference(
+                    entity,
+                    format!("mechanism \"{}\" has no point number {}", m.name, a.point),
+                ));
+            }
+            let Some(beam) = &self.beam else {
+                return Err(ModelError::NoBeam { entity });
+            };
+            if a.beam.is_locked() {
+                return Err(ModelError::Locked {
+                    entity,
+                    x: a.beam.x,
+                });
+            }
+            if a.beam
+                .weights
+                .iter()
+                .any(|&(k, w)| k >= beam.dof_count() || !w.is_finite())
+            {
+                return Err(reference(entity, "beam point outside the beam".into()));
+            }
+        }
+        for (i, m) in self.mechanisms.iter().enumerate() {
+            let attached: usize = self
+                .attachments
+                .iter()
+                .filter(|a| a.mechanism == i)
+                .map(|a| a.kind.rows())
+                .sum();
+            let (loops, dof) = (m.system.rows(), m.system.dof());
+            if loops + attached > dof {
+                return Err(ModelError::OverConstrained {
+                    mechanism: m.name.clone(),
+                    rows: loops + attached,
+                    loops,
+                    attached,
+                    dof,
+                });
+            }
+        }
+        for f in &self.forces {
+            let entity = format!("force \"{}\"", f.name);
+            let Some(m) = self.mechanisms.get(f.mechanism) else {
+                return Err(reference(
+                    entity,
+                    format!("no mechanism number {}", f.mechanism),
+                ));
+            };
+            if f.joint >= m.system.dof() {
+                return Err(reference(
+                    entity,
+                    format!("mechanism \"{}\" has no joint number {}", m.name, f.joint),
+                ));
+            }
+            let ok = match &f.kind {
+                ForceKind::Generator(g) => g.validate().is_ok(),
+                ForceKind::Damper { c } => c.is_finite() && *c >= 0.0,
+                ForceKind::Spring { k, q0 } => k.is_finite() && *k >= 0.0 && q0.is_finite(),
+            };
+            if !ok {
+                return Err(ModelError::Value {
+                    entity,
+                    what: format!("{} values must be finite and non-negative", f.kind.as_str()),
+                });
+            }
+        }
+        for e in &self.excitations {
+            let entity = format!("excitation \"{}\"", e.name);
+            if !e.amplitude.is_finite() {
+                return Err(ModelError::Value {
+                    entity,
+                    what: format!("amplitude = {} is not finite", e.amplitude),
+                });
+            }
+            match &e.target {
+                ExcitationTarget::Beam(p) => {
+                    let Some(beam) = &self.beam else {
+                        return Err(ModelError::NoBeam { entity });
+                    };
+                    if p.weights.iter().any(|&(k, _)| k >= beam.dof_count()) {
+                        return Err(reference(entity, "beam point outside the beam".into()));
+                    }
+                }
+                ExcitationTarget::Joint { mechanism, joint } => {
+                    let Some(m) = self.mechanisms.get(*mechanism) else {
+                        return Err(reference(
+                            entity,
+                            format!("no mechanism number {mechanism}"),
+                        ));
+                    };
+                    if *joint >= m.system.dof() {
+                        return Err(reference(
+                            entity,
+                            format!("mechanism \"{}\" has no joint number {joint}", m.name),
+                        ));
+                    }
+                }
+            }
+        }
+        debug_assert!(nm == self.mechanisms.len());
+        Ok(())
+    }
+
+    /// Number of beam DOFs (0 without a beam).
+    pub fn beam_dofs(&self) -> usize {
+        self.beam.as_ref().map_or(0, BeamModel::dof_count)
+    }
+
+    /// Adds the force elements and joint excitations of mechanism `mech` to `M^b` and `Q^b`
+    /// at `(q, q', t)`, with generator currents `currents` (one per force element; used for
+    /// those with a current state, the others take their quasi-static current). The one
+    /// place joint forces enter the equations, shared by every formulation.
+    pub fn add_joint_forces(
+        &self,
+        mech: usize,
+        t: f64,
+        q: &[f64],
+        qd: &[f64],
+        currents: &[f64],
+        m: &mut DMatrix<f64>,
+        qv: &mut DVector<f64>,
+    ) {
+        for (f, &i) in self.forces.iter().zip(currents) {
+            if f.mechanism != mech {
+                continue;
+            }
+            let j = f.joint;
+            let current = if f.has_current_state() {
+                i
+            } else {
+                f.quasi_static_current(qd[j])
+            };
+            f.add_to_equations(q[j], qd[j], current, m, qv);
+        }
+        for e in &self.excitations {
+            if let ExcitationTarget::Joint { mechanism, joint } = e.target
+                && mechanism == mech
+            {
+                qv[joint] -= e.value(t);
+            }
+        }
+    }
+
+    /// Adds the beam excitations at time `t` to the beam load vector `p`.
+    pub fn add_beam_excitations(&self, t: f64, p: &mut [f64]) {
+        for e in &self.excitations {
+            if let ExcitationTarget::Beam(bp) = &e.target {
+                bp.add_force(e.value(t), p);
+            }
+        }
+    }
+}
