@@ -58,23 +58,77 @@ fn jacobian_and_bias(sym: &mut Symbolic, pos: &[Id]) -> (Vec<Vec<Id>>, Vec<Id>) 
 }
 
 /// Point kinematics of every named point of the model, in declaration order.
+///
+/// The Jacobian is built by columns from shared lever arms (O(N) per point, see
+/// [`Symbolic::point_jacobian`]), its bias from the forward recursion's acceleration
+/// remainders with or without the base acceleration (eq. 3) or as the derivative of `J q'`
+/// along the motion (eq. 50); for a short path the derivative of `p` per coordinate
+/// (eq. 49, O(N^2)) with its bias can be cheaper. Of these formulations the one with the
+/// fewest operations counted twice — alone (the point's own method) and together with the
+/// dynamics (the fused entry point) — is kept.
 pub fn points(model: &Model, sym: &mut Symbolic) -> Vec<PointExprs> {
+    let context: Vec<Id> = sym.mf_roots().into_iter().chain(sym.q.clone()).collect();
+    points_in_context(model, sym, &context)
+}
+
+/// [`points`], with `context` the other outputs computed together with the points (`M`,
+/// `F`, `Q` and the constraint rows of `evaluate_with_points`).
+pub fn points_in_context(model: &Model, sym: &mut Symbolic, context: &[Id]) -> Vec<PointExprs> {
     model
         .points
         .iter()
         .map(|pt| {
             let r = [0, 1, 2].map(|c| sym.dag.scalar(&pt.position[c], &model.parameters));
             let p = sym.point_position(pt.body, r);
-            let (j, a) = jacobian_and_bias(sym, &p);
-            let [j0, j1, j2]: [Vec<Id>; 3] = j.try_into().unwrap_or_else(|_| unreachable!());
+            let j = sym.point_jacobian(pt.body, r);
+            let g = [0, 1, 2].map(|c| sym.dag.scalar(&model.gravity[c], &model.parameters));
+            let (jd, ad) = jacobian_and_bias(sym, &p);
+            let jd: [Vec<Id>; 3] = jd.try_into().unwrap_or_else(|_| unreachable!());
+            let candidates = [
+                (j.clone(), sym.point_bias(pt.body, r, None)),
+                (j.clone(), sym.point_bias(pt.body, r, Some(g))),
+                (j.clone(), velocity_bias(sym, &j)),
+                (jd, [ad[0], ad[1], ad[2]]),
+            ];
+            let cost = |(j, a): &([Vec<Id>; 3], V3), sym: &Symbolic| {
+                let mut roots: Vec<Id> = p
+                    .iter()
+                    .chain(j.iter().flatten())
+                    .chain(a)
+                    .copied()
+                    .collect();
+                let alone = sym.dag.op_count(&roots).total();
+                roots.extend(context);
+                alone + sym.dag.op_count(&roots).total()
+            };
+            let costs: Vec<_> = candidates.iter().map(|c| cost(c, sym)).collect();
+            let best = (0..candidates.len()).min_by_key(|&k| costs[k]).unwrap_or(0);
+            let (j, a) = candidates[best].clone();
             PointExprs {
                 name: pt.name.clone(),
                 p,
-                j: [j0, j1, j2],
-                a: [a[0], a[1], a[2]],
+                j,
+                a,
             }
         })
         .collect()
+}
+
+/// `A = d(J q')/dq q'` (eq. 50) from the Jacobian's rows.
+fn velocity_bias(sym: &mut Symbolic, j: &[Vec<Id>; 3]) -> V3 {
+    let vel = j.clone().map(|row| {
+        let terms: Vec<Id> = row
+            .iter()
+            .enumerate()
+            .map(|(k, &c)| {
+                let qd = sym.dag.qd(k);
+                sym.dag.mul(c, qd)
+            })
+            .collect();
+        sym.dag.sum(terms)
+    });
+    let a = sym.dag.velocity_derivative_many(&vel);
+    [a[0], a[1], a[2]]
 }
 
 /// Path of bodies from `body` up to the root (inclusive of `body`, exclusive of ground).

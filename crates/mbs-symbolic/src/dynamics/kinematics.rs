@@ -5,7 +5,7 @@
 
 use super::vec3::{self, M3, V3};
 use super::{Builder, joint};
-use crate::expr::Dag;
+use crate::expr::{Dag, Id};
 
 /// Symbolic kinematics of one body (all entries are DAG nodes).
 #[derive(Clone, Debug)]
@@ -27,6 +27,17 @@ pub struct BodyKinematics {
     pub accel: V3,
     /// The same without gravity (base acceleration zero).
     pub accel_no_gravity: V3,
+    /// The parent body (`None` = ground).
+    pub parent: Option<usize>,
+    /// The joint axis in the ground frame, `T^i e_i`: the rotation axis of a revolute joint,
+    /// the sliding direction `T^p u_i` of a prismatic joint.
+    pub ground_axis: V3,
+    /// Whether the joint slides (its Jacobian column is the axis itself) rather than turns
+    /// (the axis times the lever arm).
+    pub slides: bool,
+    /// `T^p d_i`: the body origin relative to the parent origin, in the ground frame
+    /// (the step of eq. 1's position recursion).
+    pub ground_offset: V3,
 }
 
 /// Forward recursion: relative and absolute kinematics of every body (eqs. 1–3).
@@ -75,6 +86,10 @@ pub(super) fn forward_kinematics(b: &mut Builder<'_>) -> Vec<BodyKinematics> {
         );
         groups.push(group);
         let tp_d = vec3::mat_vec(&mut b.dag, &parent_rot, offset);
+        // Column k of T^i: Rot(e, q) leaves e fixed, so T^i e = T^p R0 e for both kinds
+        // (for a sliding joint T^p u_i, u_i = R0 e).
+        let k = jt.axis.index();
+        let ground_axis = [ground_rot[0][k], ground_rot[1][k], ground_rot[2][k]];
         let ground_pos = vec3::add(&mut b.dag, parent_pos, tp_d);
 
         // Velocities and acceleration remainders in the body frame (eqs. 2–3, q'' = 0).
@@ -103,6 +118,10 @@ pub(super) fn forward_kinematics(b: &mut Builder<'_>) -> Vec<BodyKinematics> {
             alpha,
             accel,
             accel_no_gravity,
+            parent: body.parent,
+            ground_axis,
+            slides: slide.is_some(),
+            ground_offset: tp_d,
         });
     }
     out
@@ -126,5 +145,80 @@ pub(super) fn ground_point(d: &mut Dag, kin: &[BodyKinematics], body: Option<usi
             let tr = vec3::mat_vec(d, &kin[i].ground_rot, r);
             vec3::add(d, kin[i].ground_pos, tr)
         }
+    }
+}
+
+/// Jacobian `dp/dq` (eq. 49) of the ground-frame point `p = x_Oi + T^i r` fixed on `body`,
+/// three rows of `n`, by columns: for each joint `j` on the path from `body` to the root,
+///
+/// ```text
+/// column j = a_j x (p - x_Oj)   (turning joint)      a_j                (sliding joint)
+/// ```
+///
+/// with `a_j` the joint axis in the ground frame. The lever arms are accumulated from the
+/// body towards the root, `p - x_Op = (p - x_Oj) + T^p d_j`, so each column costs a cross
+/// product and one vector addition: O(N) for the whole Jacobian, where differentiating `p`
+/// once per coordinate costs O(N^2). Joints off the path have zero columns.
+pub(super) fn point_jacobian(
+    d: &mut Dag,
+    kin: &[BodyKinematics],
+    body: Option<usize>,
+    r: V3,
+) -> [Vec<Id>; 3] {
+    let z = d.zero();
+    let mut rows = [vec![z; kin.len()], vec![z; kin.len()], vec![z; kin.len()]];
+    let Some(i) = body else {
+        return rows;
+    };
+    let mut lever = vec3::mat_vec(d, &kin[i].ground_rot, r);
+    let mut at = Some(i);
+    while let Some(j) = at {
+        let k = &kin[j];
+        let col = if k.slides {
+            k.ground_axis
+        } else {
+            vec3::cross(d, k.ground_axis, lever)
+        };
+        for (row, c) in rows.iter_mut().zip(col) {
+            row[j] = c;
+        }
+        at = k.parent;
+        if at.is_some() {
+            lever = vec3::add(d, lever, k.ground_offset);
+        }
+    }
+    rows
+}
+
+/// Bias `A = J' q'` (eq. 50) of the same point: its acceleration with `q'' = 0`, from the
+/// forward recursion's remainders (eq. 3) in the body frame,
+/// `A = T^i (a_Oi + al_i x r + w_i x (w_i x r))`. With `with_gravity` the origin remainder
+/// that includes the base acceleration `-g` is used and `g` added back in the ground frame
+/// (whichever of the two the dynamics already computes is the cheaper one).
+pub(super) fn point_bias(
+    d: &mut Dag,
+    kin: &[BodyKinematics],
+    body: Option<usize>,
+    r: V3,
+    gravity: Option<V3>,
+) -> V3 {
+    let Some(i) = body else {
+        return vec3::zero(d);
+    };
+    let k = &kin[i];
+    let a_o = if gravity.is_some() {
+        k.accel
+    } else {
+        k.accel_no_gravity
+    };
+    let axr = vec3::cross(d, k.alpha, r);
+    let wxr = vec3::cross(d, k.omega, r);
+    let wwxr = vec3::cross(d, k.omega, wxr);
+    let t = vec3::add(d, a_o, axr);
+    let a_body = vec3::add(d, t, wwxr);
+    let a = vec3::mat_vec(d, &k.ground_rot, a_body);
+    match gravity {
+        Some(g) => vec3::add(d, a, g),
+        None => a,
     }
 }

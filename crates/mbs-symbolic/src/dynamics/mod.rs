@@ -185,6 +185,19 @@ impl Symbolic {
     pub fn point_position(&mut self, body: Option<usize>, r: V3) -> V3 {
         kinematics::ground_point(&mut self.dag, &self.bodies, body, r)
     }
+
+    /// Jacobian `dp/dq` (eq. 49) of that point, 3 rows of `n`, in O(N) operations (lever
+    /// arms shared from the body towards the root; see `kinematics::point_jacobian`).
+    pub fn point_jacobian(&mut self, body: Option<usize>, r: V3) -> [Vec<Id>; 3] {
+        kinematics::point_jacobian(&mut self.dag, &self.bodies, body, r)
+    }
+
+    /// Bias `A = J' q'` (eq. 50) of that point from the forward recursion's acceleration
+    /// remainders; `gravity` = `Some(g)` uses the remainders that include the base
+    /// acceleration `-g` and adds `g` back, `None` those without.
+    pub fn point_bias(&mut self, body: Option<usize>, r: V3, gravity: Option<V3>) -> V3 {
+        kinematics::point_bias(&mut self.dag, &self.bodies, body, r, gravity)
+    }
 }
 
 #[cfg(test)]

@@ -134,8 +134,11 @@ pub struct Generated {
 pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitError> {
     let n = model.dof();
     let mut sym = Symbolic::derive(model);
-    let mut pts: Vec<PointExprs> = constraints::points(model, &mut sym);
     let mut cons: ConstraintExprs = constraints::constraints(model, &mut sym);
+    // Points last: a formulation of a point's Jacobian that shares more with everything
+    // `evaluate_with_points` computes wins a tie.
+    let context = all_roots(&sym, &cons, &[]);
+    let mut pts: Vec<PointExprs> = constraints::points_in_context(model, &mut sym, &context);
     let nc = cons.h.len();
 
     let param_idents = names::param_idents(model)?;

@@ -4,14 +4,13 @@
 //! is itself a DAG of comparable size that shares the original's nodes (no expression
 //! swell). They implement `J = dh/dq` (eq. 15) and `A = J' q'` (eq. 16).
 
-use std::collections::HashMap;
-
+use super::hash::FxHashMap as HashMap;
 use super::{Dag, Fun, Id, Node, Var};
 
 impl Dag {
     /// Partial derivative of `e` with respect to the leaf `v`.
     pub fn diff(&mut self, e: Id, v: Var) -> Id {
-        let mut memo = HashMap::new();
+        let mut memo = HashMap::default();
         self.diff_memo(
             e,
             &mut |_, var| if var == v { Some(1.0) } else { None },
@@ -21,7 +20,7 @@ impl Dag {
 
     /// Partial derivatives of several expressions with respect to `v`, sharing one memo.
     pub fn diff_many(&mut self, es: &[Id], v: Var) -> Vec<Id> {
-        let mut memo = HashMap::new();
+        let mut memo = HashMap::default();
         es.iter()
             .map(|&e| {
                 self.diff_memo(
@@ -37,13 +36,13 @@ impl Dag {
     /// `de/dt = sum_i (de/dq_i q'_i + de/dq'_i q''_i) + de/dt`.
     /// Parameters are constant. Applied to `J q'` this gives `J q'' + A` (eq. 16).
     pub fn time_derivative(&mut self, e: Id) -> Id {
-        let mut memo = HashMap::new();
+        let mut memo = HashMap::default();
         self.time_derivative_memo(e, &mut memo)
     }
 
     /// [`Dag::time_derivative`] of several expressions sharing one memo.
     pub fn time_derivative_many(&mut self, es: &[Id]) -> Vec<Id> {
-        let mut memo = HashMap::new();
+        let mut memo = HashMap::default();
         es.iter()
             .map(|&e| self.time_derivative_memo(e, &mut memo))
             .collect()
@@ -54,7 +53,7 @@ impl Dag {
     /// Applied to a position `p(q)` it gives the velocity `J q'`; applied to `J q'` it gives
     /// the bias `A = d(J q')/dq q'` of eqs. (16) and (50).
     pub fn velocity_derivative_many(&mut self, es: &[Id]) -> Vec<Id> {
-        let mut memo = HashMap::new();
+        let mut memo = HashMap::default();
         es.iter()
             .map(|&e| {
                 self.forward(e, &mut memo, &mut |dag, v| match v {

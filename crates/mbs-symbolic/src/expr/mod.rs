@@ -21,15 +21,16 @@
 //!
 //! Submodules: [`algebra`] (the algebra of sums), [`diff`] (symbolic differentiation, time
 //! derivatives along the motion), [`eval`] (the interpreter), [`count`] (operation counts),
-//! [`sexpr`] (s-expression display and parsing, for table-style tests).
+//! [`sexpr`] (s-expression display and parsing, for table-style tests); `hash` (the
+//! deterministic FxHash-style hasher of the hash-consing index and the derivative memos).
 
-use std::collections::HashMap;
 use std::fmt;
 
 pub mod algebra;
 pub mod count;
 pub mod diff;
 pub mod eval;
+mod hash;
 pub mod sexpr;
 
 pub use count::OpCount;
@@ -107,7 +108,7 @@ impl Node {
 #[derive(Clone, Default)]
 pub struct Dag {
     nodes: Vec<Node>,
-    index: HashMap<Node, Id>,
+    index: hash::FxHashMap<Node, Id>,
     /// Number of nodes built so far with this node as an operand (the algebra of sums
     /// rewrites only subtrees nobody else uses yet, so that it cannot undo sharing).
     parents: Vec<u32>,
