@@ -9,7 +9,9 @@ use std::path::PathBuf;
 use codegen_cli::scenario::DamperScenario as Scenario;
 use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group, criterion_main};
 use hybrid_core::damper::Integrator;
-use hybrid_core::study::{build_model, run_setup};
+use hybrid_core::damper::Method;
+use hybrid_core::hybrid::{Integrator as HybridIntegrator, initial_state};
+use hybrid_core::study::{build_model, hybrid_of, run_setup};
 
 fn scenario(elements: usize, t_end: f64) -> Scenario {
     let path = PathBuf::from(concat!(
@@ -78,7 +80,57 @@ fn step_cost(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, whole_run, step_cost);
+/// The paper's damper as a general hybrid system, and with two more double bars at
+/// x = 0.5 and 0.75 (three mechanisms): `(model, initial beam state)`.
+fn hybrid(elements: usize, mechanisms: usize) -> (hybrid_core::hybrid::HybridModel, Vec<f64>) {
+    let sc = scenario(elements, 5.0);
+    let (model, guess) = build_model(&sc.setup, &double_bar_model(), double_bar(), true).unwrap();
+    let (mut hm, q0) = hybrid_of(&sc.setup, &model, guess).unwrap();
+    for (k, x) in [0.5, 0.75].into_iter().take(mechanisms - 1).enumerate() {
+        let mut setup = sc.setup.clone();
+        setup.x = x;
+        let (m, g) = build_model(&setup, &double_bar_model(), double_bar(), true).unwrap();
+        let (extra, _) = hybrid_of(&setup, &m, g).unwrap();
+        let i = hm.mechanisms.len();
+        let mut mech = extra.mechanisms[0].clone();
+        mech.name = format!("damper{}", k + 2);
+        hm.mechanisms.push(mech);
+        let mut a = extra.attachments[0].clone();
+        a.mechanism = i;
+        hm.attachments.push(a);
+        let mut f = extra.forces[0].clone();
+        f.mechanism = i;
+        hm.forces.push(f);
+    }
+    (hm, q0)
+}
+
+fn hybrid_step_cost(c: &mut Criterion) {
+    for mechanisms in [1usize, 3] {
+        let mut g = c.benchmark_group(format!("hybrid_step_1000/{mechanisms}_mechanisms"));
+        for elements in [20usize, 200, 2000] {
+            let (model, q0) = hybrid(elements, mechanisms);
+            let n = q0.len();
+            let state = initial_state(&model, q0, vec![0.0; n]).unwrap();
+            let integ = HybridIntegrator::new(&model, Method::Newmark, 1e-4, &state).unwrap();
+            g.bench_with_input(BenchmarkId::from_parameter(elements), &elements, |b, _| {
+                b.iter_batched(
+                    || (integ.clone(), state.clone()),
+                    |(mut integ, mut state)| {
+                        for _ in 0..1000 {
+                            integ.step(&model, &mut state).unwrap();
+                        }
+                        black_box(state.t)
+                    },
+                    BatchSize::LargeInput,
+                )
+            });
+        }
+        g.finish();
+    }
+}
+
+criterion_group!(benches, whole_run, step_cost, hybrid_step_cost);
 criterion_main!(benches);
 
 /// The bundled double bar's model description (body names for the generator joint).

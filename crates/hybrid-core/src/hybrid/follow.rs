@@ -104,6 +104,11 @@ pub(crate) struct Follower {
     pub sigma_min: f64,
     /// Constraint residual norm after the position solve.
     pub residual: f64,
+    /// Whether `lu` and `jfull` hold the last converged position solve, made at the
+    /// attachment displacements `w_last` and free coordinates `u_last`.
+    solved: bool,
+    w_last: Vec<f64>,
+    u_last: Vec<f64>,
 }
 
 impl Follower {
@@ -128,7 +133,7 @@ impl Follower {
             row += a.kind.rows();
         }
         let rows = row;
-        let dep = (0..n).filter(|c| !free.contains(c)).collect();
+        let dep: Vec<usize> = (0..n).filter(|c| !free.contains(c)).collect();
         let forces = (0..model.forces.len())
             .filter(|&f| model.forces[f].mechanism == mech)
             .collect();
@@ -161,6 +166,9 @@ impl Follower {
             condition: 1.0,
             sigma_min: 1.0,
             residual: 0.0,
+            solved: false,
+            w_last: vec![0.0; model.attachments.len()],
+            u_last: vec![0.0; n],
         }
     }
 
@@ -181,6 +189,43 @@ impl Follower {
         self.dep.clear();
         let f = &self.free;
         self.dep.extend((0..self.n).filter(|c| !f.contains(c)));
+        self.solved = false;
+    }
+
+    /// First-order prediction of the dependent coordinates for new attachment
+    /// displacements `w` and free coordinates (already in `q`) from the last converged solve:
+    /// `q_d += J_d^-1 (E dw - J_f du)` with the factors kept from that solve (one Newton step
+    /// without an evaluation; the Newton iteration then starts at a residual of second order
+    /// in the change).
+    fn predict(&mut self, w: &[f64]) {
+        if !self.solved {
+            return;
+        }
+        self.rhs.fill(0.0);
+        for a in &self.atts {
+            self.rhs[a.row] = w[a.attachment] - self.w_last[a.attachment];
+        }
+        for &c in &self.free {
+            let du = self.q[c] - self.u_last[c];
+            for r in 0..self.rows {
+                self.rhs[r] -= self.jfull[(r, c)] * du;
+            }
+        }
+        lu_solve(&self.lu, &self.piv, &mut self.rhs);
+        for (k, &c) in self.dep.iter().enumerate() {
+            self.q[c] += self.rhs[k];
+        }
+    }
+
+    /// Records a converged solve (for [`Follower::predict`]).
+    fn mark_solved(&mut self, w: &[f64]) {
+        self.solved = true;
+        for a in &self.atts {
+            self.w_last[a.attachment] = w[a.attachment];
+        }
+        for &c in &self.free {
+            self.u_last[c] = self.q[c];
+        }
     }
 
     /// `h` and `J` at `self.q` for beam-point displacements `w` (global attachment order).
@@ -297,6 +342,8 @@ impl Follower {
                 .iter()
                 .map(|x| x.abs())
                 .sum::<f64>();
+        self.predict(w);
+        self.solved = false;
         let mut last = f64::INFINITY;
         for it in 0..60 {
             self.eval_rows(model, w);
@@ -332,6 +379,7 @@ impl Follower {
             if len <= 1e-13 * (1.0 + self.q.iter().map(|x| x.abs()).sum::<f64>()) {
                 if rn <= 1e-12 * scale {
                     self.residual = rn;
+                    self.mark_solved(w);
                     return Ok(());
                 }
                 return Err(FollowError::NoAssembly {
