@@ -217,6 +217,25 @@ impl Follower {
         }
     }
 
+    /// Kinematic influence `dq_joint / dw_k` of attachment `attachment`'s displacement on
+    /// coordinate `joint` at the last converged position solve, free coordinates held
+    /// (the column of `R` for `w_k`, eq. 18): the velocity amplification of the mechanism.
+    /// `None` when the attachment is not this mechanism's or no solve has converged.
+    pub fn influence(&mut self, attachment: usize, joint: usize) -> Option<f64> {
+        let row = self.atts.iter().find(|a| a.attachment == attachment)?.row;
+        if !self.solved {
+            return None;
+        }
+        if self.free.contains(&joint) {
+            return Some(0.0);
+        }
+        self.rhs.fill(0.0);
+        self.rhs[row] = 1.0;
+        lu_solve(&self.lu, &self.piv, &mut self.rhs);
+        let k = self.dep.iter().position(|&c| c == joint)?;
+        Some(self.rhs[k])
+    }
+
     /// Records a converged solve (for [`Follower::predict`]).
     fn mark_solved(&mut self, w: &[f64]) {
         self.solved = true;

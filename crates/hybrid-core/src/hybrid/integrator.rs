@@ -738,6 +738,14 @@ impl Integrator {
         }
     }
 
+    /// Velocity amplification `dq_joint / dw` of mechanism `mech`'s coordinate `joint` with
+    /// respect to the displacement of attachment `attachment` (free coordinates held), at
+    /// the last accepted step (eq. 18); `None` if the attachment is not on that mechanism.
+    /// For the double bar with the generator on the crank this is `g_1 = q1'/y'`.
+    pub fn amplification(&mut self, mech: usize, attachment: usize, joint: usize) -> Option<f64> {
+        self.followers.get_mut(mech)?.influence(attachment, joint)
+    }
+
     /// Stored energies at `state`, into `out` (allocation-free once `out` has the sizes).
     pub fn stored_into(&mut self, model: &HybridModel, state: &HybridState, out: &mut Stored) {
         if let Some(beam) = &model.beam {
