@@ -48,7 +48,7 @@ pub enum Error {
     Emit(#[from] mbs_symbolic::emit::EmitError),
     /// The damper simulation stopped (singular position, divergence).
     #[error("{0}")]
-    Damper(hybrid_core::damper::SimError),
+    Damper(hybrid_core::hybrid::HybridError),
     /// The comparison run without generator panicked.
     #[error("the comparison run without generator panicked")]
     ComparisonPanicked,

@@ -11,8 +11,11 @@ use mbs_symbolic::runtime::{ParamError, System};
 use serde::Serialize;
 
 use crate::coupling::{Attachment, LinkShapeError, MechanismLink};
-use crate::damper::{DamperModel, Integrator, Method, SimError, State};
+use crate::damper::{DamperModel, Energy, Method};
 use crate::generator::GeneratorSpec;
+use crate::hybrid::{
+    HybridError, HybridModel, HybridState, Integrator as HybridIntegrator, Stored,
+};
 
 /// Where the ground pivot of the double bar is, relative to the undeformed beam point.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -332,38 +335,64 @@ pub struct Sample {
 }
 
 impl Sample {
-    fn of<M>(model: &DamperModel<M>, s: &State, e0: f64) -> Sample
-    where
-        M: System,
-    {
-        let g = &model.generator;
-        let e = &s.energy;
-        let y = model.point_value(&s.q);
-        let yd = model.point_value(&s.v);
+    /// The row of the damper's hybrid state (mechanism 0, attachment 0, force element 0 =
+    /// the generator); stored energies in `stored`, initial energy `e0`.
+    fn of(
+        model: &HybridModel,
+        integrator: &mut HybridIntegrator,
+        s: &HybridState,
+        stored: &mut Stored,
+        e0: f64,
+    ) -> Sample {
+        integrator.stored_into(model, s, stored);
+        let point = &model.attachments[0].beam;
+        let force = &model.forces[0];
+        let joint = force.joint;
+        let g = force
+            .generator()
+            .expect("the damper's force element is its generator");
+        let m = &s.mechanisms[0];
+        let i = s.currents[0];
+        let acc = &s.account;
+        let total = stored.total();
         Sample {
             t: s.t,
-            tip_displacement: y,
-            tip_velocity: yd,
-            crank_angle: s.link.q[0],
-            coupler_angle: s.link.q[1],
-            crank_rate: s.link.qd[0],
-            coupler_rate: s.link.qd[1],
-            amplification: s.link.g[model.link.generator_joint],
-            current: s.current,
-            generator_power: g.resistance() * s.current * s.current,
-            load_power: g.load_resistance * s.current * s.current,
-            beam_kinetic_energy: e.beam_kinetic,
-            beam_potential_energy: e.beam_potential,
-            mechanism_kinetic_energy: e.mechanism_kinetic,
-            mechanism_potential_energy: e.mechanism_potential,
-            total_energy: e.total(),
-            dissipated_structure: e.dissipated_structure,
-            dissipated_generator: e.dissipated_armature + e.dissipated_load,
-            energy_balance_error: (e0 + e.external_work) - (e.total() + e.dissipated()),
-            constraint_residual: s.link.residual,
-            jacobian_condition: s.link.condition,
+            tip_displacement: point.value(&s.q),
+            tip_velocity: point.value(&s.v),
+            crank_angle: m.q[0],
+            coupler_angle: m.q[1],
+            crank_rate: m.qd[0],
+            coupler_rate: m.qd[1],
+            amplification: integrator
+                .amplification(model, s, 0, 0, joint)
+                .unwrap_or(f64::NAN),
+            current: i,
+            generator_power: g.resistance() * i * i,
+            load_power: g.load_resistance * i * i,
+            beam_kinetic_energy: stored.beam_kinetic,
+            beam_potential_energy: stored.beam_potential,
+            mechanism_kinetic_energy: stored.mechanism_kinetic[0],
+            mechanism_potential_energy: stored.mechanism_potential[0],
+            total_energy: total,
+            dissipated_structure: acc.dissipated_structure,
+            dissipated_generator: acc.dissipated[0],
+            energy_balance_error: (e0 + acc.beam_load_work)
+                - (total + acc.dissipated_structure + acc.dissipated[0]),
+            constraint_residual: m.residual,
+            jacobian_condition: m.condition,
         }
     }
+}
+
+/// The end of a run: the final hybrid state and its energy account.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunEnd {
+    /// Steps taken.
+    pub steps: u64,
+    /// Stored energies and the account at the end.
+    pub energy: Energy,
+    /// The final state of the general hybrid system.
+    pub hybrid: HybridState,
 }
 
 /// The outcome of one run.
@@ -372,48 +401,77 @@ pub struct Run {
     /// Rows every `every` steps (and the last state).
     pub samples: Vec<Sample>,
     /// The final state.
-    pub state: State,
+    pub state: RunEnd,
     /// Stored energy at t = 0.
     pub initial_energy: f64,
-    /// Largest |energy balance error| / initial energy over the run.
+    /// Largest |energy balance error| / initial energy over the output rows.
     pub energy_balance_rel_error: f64,
     /// Wall-clock time of the integration.
     pub wall: Duration,
 }
 
-/// Integrates `model` from `state` to `t_end` with step `dt`, sampling every `every` steps.
+/// Integrates the damper's hybrid `model` from `state` to `t_end` with the integrator's
+/// step, sampling every `every` steps (stored energies are evaluated at those rows only).
 /// `progress` receives the fraction done from time to time.
-pub fn run<M: System>(
-    model: &DamperModel<M>,
-    integrator: &mut Integrator,
-    mut state: State,
+pub fn run(
+    model: &HybridModel,
+    integrator: &mut HybridIntegrator,
+    mut state: HybridState,
     t_end: f64,
     every: usize,
     progress: &mut dyn FnMut(f64),
-) -> Result<Run, SimError> {
-    let e0 = state.energy.total();
+) -> Result<Run, HybridError> {
+    let mut stored = Stored::default();
+    integrator.stored_into(model, &state, &mut stored);
+    let e0 = stored.total();
     let steps = (t_end / integrator.step_size()).round() as u64;
     let mut samples = Vec::with_capacity((steps as usize) / every.max(1) + 2);
-    samples.push(Sample::of(model, &state, e0));
+    samples.push(Sample::of(model, integrator, &state, &mut stored, e0));
     let mut worst: f64 = 0.0;
     let start = Instant::now();
     let report = (steps / 200).max(1);
     for k in 1..=steps {
         integrator.step(model, &mut state)?;
-        let e = &state.energy;
-        let err = ((e0 + e.external_work) - (e.total() + e.dissipated())).abs();
-        worst = worst.max(err);
         if k % every as u64 == 0 || k == steps {
-            samples.push(Sample::of(model, &state, e0));
+            let sample = Sample::of(model, integrator, &state, &mut stored, e0);
+            worst = worst.max(sample.energy_balance_error.abs());
+            samples.push(sample);
         }
         if k % report == 0 {
             progress(k as f64 / steps as f64);
         }
     }
     let wall = start.elapsed();
+    integrator.stored_into(model, &state, &mut stored);
+    let g = model.forces[0]
+        .generator()
+        .expect("the damper's force element is its generator");
+    let acc = &state.account;
+    let share = |r: f64| {
+        if g.resistance() > 0.0 {
+            r / g.resistance()
+        } else {
+            0.0
+        }
+    };
+    let energy = Energy {
+        beam_kinetic: stored.beam_kinetic,
+        beam_potential: stored.beam_potential,
+        mechanism_kinetic: stored.mechanism_kinetic[0],
+        mechanism_potential: stored.mechanism_potential[0],
+        magnetic: stored.magnetic,
+        dissipated_structure: acc.dissipated_structure,
+        dissipated_armature: acc.dissipated[0] * share(g.armature_resistance),
+        dissipated_load: acc.dissipated[0] * share(g.load_resistance),
+        external_work: acc.beam_load_work + acc.excitation_work.iter().sum::<f64>(),
+    };
     Ok(Run {
         samples,
-        state,
+        state: RunEnd {
+            steps: state.steps,
+            energy,
+            hybrid: state,
+        },
         initial_energy: e0,
         energy_balance_rel_error: if e0 > 0.0 { worst / e0 } else { worst },
         wall,
@@ -497,7 +555,8 @@ pub fn damping_ratio(samples: &[Sample]) -> Option<f64> {
     Some(delta / (4.0 * std::f64::consts::PI.powi(2) + delta * delta).sqrt())
 }
 
-/// Prepares model, integrator and initial state of a setup and runs it.
+/// Prepares model, integrator and initial state of a setup and runs it on the general
+/// hybrid engine ([`crate::hybrid`]; the damper is its rank-one special case).
 pub fn run_setup<M: System>(
     setup: &DamperSetup,
     model: &Model,
@@ -506,10 +565,12 @@ pub fn run_setup<M: System>(
     progress: &mut dyn FnMut(f64),
 ) -> Result<(DamperModel<M>, Run), RunError> {
     let (coupled, guess) = build_model(setup, model, mechanism, connected)?;
-    let state = coupled.initial_state(setup.initial_displacement, guess)?;
-    let mut integrator = Integrator::new(&coupled, setup.method, setup.dt)?;
+    let (hybrid, q0) = hybrid_of(setup, &coupled, guess)?;
+    let n = q0.len();
+    let state = crate::hybrid::initial_state(&hybrid, q0, vec![0.0; n])?;
+    let mut integrator = HybridIntegrator::new(&hybrid, setup.method, setup.dt, &state)?;
     let run = run(
-        &coupled,
+        &hybrid,
         &mut integrator,
         state,
         setup.t_end,
@@ -527,7 +588,7 @@ pub enum RunError {
     Setup(#[from] SetupError),
     /// The simulation stopped.
     #[error(transparent)]
-    Sim(#[from] SimError),
+    Sim(#[from] HybridError),
 }
 
 /// The damper of a setup as a general [`crate::hybrid::HybridModel`]: the double bar
@@ -535,9 +596,9 @@ pub enum RunError {
 /// pinned to the beam point at `x` (eqs. 45–46), the generator on its joint; and the beam's
 /// initial deflection (the static shape of a load at the beam point scaled to the setup's
 /// initial displacement).
-pub fn hybrid_of(
+pub fn hybrid_of<M: System>(
     setup: &DamperSetup,
-    coupled: &DamperModel<Box<dyn System>>,
+    coupled: &DamperModel<M>,
     guess: [f64; 2],
 ) -> Result<(crate::hybrid::HybridModel, Vec<f64>), SetupError> {
     use crate::hybrid::{

@@ -45,8 +45,12 @@ pub enum HybridError {
     },
     /// The implicit step's iteration did not converge.
     #[error(
-        "t = {t:.6} s: the implicit step did not converge (residual {residual:.3e} after {iterations} iterations); largest cond(J_d) = {condition:.3e} (mechanism \"{mechanism}\"): {}",
-        if *condition > 100.0 { "the mechanism is close to its singular position" } else { "reduce the time step" }
+        "t = {t:.6} s, mechanism \"{mechanism}\", beam point displacement {displacement:.6e} m: the implicit step did not converge (residual {residual:.3e} after {iterations} iterations); {}",
+        if *condition > 100.0 {
+            format!("the mechanism is close to its singular position: cond(J_d) = {condition:.3e}, smallest singular value {sigma_min:.3e}")
+        } else {
+            format!("cond(J_d) = {condition:.3e}: reduce the time step")
+        }
     )]
     NoConvergence {
         /// Time (s).
@@ -57,8 +61,12 @@ pub enum HybridError {
         iterations: usize,
         /// The worst-conditioned mechanism.
         mechanism: String,
+        /// Displacement of its first attached beam point at the last iterate (m).
+        displacement: f64,
         /// Its condition number.
         condition: f64,
+        /// Its smallest singular value of `J_d`.
+        sigma_min: f64,
     },
     /// The state became non-finite.
     #[error("t = {t:.6} s: the solution diverged (non-finite state); reduce the time step")]

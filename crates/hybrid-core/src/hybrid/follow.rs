@@ -218,17 +218,30 @@ impl Follower {
     }
 
     /// Kinematic influence `dq_joint / dw_k` of attachment `attachment`'s displacement on
-    /// coordinate `joint` at the last converged position solve, free coordinates held
-    /// (the column of `R` for `w_k`, eq. 18): the velocity amplification of the mechanism.
-    /// `None` when the attachment is not this mechanism's or no solve has converged.
-    pub fn influence(&mut self, attachment: usize, joint: usize) -> Option<f64> {
+    /// coordinate `joint` at the configuration `q` (attachment displacements `w`), free
+    /// coordinates held: the column of `R` for `w_k` (eq. 18), the velocity amplification of
+    /// the mechanism. `None` when the attachment is not this mechanism's or `J_d` is
+    /// singular. Re-evaluates the constraint Jacobian at `q` (the position solve's factors
+    /// are then those of `q`).
+    pub fn influence(
+        &mut self,
+        model: &HybridModel,
+        q: &[f64],
+        w: &[f64],
+        attachment: usize,
+        joint: usize,
+    ) -> Option<f64> {
         let row = self.atts.iter().find(|a| a.attachment == attachment)?.row;
-        if !self.solved {
-            return None;
-        }
         if self.free.contains(&joint) {
             return Some(0.0);
         }
+        self.q.as_mut_slice().copy_from_slice(q);
+        self.eval_rows(model, w);
+        if !self.factor_dependent() {
+            self.solved = false;
+            return None;
+        }
+        self.mark_solved(w);
         self.rhs.fill(0.0);
         self.rhs[row] = 1.0;
         lu_solve(&self.lu, &self.piv, &mut self.rhs);

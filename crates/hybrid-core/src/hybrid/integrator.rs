@@ -374,17 +374,37 @@ impl Integrator {
         self.jac_valid = lu_in_place(&mut self.jac_lu, &mut self.jac_piv);
     }
 
-    fn worst(&self, model: &HybridModel) -> (String, f64) {
-        self.followers
+    /// The error of a non-converged iteration, naming the worst-conditioned mechanism.
+    fn no_convergence(&self, model: &HybridModel, t: f64, iterations: usize) -> HybridError {
+        let worst = self
+            .followers
             .iter()
-            .map(|f| (f.condition, f.mech))
-            .fold(None, |b: Option<(f64, usize)>, x| match b {
-                Some(b) if b.0 >= x.0 => Some(b),
-                _ => Some(x),
-            })
-            .map_or((String::new(), 0.0), |(c, m)| {
-                (model.mechanisms[m].name.clone(), c)
-            })
+            .max_by(|a, b| a.condition.total_cmp(&b.condition));
+        let (mechanism, condition, sigma_min, displacement) = match worst {
+            Some(f) => {
+                let w = model
+                    .attachments
+                    .iter()
+                    .position(|a| a.mechanism == f.mech)
+                    .map_or(0.0, |k| self.pos[k]);
+                (
+                    model.mechanisms[f.mech].name.clone(),
+                    f.condition,
+                    f.sigma_min,
+                    w,
+                )
+            }
+            None => (String::new(), 0.0, 0.0, 0.0),
+        };
+        HybridError::NoConvergence {
+            t,
+            residual: norm(&self.res),
+            iterations,
+            mechanism,
+            displacement,
+            condition,
+            sigma_min,
+        }
     }
 
     /// Solves the reduced equations at `t` for `z` (starting from `self.z`), leaving the
@@ -415,14 +435,7 @@ impl Integrator {
                 refreshed = true;
                 at_z = false;
                 if !self.jac_valid {
-                    let (mechanism, condition) = self.worst(model);
-                    return Err(HybridError::NoConvergence {
-                        t,
-                        residual: norm(&self.res),
-                        iterations,
-                        mechanism,
-                        condition,
-                    });
+                    return Err(self.no_convergence(model, t, iterations));
                 }
             }
             iterations += 1;
@@ -484,14 +497,7 @@ impl Integrator {
                 self.jac_valid = false;
             }
             if iterations >= 40 {
-                let (mechanism, condition) = self.worst(model);
-                return Err(HybridError::NoConvergence {
-                    t,
-                    residual: norm(&self.res),
-                    iterations,
-                    mechanism,
-                    condition,
-                });
+                return Err(self.no_convergence(model, t, iterations));
             }
         }
     }
@@ -740,10 +746,27 @@ impl Integrator {
 
     /// Velocity amplification `dq_joint / dw` of mechanism `mech`'s coordinate `joint` with
     /// respect to the displacement of attachment `attachment` (free coordinates held), at
-    /// the last accepted step (eq. 18); `None` if the attachment is not on that mechanism.
-    /// For the double bar with the generator on the crank this is `g_1 = q1'/y'`.
-    pub fn amplification(&mut self, mech: usize, attachment: usize, joint: usize) -> Option<f64> {
-        self.followers.get_mut(mech)?.influence(attachment, joint)
+    /// `state` (eq. 18); `None` if the attachment is not on that mechanism. For the double
+    /// bar with the generator on the crank this is `g_1 = q1'/y'`. Allocation-free.
+    pub fn amplification(
+        &mut self,
+        model: &HybridModel,
+        state: &HybridState,
+        mech: usize,
+        attachment: usize,
+        joint: usize,
+    ) -> Option<f64> {
+        for (k, a) in model.attachments.iter().enumerate() {
+            self.pos[k] = a.beam.value(&state.q);
+        }
+        let f = self.followers.get_mut(mech)?;
+        f.influence(
+            model,
+            &state.mechanisms[mech].q,
+            &self.pos,
+            attachment,
+            joint,
+        )
     }
 
     /// Stored energies at `state`, into `out` (allocation-free once `out` has the sizes).
