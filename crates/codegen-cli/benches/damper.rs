@@ -49,7 +49,7 @@ fn whole_run(c: &mut Criterion) {
                 .unwrap()
                 .1
                 .state
-                .t,
+                .hybrid.t,
             )
         })
     });
