@@ -1,4 +1,6 @@
-//! The coupled beam + mechanism + generator and its time integration.
+//! The coupled beam + double bar + generator in its specialised rank-one form and its time
+//! integration — the second formulation the general engine ([`crate::hybrid`], which runs
+//! the product) is checked against.
 //!
 //! # Equations
 //!

@@ -3,14 +3,18 @@
 //! (paper section 4, THEORY.md sections 5–7). Physics only: the file formats (scenarios,
 //! CSV, JSON, plots) live in `codegen-cli`.
 //!
-//! - [`coupling`]: the pin between a beam point and the mechanism point, eqs. (45)–(54), and
-//!   the reduction to beam coordinates (55)–(58) as a rank-one term;
-//! - [`hybrid`]: hybrid systems of any shape (any mechanisms, attachments, force elements
-//!   and excitations), partitioned and integrated in O(n) per step;
+//! - [`hybrid`]: **the engine** — hybrid systems of any shape (an optional beam, any
+//!   mechanisms, pin and roller attachments, force elements on joints, excitations),
+//!   partitioned (eqs. 18–25 applied to 51–54) and integrated in O(n) per step; every run
+//!   of the product goes through it;
 //! - [`generator`]: the DC generator (THEORY.md section 7);
-//! - [`damper`]: the coupled model and its Newmark / HHT-alpha integration, O(n) per step;
-//! - [`study`]: a damper run from a checked setup, the damping ratio from the free decay
-//!   and the energy account;
+//! - [`coupling`], [`damper`]: the paper's damper in its specialised form — one double bar
+//!   pinned to one beam point, reduced to a rank-one term (eqs. 55–58) and integrated with a
+//!   scalar secant iteration. Kept as a second, independent formulation of the same
+//!   equations that the general engine is checked against (same trajectory to 1e-9), and
+//!   for the double-bar geometry [`study::build_model`] reads off;
+//! - [`study`]: a damper run from a checked setup on the general engine, the damping ratio
+//!   from the free decay and the energy account;
 //! - [`closed_loop`], [`partition`]: rigid closed-loop mechanisms and coordinate
 //!   partitioning (eqs. 18–25);
 
