@@ -216,3 +216,61 @@ fn beam_density_5e_324_is_refused_not_printed_as_inf() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A generator whose derived coefficients overflow or are absurd: caught by the scenario
+/// loader where the number is produced (`GeneratorSpec::problems`), at the line of the field
+/// most likely mistyped, not after a run as "cannot reach ... |h| = inf".
+#[test]
+fn damper_scenario_overflowing_generator_is_refused_at_its_line() {
+    let dir = temp_dir("generator");
+    type Case<'a> = (&'a [(&'a str, &'a str)], &'a str, &'a str);
+    let cases: [Case; 4] = [
+        (
+            &[("kt = 0.0235 ", "kt = 1e300 ")],
+            "kt = 1e300",
+            "kt * ke * gear_ratio^2 / (armature_resistance + load_resistance) = 1.175e299 N m s/rad is not physically sensible",
+        ),
+        (
+            &[
+                ("kt = 0.0235 ", "kt = 1e300 "),
+                ("ke = 0.0235 ", "ke = 1e300 "),
+            ],
+            "kt = 1e300",
+            "kt * ke * gear_ratio^2 / (armature_resistance + load_resistance) = inf is not finite",
+        ),
+        (
+            &[
+                (
+                    "armature_resistance = 1.5 ",
+                    "armature_resistance = 5e-324 ",
+                ),
+                ("load_resistance = 3.5 ", "load_resistance = 5e-324 "),
+            ],
+            "armature_resistance = 5e-324",
+            "kt * ke * gear_ratio^2 / (armature_resistance + load_resistance) = inf is not finite",
+        ),
+        (
+            &[("gear_ratio = 5.0", "gear_ratio = 1e200")],
+            "gear_ratio = 1e200",
+            "generator: gear_ratio^2 = inf is not finite",
+        ),
+    ];
+    for (edits, line_text, message) in cases {
+        let sc = edited(&dir, "scenarios/damper.toml", edits);
+        let text = std::fs::read_to_string(&sc).unwrap();
+        let line = 1 + text.lines().position(|l| l.starts_with(line_text)).unwrap();
+        let out = dir.join("out");
+        let err = assert_bad_input(
+            &[
+                "simulate",
+                sc.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+            ],
+            &[&format!("damper.toml:{line}:"), "[generator]", message],
+        );
+        assert!(!err.contains("cannot reach"), "{err}");
+        assert!(!out.exists(), "no output directory for a refused scenario");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
