@@ -659,3 +659,48 @@ fn a_mechanism_of_the_wrong_shape_is_a_model_level_error() {
     );
     assert!(!err.contains('\n'), "one line: {err}");
 }
+
+/// Regression: near the toggle a converged Newton (|h| at rounding, the steps jittering on
+/// the ill-conditioned J^b instead of settling) was reported as "cannot reach the beam
+/// point" (NoAssembly). Beam points 3e-17 m to 3e-14 m beyond the double bar's full
+/// extension are reached to rounding; the cause is conditioning, reported as Singular
+/// (with a finite condition number, which only the after-the-iterations test of
+/// `solve_positions` gives). A point clearly beyond the reach stays NoAssembly.
+#[test]
+fn converged_newton_at_the_toggle_is_singular_not_cannot_reach() {
+    use hybrid_core::coupling::KinematicError;
+    let sc = scenario(&[]);
+    let (model, q0) = build_model(&sc.setup, &double_bar_model(), double_bar(), true).unwrap();
+    let link = &model.link;
+    let reach = link.reach.expect("the double bar's reach 2 L (1 - cos a0)");
+    for excess in [1e-14, 1e-13, 1e-12, 1e-11] {
+        let y = reach * (1.0 + excess);
+        match link.solve_positions(y, q0) {
+            Err(KinematicError::Singular {
+                condition,
+                sigma_min,
+                q,
+            }) => {
+                assert!(
+                    condition.is_finite() && condition > sc.setup.max_condition,
+                    "excess {excess:e}: cond {condition:e}"
+                );
+                assert!(sigma_min < 1e-6, "excess {excess:e}: {sigma_min:e}");
+                // Straight: the coupler's relative angle is (nearly) zero.
+                assert!(q[1].abs() < 1e-5, "excess {excess:e}: q = {q:?}");
+                let (p, _, _) = link.point(&q, &[0.0; 2]);
+                let h = (p[1] - (link.attachment.y0 + y)).hypot(p[0] - link.attachment.x0);
+                assert!(
+                    h <= 1e-12,
+                    "excess {excess:e}: |h| = {h:e} is not converged"
+                );
+            }
+            other => panic!("excess {excess:e}: expected Singular, got {other:?}"),
+        }
+    }
+    assert!(matches!(
+        link.solve_positions(reach * (1.0 + 1e-9), q0),
+        Err(KinematicError::NoAssembly { .. })
+    ));
+    assert!(link.solve_positions(reach * (1.0 - 1e-6), q0).is_ok());
+}
