@@ -274,3 +274,68 @@ fn damper_scenario_overflowing_generator_is_refused_at_its_line() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// RK4 rows are never closer than its steps: an output step below the step is refused at
+/// its line (rows between steps would only be interpolated).
+#[test]
+fn mechanism_rk4_output_step_below_the_step_is_refused_at_its_line() {
+    let dir = temp_dir("rk4-output");
+    let sc = edited(
+        &dir,
+        "scenarios/four_bar.toml",
+        &[
+            ("method = \"dopri5\"", "method = \"rk4\""),
+            ("rtol = 1e-10\natol = 1e-12", "step = 0.02"),
+        ],
+    );
+    let text = std::fs::read_to_string(&sc).unwrap();
+    let line = 1 + text
+        .lines()
+        .position(|l| l.starts_with("output_step"))
+        .unwrap();
+    let out = dir.join("out");
+    assert_bad_input(
+        &[
+            "simulate",
+            sc.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ],
+        &[
+            &format!("four_bar.toml:{line}:"),
+            "[integrator] output_step",
+            "at least the rk4 step 0.02 (got 0.01)",
+        ],
+    );
+    assert!(!out.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Dormand–Prince without `max_step`: the steps are estimated from the output step and the
+/// tolerance (`budget::dopri_typical_step`), so a run of 2.5e7 estimated steps but only
+/// 1e6 rows is refused before it starts (it used to have no step estimate at all).
+#[test]
+fn mechanism_dopri_without_max_step_is_estimated_and_refused() {
+    let dir = temp_dir("dopri-steps");
+    let sc = edited(
+        &dir,
+        "scenarios/four_bar.toml",
+        &[
+            ("t_end = 5.0", "t_end = 1e4"),
+            ("rtol = 1e-10", "rtol = 1e-14"),
+        ],
+    );
+    assert!(!std::fs::read_to_string(&sc).unwrap().contains("max_step"));
+    let out = dir.join("out");
+    assert_bad_input(
+        &[
+            "simulate",
+            sc.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ],
+        &["2.51e7 steps", "1.00e6 output rows", "--allow-long"],
+    );
+    assert!(!out.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -31,7 +31,7 @@ use hybrid_core::closed_loop::Method;
 use hybrid_core::study::Sample;
 
 use crate::Error;
-use crate::budget::Estimate;
+use crate::budget::{self, Estimate};
 use crate::report::csv::{MechanismCsv, samples_csv};
 use crate::report::plot::plot_svg;
 use crate::report::summary::{
@@ -207,7 +207,20 @@ fn mechanism(
     allow_long: bool,
 ) -> Result<(), Error> {
     let model = mbs_symbolic::model::load(&sc.model)?;
-    Estimate::mechanism(sc, model.dof()).check(&sc.file, allow_long)?;
+    let estimate = Estimate::mechanism(sc, model.dof());
+    estimate.check(&sc.file, allow_long)?;
+    // The adaptive step count is only estimated: the step limit is the guard that holds.
+    let capped = budget::capped_max_steps(sc.settings.max_steps, allow_long);
+    let capped_sc;
+    let was_capped = capped < sc.settings.max_steps;
+    let sc = if was_capped {
+        let mut c = sc.clone();
+        c.settings.max_steps = capped;
+        capped_sc = c;
+        &capped_sc
+    } else {
+        sc
+    };
     let mut csv: Option<MechanismCsv> = None;
     let mut csv_error: Option<::csv::Error> = None;
     let outcome = run::mechanism(sc, &model, progress, &mut |names, row| {
@@ -254,13 +267,23 @@ fn mechanism(
         outcome.changes.len(),
         stats.max_residual
     );
-    outcome.result.map_err(|error| Error::Stopped {
-        file: sc.file.clone(),
-        t: outcome
-            .last_row
-            .as_ref()
-            .map_or(outcome.settings.t_start, |r| r.t),
-        error,
+    let t = outcome
+        .last_row
+        .as_ref()
+        .map_or(outcome.settings.t_start, |r| r.t);
+    outcome.result.map_err(|error| match error {
+        hybrid_core::closed_loop::SimError::TooManySteps { .. } if was_capped => {
+            Error::TooLong(format!(
+                "{}: simulation stopped (samples up to t = {t} written): {error}, above the estimate ({estimate}); pass --allow-long to lift the limit of {:.0e} steps",
+                sc.file,
+                budget::MAX_STEPS
+            ))
+        }
+        error => Error::Stopped {
+            file: sc.file.clone(),
+            t,
+            error,
+        },
     })
 }
 
