@@ -1,12 +1,15 @@
 //! SIGINT and SIGTERM: one policy for every command.
 //!
-//! Every output of a run is held in memory until the run is over and then committed as a
-//! set by the one writer ([`crate::report::commit_files`], and `generate`'s
-//! write-if-changed). So an interrupted run has nothing to save half-way:
+//! Summaries and plots are held in memory until the run is over; time histories are
+//! streamed row by row to a temporary file next to their final name
+//! ([`crate::report::stream`]). Everything is committed as a set at the end by the one
+//! writer ([`crate::report::writer`], and `generate`'s write-if-changed). So an interrupted
+//! run has nothing to save half-way:
 //!
-//! - a signal **before the commit** ends the process at once with status 128 + signal
-//!   (130 for SIGINT, 143 for SIGTERM): nothing is written, no output directory is created,
-//!   no temporary file exists;
+//! - a signal **before the commit** removes the temporary files of the streamed time
+//!   histories and the output directories created for them, then ends the process with
+//!   status 128 + signal (130 for SIGINT, 143 for SIGTERM): nothing is written, no output
+//!   directory is left, no temporary file exists;
 //! - a signal **during the commit** waits for the commit to finish (it is short and
 //!   atomic), then exits the same way: the set of files is complete, never half-replaced,
 //!   and no temporary file is left;
@@ -14,9 +17,10 @@
 //!   fifo without a reader); only then can a temporary file be left behind.
 //!
 //! [`install`] is called once by the binary; the library functions only mark their commit
-//! sections ([`commit_section`]), so library users without [`install`] keep the default
-//! behaviour.
+//! sections ([`commit_section`]) and register their temporary files ([`Leftovers`]), so
+//! library users without [`install`] keep the default behaviour.
 
+use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex, MutexGuard};
 
@@ -31,9 +35,73 @@ pub fn commit_section() -> MutexGuard<'static, ()> {
     COMMIT.lock().unwrap_or_else(|e| e.into_inner())
 }
 
+/// Temporary files of streamed outputs not yet committed, and the output directories
+/// created for them: what a signal before the commit removes.
+#[derive(Debug, Default)]
+pub struct Leftovers {
+    files: Vec<PathBuf>,
+    dirs: Vec<PathBuf>,
+}
+
+static LEFTOVERS: Mutex<Leftovers> = Mutex::new(Leftovers {
+    files: vec![],
+    dirs: vec![],
+});
+
+fn leftovers() -> MutexGuard<'static, Leftovers> {
+    LEFTOVERS.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+impl Leftovers {
+    /// Records a temporary file and the directories created for it (outermost first).
+    pub fn register(tmp: &Path, created_dirs: &[PathBuf]) {
+        let mut l = leftovers();
+        l.files.push(tmp.to_path_buf());
+        l.dirs.extend(created_dirs.iter().cloned());
+    }
+
+    /// Forgets a temporary file that was committed (renamed to its final name); the
+    /// directories above it now hold an output and are forgotten too.
+    pub fn committed(tmp: &Path) {
+        let mut l = leftovers();
+        l.files.retain(|f| f != tmp);
+        l.dirs.retain(|d| !tmp.starts_with(d));
+    }
+
+    /// Removes a temporary file that will not be committed, and then the directories
+    /// created above it that no other registered temporary file needs (when empty).
+    pub fn abandon(tmp: &Path) {
+        let mut l = leftovers();
+        let _ = std::fs::remove_file(tmp);
+        l.files.retain(|f| f != tmp);
+        let files = l.files.clone();
+        let (free, kept): (Vec<PathBuf>, Vec<PathBuf>) = l
+            .dirs
+            .drain(..)
+            .partition(|d| tmp.starts_with(d) && !files.iter().any(|f| f.starts_with(d)));
+        l.dirs = kept;
+        for d in free.iter().rev() {
+            let _ = std::fs::remove_dir(d);
+        }
+    }
+
+    /// Removes every registered temporary file, then the registered directories (innermost
+    /// first, when empty).
+    fn remove_all() {
+        let mut l = leftovers();
+        for f in l.files.drain(..) {
+            let _ = std::fs::remove_file(f);
+        }
+        for d in l.dirs.drain(..).rev() {
+            let _ = std::fs::remove_dir(d);
+        }
+    }
+}
+
 /// Installs the policy described in the module documentation: a watcher thread receives
-/// SIGINT and SIGTERM, waits for a running commit to finish and exits with 128 + signal; a
-/// second signal exits at once.
+/// SIGINT and SIGTERM, waits for a running commit to finish, removes the temporary files
+/// of streamed outputs not committed ([`Leftovers`]) and exits with 128 + signal; a second
+/// signal exits at once.
 pub fn install() -> std::io::Result<()> {
     let received = Arc::new(AtomicBool::new(false));
     for sig in [SIGINT, SIGTERM] {
@@ -47,6 +115,7 @@ pub fn install() -> std::io::Result<()> {
         .spawn(move || {
             if let Some(sig) = signals.forever().next() {
                 let _commit = commit_section();
+                Leftovers::remove_all();
                 std::process::exit(128 + sig);
             }
         })?;

@@ -3,22 +3,43 @@
 //! - [`damper`]: the coupled beam + double bar + generator (eqs. 45–58), on the model's
 //!   compiled-in generated code when the model registry has it (content hash) and the DAG
 //!   interpreter otherwise; the run with the generator and, in parallel, the comparison run
-//!   with it disconnected;
+//!   with it disconnected, each streaming its samples to a sink and keeping only their
+//!   digest ([`crate::report::digest`]);
 //! - [`mechanism`]: a rigid closed-loop mechanism (eqs. 14–25) on the compiled-in generated
 //!   code or the DAG interpreter, every output row passed to an observer.
 
 use std::io::IsTerminal;
+use std::time::{Duration, Instant};
 
 use hybrid_core::closed_loop::{
     self, AssemblyOptions, Event, OutputRow, PartitionChange, Settings, Simulator, Stats, System,
     assemble,
 };
-use hybrid_core::study::{Run, RunError, damping_ratio, run_setup};
+use hybrid_core::damper::{DamperModel, Integrator, State};
+use hybrid_core::study::{Sample, build_model};
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use mbs_symbolic::model::Model;
 
 use crate::Error;
+use crate::report::digest::SampleDigest;
 use crate::scenario::{DamperScenario, MechanismScenario};
+
+/// A damper run as kept in memory: the final state, the energy account and the digest of
+/// its samples; the samples themselves went to the run's sink (the streamed CSV) as they
+/// were taken, so memory does not grow with `t_end`.
+#[derive(Clone, Debug)]
+pub struct DamperRun {
+    /// First sample, peak, damping ratio and the decimated plot points.
+    pub digest: SampleDigest,
+    /// The final state.
+    pub state: State,
+    /// Stored energy at t = 0.
+    pub initial_energy: f64,
+    /// Largest |energy balance error| / initial energy over the run.
+    pub energy_balance_rel_error: f64,
+    /// Wall-clock time of the integration.
+    pub wall: Duration,
+}
 
 /// The runs of a damper scenario.
 #[derive(Clone, Debug)]
@@ -26,9 +47,9 @@ pub struct DamperOutcome {
     /// `generated` or `interpreter`.
     pub backend: &'static str,
     /// The run with the generator.
-    pub with: Run,
+    pub with: DamperRun,
     /// The run with the generator disconnected, when asked for.
-    pub without: Option<Run>,
+    pub without: Option<DamperRun>,
     /// First natural frequency of the bare beam (Hz).
     pub beam_first_frequency_hz: Option<f64>,
     /// Equivalent damping ratio with the generator.
@@ -38,6 +59,10 @@ pub struct DamperOutcome {
     /// Largest |tip displacement| with the generator (m).
     pub peak: f64,
 }
+
+/// Where a damper run's samples go, one at a time, as they are taken (an error stops the
+/// run).
+pub type SampleSink<'a> = &'a mut (dyn FnMut(&Sample) -> Result<(), Error> + Send);
 
 fn bar(multi: &MultiProgress, label: &str, show: bool) -> ProgressBar {
     if !show {
@@ -54,8 +79,15 @@ fn bar(multi: &MultiProgress, label: &str, show: bool) -> ProgressBar {
 }
 
 /// Runs a damper scenario whose mechanism model is `model`; `progress`: progress bars (only
-/// when standard error is a terminal).
-pub fn damper(sc: &DamperScenario, model: &Model, progress: bool) -> Result<DamperOutcome, Error> {
+/// when standard error is a terminal). The samples of the run with the generator go to
+/// `with`, those of the comparison run (when the scenario asks for it) to `without`.
+pub fn damper(
+    sc: &DamperScenario,
+    model: &Model,
+    progress: bool,
+    with: SampleSink<'_>,
+    without: SampleSink<'_>,
+) -> Result<DamperOutcome, Error> {
     let progress = progress && std::io::stderr().is_terminal();
     let resolved = model_registry::system_for(model, None)?;
     if resolved.compiled.is_none() {
@@ -66,17 +98,25 @@ pub fn damper(sc: &DamperScenario, model: &Model, progress: bool) -> Result<Damp
         );
     }
     let backend = resolved.system.backend().as_str();
-    pair(sc, model, resolved.system, backend, progress)
+    pair(
+        sc,
+        model,
+        resolved.system,
+        backend,
+        progress,
+        [with, without],
+    )
 }
 
 /// Both runs (with and without the generator) in parallel threads; the results do not depend
 /// on the thread schedule (each run is independent and deterministic).
-fn pair<M: System + Clone>(
+fn pair<M: System + Clone + Send>(
     sc: &DamperScenario,
     model: &Model,
     mech: M,
     backend: &'static str,
     progress: bool,
+    [with_sink, without_sink]: [SampleSink<'_>; 2],
 ) -> Result<DamperOutcome, Error> {
     let multi = MultiProgress::new();
     let compare = sc.spec.output.compare_without_generator;
@@ -84,39 +124,40 @@ fn pair<M: System + Clone>(
         bar(&multi, "with generator", progress),
         bar(&multi, "without generator", progress && compare),
     );
-    let setup = &sc.setup;
     let (with, without) = std::thread::scope(|s| {
         let m2 = mech.clone();
         let other = compare.then(|| {
             s.spawn(move || {
-                run_setup(setup, model, m2, false, &mut |f| {
-                    pb.set_position((f * 1000.0) as u64)
-                })
+                stream_run(
+                    sc,
+                    model,
+                    m2,
+                    false,
+                    &mut |f| pb.set_position((f * 1000.0) as u64),
+                    without_sink,
+                )
             })
         });
-        let with = run_setup(setup, model, mech, true, &mut |f| {
-            pa.set_position((f * 1000.0) as u64)
-        });
+        let with = stream_run(
+            sc,
+            model,
+            mech,
+            true,
+            &mut |f| pa.set_position((f * 1000.0) as u64),
+            with_sink,
+        );
         let without = other.map(|h| h.join());
         (with, without)
     });
-    let run_error = |e: RunError| match e {
-        RunError::Setup(e) => Error::Input(sc.diagnostic(&e).into()),
-        RunError::Sim(e) => Error::Damper(e),
-    };
-    let (coupled, with) = with.map_err(run_error)?;
+    let (coupled, with) = with?;
     let without = match without {
         None => None,
-        Some(Ok(r)) => Some(r.map_err(run_error)?.1),
+        Some(Ok(r)) => Some(r?.1),
         Some(Err(_)) => return Err(Error::ComparisonPanicked),
     };
-    let zeta_with = damping_ratio(&with.samples);
-    let zeta_without = without.as_ref().and_then(|r| damping_ratio(&r.samples));
-    let peak = with
-        .samples
-        .iter()
-        .map(|s| s.tip_displacement.abs())
-        .fold(0.0, f64::max);
+    let zeta_with = with.digest.damping_ratio();
+    let zeta_without = without.as_ref().and_then(|r| r.digest.damping_ratio());
+    let peak = with.digest.peak();
     let beam_first_frequency_hz = coupled.beam.modes(1).ok().map(|m| m.frequencies_hz()[0]);
     Ok(DamperOutcome {
         backend,
@@ -127,6 +168,96 @@ fn pair<M: System + Clone>(
         zeta_without,
         peak,
     })
+}
+
+/// One damper run of the scenario (generator `connected` or not), its samples streamed to
+/// `sink`: `hybrid_core::study::run_setup` with a sink instead of the vector of samples —
+/// the same steps, the same samples (every `every` steps and the last state), the same
+/// energy account, bit for bit (pinned by a test against `run_setup`).
+fn stream_run<M: System>(
+    sc: &DamperScenario,
+    model: &Model,
+    mechanism: M,
+    connected: bool,
+    progress: &mut dyn FnMut(f64),
+    sink: &mut (dyn FnMut(&Sample) -> Result<(), Error> + Send),
+) -> Result<(DamperModel<M>, DamperRun), Error> {
+    let setup = &sc.setup;
+    let (coupled, guess) = build_model(setup, model, mechanism, connected)
+        .map_err(|e| Error::Input(sc.diagnostic(&e).into()))?;
+    let mut state = coupled
+        .initial_state(setup.initial_displacement, guess)
+        .map_err(Error::Damper)?;
+    let mut integrator =
+        Integrator::new(&coupled, setup.method, setup.dt).map_err(Error::Damper)?;
+    let every = setup.every.max(1) as u64;
+    let e0 = state.energy.total();
+    let steps = (setup.t_end / integrator.step_size()).round() as u64;
+    let mut digest = SampleDigest::new(1 + steps / every + u64::from(steps % every != 0));
+    let mut take = |state: &State, digest: &mut SampleDigest| -> Result<(), Error> {
+        let s = sample_of(&coupled, state, e0);
+        digest.push(&s);
+        sink(&s)
+    };
+    take(&state, &mut digest)?;
+    let mut worst: f64 = 0.0;
+    let start = Instant::now();
+    let report = (steps / 200).max(1);
+    for k in 1..=steps {
+        integrator
+            .step(&coupled, &mut state)
+            .map_err(Error::Damper)?;
+        let e = &state.energy;
+        let err = ((e0 + e.external_work) - (e.total() + e.dissipated())).abs();
+        worst = worst.max(err);
+        if k % every == 0 || k == steps {
+            take(&state, &mut digest)?;
+        }
+        if k % report == 0 {
+            progress(k as f64 / steps as f64);
+        }
+    }
+    let wall = start.elapsed();
+    Ok((
+        coupled,
+        DamperRun {
+            digest,
+            state,
+            initial_energy: e0,
+            energy_balance_rel_error: if e0 > 0.0 { worst / e0 } else { worst },
+            wall,
+        },
+    ))
+}
+
+/// The output row of a damper state (`hybrid_core::study::Sample`'s fields, computed as
+/// `study::run` computes them).
+fn sample_of<M: System>(model: &DamperModel<M>, s: &State, e0: f64) -> Sample {
+    let g = &model.generator;
+    let e = &s.energy;
+    Sample {
+        t: s.t,
+        tip_displacement: model.point_value(&s.q),
+        tip_velocity: model.point_value(&s.v),
+        crank_angle: s.link.q[0],
+        coupler_angle: s.link.q[1],
+        crank_rate: s.link.qd[0],
+        coupler_rate: s.link.qd[1],
+        amplification: s.link.g[model.link.generator_joint],
+        current: s.current,
+        generator_power: g.resistance() * s.current * s.current,
+        load_power: g.load_resistance * s.current * s.current,
+        beam_kinetic_energy: e.beam_kinetic,
+        beam_potential_energy: e.beam_potential,
+        mechanism_kinetic_energy: e.mechanism_kinetic,
+        mechanism_potential_energy: e.mechanism_potential,
+        total_energy: e.total(),
+        dissipated_structure: e.dissipated_structure,
+        dissipated_generator: e.dissipated_armature + e.dissipated_load,
+        energy_balance_error: (e0 + e.external_work) - (e.total() + e.dissipated()),
+        constraint_residual: s.link.residual,
+        jacobian_condition: s.link.condition,
+    }
 }
 
 /// A finished (or stopped) closed-loop mechanism run.

@@ -216,3 +216,126 @@ fn beam_density_5e_324_is_refused_not_printed_as_inf() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A generator whose derived coefficients overflow or are absurd: caught by the scenario
+/// loader where the number is produced (`GeneratorSpec::problems`), at the line of the field
+/// most likely mistyped, not after a run as "cannot reach ... |h| = inf".
+#[test]
+fn damper_scenario_overflowing_generator_is_refused_at_its_line() {
+    let dir = temp_dir("generator");
+    type Case<'a> = (&'a [(&'a str, &'a str)], &'a str, &'a str);
+    let cases: [Case; 4] = [
+        (
+            &[("kt = 0.0235 ", "kt = 1e300 ")],
+            "kt = 1e300",
+            "kt * ke * gear_ratio^2 / (armature_resistance + load_resistance) = 1.175e299 N m s/rad is not physically sensible",
+        ),
+        (
+            &[
+                ("kt = 0.0235 ", "kt = 1e300 "),
+                ("ke = 0.0235 ", "ke = 1e300 "),
+            ],
+            "kt = 1e300",
+            "kt * ke * gear_ratio^2 / (armature_resistance + load_resistance) = inf is not finite",
+        ),
+        (
+            &[
+                (
+                    "armature_resistance = 1.5 ",
+                    "armature_resistance = 5e-324 ",
+                ),
+                ("load_resistance = 3.5 ", "load_resistance = 5e-324 "),
+            ],
+            "armature_resistance = 5e-324",
+            "kt * ke * gear_ratio^2 / (armature_resistance + load_resistance) = inf is not finite",
+        ),
+        (
+            &[("gear_ratio = 5.0", "gear_ratio = 1e200")],
+            "gear_ratio = 1e200",
+            "generator: gear_ratio^2 = inf is not finite",
+        ),
+    ];
+    for (edits, line_text, message) in cases {
+        let sc = edited(&dir, "scenarios/damper.toml", edits);
+        let text = std::fs::read_to_string(&sc).unwrap();
+        let line = 1 + text.lines().position(|l| l.starts_with(line_text)).unwrap();
+        let out = dir.join("out");
+        let err = assert_bad_input(
+            &[
+                "simulate",
+                sc.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+            ],
+            &[&format!("damper.toml:{line}:"), "[generator]", message],
+        );
+        assert!(!err.contains("cannot reach"), "{err}");
+        assert!(!out.exists(), "no output directory for a refused scenario");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// RK4 rows are never closer than its steps: an output step below the step is refused at
+/// its line (rows between steps would only be interpolated).
+#[test]
+fn mechanism_rk4_output_step_below_the_step_is_refused_at_its_line() {
+    let dir = temp_dir("rk4-output");
+    let sc = edited(
+        &dir,
+        "scenarios/four_bar.toml",
+        &[
+            ("method = \"dopri5\"", "method = \"rk4\""),
+            ("rtol = 1e-10\natol = 1e-12", "step = 0.02"),
+        ],
+    );
+    let text = std::fs::read_to_string(&sc).unwrap();
+    let line = 1 + text
+        .lines()
+        .position(|l| l.starts_with("output_step"))
+        .unwrap();
+    let out = dir.join("out");
+    assert_bad_input(
+        &[
+            "simulate",
+            sc.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ],
+        &[
+            &format!("four_bar.toml:{line}:"),
+            "[integrator] output_step",
+            "at least the rk4 step 0.02 (got 0.01)",
+        ],
+    );
+    assert!(!out.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Dormand–Prince without `max_step`: the steps are estimated from the output step and the
+/// tolerance (`budget::dopri_typical_step`), so a run of 2.5e7 estimated steps but only
+/// 1e6 rows is refused before it starts (it used to have no step estimate at all).
+#[test]
+fn mechanism_dopri_without_max_step_is_estimated_and_refused() {
+    let dir = temp_dir("dopri-steps");
+    let sc = edited(
+        &dir,
+        "scenarios/four_bar.toml",
+        &[
+            ("t_end = 5.0", "t_end = 1e4"),
+            ("rtol = 1e-10", "rtol = 1e-14"),
+        ],
+    );
+    assert!(!std::fs::read_to_string(&sc).unwrap().contains("max_step"));
+    let out = dir.join("out");
+    assert_bad_input(
+        &[
+            "simulate",
+            sc.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ],
+        &["2.51e7 steps", "1.00e6 output rows", "--allow-long"],
+    );
+    assert!(!out.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -659,3 +659,138 @@ fn a_mechanism_of_the_wrong_shape_is_a_model_level_error() {
     );
     assert!(!err.contains('\n'), "one line: {err}");
 }
+
+/// Regression: near the toggle a converged Newton (|h| at rounding, the steps jittering on
+/// the ill-conditioned J^b instead of settling) was reported as "cannot reach the beam
+/// point" (NoAssembly). Beam points 3e-17 m to 3e-14 m beyond the double bar's full
+/// extension are reached to rounding; the cause is conditioning, reported as Singular
+/// (with a finite condition number, which only the after-the-iterations test of
+/// `solve_positions` gives). A point clearly beyond the reach stays NoAssembly.
+#[test]
+fn converged_newton_at_the_toggle_is_singular_not_cannot_reach() {
+    use hybrid_core::coupling::KinematicError;
+    let sc = scenario(&[]);
+    let (model, q0) = build_model(&sc.setup, &double_bar_model(), double_bar(), true).unwrap();
+    let link = &model.link;
+    let reach = link.reach.expect("the double bar's reach 2 L (1 - cos a0)");
+    for excess in [1e-14, 1e-13, 1e-12, 1e-11] {
+        let y = reach * (1.0 + excess);
+        match link.solve_positions(y, q0) {
+            Err(KinematicError::Singular {
+                condition,
+                sigma_min,
+                q,
+            }) => {
+                assert!(
+                    condition.is_finite() && condition > sc.setup.max_condition,
+                    "excess {excess:e}: cond {condition:e}"
+                );
+                assert!(sigma_min < 1e-6, "excess {excess:e}: {sigma_min:e}");
+                // Straight: the coupler's relative angle is (nearly) zero.
+                assert!(q[1].abs() < 1e-5, "excess {excess:e}: q = {q:?}");
+                let (p, _, _) = link.point(&q, &[0.0; 2]);
+                let h = (p[1] - (link.attachment.y0 + y)).hypot(p[0] - link.attachment.x0);
+                assert!(
+                    h <= 1e-12,
+                    "excess {excess:e}: |h| = {h:e} is not converged"
+                );
+            }
+            other => panic!("excess {excess:e}: expected Singular, got {other:?}"),
+        }
+    }
+    assert!(matches!(
+        link.solve_positions(reach * (1.0 + 1e-9), q0),
+        Err(KinematicError::NoAssembly { .. })
+    ));
+    assert!(link.solve_positions(reach * (1.0 - 1e-6), q0).is_ok());
+}
+
+/// The CLI's streaming damper run (`codegen_cli::run::damper`, samples to a sink, only a
+/// digest kept) is `hybrid_core::study::run_setup` bit for bit: the same samples, final
+/// state, energy account, peak and damping ratios — with and without the generator.
+#[test]
+fn streaming_run_equals_run_setup_bit_for_bit() {
+    let sc = scenario(&[("t_end = 5.0", "t_end = 0.6")]);
+    let model = double_bar_model();
+    let (mut with, mut without) = (vec![], vec![]);
+    let o = codegen_cli::run::damper(
+        &sc,
+        &model,
+        false,
+        &mut |s| {
+            with.push(*s);
+            Ok(())
+        },
+        &mut |s| {
+            without.push(*s);
+            Ok(())
+        },
+    )
+    .unwrap();
+    for (connected, streamed, run) in [
+        (true, &with, &o.with),
+        (false, &without, o.without.as_ref().unwrap()),
+    ] {
+        let (_, reference) =
+            run_setup(&sc.setup, &model, double_bar(), connected, &mut |_| {}).unwrap();
+        assert_eq!(streamed.len(), 601);
+        assert_eq!(*streamed, reference.samples, "connected = {connected}");
+        assert_eq!(run.state, reference.state);
+        assert_eq!(run.initial_energy, reference.initial_energy);
+        assert_eq!(
+            run.energy_balance_rel_error,
+            reference.energy_balance_rel_error
+        );
+        assert_eq!(run.digest.count(), 601);
+        assert_eq!(
+            run.digest.damping_ratio(),
+            damping_ratio(&reference.samples)
+        );
+        // 601 samples are plotted whole.
+        assert_eq!(run.digest.plot_points(), reference.samples);
+    }
+    assert!(o.zeta_with.is_some() && o.zeta_without.is_some());
+}
+
+/// Memory stays flat whatever t_end: a run keeps at most 20,000 plot points a series (plus
+/// its first and last sample), whether it takes 25,001 or 50,001 samples.
+#[test]
+fn retained_samples_do_not_grow_with_t_end() {
+    use codegen_cli::report::digest::MAX_PLOT_POINTS;
+    let mut retained = vec![];
+    for t_end in ["2.5", "5.0"] {
+        let sc = scenario(&[
+            ("t_end = 5.0", &format!("t_end = {t_end}")),
+            ("every = 10", "every = 1"),
+            (
+                "compare_without_generator = true",
+                "compare_without_generator = false",
+            ),
+        ]);
+        let mut streamed = 0u64;
+        let o = codegen_cli::run::damper(
+            &sc,
+            &double_bar_model(),
+            false,
+            &mut |_| {
+                streamed += 1;
+                Ok(())
+            },
+            &mut |_| Ok(()),
+        )
+        .unwrap();
+        assert_eq!(o.with.digest.count(), streamed);
+        let points = o.with.digest.plot_points();
+        assert!(points.len() as u64 <= MAX_PLOT_POINTS, "{}", points.len());
+        assert!(o.with.digest.retained() as u64 <= MAX_PLOT_POINTS + 2);
+        retained.push((streamed, points.len()));
+    }
+    assert_eq!(retained[0].0, 25_001);
+    assert_eq!(retained[1].0, 50_001);
+    // Both decimated to nearly the same bound, not in proportion to the samples.
+    let (a, b) = (retained[0].1 as f64, retained[1].1 as f64);
+    assert!(
+        a > 15_000.0 && b > 15_000.0 && (a - b).abs() < 0.05 * a,
+        "{retained:?}"
+    );
+}

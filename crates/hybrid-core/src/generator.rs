@@ -99,7 +99,12 @@ impl GeneratorSpec {
         self.gear_ratio * self.kt * current
     }
 
-    /// Every problem with the values, in field order (empty when the generator is usable).
+    /// Every problem with the values, in field order (empty when the generator is usable):
+    /// first each field on its own (finite, positive or non-negative), then — when every
+    /// field is in range — the total resistance, and then the derived quantities the
+    /// equations use ([`DerivedQuantity`]): each must be finite, and the three coefficients
+    /// that enter the coupled equations must stay within [`MAX_COEFFICIENT`]. A derived
+    /// quantity whose formula holds a field already blamed for an earlier one is skipped.
     pub fn problems(&self) -> Vec<GeneratorError> {
         let checks = [
             (GeneratorField::Kt, self.kt, false),
@@ -124,8 +129,38 @@ impl GeneratorSpec {
                 });
             }
         }
-        if out.is_empty() && self.resistance() <= 0.0 {
+        if !out.is_empty() {
+            return out;
+        }
+        if self.resistance() <= 0.0 {
             out.push(GeneratorError::NoResistance);
+            return out;
+        }
+        let mut blamed: Vec<GeneratorField> = vec![];
+        for quantity in DerivedQuantity::ALL {
+            // One problem per mistyped field: a quantity built on a field already blamed
+            // would only repeat it (or print 0 * inf = NaN).
+            if quantity.fields().iter().any(|f| blamed.contains(f)) {
+                continue;
+            }
+            let value = quantity.value(self);
+            let field = quantity.dominant_field(self);
+            if !value.is_finite() || quantity.limit().is_some_and(|limit| value > limit) {
+                blamed.push(field);
+            }
+            if !value.is_finite() {
+                out.push(GeneratorError::NotFinite {
+                    quantity,
+                    value,
+                    field,
+                });
+            } else if quantity.limit().is_some_and(|limit| value > limit) {
+                out.push(GeneratorError::Implausible {
+                    quantity,
+                    value,
+                    field,
+                });
+            }
         }
         out
     }
@@ -171,6 +206,146 @@ impl GeneratorField {
             GeneratorField::RotorInertia => "rotor_inertia",
         }
     }
+
+    /// The field's value in `g`.
+    pub fn value(self, g: &GeneratorSpec) -> f64 {
+        match self {
+            GeneratorField::Kt => g.kt,
+            GeneratorField::Ke => g.ke,
+            GeneratorField::ArmatureResistance => g.armature_resistance,
+            GeneratorField::LoadResistance => g.load_resistance,
+            GeneratorField::Inductance => g.inductance,
+            GeneratorField::GearRatio => g.gear_ratio,
+            GeneratorField::RotorInertia => g.rotor_inertia,
+        }
+    }
+}
+
+/// The largest coefficient the coupled equations accept from the generator, in SI units
+/// (N m s/rad for the damping `c_g`, kg m^2 for the reflected inertia `n^2 J_r`, A s/rad for
+/// the current per joint speed `k_e n / (R_a + R_L)`).
+///
+/// Real machines stay many orders below it: the paper's generator has `c_g = 2.8e-3`, a
+/// large geared industrial generator (`n = 100`, `k_t = k_e = 10`, `R = 0.01`) about `1e8`.
+/// Far above it the generator swamps the rest of the coupled system to round-off: in the
+/// bundled damper scenario `c_g = 1.2e15` (`kt = 1e16`) still runs, `c_g = 1.2e17`
+/// (`kt = 1e18`) diverges within 2 ms and ends as "cannot reach the beam point". The limit
+/// keeps three decades of margin below that; a mechanism that must not move at all is
+/// modelled without it, not with an enormous damper.
+pub const MAX_COEFFICIENT: f64 = 1e12;
+
+/// A quantity derived from the generator's fields that the equations use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DerivedQuantity {
+    /// `n^2`, the gear ratio squared.
+    GearRatioSquared,
+    /// `c_g = k_t k_e n^2 / (R_a + R_L)`, the damping on the joint (THEORY.md section 7).
+    Damping,
+    /// `k_e n / (R_a + R_L)`, the quasi-static current per unit joint speed.
+    CurrentPerSpeed,
+    /// `n k_t`, the joint torque per ampere.
+    TorquePerCurrent,
+    /// `n^2 J_r`, the rotor inertia seen at the joint (added to `M^b`, eq. 11).
+    ReflectedInertia,
+    /// `L / (R_a + R_L)`, the circuit's time constant.
+    TimeConstant,
+}
+
+impl DerivedQuantity {
+    /// Every derived quantity, in the order they are checked.
+    pub const ALL: [DerivedQuantity; 6] = [
+        DerivedQuantity::GearRatioSquared,
+        DerivedQuantity::Damping,
+        DerivedQuantity::CurrentPerSpeed,
+        DerivedQuantity::TorquePerCurrent,
+        DerivedQuantity::ReflectedInertia,
+        DerivedQuantity::TimeConstant,
+    ];
+
+    /// The formula, in the field names of a generator description.
+    pub fn formula(self) -> &'static str {
+        match self {
+            DerivedQuantity::GearRatioSquared => "gear_ratio^2",
+            DerivedQuantity::Damping => {
+                "kt * ke * gear_ratio^2 / (armature_resistance + load_resistance)"
+            }
+            DerivedQuantity::CurrentPerSpeed => {
+                "ke * gear_ratio / (armature_resistance + load_resistance)"
+            }
+            DerivedQuantity::TorquePerCurrent => "gear_ratio * kt",
+            DerivedQuantity::ReflectedInertia => "gear_ratio^2 * rotor_inertia",
+            DerivedQuantity::TimeConstant => "inductance / (armature_resistance + load_resistance)",
+        }
+    }
+
+    /// Its SI unit.
+    pub fn unit(self) -> &'static str {
+        match self {
+            DerivedQuantity::GearRatioSquared => "",
+            DerivedQuantity::Damping => " N m s/rad",
+            DerivedQuantity::CurrentPerSpeed => " A s/rad",
+            DerivedQuantity::TorquePerCurrent => " N m/A",
+            DerivedQuantity::ReflectedInertia => " kg m^2",
+            DerivedQuantity::TimeConstant => " s",
+        }
+    }
+
+    /// Its value for `g`, computed as the equations compute it (the damping as
+    /// [`GeneratorSpec::damping_coefficient`] of the connected generator).
+    pub fn value(self, g: &GeneratorSpec) -> f64 {
+        match self {
+            DerivedQuantity::GearRatioSquared => g.gear_ratio.powi(2),
+            DerivedQuantity::Damping => g.gear_ratio.powi(2) * g.kt * g.ke / g.resistance(),
+            DerivedQuantity::CurrentPerSpeed => g.ke * g.gear_ratio / g.resistance(),
+            DerivedQuantity::TorquePerCurrent => g.gear_ratio * g.kt,
+            DerivedQuantity::ReflectedInertia => g.reflected_inertia(),
+            DerivedQuantity::TimeConstant => g.inductance / g.resistance(),
+        }
+    }
+
+    /// The upper limit of a physically sensible value ([`MAX_COEFFICIENT`] for the
+    /// coefficients of the coupled equations), `None` when only finiteness is required.
+    pub fn limit(self) -> Option<f64> {
+        match self {
+            DerivedQuantity::Damping
+            | DerivedQuantity::CurrentPerSpeed
+            | DerivedQuantity::ReflectedInertia => Some(MAX_COEFFICIENT),
+            DerivedQuantity::GearRatioSquared
+            | DerivedQuantity::TorquePerCurrent
+            | DerivedQuantity::TimeConstant => None,
+        }
+    }
+
+    /// The fields of the formula.
+    pub fn fields(self) -> &'static [GeneratorField] {
+        use GeneratorField::*;
+        match self {
+            DerivedQuantity::GearRatioSquared => &[GearRatio],
+            DerivedQuantity::Damping => &[Kt, Ke, GearRatio, ArmatureResistance, LoadResistance],
+            DerivedQuantity::CurrentPerSpeed => {
+                &[Ke, GearRatio, ArmatureResistance, LoadResistance]
+            }
+            DerivedQuantity::TorquePerCurrent => &[GearRatio, Kt],
+            DerivedQuantity::ReflectedInertia => &[GearRatio, RotorInertia],
+            DerivedQuantity::TimeConstant => &[Inductance, ArmatureResistance, LoadResistance],
+        }
+    }
+
+    /// The field of the formula furthest from 1 in orders of magnitude (the first of
+    /// equals; zeros ignored) — the value most likely mistyped, where an error points.
+    pub fn dominant_field(self, g: &GeneratorSpec) -> GeneratorField {
+        let fields = self.fields();
+        let mut best = fields[0];
+        let mut best_mag = -1.0;
+        for &f in fields {
+            let v = f.value(g);
+            if v > 0.0 && v.log10().abs() > best_mag {
+                best_mag = v.log10().abs();
+                best = f;
+            }
+        }
+        best
+    }
 }
 
 /// A generator value the model cannot use.
@@ -193,13 +368,41 @@ pub enum GeneratorError {
     /// `R_a + R_L` is zero.
     #[error("generator: armature_resistance + load_resistance must be positive")]
     NoResistance,
+    /// A derived quantity overflows (or is 0 * inf) although every field is in range.
+    #[error("generator: {} = {value:e} is not finite", quantity.formula())]
+    NotFinite {
+        /// The quantity.
+        quantity: DerivedQuantity,
+        /// Its value (inf or NaN).
+        value: f64,
+        /// The field most likely responsible ([`DerivedQuantity::dominant_field`]).
+        field: GeneratorField,
+    },
+    /// A derived coefficient above its physically sensible limit ([`MAX_COEFFICIENT`]).
+    #[error(
+        "generator: {} = {value:.3e}{} is not physically sensible (at most {:e}; larger values \
+         swamp the coupled equations to round-off)",
+        quantity.formula(),
+        quantity.unit(),
+        quantity.limit().unwrap_or(f64::INFINITY)
+    )]
+    Implausible {
+        /// The quantity.
+        quantity: DerivedQuantity,
+        /// Its value.
+        value: f64,
+        /// The field most likely responsible ([`DerivedQuantity::dominant_field`]).
+        field: GeneratorField,
+    },
 }
 
 impl GeneratorError {
     /// The field concerned, when it is one field.
     pub fn field(&self) -> Option<GeneratorField> {
         match self {
-            GeneratorError::Invalid { field, .. } => Some(*field),
+            GeneratorError::Invalid { field, .. }
+            | GeneratorError::NotFinite { field, .. }
+            | GeneratorError::Implausible { field, .. } => Some(*field),
             GeneratorError::NoResistance => None,
         }
     }
@@ -243,6 +446,120 @@ mod tests {
             }
             .damping_coefficient(),
             0.0
+        );
+    }
+
+    fn paper() -> GeneratorSpec {
+        GeneratorSpec {
+            kt: 0.0235,
+            ke: 0.0235,
+            armature_resistance: 1.5,
+            load_resistance: 3.5,
+            inductance: 0.0,
+            gear_ratio: 5.0,
+            rotor_inertia: 1e-6,
+            connected: true,
+        }
+    }
+
+    #[test]
+    fn the_paper_generator_has_no_problems() {
+        assert_eq!(paper().problems(), vec![]);
+    }
+
+    #[test]
+    fn overflowing_damping_is_not_finite_and_blames_the_tiny_resistance() {
+        let g = GeneratorSpec {
+            armature_resistance: 5e-324,
+            load_resistance: 5e-324,
+            ..paper()
+        };
+        let p = g.problems();
+        assert_eq!(p.len(), 1, "{p:?}");
+        assert_eq!(p[0].field(), Some(GeneratorField::ArmatureResistance));
+        assert_eq!(
+            p[0].to_string(),
+            "generator: kt * ke * gear_ratio^2 / (armature_resistance + load_resistance) \
+             = inf is not finite"
+        );
+    }
+
+    #[test]
+    fn huge_kt_is_implausible_damping_blaming_kt() {
+        let g = GeneratorSpec {
+            kt: 1e300,
+            ..paper()
+        };
+        let p = g.problems();
+        assert_eq!(p.len(), 1, "{p:?}");
+        assert!(matches!(p[0], GeneratorError::Implausible { .. }), "{p:?}");
+        assert_eq!(p[0].field(), Some(GeneratorField::Kt));
+        let msg = p[0].to_string();
+        assert!(msg.contains("= 1.175e299 N m s/rad"), "{msg}");
+        assert!(msg.contains("at most 1e12"), "{msg}");
+        // Both kt and ke at 1e300: the product itself overflows.
+        let g = GeneratorSpec {
+            kt: 1e300,
+            ke: 1e300,
+            ..paper()
+        };
+        assert!(matches!(g.problems()[0], GeneratorError::NotFinite { .. }));
+    }
+
+    #[test]
+    fn huge_gear_ratio_is_reported_once_without_nan() {
+        let g = GeneratorSpec {
+            gear_ratio: 1e200,
+            rotor_inertia: 0.0,
+            ..paper()
+        };
+        let p = g.problems();
+        assert_eq!(p.len(), 1, "{p:?}");
+        assert_eq!(p[0].field(), Some(GeneratorField::GearRatio));
+        assert_eq!(
+            p[0].to_string(),
+            "generator: gear_ratio^2 = inf is not finite"
+        );
+    }
+
+    #[test]
+    fn the_limit_is_inclusive_and_independent_quantities_are_all_reported() {
+        // c_g exactly at the limit passes; just above it does not.
+        let at = GeneratorSpec {
+            kt: MAX_COEFFICIENT,
+            ke: 1.0,
+            armature_resistance: 1.0,
+            load_resistance: 0.0,
+            gear_ratio: 1.0,
+            ..paper()
+        };
+        assert_eq!(DerivedQuantity::Damping.value(&at), MAX_COEFFICIENT);
+        assert_eq!(at.problems(), vec![]);
+        let above = GeneratorSpec {
+            kt: MAX_COEFFICIENT * 1.001,
+            ..at.clone()
+        };
+        assert_eq!(above.problems().len(), 1);
+        // A huge rotor inertia and a huge inductance over a small resistance: the
+        // inertia is implausible, the time constant overflows; both are named.
+        let g = GeneratorSpec {
+            rotor_inertia: 1e300,
+            inductance: 1e300,
+            armature_resistance: 1e-10,
+            load_resistance: 0.0,
+            kt: 1e-20,
+            ke: 1e-20,
+            ..paper()
+        };
+        let p: Vec<_> = g.problems().iter().map(|e| e.to_string()).collect();
+        assert_eq!(p.len(), 2, "{p:?}");
+        assert!(
+            p[0].contains("gear_ratio^2 * rotor_inertia = 2.500e301 kg m^2"),
+            "{p:?}"
+        );
+        assert!(
+            p[1].contains("inductance / (armature_resistance + load_resistance) = inf"),
+            "{p:?}"
         );
     }
 }

@@ -21,8 +21,13 @@
 //! still written, the summary says `"status": "stopped"` with the error, and the command
 //! fails with that error.
 //!
-//! All files of a run are committed together by the one atomic writer, or none; errors
-//! before the integration starts write nothing.
+//! The CSV time histories are streamed row by row to temporary files next to their final
+//! names while the runs go ([`crate::report::stream`]); the damper run keeps only a digest
+//! of its samples (first sample, peak, damping ratio, plot points decimated to at most
+//! 20,000 a series: [`crate::report::digest`]), so memory does not grow with `t_end`. All
+//! files of a run are committed together by the one atomic writer, or none; a run that
+//! fails (or errors before the integration starts) leaves no file, no temporary file and
+//! no output directory it created.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -31,15 +36,15 @@ use hybrid_core::closed_loop::Method;
 use hybrid_core::study::Sample;
 
 use crate::Error;
-use crate::budget::Estimate;
-use crate::report::csv::{MechanismCsv, samples_csv};
+use crate::budget::{self, Estimate};
+use crate::report::csv::{MechanismCsv, SamplesCsv};
 use crate::report::plot::plot_svg;
 use crate::report::summary::{
     ChangeSummary, DamperSummary, DriftSummary, EnergySummary, EnergyWithout, FinalState,
     InitialSummary, IntegratorSummary, MechanismSettings, MechanismSummary, PartitionSummary,
     Requested, json_bytes,
 };
-use crate::report::{OutputFile, ReportError, commit_files};
+use crate::report::{OutputFile, ReportError, StreamFile, WriteError, commit};
 use crate::run::{self, DamperOutcome, MechanismOutcome};
 use crate::scenario::{self, DamperScenario, MechanismScenario, Scenario};
 
@@ -105,9 +110,37 @@ fn damper(
     Estimate::damper(sc).check(&path.display().to_string(), allow_long)?;
     let model = mbs_symbolic::model::load(&sc.model_path)?;
     sc.check_parameters(&model)?;
-    let outcome = run::damper(sc, &model, progress)?;
+    // The time histories stream to their files as the runs go (a dropped stream, when a run
+    // fails, removes its temporary file); summary and plot follow from the digests.
+    let with_path = out.join("time_history.csv");
+    let without_path = out.join("time_history_without_generator.csv");
+    let mut with_csv = SamplesCsv::new(StreamFile::create(&with_path).map_err(ReportError::from)?);
+    let mut without_csv = match sc.spec.output.compare_without_generator {
+        true => Some(SamplesCsv::new(
+            StreamFile::create(&without_path).map_err(ReportError::from)?,
+        )),
+        false => None,
+    };
+    let outcome = run::damper(
+        sc,
+        &model,
+        progress,
+        &mut |s| with_csv.push(s).map_err(|e| csv_error(&with_path, e)),
+        &mut |s| match &mut without_csv {
+            Some(w) => w.push(s).map_err(|e| csv_error(&without_path, e)),
+            None => Ok(()),
+        },
+    )?;
+    let mut streams = vec![
+        with_csv
+            .into_inner()
+            .map_err(|e| csv_error(&with_path, e))?,
+    ];
+    if let Some(w) = without_csv {
+        streams.push(w.into_inner().map_err(|e| csv_error(&without_path, e))?);
+    }
     let files = damper_files(path, out, sc, &model, &outcome)?;
-    commit_files(&files).map_err(ReportError::from)?;
+    commit(streams, &files).map_err(ReportError::from)?;
     let with = &outcome.with;
     let fmt_zeta = |z: Option<f64>| z.map_or("n/a".to_string(), |z| format!("{:.3} %", z * 100.0));
     crate::print(&format!(
@@ -124,7 +157,24 @@ fn damper(
     ))
 }
 
-/// The output files of a finished damper run.
+/// A CSV row that could not be written: the file named when it is an I/O error.
+fn csv_error(path: &Path, e: ::csv::Error) -> Error {
+    if e.is_io_error() {
+        if let ::csv::ErrorKind::Io(error) = e.into_kind() {
+            return ReportError::from(WriteError {
+                what: "write",
+                path: path.to_path_buf(),
+                error,
+            })
+            .into();
+        }
+        unreachable!("an I/O error's kind is Io");
+    }
+    ReportError::from(e).into()
+}
+
+/// The in-memory output files of a finished damper run (summary, plot; the time histories
+/// were streamed).
 fn damper_files(
     path: &Path,
     out: &Path,
@@ -134,7 +184,10 @@ fn damper_files(
 ) -> Result<Vec<OutputFile>, ReportError> {
     let (with, without) = (&o.with, o.without.as_ref());
     let e = with.state.energy;
-    let s0 = &with.samples[0];
+    let s0 = with
+        .digest
+        .first()
+        .expect("a damper run samples its initial state");
     let steps = with.state.steps;
     let summary = DamperSummary {
         scenario: path.display().to_string(),
@@ -173,24 +226,15 @@ fn damper_files(
         },
         energy_balance_rel_error: with.energy_balance_rel_error,
     };
-    let mut files = vec![
-        OutputFile {
-            path: out.join("time_history.csv"),
-            bytes: samples_csv(&with.samples)?,
-        },
-        OutputFile {
-            path: out.join("summary.json"),
-            bytes: json_bytes(&summary)?,
-        },
-    ];
-    let mut series: Vec<(&str, &[Sample])> = vec![("with generator", &with.samples)];
-    if let Some(w) = without {
-        files.push(OutputFile {
-            path: out.join("time_history_without_generator.csv"),
-            bytes: samples_csv(&w.samples)?,
-        });
-        series.push(("generator disconnected", &w.samples));
-    }
+    let mut files = vec![OutputFile {
+        path: out.join("summary.json"),
+        bytes: json_bytes(&summary)?,
+    }];
+    let points: Vec<(&str, Vec<Sample>)> = std::iter::once(("with generator", with))
+        .chain(without.map(|w| ("generator disconnected", w)))
+        .map(|(label, r)| (label, r.digest.plot_points()))
+        .collect();
+    let series: Vec<(&str, &[Sample])> = points.iter().map(|(l, p)| (*l, &p[..])).collect();
     files.push(OutputFile {
         path: out.join("tip_displacement.svg"),
         bytes: plot_svg("Beam tip displacement", &series)?,
@@ -207,43 +251,60 @@ fn mechanism(
     allow_long: bool,
 ) -> Result<(), Error> {
     let model = mbs_symbolic::model::load(&sc.model)?;
-    Estimate::mechanism(sc, model.dof()).check(&sc.file, allow_long)?;
-    let mut csv: Option<MechanismCsv> = None;
-    let mut csv_error: Option<::csv::Error> = None;
+    let estimate = Estimate::mechanism(sc, model.dof());
+    estimate.check(&sc.file, allow_long)?;
+    // The adaptive step count is only estimated: the step limit is the guard that holds.
+    let capped = budget::capped_max_steps(sc.settings.max_steps, allow_long);
+    let capped_sc;
+    let was_capped = capped < sc.settings.max_steps;
+    let sc = if was_capped {
+        let mut c = sc.clone();
+        c.settings.max_steps = capped;
+        capped_sc = c;
+        &capped_sc
+    } else {
+        sc
+    };
+    let csv_path = out.join(format!("{stem}.csv"));
+    let summary_path = out.join(format!("{stem}_summary.json"));
+    // The rows stream to the file as the run goes; the header needs the names, so the
+    // CSV starts with the first row.
+    let mut stream = Some(StreamFile::create(&csv_path).map_err(ReportError::from)?);
+    let mut csv: Option<MechanismCsv<StreamFile>> = None;
+    let mut csv_failed: Option<::csv::Error> = None;
     let outcome = run::mechanism(sc, &model, progress, &mut |names, row| {
-        if csv_error.is_some() {
+        if csv_failed.is_some() {
             return;
         }
-        let pushed = match &mut csv {
-            Some(w) => w.push(row),
-            None => MechanismCsv::new(names).and_then(|w| csv.insert(w).push(row)),
+        let pushed = match (&mut csv, stream.take()) {
+            (Some(w), _) => w.push(row),
+            (None, Some(s)) => {
+                MechanismCsv::to_writer(names, s).and_then(|w| csv.insert(w).push(row))
+            }
+            (None, None) => Ok(()), // the header failed: reported below
         };
         if let Err(e) = pushed {
-            csv_error = Some(e);
+            csv_failed = Some(e);
         }
     })?;
-    if let Some(e) = csv_error {
-        return Err(ReportError::from(e).into());
+    if let Some(e) = csv_failed {
+        return Err(csv_error(&csv_path, e));
     }
-    let csv = match csv {
-        Some(w) => w,
-        None => MechanismCsv::new(&outcome.names).map_err(ReportError::from)?,
+    let csv = match (csv, stream) {
+        (Some(w), _) => w,
+        (None, Some(s)) => {
+            MechanismCsv::to_writer(&outcome.names, s).map_err(|e| csv_error(&csv_path, e))?
+        }
+        (None, None) => unreachable!("the stream is in the CSV or still here"),
     };
     let rows = csv.rows();
     let summary = mechanism_summary(sc, &model, &outcome, rows, started.elapsed().as_secs_f64());
-    let csv_path = out.join(format!("{stem}.csv"));
-    let summary_path = out.join(format!("{stem}_summary.json"));
-    let files = vec![
-        OutputFile {
-            path: csv_path.clone(),
-            bytes: csv.into_bytes().map_err(ReportError::from)?,
-        },
-        OutputFile {
-            path: summary_path.clone(),
-            bytes: json_bytes(&summary).map_err(ReportError::from)?,
-        },
-    ];
-    commit_files(&files).map_err(ReportError::from)?;
+    let stream = csv.into_inner().map_err(|e| csv_error(&csv_path, e))?;
+    let files = vec![OutputFile {
+        path: summary_path.clone(),
+        bytes: json_bytes(&summary).map_err(ReportError::from)?,
+    }];
+    commit(vec![stream], &files).map_err(ReportError::from)?;
     let stats = &outcome.stats;
     eprintln!(
         "wrote {} ({rows} rows) and {}: {} steps ({} rejected), {} partition change(s), max |h| {:.2e}",
@@ -254,13 +315,23 @@ fn mechanism(
         outcome.changes.len(),
         stats.max_residual
     );
-    outcome.result.map_err(|error| Error::Stopped {
-        file: sc.file.clone(),
-        t: outcome
-            .last_row
-            .as_ref()
-            .map_or(outcome.settings.t_start, |r| r.t),
-        error,
+    let t = outcome
+        .last_row
+        .as_ref()
+        .map_or(outcome.settings.t_start, |r| r.t);
+    outcome.result.map_err(|error| match error {
+        hybrid_core::closed_loop::SimError::TooManySteps { .. } if was_capped => {
+            Error::TooLong(format!(
+                "{}: simulation stopped (samples up to t = {t} written): {error}, above the estimate ({estimate}); pass --allow-long to lift the limit of {:.0e} steps",
+                sc.file,
+                budget::MAX_STEPS
+            ))
+        }
+        error => Error::Stopped {
+            file: sc.file.clone(),
+            t,
+            error,
+        },
     })
 }
 

@@ -1,34 +1,74 @@
 //! CSV time histories (the `csv` crate): the damper's samples, one serialised row each, and
-//! a closed-loop mechanism's output rows with one column per coordinate and velocity.
+//! a closed-loop mechanism's output rows with one column per coordinate and velocity. Both
+//! are written row by row to any writer — a [`super::stream::StreamFile`] in a run, so the
+//! history is never held in memory.
 
 use std::fmt::Write as _;
+use std::io::Write;
 
 use hybrid_core::closed_loop::OutputRow;
 use hybrid_core::study::Sample;
 
-/// The damper's CSV time history: a header naming every column, one row per sample.
-pub fn samples_csv(samples: &[Sample]) -> Result<Vec<u8>, csv::Error> {
-    let mut w = csv::Writer::from_writer(Vec::new());
-    for s in samples {
-        w.serialize(s)?;
+/// The damper's CSV time history, row by row: a header naming every column (written with
+/// the first row), one row per sample.
+pub struct SamplesCsv<W: Write> {
+    w: csv::Writer<W>,
+}
+
+impl<W: Write> SamplesCsv<W> {
+    /// A CSV writing to `out`.
+    pub fn new(out: W) -> SamplesCsv<W> {
+        SamplesCsv {
+            w: csv::Writer::from_writer(out),
+        }
     }
-    w.into_inner().map_err(|e| e.into_error().into())
+
+    /// Appends one sample.
+    pub fn push(&mut self, s: &Sample) -> Result<(), csv::Error> {
+        self.w.serialize(s)
+    }
+
+    /// Flushes and returns the writer.
+    pub fn into_inner(self) -> Result<W, csv::Error> {
+        self.w.into_inner().map_err(|e| e.into_error().into())
+    }
+}
+
+/// The damper's CSV time history of `samples`, in memory.
+pub fn samples_csv(samples: &[Sample]) -> Result<Vec<u8>, csv::Error> {
+    let mut w = SamplesCsv::new(Vec::new());
+    for s in samples {
+        w.push(s)?;
+    }
+    w.into_inner()
 }
 
 /// A closed-loop mechanism's CSV, filled row by row: `t`, every coordinate, every velocity
 /// (`<name>_dot`), `kinetic_energy`, `potential_energy`, `total_energy`,
 /// `constraint_residual_norm`, `cond_jv`. Numbers in shortest round-trip form (scientific
 /// outside [1e-4, 1e15), no negative zero); an empty cell when unknown or not finite.
-pub struct MechanismCsv {
-    w: csv::Writer<Vec<u8>>,
+pub struct MechanismCsv<W: Write = Vec<u8>> {
+    w: csv::Writer<W>,
     record: Vec<String>,
     rows: usize,
 }
 
 impl MechanismCsv {
-    /// A CSV with the header for these coordinate names.
+    /// A CSV in memory with the header for these coordinate names.
     pub fn new(names: &[String]) -> Result<MechanismCsv, csv::Error> {
-        let mut w = csv::Writer::from_writer(Vec::new());
+        MechanismCsv::to_writer(names, Vec::new())
+    }
+
+    /// The CSV text.
+    pub fn into_bytes(self) -> Result<Vec<u8>, csv::Error> {
+        self.into_inner()
+    }
+}
+
+impl<W: Write> MechanismCsv<W> {
+    /// A CSV writing to `out`, starting with the header for these coordinate names.
+    pub fn to_writer(names: &[String], out: W) -> Result<MechanismCsv<W>, csv::Error> {
+        let mut w = csv::Writer::from_writer(out);
         let mut header = vec!["t".to_string()];
         header.extend(names.iter().cloned());
         header.extend(names.iter().map(|n| format!("{n}_dot")));
@@ -71,8 +111,8 @@ impl MechanismCsv {
         self.rows
     }
 
-    /// The CSV text.
-    pub fn into_bytes(self) -> Result<Vec<u8>, csv::Error> {
+    /// Flushes and returns the writer.
+    pub fn into_inner(self) -> Result<W, csv::Error> {
         self.w.into_inner().map_err(|e| e.into_error().into())
     }
 }

@@ -1,13 +1,17 @@
-//! Output files of a run: CSV time histories ([`mod@csv`], the `csv` crate), typed JSON
-//! summaries ([`summary`]), the SVG plot ([`plot`], plotters), all committed together by
+//! Output files of a run: CSV time histories ([`mod@csv`], the `csv` crate) streamed row by
+//! row ([`stream`]), typed JSON summaries ([`summary`]) and the SVG plot ([`plot`],
+//! plotters) of what the run kept in bounded memory ([`digest`]), all committed together by
 //! the one atomic writer ([`writer`]).
 
 pub mod csv;
+pub mod digest;
 pub mod plot;
+pub mod stream;
 pub mod summary;
 pub mod writer;
 
-pub use writer::{OutputFile, WriteError, commit_files};
+pub use stream::StreamFile;
+pub use writer::{OutputFile, WriteError, commit, commit_files};
 
 /// An output that could not be produced.
 #[derive(Debug, thiserror::Error)]

@@ -1,5 +1,6 @@
-//! The one writer of output files: every file of a run is prepared in memory, then
-//! committed as a set ([`commit_files`]).
+//! The one writer of output files: every file of a run is prepared in memory, or streamed
+//! to a temporary file while the run goes ([`super::stream::StreamFile`], time histories),
+//! then committed as a set ([`commit_files`], [`commit`]).
 //!
 //! Each output path is first resolved with the user's path semantics ([`target`]):
 //!
@@ -13,7 +14,8 @@
 //!   is never read, never renamed over and never replaced.
 //!
 //! Missing directories of the output paths are created at the commit, when the run has its
-//! outputs, and removed again (when still empty) if the commit fails. A signal during the
+//! outputs (for a streamed file: when its stream is opened, at the start of the run), and
+//! removed again (when still empty) if the commit or the run fails. A signal during the
 //! commit is handled once the commit is over ([`crate::interrupt`]), so an interrupted run
 //! leaves either nothing or the complete set, and never a temporary file.
 
@@ -43,8 +45,10 @@ pub struct WriteError {
 
 pub use mbs_symbolic::emit::{Target, target};
 
+use super::stream::{Finished, StreamFile};
+
 /// The temporary file next to `final_path`.
-fn tmp_of(final_path: &Path) -> PathBuf {
+pub(crate) fn tmp_of(final_path: &Path) -> PathBuf {
     let mut name = final_path
         .file_name()
         .map(|n| n.to_os_string())
@@ -54,7 +58,7 @@ fn tmp_of(final_path: &Path) -> PathBuf {
 }
 
 /// Creates the missing ancestors of `dir`; returns the ones it created, outermost first.
-fn create_dirs(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+pub(crate) fn create_dirs(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
     let missing: Vec<PathBuf> = dir
         .ancestors()
         .filter(|a| !a.as_os_str().is_empty())
@@ -88,7 +92,24 @@ fn remove_dirs(created: &[PathBuf]) {
 /// the temporary files are removed and no final name has been touched before every file
 /// was written.
 pub fn commit_files(files: &[OutputFile]) -> Result<(), WriteError> {
+    commit(Vec::new(), files)
+}
+
+/// Commits streamed files and files prepared in memory as one set: each stream is flushed
+/// and synced, the in-memory files are staged as in [`commit_files`], then every temporary
+/// file is renamed to its final name. On any error nothing final has been touched and every
+/// temporary file (streamed ones too) is removed, with the directories created for them.
+pub fn commit(streams: Vec<StreamFile>, files: &[OutputFile]) -> Result<(), WriteError> {
     let _section = crate::interrupt::commit_section();
+    let mut finished = Vec::with_capacity(streams.len());
+    for s in streams {
+        // On error, the remaining streams are dropped: their temporary files removed.
+        finished.push(s.finish()?);
+    }
+    stage_and_rename(finished, files)
+}
+
+fn stage_and_rename(streams: Vec<Finished>, files: &[OutputFile]) -> Result<(), WriteError> {
     let fail = |what: &'static str, path: &Path, error: std::io::Error| WriteError {
         what,
         path: path.to_path_buf(),
@@ -101,6 +122,9 @@ pub fn commit_files(files: &[OutputFile]) -> Result<(), WriteError> {
             let _ = std::fs::remove_file(tmp);
         }
         remove_dirs(dirs);
+        for s in &streams {
+            s.abandon();
+        }
     };
     for f in files {
         let resolved = match target(&f.path) {
@@ -136,11 +160,18 @@ pub fn commit_files(files: &[OutputFile]) -> Result<(), WriteError> {
             return Err(fail("write", &f.path, e));
         }
     }
-    for (tmp, p) in &staged {
+    let renames = streams
+        .iter()
+        .filter_map(Finished::staged)
+        .chain(staged.iter().map(|(t, p)| (t.as_path(), p.as_path())));
+    for (tmp, p) in renames {
         if let Err(e) = std::fs::rename(tmp, p) {
             cleanup(&staged, &[]);
             return Err(fail("write", p, e));
         }
+    }
+    for s in streams {
+        s.committed();
     }
     Ok(())
 }

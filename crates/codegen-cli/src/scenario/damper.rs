@@ -326,7 +326,7 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<DamperScenario> {
     if let Some(g) = &generator {
         for e in g.get_ref().problems() {
             let span = match e.field() {
-                Some(f) => at(doc, "generator", f.name()),
+                Some(f) => at(doc, "generator", f.name()).or(Some(g.span())),
                 None => Some(g.span()),
             };
             doc.push(Kind::InvalidValue, span, Some("[generator]"), e.to_string());

@@ -20,7 +20,8 @@
 //! max_step = 0.05                     # dopri5, optional
 //! initial_step = 1e-4                 # dopri5, optional
 //! step = 1e-3                         # rk4 (required)
-//! output_step = 0.01                  # default (t_end - t) / 500
+//! output_step = 0.01                  # default (t_end - t) / 500 (rk4: at least step;
+//!                                     #   a smaller output_step is refused)
 //! max_steps = 10000000                # optional
 //!
 //! [partition]                         # optional section
@@ -372,9 +373,29 @@ pub(crate) fn from_doc(c: &mut Doc<'_>) -> Option<MechanismScenario> {
     } else {
         1.0
     };
-    let output_step = ig.output_step.as_ref().map_or(span_len / 500.0, |v| {
-        c.positive(v, "[integrator] output_step")
-    });
+    // RK4 rows are never closer than its steps (rows between steps would only be
+    // interpolated): the default is at least the step, a smaller given one is refused.
+    let min_output_step = match method {
+        Method::Rk4 { step } if step.is_finite() && step > 0.0 => step,
+        _ => 0.0,
+    };
+    let output_step = match &ig.output_step {
+        Some(v) => {
+            let o = c.positive(v, "[integrator] output_step");
+            if o.is_finite() && o > 0.0 && o < min_output_step {
+                c.push(
+                    Kind::InvalidValue,
+                    Some(v.span()),
+                    Some("[integrator] output_step"),
+                    format!(
+                        "must be at least the rk4 step {min_output_step} (got {o}): rows between steps would only be interpolated"
+                    ),
+                );
+            }
+            o
+        }
+        None => (span_len / 500.0).max(min_output_step),
+    };
     let max_steps = ig
         .max_steps
         .as_ref()
@@ -603,6 +624,36 @@ independent = ["q1"]
             msg.contains("s.toml:6: [initial] guess.q7: unknown coordinate \"q7\""),
             "{msg}"
         );
+    }
+
+    #[test]
+    fn rk4_output_step_below_the_step_is_refused_at_its_line() {
+        let rk4 = GOOD
+            .replace("method = \"dopri5\"", "method = \"rk4\"")
+            .replace("rtol = 1e-10\natol = 1e-12", "step = 0.02");
+        let msg = parse_str(&rk4, "s.toml", Path::new("."))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.starts_with("s.toml:12:")
+                && msg.contains("[integrator] output_step")
+                && msg.contains("at least the rk4 step 0.02 (got 0.01)"),
+            "{msg}"
+        );
+        // Without an output step the default, t_end / 500 = 0.01, is raised to the step.
+        let s = parse_str(
+            &rk4.replace("output_step = 0.01\n", ""),
+            "s.toml",
+            Path::new("."),
+        )
+        .unwrap();
+        assert_eq!(s.settings.output_step, 0.02);
+        let s = parse_str(
+            &rk4.replace("step = 0.02", "step = 0.01"),
+            "s.toml",
+            Path::new("."),
+        );
+        assert_eq!(s.unwrap().settings.output_step, 0.01);
     }
 
     #[test]

@@ -18,8 +18,10 @@ pub enum Method {
         /// Largest step (`None`: unlimited).
         max_step: Option<f64>,
     },
-    /// Classical fourth-order Runge–Kutta with a fixed step (rounded so that an integer
-    /// number of steps spans the interval).
+    /// Classical fourth-order Runge–Kutta with a fixed step (rounded down so that an
+    /// integer number of steps spans the interval). The output step must be at least the
+    /// step: output rows are never closer than the integration steps (rows between steps
+    /// would only be interpolated, cubic Hermite, not integrated).
     Rk4 {
         /// The step.
         step: f64,
@@ -69,7 +71,8 @@ pub struct Settings {
     pub t_start: f64,
     /// End time.
     pub t_end: f64,
-    /// Spacing of the output times (`t_start + k * output_step`, plus `t_end`).
+    /// Spacing of the output times (`t_start + k * output_step`, plus `t_end`); with
+    /// [`Method::Rk4`] at least its step.
     pub output_step: f64,
     /// Partition choice and monitoring.
     pub partition: PartitionSettings,
@@ -150,6 +153,13 @@ impl Settings {
                 if !pos(step) {
                     return bad(format!("step ({step}) must be positive"));
                 }
+                if self.output_step < step {
+                    return bad(format!(
+                        "output_step ({}) must be at least the step ({step}): rows between \
+                         steps would only be interpolated",
+                        self.output_step
+                    ));
+                }
                 if (self.t_end - self.t_start) / step > self.max_steps as f64 {
                     return bad(format!(
                         "step ({step}) needs more than max_steps ({}) steps",
@@ -171,5 +181,24 @@ impl Settings {
             return bad(format!("rank_tol ({}) must be in (0, 1)", p.rank_tol));
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rk4_output_step_below_the_step_is_refused() {
+        let e = Settings::rk4(1.0, 1e-2, 1e-3).validate().unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("output_step (0.001) must be at least the step (0.01)"),
+            "{e}"
+        );
+        assert!(Settings::rk4(1.0, 1e-2, 1e-2).validate().is_ok());
+        assert!(Settings::rk4(1.0, 1e-3, 1e-2).validate().is_ok());
+        // Dormand–Prince has dense output of its own order: any output step.
+        assert!(Settings::dopri5(1.0, 1e-8, 1e-10, 1e-6).validate().is_ok());
     }
 }

@@ -1,0 +1,349 @@
+//! What a damper run keeps of its samples while they are streamed to the CSV: the first
+//! sample, the peak amplitude, the equivalent damping ratio computed on the fly, and the
+//! plot's points decimated to at most [`MAX_PLOT_POINTS`] — memory independent of `t_end`.
+//!
+//! The damping ratio is `hybrid_core::study::damping_ratio` computed online, bit for bit:
+//! the same peak detection (upward zero crossings with 5 % hysteresis, the largest sample of
+//! each cycle refined by a parabola through its neighbours), the same least-squares sums in
+//! the same order, over the peaks above 1e-3 of the first.
+//!
+//! Plot decimation: a series of at most [`MAX_PLOT_POINTS`] samples is kept whole; a longer
+//! one is cut into fewer than `MAX_PLOT_POINTS / 2` buckets of equal sample count, each kept
+//! as its lowest and highest tip displacement in time order, with the first and the last
+//! sample (min/max decimation: the envelope of the decay is drawn exactly, no oscillation
+//! is aliased away). 20,000 points are about 20 per pixel column of the 1000-pixel plot.
+
+use hybrid_core::study::Sample;
+
+/// Largest number of points of one plotted series.
+pub const MAX_PLOT_POINTS: u64 = 20_000;
+
+/// `(t, y)` of a sample.
+type Point = (f64, f64);
+
+/// The candidate peak of the current cycle with what its parabola needs.
+#[derive(Clone, Copy, Debug)]
+struct Candidate {
+    index: u64,
+    at: Point,
+    before: Option<f64>,
+    after: Option<Point>,
+}
+
+/// Online `damping_ratio`: peak detection and the least-squares sums of `ln(peak_k)`.
+#[derive(Clone, Debug, Default)]
+struct DecayFit {
+    best: Option<Candidate>,
+    armed: bool,
+    threshold: f64,
+    first: Option<f64>,
+    used: usize,
+    closed: bool,
+    sums: [f64; 4],
+}
+
+impl DecayFit {
+    fn push(&mut self, index: u64, p: Point, prev: Option<f64>) {
+        if let Some(b) = &mut self.best {
+            if b.index + 1 == index {
+                b.after = Some(p);
+            }
+        }
+        let y = p.1;
+        if y < -self.threshold {
+            if !self.armed {
+                if let Some(b) = self.best.take() {
+                    let peak = refine(&b);
+                    self.threshold = 0.05 * peak.1;
+                    self.peak(peak.1);
+                }
+            }
+            self.armed = true;
+        } else if y > 0.0 {
+            self.armed = false;
+            if self.best.is_none_or(|b| y > b.at.1) {
+                self.best = Some(Candidate {
+                    index,
+                    at: p,
+                    before: prev,
+                    after: None,
+                });
+            }
+        }
+    }
+
+    /// One peak, in order: counted while above 1e-3 of the first (`take_while`).
+    fn peak(&mut self, p: f64) {
+        let first = *self.first.get_or_insert(p);
+        let above = p > 1e-3 * first; // false for NaN too, as in `take_while`
+        if self.closed || !above {
+            self.closed = true;
+            return;
+        }
+        let (x, y) = (self.used as f64, p.ln());
+        let [sx, sy, sxx, sxy] = &mut self.sums;
+        *sx += x;
+        *sy += y;
+        *sxx += x * x;
+        *sxy += x * y;
+        self.used += 1;
+    }
+
+    fn zeta(&self) -> Option<f64> {
+        self.first?;
+        if self.used < 3 {
+            return None;
+        }
+        let n = self.used as f64;
+        let [sx, sy, sxx, sxy] = self.sums;
+        let slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
+        let delta = -slope;
+        Some(delta / (4.0 * std::f64::consts::PI.powi(2) + delta * delta).sqrt())
+    }
+}
+
+/// The parabola through the peak and its neighbours (`study::peaks_of`'s refinement).
+fn refine(c: &Candidate) -> Point {
+    let (Some(a), Some((t1, c1))) = (c.before, c.after) else {
+        return c.at;
+    };
+    let (t, b) = c.at;
+    let denom = a - 2.0 * b + c1;
+    if denom >= 0.0 {
+        return (t, b);
+    }
+    let x = 0.5 * (a - c1) / denom;
+    (t + x * (t1 - t), b - 0.25 * (a - c1) * x)
+}
+
+/// Min/max decimation of a series whose length is known in advance.
+#[derive(Clone, Debug)]
+struct Decimator {
+    bucket: u64,
+    in_bucket: u64,
+    low: Option<Sample>,
+    high: Option<Sample>,
+    points: Vec<Sample>,
+}
+
+impl Decimator {
+    fn new(expected: u64) -> Decimator {
+        let bucket = if expected <= MAX_PLOT_POINTS {
+            1
+        } else {
+            expected.div_ceil(MAX_PLOT_POINTS / 2 - 1)
+        };
+        Decimator {
+            bucket,
+            in_bucket: 0,
+            low: None,
+            high: None,
+            points: Vec::with_capacity(expected.min(MAX_PLOT_POINTS) as usize),
+        }
+    }
+
+    fn push(&mut self, s: &Sample) {
+        if self.bucket == 1 {
+            self.points.push(*s);
+            return;
+        }
+        let y = s.tip_displacement;
+        if self.low.is_none_or(|l| y < l.tip_displacement) {
+            self.low = Some(*s);
+        }
+        if self.high.is_none_or(|h| y > h.tip_displacement) {
+            self.high = Some(*s);
+        }
+        self.in_bucket += 1;
+        if self.in_bucket == self.bucket {
+            self.flush();
+        }
+    }
+
+    fn flush(&mut self) {
+        match (self.low.take(), self.high.take()) {
+            (Some(l), Some(h)) if l.t == h.t => self.points.push(l),
+            (Some(l), Some(h)) => {
+                let (a, b) = if l.t < h.t { (l, h) } else { (h, l) };
+                self.points.push(a);
+                self.points.push(b);
+            }
+            _ => {}
+        }
+        self.in_bucket = 0;
+    }
+}
+
+/// What is kept of a damper run's samples (see the module documentation).
+#[derive(Clone, Debug)]
+pub struct SampleDigest {
+    count: u64,
+    first: Option<Sample>,
+    last: Option<Sample>,
+    peak: f64,
+    prev_y: Option<f64>,
+    fit: DecayFit,
+    plot: Decimator,
+}
+
+impl SampleDigest {
+    /// A digest for a run of `expected` samples (sets the plot's decimation; more or fewer
+    /// samples are fine, the plot then has a few points more or fewer).
+    pub fn new(expected: u64) -> SampleDigest {
+        SampleDigest {
+            count: 0,
+            first: None,
+            last: None,
+            peak: 0.0,
+            prev_y: None,
+            fit: DecayFit::default(),
+            plot: Decimator::new(expected),
+        }
+    }
+
+    /// Takes the next sample.
+    pub fn push(&mut self, s: &Sample) {
+        self.first.get_or_insert(*s);
+        self.last = Some(*s);
+        self.peak = self.peak.max(s.tip_displacement.abs());
+        self.fit
+            .push(self.count, (s.t, s.tip_displacement), self.prev_y);
+        self.prev_y = Some(s.tip_displacement);
+        self.plot.push(s);
+        self.count += 1;
+    }
+
+    /// Samples taken.
+    pub fn count(&self) -> u64 {
+        self.count
+    }
+
+    /// The first sample.
+    pub fn first(&self) -> Option<&Sample> {
+        self.first.as_ref()
+    }
+
+    /// The last sample.
+    pub fn last(&self) -> Option<&Sample> {
+        self.last.as_ref()
+    }
+
+    /// Largest |tip displacement| (m).
+    pub fn peak(&self) -> f64 {
+        self.peak
+    }
+
+    /// Equivalent damping ratio of the free decay, as `study::damping_ratio` of all the
+    /// samples.
+    pub fn damping_ratio(&self) -> Option<f64> {
+        self.fit.zeta()
+    }
+
+    /// The plot's points (at most [`MAX_PLOT_POINTS`], the first and last samples included).
+    pub fn plot_points(&self) -> Vec<Sample> {
+        let mut p = self.plot.clone();
+        p.flush();
+        let mut points = p.points;
+        if p.bucket > 1 {
+            if let Some(first) = self.first {
+                if points.first().is_none_or(|p| p.t > first.t) {
+                    points.insert(0, first);
+                }
+            }
+            if let Some(last) = self.last {
+                if points.last().is_none_or(|p| p.t < last.t) {
+                    points.push(last);
+                }
+            }
+        }
+        points
+    }
+
+    /// Points retained for the plot so far (bounded by [`MAX_PLOT_POINTS`] + 2).
+    pub fn retained(&self) -> usize {
+        self.plot.points.len() + 2
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hybrid_core::study::damping_ratio;
+    use mbs_symbolic::samples::SplitMix64;
+
+    fn sample(t: f64, y: f64) -> Sample {
+        Sample {
+            t,
+            tip_displacement: y,
+            ..Sample::default()
+        }
+    }
+
+    /// Decaying oscillations with ripple and noise, sampled coarsely and finely: the online
+    /// damping ratio is bit-identical to `damping_ratio` of all the samples.
+    #[test]
+    fn online_damping_ratio_equals_the_batch_one_bit_for_bit() {
+        let mut rng = SplitMix64::new(7);
+        for case in 0..40 {
+            let n = 50 + (rng.symmetric(1.0).abs() * 5000.0) as usize;
+            let zeta = 0.001 + 0.05 * rng.symmetric(1.0).abs();
+            let f = 1.0 + 10.0 * rng.symmetric(1.0).abs();
+            let dt = 1e-3 * (1.0 + 9.0 * rng.symmetric(1.0).abs());
+            let ripple = 0.05 * rng.symmetric(1.0);
+            let samples: Vec<Sample> = (0..n)
+                .map(|k| {
+                    let t = k as f64 * dt;
+                    let w = 2.0 * std::f64::consts::PI * f;
+                    let y = (-zeta * w * t).exp() * (w * t).cos()
+                        + ripple * (7.3 * w * t).sin() * (-zeta * w * t).exp()
+                        + 1e-4 * rng.symmetric(1.0);
+                    sample(t, y)
+                })
+                .collect();
+            let mut d = SampleDigest::new(n as u64);
+            samples.iter().for_each(|s| d.push(s));
+            let batch = damping_ratio(&samples);
+            assert_eq!(
+                d.damping_ratio().map(f64::to_bits),
+                batch.map(f64::to_bits),
+                "case {case}: {:?} vs {batch:?}",
+                d.damping_ratio()
+            );
+            let peak = samples
+                .iter()
+                .map(|s| s.tip_displacement.abs())
+                .fold(0.0, f64::max);
+            assert_eq!(d.peak(), peak);
+        }
+    }
+
+    #[test]
+    fn short_series_are_plotted_whole_long_ones_by_min_max_buckets() {
+        let short: Vec<Sample> = (0..20_000)
+            .map(|k| sample(k as f64, (k % 7) as f64))
+            .collect();
+        let mut d = SampleDigest::new(20_000);
+        short.iter().for_each(|s| d.push(s));
+        assert_eq!(d.plot_points(), short);
+        for n in [20_001u64, 123_457, 2_000_000] {
+            let mut d = SampleDigest::new(n);
+            for k in 0..n {
+                // A fast oscillation under a slow envelope.
+                let t = k as f64 * 1e-3;
+                d.push(&sample(t, (-t / 500.0).exp() * (t * 50.0).sin()));
+            }
+            let p = d.plot_points();
+            assert!(p.len() as u64 <= MAX_PLOT_POINTS, "{n}: {}", p.len());
+            assert!(d.retained() as u64 <= MAX_PLOT_POINTS + 2);
+            assert!(p.windows(2).all(|w| w[0].t < w[1].t), "time order");
+            assert_eq!(p.first().unwrap().t, 0.0);
+            assert_eq!(p.last().unwrap().t, (n - 1) as f64 * 1e-3);
+            // The envelope survives: the largest plotted value is the largest sample.
+            let top = p
+                .iter()
+                .map(|s| s.tip_displacement)
+                .fold(f64::MIN, f64::max);
+            assert!(top > 0.99, "{n}: {top}");
+        }
+    }
+}
