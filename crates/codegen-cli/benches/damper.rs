@@ -49,7 +49,8 @@ fn whole_run(c: &mut Criterion) {
                 .unwrap()
                 .1
                 .state
-                .hybrid.t,
+                .hybrid
+                .t,
             )
         })
     });

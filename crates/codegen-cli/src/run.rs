@@ -9,14 +9,16 @@
 //!   code or the DAG interpreter, every output row passed to an observer.
 
 use std::io::IsTerminal;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use hybrid_core::closed_loop::{
     self, AssemblyOptions, Event, OutputRow, PartitionChange, Settings, Simulator, Stats, System,
     assemble,
 };
-use hybrid_core::damper::{DamperModel, Integrator, State};
-use hybrid_core::study::{Sample, build_model};
+use std::ops::ControlFlow;
+
+use hybrid_core::damper::DamperModel;
+use hybrid_core::study::{RunEnd, RunError, Sample, prepare, run_streaming};
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use mbs_symbolic::model::Model;
 
@@ -32,7 +34,7 @@ pub struct DamperRun {
     /// First sample, peak, damping ratio and the decimated plot points.
     pub digest: SampleDigest,
     /// The final state.
-    pub state: State,
+    pub state: RunEnd,
     /// Stored energy at t = 0.
     pub initial_energy: f64,
     /// Largest |energy balance error| / initial energy over the run.
@@ -171,9 +173,9 @@ fn pair<M: System + Clone + Send>(
 }
 
 /// One damper run of the scenario (generator `connected` or not), its samples streamed to
-/// `sink`: `hybrid_core::study::run_setup` with a sink instead of the vector of samples —
-/// the same steps, the same samples (every `every` steps and the last state), the same
-/// energy account, bit for bit (pinned by a test against `run_setup`).
+/// `sink` through `hybrid_core::study::run_streaming` (the loop `run_setup` uses too): the
+/// same steps, the same samples, the same energy account, bit for bit (pinned by a test
+/// against `run_setup`); only a digest is kept.
 fn stream_run<M: System>(
     sc: &DamperScenario,
     model: &Model,
@@ -183,81 +185,48 @@ fn stream_run<M: System>(
     sink: &mut (dyn FnMut(&Sample) -> Result<(), Error> + Send),
 ) -> Result<(DamperModel<M>, DamperRun), Error> {
     let setup = &sc.setup;
-    let (coupled, guess) = build_model(setup, model, mechanism, connected)
-        .map_err(|e| Error::Input(sc.diagnostic(&e).into()))?;
-    let mut state = coupled
-        .initial_state(setup.initial_displacement, guess)
-        .map_err(Error::Damper)?;
-    let mut integrator =
-        Integrator::new(&coupled, setup.method, setup.dt).map_err(Error::Damper)?;
-    let every = setup.every.max(1) as u64;
-    let e0 = state.energy.total();
-    let steps = (setup.t_end / integrator.step_size()).round() as u64;
-    let mut digest = SampleDigest::new(1 + steps / every + u64::from(steps % every != 0));
-    let mut take = |state: &State, digest: &mut SampleDigest| -> Result<(), Error> {
-        let s = sample_of(&coupled, state, e0);
-        digest.push(&s);
-        sink(&s)
+    let run_error = |e: RunError| match e {
+        RunError::Setup(e) => Error::Input(sc.diagnostic(&e).into()),
+        RunError::Sim(e) => Error::Damper(e),
+        RunError::Stopped => unreachable!("handled with the sink's own error"),
     };
-    take(&state, &mut digest)?;
-    let mut worst: f64 = 0.0;
-    let start = Instant::now();
-    let report = (steps / 200).max(1);
-    for k in 1..=steps {
-        integrator
-            .step(&coupled, &mut state)
-            .map_err(Error::Damper)?;
-        let e = &state.energy;
-        let err = ((e0 + e.external_work) - (e.total() + e.dissipated())).abs();
-        worst = worst.max(err);
-        if k % every == 0 || k == steps {
-            take(&state, &mut digest)?;
-        }
-        if k % report == 0 {
-            progress(k as f64 / steps as f64);
-        }
-    }
-    let wall = start.elapsed();
+    let mut p = prepare(setup, model, mechanism, connected).map_err(run_error)?;
+    let every = setup.every.max(1) as u64;
+    let steps = (setup.t_end / p.integrator.step_size()).round() as u64;
+    let mut digest = SampleDigest::new(1 + steps / every + u64::from(steps % every != 0));
+    let mut failed = None;
+    let figures = run_streaming(
+        &p.hybrid,
+        &mut p.integrator,
+        p.state,
+        setup.t_end,
+        setup.every,
+        progress,
+        &mut |s| {
+            digest.push(s);
+            match sink(s) {
+                Ok(()) => ControlFlow::Continue(()),
+                Err(e) => {
+                    failed = Some(e);
+                    ControlFlow::Break(())
+                }
+            }
+        },
+    );
+    let figures = match (figures, failed) {
+        (_, Some(e)) => return Err(e),
+        (r, None) => r.map_err(run_error)?,
+    };
     Ok((
-        coupled,
+        p.coupled,
         DamperRun {
             digest,
-            state,
-            initial_energy: e0,
-            energy_balance_rel_error: if e0 > 0.0 { worst / e0 } else { worst },
-            wall,
+            state: figures.state,
+            initial_energy: figures.initial_energy,
+            energy_balance_rel_error: figures.energy_balance_rel_error,
+            wall: figures.wall,
         },
     ))
-}
-
-/// The output row of a damper state (`hybrid_core::study::Sample`'s fields, computed as
-/// `study::run` computes them).
-fn sample_of<M: System>(model: &DamperModel<M>, s: &State, e0: f64) -> Sample {
-    let g = &model.generator;
-    let e = &s.energy;
-    Sample {
-        t: s.t,
-        tip_displacement: model.point_value(&s.q),
-        tip_velocity: model.point_value(&s.v),
-        crank_angle: s.link.q[0],
-        coupler_angle: s.link.q[1],
-        crank_rate: s.link.qd[0],
-        coupler_rate: s.link.qd[1],
-        amplification: s.link.g[model.link.generator_joint],
-        current: s.current,
-        generator_power: g.resistance() * s.current * s.current,
-        load_power: g.load_resistance * s.current * s.current,
-        beam_kinetic_energy: e.beam_kinetic,
-        beam_potential_energy: e.beam_potential,
-        mechanism_kinetic_energy: e.mechanism_kinetic,
-        mechanism_potential_energy: e.mechanism_potential,
-        total_energy: e.total(),
-        dissipated_structure: e.dissipated_structure,
-        dissipated_generator: e.dissipated_armature + e.dissipated_load,
-        energy_balance_error: (e0 + e.external_work) - (e.total() + e.dissipated()),
-        constraint_residual: s.link.residual,
-        jacobian_condition: s.link.condition,
-    }
 }
 
 /// A finished (or stopped) closed-loop mechanism run.

@@ -3,6 +3,7 @@
 //! damping ratio of the first mode from the free decay, energy account).
 
 use std::collections::BTreeMap;
+use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
 use fem_beam::{Beam, BeamError};
@@ -410,32 +411,51 @@ pub struct Run {
     pub wall: Duration,
 }
 
+/// The figures of a finished run, without its samples.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Figures {
+    /// The final state.
+    pub state: RunEnd,
+    /// Stored energy at t = 0.
+    pub initial_energy: f64,
+    /// Largest |energy balance error| / initial energy over the output rows.
+    pub energy_balance_rel_error: f64,
+    /// Wall-clock time of the integration.
+    pub wall: Duration,
+}
+
 /// Integrates the damper's hybrid `model` from `state` to `t_end` with the integrator's
-/// step, sampling every `every` steps (stored energies are evaluated at those rows only).
-/// `progress` receives the fraction done from time to time.
-pub fn run(
+/// step, handing a [`Sample`] to `sink` at t = 0, every `every` steps and at the end (stored
+/// energies are evaluated at those rows only); `sink` may stop the run
+/// ([`ControlFlow::Break`], then [`RunError::Stopped`]). `progress` receives the fraction
+/// done from time to time. Nothing is kept per sample: memory does not grow with `t_end`.
+pub fn run_streaming(
     model: &HybridModel,
     integrator: &mut HybridIntegrator,
     mut state: HybridState,
     t_end: f64,
     every: usize,
     progress: &mut dyn FnMut(f64),
-) -> Result<Run, HybridError> {
+    sink: &mut dyn FnMut(&Sample) -> ControlFlow<()>,
+) -> Result<Figures, RunError> {
     let mut stored = Stored::default();
     integrator.stored_into(model, &state, &mut stored);
     let e0 = stored.total();
     let steps = (t_end / integrator.step_size()).round() as u64;
-    let mut samples = Vec::with_capacity((steps as usize) / every.max(1) + 2);
-    samples.push(Sample::of(model, integrator, &state, &mut stored, e0));
+    if sink(&Sample::of(model, integrator, &state, &mut stored, e0)).is_break() {
+        return Err(RunError::Stopped);
+    }
     let mut worst: f64 = 0.0;
     let start = Instant::now();
     let report = (steps / 200).max(1);
     for k in 1..=steps {
         integrator.step(model, &mut state)?;
-        if k % every as u64 == 0 || k == steps {
+        if k % every.max(1) as u64 == 0 || k == steps {
             let sample = Sample::of(model, integrator, &state, &mut stored, e0);
             worst = worst.max(sample.energy_balance_error.abs());
-            samples.push(sample);
+            if sink(&sample).is_break() {
+                return Err(RunError::Stopped);
+            }
         }
         if k % report == 0 {
             progress(k as f64 / steps as f64);
@@ -465,8 +485,7 @@ pub fn run(
         dissipated_load: acc.dissipated[0] * share(g.load_resistance),
         external_work: acc.beam_load_work + acc.excitation_work.iter().sum::<f64>(),
     };
-    Ok(Run {
-        samples,
+    Ok(Figures {
         state: RunEnd {
             steps: state.steps,
             energy,
@@ -475,6 +494,30 @@ pub fn run(
         initial_energy: e0,
         energy_balance_rel_error: if e0 > 0.0 { worst / e0 } else { worst },
         wall,
+    })
+}
+
+/// [`run_streaming`] keeping every sample.
+pub fn run(
+    model: &HybridModel,
+    integrator: &mut HybridIntegrator,
+    state: HybridState,
+    t_end: f64,
+    every: usize,
+    progress: &mut dyn FnMut(f64),
+) -> Result<Run, RunError> {
+    let steps = (t_end / integrator.step_size()).round() as usize;
+    let mut samples = Vec::with_capacity(steps / every.max(1) + 2);
+    let f = run_streaming(model, integrator, state, t_end, every, progress, &mut |s| {
+        samples.push(*s);
+        ControlFlow::Continue(())
+    })?;
+    Ok(Run {
+        samples,
+        state: f.state,
+        initial_energy: f.initial_energy,
+        energy_balance_rel_error: f.energy_balance_rel_error,
+        wall: f.wall,
     })
 }
 
@@ -555,8 +598,40 @@ pub fn damping_ratio(samples: &[Sample]) -> Option<f64> {
     Some(delta / (4.0 * std::f64::consts::PI.powi(2) + delta * delta).sqrt())
 }
 
-/// Prepares model, integrator and initial state of a setup and runs it on the general
-/// hybrid engine ([`crate::hybrid`]; the damper is its rank-one special case).
+/// A damper setup ready to run on the general hybrid engine ([`crate::hybrid`]; the damper
+/// is its rank-one special case).
+pub struct Prepared<M> {
+    /// The specialised model (geometry, beam).
+    pub coupled: DamperModel<M>,
+    /// The same damper as a hybrid system.
+    pub hybrid: HybridModel,
+    /// The integrator.
+    pub integrator: HybridIntegrator,
+    /// The initial state.
+    pub state: HybridState,
+}
+
+/// Builds the model, integrator and initial state of a setup.
+pub fn prepare<M: System>(
+    setup: &DamperSetup,
+    model: &Model,
+    mechanism: M,
+    connected: bool,
+) -> Result<Prepared<M>, RunError> {
+    let (coupled, guess) = build_model(setup, model, mechanism, connected)?;
+    let (hybrid, q0) = hybrid_of(setup, &coupled, guess)?;
+    let n = q0.len();
+    let state = crate::hybrid::initial_state(&hybrid, q0, vec![0.0; n])?;
+    let integrator = HybridIntegrator::new(&hybrid, setup.method, setup.dt, &state)?;
+    Ok(Prepared {
+        coupled,
+        hybrid,
+        integrator,
+        state,
+    })
+}
+
+/// Prepares a setup and runs it, keeping every sample.
 pub fn run_setup<M: System>(
     setup: &DamperSetup,
     model: &Model,
@@ -564,20 +639,16 @@ pub fn run_setup<M: System>(
     connected: bool,
     progress: &mut dyn FnMut(f64),
 ) -> Result<(DamperModel<M>, Run), RunError> {
-    let (coupled, guess) = build_model(setup, model, mechanism, connected)?;
-    let (hybrid, q0) = hybrid_of(setup, &coupled, guess)?;
-    let n = q0.len();
-    let state = crate::hybrid::initial_state(&hybrid, q0, vec![0.0; n])?;
-    let mut integrator = HybridIntegrator::new(&hybrid, setup.method, setup.dt, &state)?;
+    let mut p = prepare(setup, model, mechanism, connected)?;
     let run = run(
-        &hybrid,
-        &mut integrator,
-        state,
+        &p.hybrid,
+        &mut p.integrator,
+        p.state,
         setup.t_end,
         setup.every,
         progress,
     )?;
-    Ok((coupled, run))
+    Ok((p.coupled, run))
 }
 
 /// A setup that could not be built or run.
@@ -589,6 +660,9 @@ pub enum RunError {
     /// The simulation stopped.
     #[error(transparent)]
     Sim(#[from] HybridError),
+    /// The sample sink asked to stop.
+    #[error("stopped by the output")]
+    Stopped,
 }
 
 /// The damper of a setup as a general [`crate::hybrid::HybridModel`]: the double bar
