@@ -202,7 +202,14 @@ mod tests {
 
     #[test]
     fn every_bundled_model_is_compiled_in_and_matched_by_hash() {
-        for name in ["double_bar", "four_bar", "slider_crank", "pendulum"] {
+        for name in [
+            "double_bar",
+            "four_bar",
+            "slider_crank",
+            "pendulum",
+            "absorber",
+            "slider_crank_damper",
+        ] {
             let c = find_by_name(name).unwrap_or_else(|| panic!("{name} not compiled in"));
             let model = mbs_symbolic::model::load(&models_dir().join(c.file))
                 .unwrap_or_else(|e| panic!("{e}"));

@@ -358,7 +358,9 @@ impl Integrator {
     ) -> Result<(), HybridError> {
         for j in 0..self.nz {
             self.z_new.copy_from_slice(&self.z);
-            let d = 1e-7 * self.scale[j];
+            // At least 1e-7 (m/s^2 or rad/s^2): a free coordinate starting at rest has
+            // z = 0 and scale 1e-9, whose step would be lost in the residual's rounding.
+            let d = 1e-7 * self.scale[j].max(1.0);
             self.z_new[j] += d;
             self.residual(model, t, true, state)?;
             for i in 0..self.nz {
