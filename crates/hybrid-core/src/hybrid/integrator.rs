@@ -143,6 +143,9 @@ pub struct Integrator {
     res_new: Vec<f64>,
     a0w: Vec<f64>,
     scale: Vec<f64>,
+    /// Largest |z_i| accepted so far: the typical size of each unknown, so that the
+    /// convergence test stays relative when an acceleration passes through zero.
+    zmax: Vec<f64>,
     dz: DVector<f64>,
     jdz: Vec<f64>,
     jac: DMatrix<f64>,
@@ -273,6 +276,7 @@ impl Integrator {
             res_new: vec![0.0; nz],
             a0w: vec![0.0; nb],
             scale: vec![0.0; nz],
+            zmax: vec![0.0; nz],
             dz: DVector::zeros(nz),
             jdz: vec![0.0; nz],
             jac: DMatrix::zeros(nz, nz),
@@ -512,7 +516,7 @@ impl Integrator {
         }
         for i in 0..self.nz {
             let base = if i < self.nb { self.a0w[i].abs() } else { 0.0 };
-            self.scale[i] = 1e-9 + self.z[i].abs() + base;
+            self.scale[i] = 1e-9 + self.z[i].abs() + base + 1e-2 * self.zmax[i];
         }
     }
 
@@ -584,6 +588,9 @@ impl Integrator {
                 state.q[i] = self.q_hat[i] + beta * h * h * a;
                 state.v[i] = self.v_hat[i] + gamma * h * a;
             }
+        }
+        for (m, z) in self.zmax.iter_mut().zip(&self.z) {
+            *m = m.max(z.abs());
         }
         for (f, ms) in self.followers.iter().zip(state.mechanisms.iter_mut()) {
             ms.q.copy_from_slice(f.q.as_slice());
