@@ -196,6 +196,7 @@ fn check_scenario(text: &str, base: &Path) {
                 }
             }
         }
+        Ok(Scenario::Hybrid(_)) => accepted(1),
         Ok(Scenario::Mechanism(sc)) => {
             accepted(1);
             let s = &sc.settings;

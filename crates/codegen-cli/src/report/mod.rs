@@ -3,7 +3,9 @@
 //! the one atomic writer ([`writer`]).
 
 pub mod csv;
+pub mod hybrid;
 pub mod plot;
+pub mod rows;
 pub mod summary;
 pub mod writer;
 
