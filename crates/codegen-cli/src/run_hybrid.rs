@@ -231,7 +231,13 @@ pub fn simulate(
         .collect();
     let first = tracks.w.first();
     let (t, y): (Vec<f64>, Vec<f64>) = first.map(|w| w.iter().copied().unzip()).unwrap_or_default();
-    let damping_ratio = if peaks_of(&t, &y).len() >= 3 {
+    // A free decay only: no excitation and no beam load.
+    let free = model.excitations.is_empty()
+        && sc
+            .beam
+            .as_ref()
+            .is_none_or(|(b, _)| b.loads.is_empty() && b.distributed_loads.is_empty());
+    let damping_ratio = if free && peaks_of(&t, &y).len() >= 3 {
         damping_ratio_of(&t, &y)
     } else {
         None

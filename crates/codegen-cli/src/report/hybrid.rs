@@ -203,8 +203,8 @@ pub struct HybridSummary<'a> {
     /// Largest |displacement| of the first attachment's beam point (m).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub peak_amplitude: Option<f64>,
-    /// Equivalent damping ratio of the first attachment's displacement (free decay:
-    /// logarithmic decrement of its positive peaks).
+    /// Equivalent damping ratio of the first attachment's displacement (logarithmic
+    /// decrement of its positive peaks); only for a free decay (no excitation, no beam load).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub damping_ratio: Option<f64>,
     /// The mechanisms.

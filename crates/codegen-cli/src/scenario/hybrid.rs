@@ -465,13 +465,12 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<HybridScenario> {
     };
 
     // [[mechanism]]: names first (attachments and forces refer to them).
-    let raw_mechanisms: Vec<(RawMechanism, Range<usize>)> = tables(doc, "mechanism")
+    let raw_mechanisms: Vec<RawMechanism> = tables(doc, "mechanism")
         .into_iter()
         .filter_map(|v| {
-            let span = v.span();
             let m = de::<RawMechanism>(doc, v, "[[mechanism]]");
             ok &= m.is_some();
-            m.map(|m| (m, span))
+            m
         })
         .collect();
     if raw_mechanisms.is_empty() && !doc.root.contains_key("mechanism") && beam.is_none() {
@@ -480,12 +479,12 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<HybridScenario> {
         ok = false;
     }
     let mut seen = BTreeMap::new();
-    for (m, _) in &raw_mechanisms {
+    for m in &raw_mechanisms {
         unique(doc, &mut seen, &m.name, "mechanism");
     }
     let names: Vec<String> = raw_mechanisms
         .iter()
-        .map(|(m, _)| m.name.get_ref().clone())
+        .map(|m| m.name.get_ref().clone())
         .collect();
 
     // [[attachment]]
@@ -508,9 +507,10 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<HybridScenario> {
                 None
             }
         };
-        let x_ok = on_beam(doc, &a.x, &entity);
-        match (mechanism, kind, x_ok) {
-            (Some(mechanism), Some(kind), true) => attachments.push(AttachmentEntry {
+        // Kept when x is wrong (reported), so that placements still find it.
+        ok &= on_beam(doc, &a.x, &entity);
+        match (mechanism, kind) {
+            (Some(mechanism), Some(kind)) => attachments.push(AttachmentEntry {
                 name: a.name.get_ref().clone(),
                 mechanism,
                 point: a.point.get_ref().clone(),
@@ -526,7 +526,7 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<HybridScenario> {
 
     // The mechanisms' values.
     let mut mechanisms = vec![];
-    for (k, (m, span)) in raw_mechanisms.iter().enumerate() {
+    for (k, m) in raw_mechanisms.iter().enumerate() {
         let entity = format!("mechanism \"{}\"", m.name.get_ref());
         let model_path = Path::new(m.model.get_ref());
         if m.model.get_ref().trim().is_empty() {
@@ -670,7 +670,7 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<HybridScenario> {
             initial,
             max_condition,
             placement,
-            span: span.clone(),
+            span: m.name.span(),
             model_span: m.model.span(),
             placement_span: m.placement.as_ref().map(|p| p.span()),
         });
