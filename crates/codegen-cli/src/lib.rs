@@ -4,9 +4,10 @@
 //! The data flows in one direction:
 //!
 //! - [`scenario`]: the one loader of scenario files (`kind = "damper"`, the default, or
-//!   `kind = "mechanism"`), every problem reported at once with file:line:column;
+//!   `kind = "mechanism"` or `kind = "hybrid"`), every problem reported at once with
+//!   file:line:column;
 //! - [`run`]: scenario → model (compiled-in generated code, numeric reference or DAG
-//!   interpreter) → `hybrid-core` → observer;
+//!   interpreter) → `hybrid-core` → observer; [`run_hybrid`] for hybrid systems;
 //! - [`report`]: CSV time histories, typed JSON summaries, the SVG plot, and the one atomic
 //!   writer that commits all files of a run together;
 //! - [`commands`]: `generate`, `eval`, `modes`, `simulate` (the binary parses arguments and
@@ -28,6 +29,7 @@ pub mod commands;
 pub mod interrupt;
 pub mod report;
 pub mod run;
+pub mod run_hybrid;
 pub mod scenario;
 
 use std::io::Write;
@@ -49,6 +51,15 @@ pub enum Error {
     /// The damper simulation stopped (singular position, divergence).
     #[error("{0}")]
     Damper(hybrid_core::hybrid::HybridError),
+    /// A hybrid run stopped (singular position, no convergence, divergence); nothing was
+    /// written.
+    #[error("{file}: {error}")]
+    Hybrid {
+        /// The scenario file.
+        file: String,
+        /// Why.
+        error: hybrid_core::hybrid::HybridError,
+    },
     /// The comparison run without generator panicked.
     #[error("the comparison run without generator panicked")]
     ComparisonPanicked,

@@ -197,6 +197,7 @@ fn check_scenario(text: &str, base: &Path) {
                 assert!(o.peak.is_finite(), "peak {}", o.peak);
             }
         }
+        Ok(Scenario::Hybrid(_)) => accepted(1),
         Ok(Scenario::Mechanism(sc)) => {
             accepted(1);
             let s = &sc.settings;

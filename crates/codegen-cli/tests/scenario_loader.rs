@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use codegen_cli::scenario::{self, DamperScenario, Scenario};
 use diagnostic::Kind;
 use hybrid_core::closed_loop::{AssemblyOptions, System, assemble};
+use hybrid_core::hybrid::{Integrator, RunOptions, run};
 use mbs_symbolic::model;
 
 fn root() -> PathBuf {
@@ -57,7 +58,7 @@ fn angle_diff(a: f64, b: f64) -> f64 {
 fn mechanism_scenario(path: &Path) -> Box<scenario::MechanismScenario> {
     match scenario::load(path).unwrap_or_else(|e| panic!("{e}")) {
         Scenario::Mechanism(s) => s,
-        Scenario::Damper(_) => panic!("{}: not a mechanism scenario", path.display()),
+        _ => panic!("{}: not a mechanism scenario", path.display()),
     }
 }
 
@@ -103,7 +104,7 @@ fn bundled_damper_scenario_loads_and_kind_defaults_to_damper() {
     let path = root().join("scenarios/damper.toml");
     let sc = match scenario::load(&path).unwrap_or_else(|e| panic!("{e}")) {
         Scenario::Damper(s) => s,
-        Scenario::Mechanism(_) => panic!("the damper scenario loads as a mechanism"),
+        _ => panic!("the damper scenario loads as another kind"),
     };
     assert_eq!(sc.setup.dt, 1e-4);
     let text = std::fs::read_to_string(&path).unwrap();
@@ -213,4 +214,89 @@ fn every_problem_of_a_bad_mechanism_scenario_is_reported_at_once() {
     );
     assert!(msg.contains("t_ned") && msg.contains("partitoin"), "{msg}");
     assert!(e.iter().all(|d| d.column.is_some()), "{msg}");
+}
+
+/// Every bundled scenario under `scenarios/` loads and runs a few hundred steps (the damper
+/// and hybrid kinds 300 fixed steps, the mechanism kind 0.3 s of adaptive steps) with finite
+/// results; a new scenario file is covered by being there.
+#[test]
+fn every_bundled_scenario_loads_and_runs_a_few_hundred_steps() {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(root().join("scenarios"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 5, "{files:?}");
+    for path in &files {
+        let name = path.display().to_string();
+        match scenario::load(path).unwrap_or_else(|e| panic!("{e}")) {
+            Scenario::Damper(mut sc) => {
+                let model = model::load(&sc.model_path).unwrap();
+                sc.setup.t_end = 300.0 * sc.setup.dt;
+                sc.spec.output.compare_without_generator = false;
+                let mut finite = true;
+                let o = codegen_cli::run::damper(
+                    &sc,
+                    &model,
+                    false,
+                    &mut |s| {
+                        finite &= s.tip_displacement.is_finite() && s.total_energy.is_finite();
+                        Ok(())
+                    },
+                    &mut |_| Ok(()),
+                )
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
+                assert_eq!(o.with.state.steps, 300, "{name}");
+                assert!(finite, "{name}");
+            }
+            Scenario::Mechanism(mut sc) => {
+                let model = model::load(&sc.model).unwrap();
+                sc.settings.t_end = sc.settings.t_start + 0.3;
+                let mut rows = 0;
+                let o = codegen_cli::run::mechanism(&sc, &model, false, &mut |_, r| {
+                    rows += 1;
+                    assert!(r.q.iter().chain(&r.qd).all(|x| x.is_finite()), "{name}");
+                })
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
+                o.result.unwrap_or_else(|e| panic!("{name}: {e}"));
+                assert!(rows > 10 && o.stats.steps_accepted > 10, "{name}");
+            }
+            Scenario::Hybrid(sc) => {
+                let built = sc.build().unwrap_or_else(|e| panic!("{e}"));
+                let mut integrator =
+                    Integrator::new(&built.model, sc.method, sc.integrator.dt, &built.state)
+                        .unwrap();
+                let mut rows = 0;
+                let out = run::<()>(
+                    &built.model,
+                    &mut integrator,
+                    built.state.clone(),
+                    RunOptions {
+                        t_end: 300.0 * sc.integrator.dt,
+                        every: 30,
+                    },
+                    &mut |s, e| {
+                        rows += 1;
+                        let finite = s.q.iter().chain(&s.v).all(|x| x.is_finite())
+                            && s.mechanisms
+                                .iter()
+                                .all(|m| m.q.iter().all(|x| x.is_finite()))
+                            && e.total().is_finite();
+                        assert!(finite, "{name} at t = {}", s.t);
+                        Ok(())
+                    },
+                    &mut |_| {},
+                )
+                .unwrap_or_else(|e| panic!("{name}: {e:?}"));
+                assert_eq!(out.figures.steps, 300, "{name}");
+                assert_eq!(rows, 11, "{name}");
+                assert!(
+                    out.figures.balance_rel_error < 1e-3,
+                    "{name}: {:?}",
+                    out.figures
+                );
+            }
+        }
+    }
 }

@@ -12,7 +12,7 @@ use diagnostic::Diagnostics;
 use crate::element;
 use crate::error::{BeamError, Entity, InputError};
 use crate::source;
-use crate::spec::{BeamSpec, Dof, SegmentSpec, SupportKind, TimeFunction};
+use crate::spec::{BeamSpec, Dof, SegmentSpec, SupportKind, TimeFunction, TimeFunctionError};
 
 /// A validated prismatic segment.
 #[derive(Clone, Debug, PartialEq)]
@@ -84,7 +84,7 @@ pub enum Damping {
 }
 
 /// A validated nodal load.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct NodalLoad {
     /// Node index.
     pub node: usize,
@@ -97,7 +97,7 @@ pub struct NodalLoad {
 }
 
 /// A validated uniformly distributed load on a segment.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct DistributedLoad {
     /// Segment index.
     pub segment: usize,
@@ -249,18 +249,29 @@ fn check_representable(
 }
 
 fn check_time(errors: &mut Vec<InputError>, entity: Entity, time: &TimeFunction) {
-    match *time {
-        TimeFunction::Constant => {}
-        TimeFunction::Harmonic {
-            frequency_hz,
-            phase,
-        } => {
-            check_non_negative(errors, entity, "time.frequency_hz", frequency_hz);
-            check_finite(errors, entity, "time.phase", phase);
-        }
-        TimeFunction::Step { at } => {
-            check_finite(errors, entity, "time.at", at);
-        }
+    for e in time.problems() {
+        errors.push(match e {
+            TimeFunctionError::NotFinite { field, value } => InputError::NotFinite {
+                entity,
+                field,
+                value,
+            },
+            TimeFunctionError::Negative { field, value } => InputError::Negative {
+                entity,
+                field,
+                value,
+            },
+            TimeFunctionError::EmptyTable => InputError::Choice {
+                entity,
+                field: "time",
+                message: "a table needs at least one [t, value] point",
+            },
+            TimeFunctionError::NotIncreasing { .. } => InputError::Choice {
+                entity,
+                field: "time",
+                message: "table times must increase strictly",
+            },
+        });
     }
 }
 
@@ -588,7 +599,7 @@ impl Beam {
                     node,
                     force: l.force,
                     moment: l.moment,
-                    time: l.time,
+                    time: l.time.clone(),
                 });
             }
         }
@@ -607,7 +618,7 @@ impl Beam {
             distributed_loads.push(DistributedLoad {
                 segment: l.segment,
                 q: l.q,
-                time: l.time,
+                time: l.time.clone(),
             });
         }
 

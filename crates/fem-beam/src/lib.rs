@@ -113,5 +113,5 @@ pub use model::{BeamModel, HALF_BANDWIDTH, ShapeAt, rayleigh_from_ratios};
 pub use source::input_diagnostics;
 pub use spec::{
     BeamSpec, DampingSpec, DistributedLoadSpec, Dof, ModalRatioSpec, NodalLoadSpec, SegmentSpec,
-    SupportKind, SupportSpec, TimeFunction,
+    SupportKind, SupportSpec, TimeFunction, TimeFunctionError,
 };

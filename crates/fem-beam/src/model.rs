@@ -231,7 +231,7 @@ impl BeamModel {
             }
             entries.retain(|&(_, v)| v != 0.0);
             patterns.push(LoadPattern {
-                time: l.time,
+                time: l.time.clone(),
                 entries,
             });
         }
@@ -253,7 +253,7 @@ impl BeamModel {
                 }
             }
             patterns.push(LoadPattern {
-                time: d.time,
+                time: d.time.clone(),
                 entries: acc,
             });
         }

@@ -256,7 +256,7 @@ pub struct ModalRatioSpec {
 }
 
 /// Time dependence of a load: the load is `value * f(t)`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum TimeFunction {
     /// `f(t) = 1`.
@@ -275,26 +275,147 @@ pub enum TimeFunction {
         /// Switch-on time, s.
         at: f64,
     },
+    /// Piecewise linear through `[t, value]` points (times strictly increasing), held at
+    /// the first value before the first time and at the last value after the last time
+    /// (`points = [[0.0, 0.0], [0.1, 1.0]]`: a ramp to 1 over 0.1 s).
+    Table {
+        /// `[t (s), value]` points.
+        points: Vec<[f64; 2]>,
+    },
+}
+
+/// Why a [`TimeFunction`] cannot be used.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum TimeFunctionError {
+    /// A value that must be finite is not.
+    #[error("{field} = {value} is not finite")]
+    NotFinite {
+        /// The field (`time.frequency_hz`, `time.points`, ...).
+        field: &'static str,
+        /// The value.
+        value: f64,
+    },
+    /// A value that must not be negative is.
+    #[error("{field} = {value} must not be negative")]
+    Negative {
+        /// The field.
+        field: &'static str,
+        /// The value.
+        value: f64,
+    },
+    /// A table without points.
+    #[error("a table needs at least one [t, value] point")]
+    EmptyTable,
+    /// A table whose times do not increase strictly.
+    #[error(
+        "table times must increase strictly: point {index} (t = {t}) does not come after t = {previous}"
+    )]
+    NotIncreasing {
+        /// Index of the offending point (0-based).
+        index: usize,
+        /// Its time.
+        t: f64,
+        /// The time of the point before it.
+        previous: f64,
+    },
 }
 
 impl TimeFunction {
     /// `f(t)`.
     pub fn value(&self, t: f64) -> f64 {
-        match *self {
+        match self {
             TimeFunction::Constant => 1.0,
             TimeFunction::Harmonic {
                 frequency_hz,
                 phase,
             } => (2.0 * std::f64::consts::PI * frequency_hz * t + phase).sin(),
             TimeFunction::Step { at } => {
-                if t >= at {
+                if t >= *at {
                     1.0
                 } else {
                     0.0
                 }
             }
+            TimeFunction::Table { points } => table_value(points, t),
         }
     }
+
+    /// Every problem of the function's values (the one check of a time function, used by
+    /// the beam's validation and by every other user of the type).
+    pub fn problems(&self) -> Vec<TimeFunctionError> {
+        let mut out = vec![];
+        match self {
+            TimeFunction::Constant => {}
+            TimeFunction::Harmonic {
+                frequency_hz,
+                phase,
+            } => {
+                if !frequency_hz.is_finite() {
+                    out.push(TimeFunctionError::NotFinite {
+                        field: "time.frequency_hz",
+                        value: *frequency_hz,
+                    });
+                } else if *frequency_hz < 0.0 {
+                    out.push(TimeFunctionError::Negative {
+                        field: "time.frequency_hz",
+                        value: *frequency_hz,
+                    });
+                }
+                if !phase.is_finite() {
+                    out.push(TimeFunctionError::NotFinite {
+                        field: "time.phase",
+                        value: *phase,
+                    });
+                }
+            }
+            TimeFunction::Step { at } => {
+                if !at.is_finite() {
+                    out.push(TimeFunctionError::NotFinite {
+                        field: "time.at",
+                        value: *at,
+                    });
+                }
+            }
+            TimeFunction::Table { points } => {
+                if points.is_empty() {
+                    out.push(TimeFunctionError::EmptyTable);
+                }
+                if let Some(&v) = points.iter().flatten().find(|v| !v.is_finite()) {
+                    out.push(TimeFunctionError::NotFinite {
+                        field: "time.points",
+                        value: v,
+                    });
+                } else if let Some(k) =
+                    (1..points.len()).find(|&k| points[k][0] <= points[k - 1][0])
+                {
+                    out.push(TimeFunctionError::NotIncreasing {
+                        index: k,
+                        t: points[k][0],
+                        previous: points[k - 1][0],
+                    });
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Piecewise-linear interpolation in a table with strictly increasing times, held constant
+/// outside (binary search: `O(log n)` a call).
+fn table_value(points: &[[f64; 2]], t: f64) -> f64 {
+    let (Some(first), Some(last)) = (points.first(), points.last()) else {
+        return 0.0;
+    };
+    if t <= first[0] {
+        return first[1];
+    }
+    if t >= last[0] {
+        return last[1];
+    }
+    // First point with time > t; 1 <= k <= len - 1 here.
+    let k = points.partition_point(|p| p[0] <= t);
+    let ([t0, v0], [t1, v1]) = (points[k - 1], points[k]);
+    v0 + (v1 - v0) * (t - t0) / (t1 - t0)
 }
 
 /// A nodal force and moment (27), at a node given by index or position.
@@ -453,6 +574,34 @@ time = { kind = "step", at = 0.5 }
         assert!(
             (h.value(0.25) - (std::f64::consts::PI + std::f64::consts::FRAC_PI_2).sin()).abs()
                 < 1e-15
+        );
+    }
+
+    #[test]
+    fn table_is_piecewise_linear_and_held_outside() {
+        let f = TimeFunction::Table {
+            points: vec![[0.0, 0.0], [0.1, 1.0], [0.3, -1.0]],
+        };
+        assert_eq!(f.value(-1.0), 0.0);
+        assert_eq!(f.value(0.05), 0.5);
+        assert_eq!(f.value(0.1), 1.0);
+        assert!((f.value(0.2) - 0.0).abs() < 1e-15);
+        assert_eq!(f.value(0.3), -1.0);
+        assert_eq!(f.value(7.0), -1.0);
+        assert!(f.problems().is_empty());
+        let spec: NodalLoadSpec =
+            toml::from_str("node = 1\nforce = 2.0\ntime = { kind = \"table\", points = [[0.0, 1.0], [1.0, 3.0]] }\n").unwrap();
+        assert_eq!(spec.time.value(0.5), 2.0);
+        let bad = TimeFunction::Table {
+            points: vec![[0.0, 0.0], [0.0, 1.0]],
+        };
+        assert!(matches!(
+            bad.problems()[..],
+            [TimeFunctionError::NotIncreasing { index: 1, .. }]
+        ));
+        assert_eq!(
+            TimeFunction::Table { points: vec![] }.problems(),
+            vec![TimeFunctionError::EmptyTable]
         );
     }
 }

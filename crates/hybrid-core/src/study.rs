@@ -173,13 +173,84 @@ impl SetupError {
 
 /// Link lengths `(L1, L2)` of a double bar read off its point kinematics: the point at
 /// `q = (0, 0)` lies at `L1 + L2` along x, at `q = (0, pi)` at `L1 - L2`.
-fn bar_lengths<M: System>(m: &M, point: usize) -> (f64, f64) {
+fn bar_lengths<M: System + ?Sized>(m: &M, point: usize) -> (f64, f64) {
     let mut ws = m.workspace();
     m.point_kinematics(point, &[0.0, 0.0], &[0.0; 2], &mut ws);
     let s = ws.point_p[0];
     m.point_kinematics(point, &[0.0, std::f64::consts::PI], &[0.0; 2], &mut ws);
     let d = ws.point_p[0];
     ((s + d) / 2.0, (s - d) / 2.0)
+}
+
+/// A double bar placed for a beam point: where the point is relative to the ground pivot,
+/// the initial guess of its coordinates and its reach.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TwoBar {
+    /// The attached point relative to the ground pivot, `[x0, y0]` (m, mechanism axes):
+    /// the pivot is at the beam point minus this.
+    pub target: [f64; 2],
+    /// Initial guess `(q1, q2)` (crank angle, coupler angle relative to the crank; rad).
+    pub guess: [f64; 2],
+    /// How far the point can move along the mechanism's `y` axis from `target` before the
+    /// bars are in line (m): `sqrt((L1 + L2)^2 - x0^2) - y0`, for `x0 = 0` and equal bars
+    /// `2 L (1 - cos a0)`.
+    pub reach: f64,
+}
+
+/// Places a two-bar chain (2 coordinates, no loop rows: crank on the ground pivot, coupler
+/// on the crank) so that its point `point` reaches a beam point: on the point's line of
+/// motion at a half-angle, or with the pivot at a given offset. The bar lengths are read off
+/// the point kinematics.
+///
+/// # Panics
+///
+/// When `mechanism` does not have exactly 2 coordinates and no loop rows.
+pub fn place_two_bar<M: System + ?Sized>(
+    mechanism: &M,
+    point: usize,
+    placement: Placement,
+) -> Result<TwoBar, SetupError> {
+    assert!(
+        mechanism.dof() == 2 && mechanism.rows() == 0,
+        "place_two_bar: a two-bar chain has 2 coordinates and no loop rows"
+    );
+    let (l1, l2) = bar_lengths(mechanism, point);
+    if !(l1 > 0.0 && l2 > 0.0) {
+        return Err(SetupError::NotTwoBar { l1, l2 });
+    }
+    // Target of the point in the mechanism frame (pivot at the origin) and the initial guess.
+    let (x0, y0, alpha) = match placement {
+        Placement::HalfAngle(deg) => {
+            let a = deg.to_radians();
+            let rad = l2 * l2 - (l1 * a.sin()).powi(2);
+            if rad < 0.0 {
+                return Err(SetupError::AngleUnreachable { deg, l1, l2 });
+            }
+            (0.0, l1 * a.cos() + rad.sqrt(), a)
+        }
+        Placement::Pivot(p) => {
+            let (x0, y0) = (-p[0], -p[1]);
+            let d = x0.hypot(y0);
+            let c = (l1 * l1 + d * d - l2 * l2) / (2.0 * l1 * d);
+            if !(-1.0..=1.0).contains(&c) {
+                return Err(SetupError::PivotUnreachable { d, l1, l2 });
+            }
+            (x0, y0, c.acos())
+        }
+    };
+    let d = x0.hypot(y0);
+    let theta = y0.atan2(x0);
+    let knee = ((l1 * l1 + l2 * l2 - d * d) / (2.0 * l1 * l2))
+        .clamp(-1.0, 1.0)
+        .acos();
+    // The stretched mechanism (bars in line) bounds the beam point's travel:
+    // |p - pivot| <= L1 + L2, i.e. for x0 = 0 and equal bars 2 L (1 - cos a0).
+    let reach = ((l1 + l2).powi(2) - x0 * x0).max(0.0).sqrt() - y0;
+    Ok(TwoBar {
+        target: [x0, y0],
+        guess: [theta - alpha, std::f64::consts::PI - knee],
+        reach,
+    })
 }
 
 /// The coupled model of a setup and the initial guess of the mechanism coordinates;
@@ -221,36 +292,11 @@ pub fn build_model<M: System>(
     let generator_joint = model
         .body_index(&setup.generator_joint)
         .ok_or_else(|| SetupError::UnknownBody(setup.generator_joint.clone()))?;
-    let (l1, l2) = bar_lengths(&mechanism, point);
-    if !(l1 > 0.0 && l2 > 0.0) {
-        return Err(SetupError::NotTwoBar { l1, l2 });
-    }
-    // Target of the point in the mechanism frame (pivot at the origin) and the initial guess.
-    let (x0, y0, alpha) = match setup.placement {
-        Placement::HalfAngle(deg) => {
-            let a = deg.to_radians();
-            let rad = l2 * l2 - (l1 * a.sin()).powi(2);
-            if rad < 0.0 {
-                return Err(SetupError::AngleUnreachable { deg, l1, l2 });
-            }
-            (0.0, l1 * a.cos() + rad.sqrt(), a)
-        }
-        Placement::Pivot(p) => {
-            let (x0, y0) = (-p[0], -p[1]);
-            let d = x0.hypot(y0);
-            let c = (l1 * l1 + d * d - l2 * l2) / (2.0 * l1 * d);
-            if !(-1.0..=1.0).contains(&c) {
-                return Err(SetupError::PivotUnreachable { d, l1, l2 });
-            }
-            (x0, y0, c.acos())
-        }
-    };
-    let d = x0.hypot(y0);
-    let theta = y0.atan2(x0);
-    let knee = ((l1 * l1 + l2 * l2 - d * d) / (2.0 * l1 * l2))
-        .clamp(-1.0, 1.0)
-        .acos();
-    let guess = [theta - alpha, std::f64::consts::PI - knee];
+    let TwoBar {
+        target: [x0, y0],
+        guess,
+        reach,
+    } = place_two_bar(&mechanism, point, setup.placement)?;
 
     let beam = fem_beam::BeamModel::new(&setup.beam).map_err(SetupError::Beam)?;
     let shape = beam.shape_at(setup.x).map_err(SetupError::BeamPoint)?;
@@ -263,9 +309,6 @@ pub fn build_model<M: System>(
     }
     let mut generator = setup.generator.clone();
     generator.connected = generator.connected && connected;
-    // The stretched mechanism (bars in line) bounds the beam point's travel:
-    // |p - pivot| <= L1 + L2, i.e. for x0 = 0 and equal bars 2 L (1 - cos a0).
-    let reach = ((l1 + l2).powi(2) - x0 * x0).max(0.0).sqrt() - y0;
     let mut link = MechanismLink::new(
         mechanism,
         Attachment { point, x0, y0 },
@@ -574,7 +617,14 @@ fn refine(t: &[f64], y: &[f64], k: usize) -> (f64, f64) {
 /// positive peaks above 1e-3 of the first, `zeta = delta / sqrt(4 pi^2 + delta^2)`. `None`
 /// with fewer than three peaks.
 pub fn damping_ratio(samples: &[Sample]) -> Option<f64> {
-    let pk = peaks(samples);
+    let y: Vec<f64> = samples.iter().map(|s| s.tip_displacement).collect();
+    let t: Vec<f64> = samples.iter().map(|s| s.t).collect();
+    damping_ratio_of(&t, &y)
+}
+
+/// [`damping_ratio`] of a sampled signal `y(t)`.
+pub fn damping_ratio_of(t: &[f64], y: &[f64]) -> Option<f64> {
+    let pk = peaks_of(t, y);
     let first = pk.first()?.1;
     let used: Vec<f64> = pk
         .iter()
@@ -665,6 +715,20 @@ pub enum RunError {
     Stopped,
 }
 
+/// The beam's initial deflection of the damper runs: the static shape of a transverse load
+/// at `point`, scaled so that the point is displaced by `displacement` (m).
+pub fn initial_deflection(
+    beam: &fem_beam::BeamModel,
+    point: &crate::hybrid::BeamPoint,
+    displacement: f64,
+) -> Result<Vec<f64>, BeamError> {
+    let mut p = vec![0.0; beam.dof_count()];
+    point.add_force(1.0, &mut p);
+    let shape = beam.static_deflection(&p)?;
+    let y1 = point.value(&shape);
+    Ok(shape.iter().map(|s| s * displacement / y1).collect())
+}
+
 /// The damper of a setup as a general [`crate::hybrid::HybridModel`]: the double bar
 /// mounted with its pivot at `(x - x0, -y0)` in the beam frame (axes aligned), its point
 /// pinned to the beam point at `x` (eqs. 45–46), the generator on its joint; and the beam's
@@ -685,14 +749,8 @@ pub fn hybrid_of<M: System>(
         x: setup.x,
         weights: coupled.coupling.clone(),
     };
-    let mut p = vec![0.0; beam.dof_count()];
-    point.add_force(1.0, &mut p);
-    let shape = beam.static_deflection(&p).map_err(SetupError::Beam)?;
-    let y1 = point.value(&shape);
-    let q0: Vec<f64> = shape
-        .iter()
-        .map(|s| s * setup.initial_displacement / y1)
-        .collect();
+    let q0 =
+        initial_deflection(&beam, &point, setup.initial_displacement).map_err(SetupError::Beam)?;
     let mechanism = MountedMechanism {
         name: "damper".into(),
         system: link.mechanism.clone_box(),

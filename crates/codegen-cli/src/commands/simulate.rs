@@ -85,6 +85,7 @@ pub fn run(args: Args) -> Result<(), Error> {
             let stem = stem.unwrap_or_else(|| "mechanism".into());
             mechanism(&sc, &out, &stem, progress, started, args.allow_long)
         }
+        Scenario::Hybrid(sc) => crate::run_hybrid::simulate(&sc, &out, progress, args.allow_long),
     }
 }
 

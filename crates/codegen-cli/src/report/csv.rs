@@ -131,7 +131,7 @@ fn number(x: f64) -> String {
 }
 
 /// A number; an empty cell when unknown or not finite.
-fn cell(x: Option<f64>) -> String {
+pub(crate) fn cell(x: Option<f64>) -> String {
     x.filter(|x| x.is_finite()).map(number).unwrap_or_default()
 }
 

@@ -5,7 +5,9 @@
 
 pub mod csv;
 pub mod digest;
+pub mod hybrid;
 pub mod plot;
+pub mod rows;
 pub mod stream;
 pub mod summary;
 pub mod writer;

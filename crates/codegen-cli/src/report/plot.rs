@@ -1,5 +1,6 @@
-//! The SVG plot of a damper run (plotters, SVG backend, no system fonts needed): the tip
-//! displacement against time with and without the generator.
+//! The SVG plots of a run (plotters, SVG backend, no system fonts needed): displacements
+//! against time — the damper's tip with and without the generator, a hybrid run's beam
+//! points.
 
 use plotters::prelude::*;
 
@@ -19,18 +20,38 @@ impl PlotError {
 /// SVG plot of the tip displacement (mm) against time for each labelled series (the first
 /// on top).
 pub fn plot_svg(title: &str, series: &[(&str, &[Sample])]) -> Result<Vec<u8>, PlotError> {
+    let lines: Vec<(&str, Vec<(f64, f64)>)> = series
+        .iter()
+        .map(|(label, s)| {
+            (
+                *label,
+                s.iter().map(|x| (x.t, x.tip_displacement)).collect(),
+            )
+        })
+        .collect();
+    let lines: Vec<(&str, &[(f64, f64)])> = lines.iter().map(|(l, p)| (*l, &p[..])).collect();
+    plot_displacements_svg(title, "tip displacement (mm)", &lines)
+}
+
+/// SVG plot of displacements `(t (s), y (m))`, drawn in mm against time, one line per
+/// labelled series (the first on top).
+pub fn plot_displacements_svg(
+    title: &str,
+    y_desc: &str,
+    series: &[(&str, &[(f64, f64)])],
+) -> Result<Vec<u8>, PlotError> {
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (1000, 500)).into_drawing_area();
         root.fill(&WHITE).map_err(PlotError::of)?;
         let t_end = series
             .iter()
-            .filter_map(|(_, s)| s.last().map(|x| x.t))
+            .filter_map(|(_, s)| s.last().map(|x| x.0))
             .fold(0.0, f64::max)
             .max(1e-9);
         let ymax = series
             .iter()
-            .flat_map(|(_, s)| s.iter().map(|x| x.tip_displacement.abs() * 1e3))
+            .flat_map(|(_, s)| s.iter().map(|x| x.1.abs() * 1e3))
             .fold(0.0, f64::max)
             .max(1e-9)
             * 1.05;
@@ -44,7 +65,7 @@ pub fn plot_svg(title: &str, series: &[(&str, &[Sample])]) -> Result<Vec<u8>, Pl
         chart
             .configure_mesh()
             .x_desc("time (s)")
-            .y_desc("tip displacement (mm)")
+            .y_desc(y_desc)
             .draw()
             .map_err(PlotError::of)?;
         let colors = [
@@ -53,11 +74,11 @@ pub fn plot_svg(title: &str, series: &[(&str, &[Sample])]) -> Result<Vec<u8>, Pl
             RGBColor(20, 140, 60),
         ];
         // Drawn last to first, so that the first series is on top.
-        for (k, (label, samples)) in series.iter().enumerate().rev() {
+        for (k, (label, points)) in series.iter().enumerate().rev() {
             let color = colors[k % colors.len()];
             chart
                 .draw_series(LineSeries::new(
-                    samples.iter().map(|s| (s.t, s.tip_displacement * 1e3)),
+                    points.iter().map(|&(t, y)| (t, y * 1e3)),
                     color.stroke_width(1),
                 ))
                 .map_err(PlotError::of)?

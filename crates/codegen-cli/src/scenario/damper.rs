@@ -187,10 +187,10 @@ impl DamperScenario {
     pub fn from_str(text: &str, path: &Path) -> Result<DamperScenario, Diagnostics> {
         match super::parse(text, path)? {
             super::Scenario::Damper(s) => Ok(*s),
-            super::Scenario::Mechanism(_) => Err(Diagnostic::new(
+            _ => Err(Diagnostic::new(
                 Kind::Unsupported,
                 path.display().to_string(),
-                "a `kind = \"mechanism\"` scenario, not a damper",
+                "not a damper scenario (`kind = \"damper\"`)",
             )
             .into()),
         }
@@ -419,7 +419,7 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<DamperScenario> {
 }
 
 /// Checks `[integrator]`; the scheme when it is usable.
-fn check_integrator(doc: &mut Doc<'_>, ig: &IntegratorSpec) -> Option<Method> {
+pub(crate) fn check_integrator(doc: &mut Doc<'_>, ig: &IntegratorSpec) -> Option<Method> {
     let at = |doc: &Doc<'_>, key: &str| doc.span(&["integrator", key]);
     let mut ok = true;
     if !(ig.dt.is_finite() && ig.dt > 0.0) {

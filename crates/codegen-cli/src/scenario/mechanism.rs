@@ -479,10 +479,10 @@ pub fn parse_str(
 ) -> Result<MechanismScenario, Diagnostics> {
     match super::parse_in(text, file, base_dir)? {
         super::Scenario::Mechanism(s) => Ok(*s),
-        super::Scenario::Damper(_) => Err(Diagnostic::new(
+        _ => Err(Diagnostic::new(
             Kind::Unsupported,
             file,
-            "a damper scenario, not `kind = \"mechanism\"`",
+            "not a `kind = \"mechanism\"` scenario",
         )
         .into()),
     }

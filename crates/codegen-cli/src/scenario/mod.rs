@@ -4,15 +4,18 @@
 //! - `kind = "damper"` ([`damper`]): an elastic beam, a double bar pinned to one of its
 //!   points (eqs. 45–58) and the DC generator, with initial conditions and the integrator;
 //! - `kind = "mechanism"` ([`mechanism`]): a rigid closed-loop mechanism integrated in
-//!   independent coordinates (eqs. 14–25).
+//!   independent coordinates (eqs. 14–25);
+//! - `kind = "hybrid"` ([`hybrid`]): an optional beam, any mechanisms, attachments, force
+//!   elements and excitations (eqs. 44–58 in general form).
 //!
 //! The text is parsed once into a spanned document; the kind tag is read first (a typo gives
-//! "unknown kind `mechanizm`, expected one of `damper`, `mechanism`"), then every section is
+//! "unknown kind `mechanizm`, expected one of `damper`, `mechanism`, `hybrid`"), then every section is
 //! read on its own, so that every problem of the file — an unknown key in one section, a bad
 //! value in another — is reported at once as [`Diagnostics`], each with file:line:column
 //! from the parser's spans ([`LineIndex`]).
 
 pub mod damper;
+pub mod hybrid;
 pub mod mechanism;
 
 use std::ops::Range;
@@ -24,10 +27,11 @@ use toml::Spanned;
 use toml::de::{DeTable, DeValue, ValueDeserializer};
 
 pub use damper::DamperScenario;
+pub use hybrid::HybridScenario;
 pub use mechanism::MechanismScenario;
 
 /// The kinds of scenario, as written after `kind =`.
-pub const KINDS: [&str; 2] = ["damper", "mechanism"];
+pub const KINDS: [&str; 3] = ["damper", "mechanism", "hybrid"];
 
 /// A loaded and checked scenario of either kind.
 #[derive(Clone, Debug)]
@@ -36,6 +40,8 @@ pub enum Scenario {
     Damper(Box<DamperScenario>),
     /// `kind = "mechanism"`.
     Mechanism(Box<MechanismScenario>),
+    /// `kind = "hybrid"`.
+    Hybrid(Box<HybridScenario>),
 }
 
 /// Reads and checks a scenario file of any kind; every problem is reported at once.
@@ -66,6 +72,7 @@ pub fn parse_in(text: &str, file: &str, base: &Path) -> Result<Scenario, Diagnos
         Some("mechanism") => {
             mechanism::from_doc(&mut doc).map(|s| Scenario::Mechanism(Box::new(s)))
         }
+        Some("hybrid") => hybrid::from_doc(&mut doc).map(|s| Scenario::Hybrid(Box::new(s))),
         _ => None,
     };
     let diags = doc.finish();
@@ -73,6 +80,11 @@ pub fn parse_in(text: &str, file: &str, base: &Path) -> Result<Scenario, Diagnos
         Some(s) if diags.is_empty() => Ok(s),
         _ => Err(diags),
     }
+}
+
+/// The kinds, quoted: "`damper`, `mechanism`, `hybrid`".
+fn kinds() -> String {
+    KINDS.map(|k| format!("`{k}`")).join(", ")
 }
 
 /// A parsed scenario text: the spanned document, the line index and the problems found so
@@ -131,14 +143,15 @@ impl<'a> Doc<'a> {
             DeValue::String(s) if KINDS.contains(&s.as_ref()) => Some(s.to_string()),
             DeValue::String(s) => {
                 let msg = format!(
-                    "unknown kind `{}`, expected one of `damper`, `mechanism`",
-                    diagnostic::truncate(s, 40)
+                    "unknown kind `{}`, expected one of {}",
+                    diagnostic::truncate(s, 40),
+                    kinds()
                 );
                 self.push(Kind::InvalidValue, Some(span), Some("kind"), msg);
                 None
             }
             _ => {
-                let msg = "must be a string, one of `damper`, `mechanism`";
+                let msg = format!("must be a string, one of {}", kinds());
                 self.push(Kind::Syntax, Some(span), Some("kind"), msg);
                 None
             }

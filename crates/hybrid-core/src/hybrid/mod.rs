@@ -67,6 +67,7 @@ mod error;
 mod follow;
 mod integrator;
 mod model;
+mod run;
 
 pub use error::HybridError;
 pub use integrator::{Account, HybridState, Integrator, MechanismState, Repartition, Stored};
@@ -74,6 +75,7 @@ pub use model::{
     Attachment, AttachmentKind, BeamPoint, Excitation, ExcitationTarget, ForceKind, HybridModel,
     JointForce, ModelError, Mount, MountedMechanism,
 };
+pub use run::{RunError, RunFigures, RunOptions, RunOutcome, balance_error, input_work, run};
 
 use crate::damper::Method;
 use crate::partition::choose_partition;

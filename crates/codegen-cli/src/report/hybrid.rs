@@ -1,0 +1,337 @@
+//! The outputs of a hybrid run (`kind = "hybrid"`): the columns of its CSV time history
+//! ([`Columns`]) and its typed JSON summary ([`HybridSummary`]).
+//!
+//! Columns, in order (units in brackets):
+//!
+//! - `t [s]`;
+//! - per mechanism `M`: every coordinate `M.q [rad|m]`, every rate `M.q_dot [rad/s|m/s]`,
+//!   `M.cond_jd` (2-norm condition number of its dependent Jacobian) and
+//!   `M.constraint_residual` (|h| after the position solve);
+//! - per attachment `A`: `A.w [m]`, `A.w_dot [m/s]` (the beam point's displacement and
+//!   velocity) and, where a generator is on its mechanism, `A.amplification` (generator
+//!   joint speed / beam point speed; empty where the beam point is at rest);
+//! - per force element `F`: `F.dissipated [J]`; a generator also `F.current [A]`,
+//!   `F.power [W]` (`(R_a + R_L) i^2`) and `F.harvested [J]` (the load's share `R_L / (R_a +
+//!   R_L)` of the dissipated energy);
+//! - per excitation `E`: `E.value [N|N m]` and `E.work [J]`;
+//! - the energy account: `beam_kinetic [J]`, `beam_potential [J]`, per mechanism
+//!   `M.kinetic [J]` and `M.potential [J]`, `magnetic [J]`, `stored [J]`,
+//!   `dissipated_structure [J]`, `beam_load_work [J]` and `balance_error [J]`
+//!   (`(E_0 + W) - (E + D)`).
+
+use std::collections::BTreeMap;
+
+use hybrid_core::hybrid::{ExcitationTarget, HybridModel, HybridState, Stored, balance_error};
+use serde::Serialize;
+
+use crate::scenario::damper::IntegratorSpec;
+
+/// The CSV layout of a hybrid run: header and the row of a state.
+#[derive(Clone, Debug)]
+pub struct Columns {
+    header: Vec<String>,
+    /// Per attachment: the generator force element on its mechanism, if any.
+    amplifier: Vec<Option<usize>>,
+    cells: Vec<f64>,
+}
+
+fn unit(revolute: bool, angle: &'static str, length: &'static str) -> &'static str {
+    if revolute { angle } else { length }
+}
+
+impl Columns {
+    /// The columns of `model`; `revolute[m][c]`: whether coordinate `c` of mechanism `m` is
+    /// an angle.
+    pub fn new(model: &HybridModel, revolute: &[Vec<bool>]) -> Columns {
+        let mut h = vec!["t [s]".to_string()];
+        for (m, rev) in model.mechanisms.iter().zip(revolute) {
+            let names = m.system.coordinate_names();
+            for (c, r) in names.iter().zip(rev) {
+                h.push(format!("{}.{c} [{}]", m.name, unit(*r, "rad", "m")));
+            }
+            for (c, r) in names.iter().zip(rev) {
+                h.push(format!("{}.{c}_dot [{}]", m.name, unit(*r, "rad/s", "m/s")));
+            }
+            h.push(format!("{}.cond_jd", m.name));
+            h.push(format!("{}.constraint_residual", m.name));
+        }
+        let mut amplifier = vec![];
+        for a in &model.attachments {
+            h.push(format!("{}.w [m]", a.name));
+            h.push(format!("{}.w_dot [m/s]", a.name));
+            let g = model
+                .forces
+                .iter()
+                .position(|f| f.mechanism == a.mechanism && f.generator().is_some());
+            if g.is_some() {
+                h.push(format!("{}.amplification", a.name));
+            }
+            amplifier.push(g);
+        }
+        for f in &model.forces {
+            h.push(format!("{}.dissipated [J]", f.name));
+            if f.generator().is_some() {
+                h.push(format!("{}.current [A]", f.name));
+                h.push(format!("{}.power [W]", f.name));
+                h.push(format!("{}.harvested [J]", f.name));
+            }
+        }
+        for e in &model.excitations {
+            let u = match e.target {
+                ExcitationTarget::Beam(_) => "N",
+                ExcitationTarget::Joint { mechanism, joint } => {
+                    unit(revolute[mechanism][joint], "N m", "N")
+                }
+            };
+            h.push(format!("{}.value [{u}]", e.name));
+            h.push(format!("{}.work [J]", e.name));
+        }
+        h.push("beam_kinetic [J]".into());
+        h.push("beam_potential [J]".into());
+        for m in &model.mechanisms {
+            h.push(format!("{}.kinetic [J]", m.name));
+            h.push(format!("{}.potential [J]", m.name));
+        }
+        for name in [
+            "magnetic [J]",
+            "stored [J]",
+            "dissipated_structure [J]",
+            "beam_load_work [J]",
+            "balance_error [J]",
+        ] {
+            h.push(name.into());
+        }
+        let cells = Vec::with_capacity(h.len());
+        Columns {
+            header: h,
+            amplifier,
+            cells,
+        }
+    }
+
+    /// The header.
+    pub fn header(&self) -> &[String] {
+        &self.header
+    }
+
+    /// The row of `state` with stored energies `stored` (`e0`: stored energy at the start).
+    pub fn row(
+        &mut self,
+        model: &HybridModel,
+        state: &HybridState,
+        stored: &Stored,
+        e0: f64,
+    ) -> &[f64] {
+        let c = &mut self.cells;
+        c.clear();
+        c.push(state.t);
+        for ms in &state.mechanisms {
+            c.extend(&ms.q);
+            c.extend(&ms.qd);
+            c.push(ms.condition);
+            c.push(ms.residual);
+        }
+        for (a, g) in model.attachments.iter().zip(&self.amplifier) {
+            let wd = a.beam.value(&state.v);
+            c.push(a.beam.value(&state.q));
+            c.push(wd);
+            if let Some(g) = g {
+                let f = &model.forces[*g];
+                let speed = state.mechanisms[f.mechanism].qd[f.joint];
+                c.push(if wd != 0.0 { speed / wd } else { f64::NAN });
+            }
+        }
+        for (k, f) in model.forces.iter().enumerate() {
+            let d = state.account.dissipated[k];
+            c.push(d);
+            if let Some(g) = f.generator() {
+                let i = state.currents[k];
+                c.push(i);
+                c.push(g.resistance() * i * i);
+                c.push(d * g.load_resistance / g.resistance());
+            }
+        }
+        for (k, e) in model.excitations.iter().enumerate() {
+            c.push(e.value(state.t));
+            c.push(state.account.excitation_work[k]);
+        }
+        c.push(stored.beam_kinetic);
+        c.push(stored.beam_potential);
+        for (k, p) in stored
+            .mechanism_kinetic
+            .iter()
+            .zip(&stored.mechanism_potential)
+        {
+            c.push(*k);
+            c.push(*p);
+        }
+        c.push(stored.magnetic);
+        c.push(stored.total());
+        c.push(state.account.dissipated_structure);
+        c.push(state.account.beam_load_work);
+        c.push(balance_error(e0, stored, &state.account));
+        debug_assert_eq!(c.len(), self.header.len());
+        &self.cells
+    }
+}
+
+/// `summary.json` of a hybrid run.
+#[derive(Clone, Debug, Serialize)]
+pub struct HybridSummary<'a> {
+    /// The scenario file.
+    pub scenario: String,
+    /// Its description.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub description: Option<&'a str>,
+    /// Version of the code generator.
+    pub generator_version: &'static str,
+    /// `[integrator]` as read.
+    pub integrator: &'a IntegratorSpec,
+    /// A CSV row every `every` steps.
+    pub every: usize,
+    /// Time steps.
+    pub steps: u64,
+    /// CSV rows written.
+    pub output_rows: u64,
+    /// Wall-clock time of the integration (s).
+    pub wall_seconds: f64,
+    /// Steps per second of wall-clock time.
+    pub steps_per_second: f64,
+    /// First natural frequency of the bare beam (Hz).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub beam_first_frequency_hz: Option<f64>,
+    /// Largest |displacement| of the first attachment's beam point (m).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub peak_amplitude: Option<f64>,
+    /// Equivalent damping ratio of the first attachment's displacement (logarithmic
+    /// decrement of its positive peaks); only for a free decay (no excitation, no beam load).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub damping_ratio: Option<f64>,
+    /// The mechanisms.
+    pub mechanisms: Vec<MechanismReport>,
+    /// The attachments.
+    pub attachments: Vec<AttachmentReport>,
+    /// The generators.
+    pub generators: Vec<GeneratorReport>,
+    /// The excitations.
+    pub excitations: Vec<ExcitationReport>,
+    /// The energy account.
+    pub energy: HybridEnergy,
+    /// Largest |energy balance error| / `energy.relative_to` at the output steps.
+    pub energy_balance_rel_error: f64,
+    /// Changes of independent coordinates.
+    pub repartitions: Vec<RepartitionReport>,
+}
+
+/// One mechanism of a hybrid run.
+#[derive(Clone, Debug, Serialize)]
+pub struct MechanismReport {
+    /// Its name.
+    pub name: String,
+    /// The model's name.
+    pub model: String,
+    /// The model file.
+    pub model_file: String,
+    /// FNV-1a content hash of the model file.
+    pub model_hash: String,
+    /// `generated` or `interpreter`.
+    pub backend: &'static str,
+    /// Free (independent) coordinates at the start.
+    pub initial_free: Vec<String>,
+    /// ... and at the end.
+    pub final_free: Vec<String>,
+    /// Coordinates at the start.
+    pub initial_q: BTreeMap<String, f64>,
+    /// Coordinates at the end.
+    pub final_q: BTreeMap<String, f64>,
+    /// Largest cond(J_d) at the output steps.
+    pub max_condition: f64,
+    /// Largest constraint residual at the output steps.
+    pub max_constraint_residual: f64,
+}
+
+/// One attachment of a hybrid run.
+#[derive(Clone, Debug, Serialize)]
+pub struct AttachmentReport {
+    /// Its name.
+    pub name: String,
+    /// `pin` or `roller`.
+    pub kind: &'static str,
+    /// Beam abscissa (m).
+    pub x: f64,
+    /// Largest |displacement| of the beam point (m).
+    pub peak_displacement: f64,
+    /// Largest |displacement| over the last tenth of the run (m): the steady-state
+    /// amplitude of a forced run.
+    pub final_amplitude: f64,
+    /// `sqrt(sum qd_g^2 / sum w_dot^2)` over the output rows: the RMS ratio of the generator
+    /// joint speed to the beam point speed (where a generator is on the mechanism).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub amplification_rms: Option<f64>,
+}
+
+/// One generator of a hybrid run.
+#[derive(Clone, Debug, Serialize)]
+pub struct GeneratorReport {
+    /// Its name.
+    pub name: String,
+    /// Its mechanism.
+    pub mechanism: String,
+    /// Energy dissipated in its circuit, `(R_a + R_L) i^2` integrated (J).
+    pub dissipated: f64,
+    /// Of which in the load, `R_L i^2` integrated (J).
+    pub harvested_in_load: f64,
+    /// Mean power into the load over the run (W).
+    pub mean_load_power: f64,
+    /// Largest |current| at the output steps (A).
+    pub peak_current: f64,
+}
+
+/// One excitation of a hybrid run.
+#[derive(Clone, Debug, Serialize)]
+pub struct ExcitationReport {
+    /// Its name.
+    pub name: String,
+    /// Work done on the system (J).
+    pub work: f64,
+}
+
+/// The energy account of a hybrid run (J).
+#[derive(Clone, Debug, Serialize)]
+pub struct HybridEnergy {
+    /// Stored energy at the start.
+    pub initial: f64,
+    /// Stored energy at the end.
+    pub final_stored: f64,
+    /// Dissipated by the beam's Rayleigh damping.
+    pub dissipated_structure: f64,
+    /// Dissipated by each force element.
+    pub dissipated_elements: BTreeMap<String, f64>,
+    /// Work of the beam's own loads.
+    pub beam_load_work: f64,
+    /// Work of each excitation.
+    pub excitation_work: BTreeMap<String, f64>,
+    /// Largest |balance error| at the output steps.
+    pub max_balance_error: f64,
+    /// What the relative error is relative to.
+    pub relative_to: &'static str,
+    /// Its value.
+    pub scale: f64,
+}
+
+/// A change of independent coordinates.
+#[derive(Clone, Debug, Serialize)]
+pub struct RepartitionReport {
+    /// Time (s).
+    pub t: f64,
+    /// The mechanism.
+    pub mechanism: String,
+    /// Free coordinates before.
+    pub from: Vec<String>,
+    /// ... after.
+    pub to: Vec<String>,
+    /// cond(J_d) before.
+    pub cond_before: f64,
+    /// ... after.
+    pub cond_after: f64,
+}

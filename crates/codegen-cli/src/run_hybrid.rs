@@ -1,0 +1,342 @@
+//! Running a hybrid scenario (`kind = "hybrid"`): scenario → models → `hybrid_core::hybrid`
+//! → rows and figures → files.
+//!
+//! `damper simulate scenario.toml -o DIR` writes into DIR (all together, or nothing):
+//!
+//! - `time_history.csv`: the columns of [`crate::report::hybrid`] (mechanism coordinates,
+//!   rates and cond(J_d), beam point displacements and velocities, amplification ratios,
+//!   generator currents, powers and harvested energies, excitation values and work, the
+//!   energy account, constraint residuals), a row every `[output] every` steps;
+//! - `summary.json` ([`HybridSummary`]);
+//! - `beam_displacement.svg`: the displacement of every attached beam point (only when there
+//!   are attachments).
+//!
+//! Rows go through a [`RowSink`] into memory and are committed with the other files by the
+//! one writer; streaming them to disk is the sink's constructor.
+
+use std::collections::BTreeMap;
+use std::io::IsTerminal;
+use std::path::Path;
+
+use hybrid_core::hybrid::{Integrator, RunError, RunOptions, run};
+use hybrid_core::study::{damping_ratio_of, peaks_of};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::Error;
+use crate::budget::Estimate;
+use crate::report::hybrid::{
+    AttachmentReport, Columns, ExcitationReport, GeneratorReport, HybridEnergy, HybridSummary,
+    MechanismReport, RepartitionReport,
+};
+use crate::report::plot::plot_displacements_svg;
+use crate::report::rows::{CsvRows, RowSink};
+use crate::report::summary::json_bytes;
+use crate::report::{OutputFile, ReportError, commit_files};
+use crate::scenario::HybridScenario;
+
+/// Bytes of one CSV cell in the work estimate.
+const CELL_BYTES: f64 = 25.0;
+
+fn progress_bar(show: bool) -> ProgressBar {
+    if !(show && std::io::stderr().is_terminal()) {
+        return ProgressBar::hidden();
+    }
+    let pb = ProgressBar::new(1000);
+    pb.set_style(
+        ProgressStyle::with_template("simulate [{bar:40}] {percent:>3}% ETA {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    pb
+}
+
+/// Per-output-row figures the summary needs (not the rows themselves).
+struct Tracks {
+    /// `(t, w)` of every attachment.
+    w: Vec<Vec<(f64, f64)>>,
+    /// Sum of squared generator joint speeds and beam point speeds, per attachment.
+    speeds: Vec<(f64, f64)>,
+    max_condition: Vec<f64>,
+    max_residual: Vec<f64>,
+    peak_current: Vec<f64>,
+}
+
+/// Runs `damper simulate` on a hybrid scenario and writes its files into `out`.
+pub fn simulate(
+    sc: &HybridScenario,
+    out: &Path,
+    progress: bool,
+    allow_long: bool,
+) -> Result<(), Error> {
+    let file = sc.path.display().to_string();
+    let built = sc.build()?;
+    let model = &built.model;
+    let mut columns = Columns::new(model, &built.revolute);
+    let steps = (sc.integrator.t_end / sc.integrator.dt).round();
+    let rows = (steps / sc.every as f64).floor() + 2.0;
+    let series = model.attachments.len() as f64 * 16.0;
+    Estimate {
+        steps: Some(steps),
+        rows,
+        bytes: rows * (columns.header().len() as f64 * CELL_BYTES + series),
+    }
+    .check(&file, allow_long)?;
+    let mut integrator = Integrator::new(model, sc.method, sc.integrator.dt, &built.state)
+        .map_err(|error| Error::Hybrid {
+            file: file.clone(),
+            error,
+        })?;
+    let initial = built.state.clone();
+    let na = model.attachments.len();
+    let mut tracks = Tracks {
+        w: vec![vec![]; na],
+        speeds: vec![(0.0, 0.0); na],
+        max_condition: vec![0.0; model.mechanisms.len()],
+        max_residual: vec![0.0; model.mechanisms.len()],
+        peak_current: vec![0.0; model.forces.len()],
+    };
+    let mut csv = CsvRows::new(Vec::new(), columns.header()).map_err(ReportError::from)?;
+    let mut e0 = None;
+    let bar = progress_bar(progress);
+    let outcome = run(
+        model,
+        &mut integrator,
+        built.state.clone(),
+        RunOptions {
+            t_end: sc.integrator.t_end,
+            every: sc.every,
+        },
+        &mut |state, stored| {
+            let e0 = *e0.get_or_insert(stored.total());
+            for (k, a) in model.attachments.iter().enumerate() {
+                let wd = a.beam.value(&state.v);
+                tracks.w[k].push((state.t, a.beam.value(&state.q)));
+                if let Some(f) = model
+                    .forces
+                    .iter()
+                    .find(|f| f.mechanism == a.mechanism && f.generator().is_some())
+                {
+                    let qd = state.mechanisms[f.mechanism].qd[f.joint];
+                    tracks.speeds[k].0 += qd * qd;
+                    tracks.speeds[k].1 += wd * wd;
+                }
+            }
+            for (i, ms) in state.mechanisms.iter().enumerate() {
+                tracks.max_condition[i] = tracks.max_condition[i].max(ms.condition);
+                tracks.max_residual[i] = tracks.max_residual[i].max(ms.residual);
+            }
+            for (k, i) in state.currents.iter().enumerate() {
+                tracks.peak_current[k] = tracks.peak_current[k].max(i.abs());
+            }
+            csv.write_row(columns.row(model, state, stored, e0))
+        },
+        &mut |f| bar.set_position((f * 1000.0) as u64),
+    );
+    bar.finish_and_clear();
+    let outcome = match outcome {
+        Ok(o) => o,
+        Err(RunError::Hybrid(error)) => return Err(Error::Hybrid { file, error }),
+        Err(RunError::Sink(e)) => return Err(ReportError::from(e).into()),
+    };
+    let output_rows = csv.rows();
+    let csv_bytes = csv.into_inner().map_err(ReportError::from)?;
+    let fig = &outcome.figures;
+    let state = &outcome.state;
+
+    // The summary.
+    let coordinate = |m: usize, c: usize| model.mechanisms[m].system.coordinate_names()[c].clone();
+    let named = |m: usize, q: &[f64]| -> BTreeMap<String, f64> {
+        q.iter()
+            .enumerate()
+            .map(|(c, v)| (coordinate(m, c), *v))
+            .collect()
+    };
+    let mechanisms = model
+        .mechanisms
+        .iter()
+        .enumerate()
+        .map(|(i, m)| {
+            let mm = &built.models[i];
+            MechanismReport {
+                name: m.name.clone(),
+                model: mm.name.clone(),
+                model_file: mm.source.path.clone(),
+                model_hash: mm.source.hash.clone(),
+                backend: m.system.backend().as_str(),
+                initial_free: initial.mechanisms[i]
+                    .free
+                    .iter()
+                    .map(|&c| coordinate(i, c))
+                    .collect(),
+                final_free: state.mechanisms[i]
+                    .free
+                    .iter()
+                    .map(|&c| coordinate(i, c))
+                    .collect(),
+                initial_q: named(i, &initial.mechanisms[i].q),
+                final_q: named(i, &state.mechanisms[i].q),
+                max_condition: tracks.max_condition[i],
+                max_constraint_residual: tracks.max_residual[i],
+            }
+        })
+        .collect();
+    let t_end = state.t;
+    let attachments: Vec<AttachmentReport> = model
+        .attachments
+        .iter()
+        .enumerate()
+        .map(|(k, a)| {
+            let w = &tracks.w[k];
+            let (s_q, s_w) = tracks.speeds[k];
+            AttachmentReport {
+                name: a.name.clone(),
+                kind: a.kind.as_str(),
+                x: a.beam.x,
+                peak_displacement: w.iter().map(|p| p.1.abs()).fold(0.0, f64::max),
+                final_amplitude: w
+                    .iter()
+                    .filter(|p| p.0 >= 0.9 * t_end)
+                    .map(|p| p.1.abs())
+                    .fold(0.0, f64::max),
+                amplification_rms: (s_w > 0.0).then(|| (s_q / s_w).sqrt()),
+            }
+        })
+        .collect();
+    let generators = model
+        .forces
+        .iter()
+        .enumerate()
+        .filter_map(|(k, f)| {
+            let g = f.generator()?;
+            let d = state.account.dissipated[k];
+            let harvested = d * g.load_resistance / g.resistance();
+            Some(GeneratorReport {
+                name: f.name.clone(),
+                mechanism: model.mechanisms[f.mechanism].name.clone(),
+                dissipated: d,
+                harvested_in_load: harvested,
+                mean_load_power: if t_end > 0.0 { harvested / t_end } else { 0.0 },
+                peak_current: tracks.peak_current[k],
+            })
+        })
+        .collect();
+    let excitations = model
+        .excitations
+        .iter()
+        .zip(&state.account.excitation_work)
+        .map(|(e, w)| ExcitationReport {
+            name: e.name.clone(),
+            work: *w,
+        })
+        .collect();
+    let first = tracks.w.first();
+    let (t, y): (Vec<f64>, Vec<f64>) = first.map(|w| w.iter().copied().unzip()).unwrap_or_default();
+    // A free decay only: no excitation and no beam load.
+    let free = model.excitations.is_empty()
+        && sc
+            .beam
+            .as_ref()
+            .is_none_or(|(b, _)| b.loads.is_empty() && b.distributed_loads.is_empty());
+    let damping_ratio = if free && peaks_of(&t, &y).len() >= 3 {
+        damping_ratio_of(&t, &y)
+    } else {
+        None
+    };
+    let summary = HybridSummary {
+        scenario: file.clone(),
+        description: sc.description.as_deref(),
+        generator_version: mbs_symbolic::emit::GENERATOR_VERSION,
+        integrator: &sc.integrator,
+        every: sc.every,
+        steps: fig.steps,
+        output_rows,
+        wall_seconds: fig.wall.as_secs_f64(),
+        steps_per_second: fig.steps as f64 / fig.wall.as_secs_f64().max(1e-12),
+        beam_first_frequency_hz: model
+            .beam
+            .as_ref()
+            .and_then(|b| b.modes(1).ok())
+            .map(|m| m.frequencies_hz()[0]),
+        peak_amplitude: attachments.first().map(|a| a.peak_displacement),
+        damping_ratio,
+        mechanisms,
+        attachments,
+        generators,
+        excitations,
+        energy: HybridEnergy {
+            initial: fig.initial_energy,
+            final_stored: outcome.stored.total(),
+            dissipated_structure: state.account.dissipated_structure,
+            dissipated_elements: model
+                .forces
+                .iter()
+                .zip(&state.account.dissipated)
+                .map(|(f, d)| (f.name.clone(), *d))
+                .collect(),
+            beam_load_work: state.account.beam_load_work,
+            excitation_work: model
+                .excitations
+                .iter()
+                .zip(&state.account.excitation_work)
+                .map(|(e, w)| (e.name.clone(), *w))
+                .collect(),
+            max_balance_error: fig.max_balance_error,
+            relative_to: "max(initial energy, stored energy, |input work|) at the output steps",
+            scale: fig.energy_scale,
+        },
+        energy_balance_rel_error: fig.balance_rel_error,
+        repartitions: fig
+            .repartitions
+            .iter()
+            .map(|r| RepartitionReport {
+                t: r.t,
+                mechanism: model.mechanisms[r.mechanism].name.clone(),
+                from: r.from.iter().map(|&c| coordinate(r.mechanism, c)).collect(),
+                to: r.to.iter().map(|&c| coordinate(r.mechanism, c)).collect(),
+                cond_before: r.condition.0,
+                cond_after: r.condition.1,
+            })
+            .collect(),
+    };
+
+    let mut files = vec![
+        OutputFile {
+            path: out.join("time_history.csv"),
+            bytes: csv_bytes,
+        },
+        OutputFile {
+            path: out.join("summary.json"),
+            bytes: json_bytes(&summary).map_err(ReportError::from)?,
+        },
+    ];
+    if na > 0 {
+        let lines: Vec<(&str, &[(f64, f64)])> = model
+            .attachments
+            .iter()
+            .zip(&tracks.w)
+            .map(|(a, w)| (a.name.as_str(), &w[..]))
+            .collect();
+        files.push(OutputFile {
+            path: out.join("beam_displacement.svg"),
+            bytes: plot_displacements_svg("Beam point displacements", "displacement (mm)", &lines)
+                .map_err(ReportError::from)?,
+        });
+    }
+    commit_files(&files).map_err(ReportError::from)?;
+    let zeta = summary
+        .damping_ratio
+        .map_or("n/a".to_string(), |z| format!("{:.3} %", z * 100.0));
+    crate::print(&format!(
+        "{file}: {} steps in {:.3} s ({} mechanism(s), {} attachment(s), {} repartition(s)); peak {}; zeta {zeta}; energy balance error {:.1e}; outputs in {}\n",
+        fig.steps,
+        fig.wall.as_secs_f64(),
+        model.mechanisms.len(),
+        na,
+        fig.repartitions.len(),
+        summary
+            .peak_amplitude
+            .map_or("n/a".to_string(), |p| format!("{:.3} mm", p * 1e3)),
+        fig.balance_rel_error,
+        out.display()
+    ))
+}
