@@ -106,7 +106,7 @@ pub fn simulate(
             t_end: sc.integrator.t_end,
             every: sc.every,
         },
-        &mut |state, stored| {
+        &mut |state, stored, _| {
             let e0 = *e0.get_or_insert(stored.total());
             for (k, a) in model.attachments.iter().enumerate() {
                 let wd = a.beam.value(&state.v);

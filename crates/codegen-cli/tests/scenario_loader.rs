@@ -276,7 +276,7 @@ fn every_bundled_scenario_loads_and_runs_a_few_hundred_steps() {
                         t_end: 300.0 * sc.integrator.dt,
                         every: 30,
                     },
-                    &mut |s, e| {
+                    &mut |s, e, _| {
                         rows += 1;
                         let finite = s.q.iter().chain(&s.v).all(|x| x.is_finite())
                             && s.mechanisms

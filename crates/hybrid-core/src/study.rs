@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 use std::ops::ControlFlow;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use fem_beam::{Beam, BeamError};
 use mbs_symbolic::model::Model;
@@ -15,7 +15,8 @@ use crate::coupling::{Attachment, LinkShapeError, MechanismLink};
 use crate::damper::{DamperModel, Energy, Method};
 use crate::generator::GeneratorSpec;
 use crate::hybrid::{
-    HybridError, HybridModel, HybridState, Integrator as HybridIntegrator, Stored,
+    HybridError, HybridModel, HybridState, Integrator as HybridIntegrator,
+    RunError as HybridRunError, RunOptions, Stored, balance_error, input_work,
 };
 
 /// Where the ground pivot of the double bar is, relative to the undeformed beam point.
@@ -385,10 +386,9 @@ impl Sample {
         model: &HybridModel,
         integrator: &mut HybridIntegrator,
         s: &HybridState,
-        stored: &mut Stored,
+        stored: &Stored,
         e0: f64,
     ) -> Sample {
-        integrator.stored_into(model, s, stored);
         let point = &model.attachments[0].beam;
         let force = &model.forces[0];
         let joint = force.joint;
@@ -420,8 +420,7 @@ impl Sample {
             total_energy: total,
             dissipated_structure: acc.dissipated_structure,
             dissipated_generator: acc.dissipated[0],
-            energy_balance_error: (e0 + acc.beam_load_work)
-                - (total + acc.dissipated_structure + acc.dissipated[0]),
+            energy_balance_error: balance_error(e0, stored, acc),
             constraint_residual: m.residual,
             jacobian_condition: m.condition,
         }
@@ -475,37 +474,32 @@ pub struct Figures {
 pub fn run_streaming(
     model: &HybridModel,
     integrator: &mut HybridIntegrator,
-    mut state: HybridState,
+    state: HybridState,
     t_end: f64,
     every: usize,
     progress: &mut dyn FnMut(f64),
     sink: &mut dyn FnMut(&Sample) -> ControlFlow<()>,
 ) -> Result<Figures, RunError> {
-    let mut stored = Stored::default();
-    integrator.stored_into(model, &state, &mut stored);
-    let e0 = stored.total();
-    let steps = (t_end / integrator.step_size()).round() as u64;
-    if sink(&Sample::of(model, integrator, &state, &mut stored, e0)).is_break() {
-        return Err(RunError::Stopped);
-    }
-    let mut worst: f64 = 0.0;
-    let start = Instant::now();
-    let report = (steps / 200).max(1);
-    for k in 1..=steps {
-        integrator.step(model, &mut state)?;
-        if k % every.max(1) as u64 == 0 || k == steps {
-            let sample = Sample::of(model, integrator, &state, &mut stored, e0);
-            worst = worst.max(sample.energy_balance_error.abs());
-            if sink(&sample).is_break() {
-                return Err(RunError::Stopped);
+    let mut e0 = None;
+    let outcome = crate::hybrid::run(
+        model,
+        integrator,
+        state,
+        RunOptions { t_end, every },
+        &mut |s, stored, integrator| {
+            let e0 = *e0.get_or_insert(stored.total());
+            match sink(&Sample::of(model, integrator, s, stored, e0)) {
+                ControlFlow::Continue(()) => Ok(()),
+                ControlFlow::Break(()) => Err(()),
             }
-        }
-        if k % report == 0 {
-            progress(k as f64 / steps as f64);
-        }
-    }
-    let wall = start.elapsed();
-    integrator.stored_into(model, &state, &mut stored);
+        },
+        progress,
+    )
+    .map_err(|e| match e {
+        HybridRunError::Hybrid(e) => RunError::Sim(e),
+        HybridRunError::Sink(()) => RunError::Stopped,
+    })?;
+    let (stored, state) = (&outcome.stored, outcome.state);
     let g = model.forces[0]
         .generator()
         .expect("the damper's force element is its generator");
@@ -526,17 +520,18 @@ pub fn run_streaming(
         dissipated_structure: acc.dissipated_structure,
         dissipated_armature: acc.dissipated[0] * share(g.armature_resistance),
         dissipated_load: acc.dissipated[0] * share(g.load_resistance),
-        external_work: acc.beam_load_work + acc.excitation_work.iter().sum::<f64>(),
+        external_work: input_work(acc),
     };
+    let f = &outcome.figures;
     Ok(Figures {
+        initial_energy: f.initial_energy,
+        energy_balance_rel_error: f.balance_rel_error,
+        wall: f.wall,
         state: RunEnd {
             steps: state.steps,
             energy,
             hybrid: state,
         },
-        initial_energy: e0,
-        energy_balance_rel_error: if e0 > 0.0 { worst / e0 } else { worst },
-        wall,
     })
 }
 

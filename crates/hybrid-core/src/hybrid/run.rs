@@ -86,7 +86,8 @@ pub fn balance_error(initial: f64, stored: &Stored, account: &Account) -> f64 {
 }
 
 /// Integrates `model` from `state` to `options.t_end` with `integrator` (whose step is the
-/// time step), calling `sink` with the state and its stored energies at the start, every
+/// time step), calling `sink` with the state, its stored energies and the integrator (for
+/// quantities of the last solve, e.g. [`Integrator::amplification`]) at the start, every
 /// `options.every` steps and at the end, and `progress` with the fraction done about 200
 /// times. The step itself allocates nothing; the sink decides what happens to the rows.
 pub fn run<E>(
@@ -94,7 +95,7 @@ pub fn run<E>(
     integrator: &mut Integrator,
     mut state: HybridState,
     options: RunOptions,
-    sink: &mut dyn FnMut(&HybridState, &Stored) -> Result<(), E>,
+    sink: &mut dyn FnMut(&HybridState, &Stored, &mut Integrator) -> Result<(), E>,
     progress: &mut dyn FnMut(f64),
 ) -> Result<RunOutcome, RunError<E>> {
     let start = Instant::now();
@@ -113,6 +114,7 @@ pub fn run<E>(
     let mut outputs = 0;
     let mut output = |state: &HybridState,
                       stored: &Stored,
+                      integrator: &mut Integrator,
                       worst: &mut f64,
                       scale: &mut f64|
      -> Result<(), RunError<E>> {
@@ -122,15 +124,15 @@ pub fn run<E>(
             .max(stored.total().abs())
             .max(input_work(&state.account).abs());
         outputs += 1;
-        sink(state, stored).map_err(RunError::Sink)
+        sink(state, stored, integrator).map_err(RunError::Sink)
     };
-    output(&state, &stored, &mut worst, &mut scale)?;
+    output(&state, &stored, integrator, &mut worst, &mut scale)?;
     let report = (steps / 200).max(1);
     for k in 1..=steps {
         integrator.step(model, &mut state)?;
         if k % every == 0 || k == steps {
             integrator.stored_into(model, &state, &mut stored);
-            output(&state, &stored, &mut worst, &mut scale)?;
+            output(&state, &stored, integrator, &mut worst, &mut scale)?;
         }
         if k % report == 0 {
             progress(k as f64 / steps as f64);
@@ -213,7 +215,7 @@ ratios = [{ mode = 1, ratio = 0.01 }, { mode = 2, ratio = 0.01 }]
                 t_end: 0.1005,
                 every: 100,
             },
-            &mut |s, e| {
+            &mut |s, e, _| {
                 assert!(e.total().is_finite());
                 times.push(s.t);
                 Ok(())
@@ -249,7 +251,7 @@ ratios = [{ mode = 1, ratio = 0.01 }, { mode = 2, ratio = 0.01 }]
                 t_end: 1.0,
                 every: 10,
             },
-            &mut |_, _| {
+            &mut |_, _, _| {
                 calls += 1;
                 if calls == 3 { Err("disk full") } else { Ok(()) }
             },
