@@ -67,6 +67,7 @@ mod error;
 mod follow;
 mod integrator;
 mod model;
+pub mod reference;
 
 pub use error::HybridError;
 pub use integrator::{Account, HybridState, Integrator, MechanismState, Repartition, Stored};
