@@ -67,6 +67,7 @@ mod error;
 mod follow;
 mod integrator;
 mod model;
+pub mod reference;
 mod run;
 
 pub use error::HybridError;
