@@ -116,3 +116,50 @@ fn hybrid_step_does_not_allocate() {
         );
     }
 }
+
+/// Every bundled hybrid scenario (scenarios/*.toml of kind "hybrid": two dampers, the
+/// absorber with its free coordinate, the slider-crank with its loop, the forced damper)
+/// steps without allocating, stored energies at output steps included.
+#[test]
+fn every_bundled_hybrid_scenario_steps_without_allocating() {
+    use codegen_cli::scenario::{self, Scenario};
+    use hybrid_core::hybrid::{Integrator as HybridIntegrator, Stored};
+    let dir = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios"));
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    let mut checked = 0;
+    for path in &files {
+        let Scenario::Hybrid(sc) = scenario::load(path).unwrap() else {
+            continue;
+        };
+        let built = sc.build().unwrap_or_else(|e| panic!("{e}"));
+        let mut state = built.state.clone();
+        let mut integ =
+            HybridIntegrator::new(&built.model, sc.method, sc.integrator.dt, &state).unwrap();
+        let mut stored = Stored::default();
+        integ.step(&built.model, &mut state).unwrap();
+        integ.stored_into(&built.model, &state, &mut stored);
+        let before = allocations();
+        for k in 0..2000 {
+            integ.step(&built.model, &mut state).unwrap();
+            if k % 10 == 0 {
+                integ.stored_into(&built.model, &state, &mut stored);
+            }
+        }
+        let after = allocations();
+        assert!(state.q.iter().all(|x| x.is_finite()) && stored.total().is_finite());
+        assert_eq!(
+            after - before,
+            0,
+            "{}: {} allocations in 2000 steps",
+            path.display(),
+            after - before
+        );
+        checked += 1;
+    }
+    assert!(checked >= 4, "{checked} hybrid scenarios");
+}
