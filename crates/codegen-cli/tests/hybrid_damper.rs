@@ -1,6 +1,8 @@
 //! The general hybrid system (`hybrid_core::hybrid`) on the paper's damper against the
 //! specialised rank-one damper (`hybrid_core::damper`): the same trajectory.
 
+mod common;
+
 use std::path::PathBuf;
 
 use codegen_cli::scenario::DamperScenario as Scenario;
@@ -102,13 +104,7 @@ fn the_inductive_hht_damper_follows_the_same_trajectory() {
 fn bundled_hybrid_shapes_match_the_full_constrained_system() {
     use codegen_cli::scenario::{self, Scenario};
     use hybrid_core::hybrid::reference;
-    let dir = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios"));
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    files.sort();
+    let files = common::bundled_scenarios();
     let mut checked = 0;
     for path in &files {
         let Scenario::Hybrid(sc) = scenario::load(path).unwrap() else {
@@ -152,7 +148,11 @@ fn bundled_hybrid_shapes_match_the_full_constrained_system() {
         for (what, pairs, floor) in [("beam", &beam, beam_scale), ("mechanism", &mech, 0.0)] {
             let scale = pairs.iter().fold(floor, |m, (_, r)| m.max(r.abs()));
             let worst = pairs.iter().fold(0.0f64, |m, (e, r)| m.max((e - r).abs()));
-            eprintln!("{}: {what}: {:.2e} of {scale:.3e}", path.display(), worst / scale);
+            eprintln!(
+                "{}: {what}: {:.2e} of {scale:.3e}",
+                path.display(),
+                worst / scale
+            );
             assert!(
                 worst <= 1e-10 * scale,
                 "{}: {what} accelerations differ by {:.2e} of {scale:.3e}",

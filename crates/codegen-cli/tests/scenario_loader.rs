@@ -1,8 +1,10 @@
 //! The one scenario loader: the bundled scenarios of both kinds load, and every problem of a
 //! bad scenario is reported at once with file:line:column, for both kinds.
 
+mod common;
+
 use std::f64::consts::PI;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use codegen_cli::scenario::{self, DamperScenario, Scenario};
 use diagnostic::Kind;
@@ -10,9 +12,7 @@ use hybrid_core::closed_loop::{AssemblyOptions, System, assemble};
 use hybrid_core::hybrid::{Integrator, RunOptions, run};
 use mbs_symbolic::model;
 
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use common::root;
 
 /// Generated code of a model under `models/`, from the model registry.
 fn compiled(name: &str) -> Box<dyn System> {
@@ -221,12 +221,7 @@ fn every_problem_of_a_bad_mechanism_scenario_is_reported_at_once() {
 /// results; a new scenario file is covered by being there.
 #[test]
 fn every_bundled_scenario_loads_and_runs_a_few_hundred_steps() {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(root().join("scenarios"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    files.sort();
+    let files = common::bundled_scenarios();
     assert!(files.len() >= 5, "{files:?}");
     for path in &files {
         let name = path.display().to_string();

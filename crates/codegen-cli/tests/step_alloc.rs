@@ -1,6 +1,8 @@
 //! The simulation step allocates nothing: a counting global allocator observes 2,000 steps of
 //! the default damper scenario (generated double bar, generator with and without inductance).
 
+mod common;
+
 use codegen_cli::scenario::DamperScenario as Scenario;
 use damper_e2e::alloc_counter::{CountingAllocator, allocations};
 use hybrid_core::damper::Integrator;
@@ -124,13 +126,7 @@ fn hybrid_step_does_not_allocate() {
 fn every_bundled_hybrid_scenario_steps_without_allocating() {
     use codegen_cli::scenario::{self, Scenario};
     use hybrid_core::hybrid::{Integrator as HybridIntegrator, Stored};
-    let dir = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios"));
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    files.sort();
+    let files = common::bundled_scenarios();
     let mut checked = 0;
     for path in &files {
         let Scenario::Hybrid(sc) = scenario::load(path).unwrap() else {

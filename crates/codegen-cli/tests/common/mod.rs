@@ -40,3 +40,14 @@ pub fn assert_bad_input(args: &[&str], needles: &[&str]) -> String {
     }
     err
 }
+
+/// The bundled scenario files (`scenarios/*.toml`), sorted.
+pub fn bundled_scenarios() -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(root().join("scenarios"))
+        .expect("scenarios/")
+        .map(|e| e.expect("directory entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    files
+}
