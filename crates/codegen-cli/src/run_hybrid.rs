@@ -11,8 +11,9 @@
 //! - `beam_displacement.svg`: the displacement of every attached beam point (only when there
 //!   are attachments).
 //!
-//! Rows go through a [`RowSink`] into memory and are committed with the other files by the
-//! one writer; streaming them to disk is the sink's constructor.
+//! Rows go through a [`RowSink`] into a [`StreamFile`] (`<name>.tmp-<pid>`, or written
+//! directly to a fifo or device) while the run goes, and are committed with the other files
+//! by the one writer at the end; a run that fails leaves nothing.
 
 use std::collections::BTreeMap;
 use std::io::IsTerminal;
@@ -31,7 +32,7 @@ use crate::report::hybrid::{
 use crate::report::plot::plot_displacements_svg;
 use crate::report::rows::{CsvRows, RowSink};
 use crate::report::summary::json_bytes;
-use crate::report::{OutputFile, ReportError, commit_files};
+use crate::report::{OutputFile, ReportError, StreamFile, commit};
 use crate::scenario::HybridScenario;
 
 /// Bytes of one CSV cell in the work estimate.
@@ -95,7 +96,11 @@ pub fn simulate(
         max_residual: vec![0.0; model.mechanisms.len()],
         peak_current: vec![0.0; model.forces.len()],
     };
-    let mut csv = CsvRows::new(Vec::new(), columns.header()).map_err(ReportError::from)?;
+    // The time history streams to `<name>.tmp-<pid>` as the run goes and is committed with
+    // the other files at the end (or removed when the run fails): memory stays flat.
+    let csv_path = out.join("time_history.csv");
+    let stream = StreamFile::create(&csv_path).map_err(ReportError::from)?;
+    let mut csv = CsvRows::new(stream, columns.header()).map_err(ReportError::from)?;
     let mut e0 = None;
     let bar = progress_bar(progress);
     let outcome = run(
@@ -139,7 +144,7 @@ pub fn simulate(
         Err(RunError::Sink(e)) => return Err(ReportError::from(e).into()),
     };
     let output_rows = csv.rows();
-    let csv_bytes = csv.into_inner().map_err(ReportError::from)?;
+    let stream = csv.into_inner().map_err(ReportError::from)?;
     let fig = &outcome.figures;
     let state = &outcome.state;
 
@@ -299,16 +304,10 @@ pub fn simulate(
             .collect(),
     };
 
-    let mut files = vec![
-        OutputFile {
-            path: out.join("time_history.csv"),
-            bytes: csv_bytes,
-        },
-        OutputFile {
-            path: out.join("summary.json"),
-            bytes: json_bytes(&summary).map_err(ReportError::from)?,
-        },
-    ];
+    let mut files = vec![OutputFile {
+        path: out.join("summary.json"),
+        bytes: json_bytes(&summary).map_err(ReportError::from)?,
+    }];
     if na > 0 {
         let lines: Vec<(&str, &[(f64, f64)])> = model
             .attachments
@@ -322,7 +321,7 @@ pub fn simulate(
                 .map_err(ReportError::from)?,
         });
     }
-    commit_files(&files).map_err(ReportError::from)?;
+    commit(vec![stream], &files).map_err(ReportError::from)?;
     let zeta = summary
         .damping_ratio
         .map_or("n/a".to_string(), |z| format!("{:.3} %", z * 100.0));
