@@ -72,6 +72,24 @@ pub(crate) fn lu_in_place(a: &mut DMatrix<f64>, piv: &mut Vec<usize>) -> bool {
 /// Solves `A x = b` in place with the factors of [`lu_in_place`].
 pub(crate) fn lu_solve(lu: &DMatrix<f64>, piv: &[usize], b: &mut DVector<f64>) {
     let n = lu.nrows();
+    if n == 2 {
+        // The general sweeps below written out for the 2 x 2 blocks of the damper's hot
+        // path (the same operations in the same order: the same results bit for bit).
+        let (a, x) = (lu.as_slice(), b.as_mut_slice());
+        if piv[0] != 0 {
+            x.swap(0, 1);
+        }
+        x[1] -= a[1] * x[0];
+        x[1] /= a[3];
+        x[0] = (x[0] - a[2] * x[1]) / a[0];
+        return;
+    }
+    lu_solve_sweeps(lu, piv, b);
+}
+
+/// The forward and backward sweeps of [`lu_solve`] for any size.
+fn lu_solve_sweeps(lu: &DMatrix<f64>, piv: &[usize], b: &mut DVector<f64>) {
+    let n = lu.nrows();
     for (k, &p) in piv.iter().enumerate() {
         if p != k {
             b.swap_rows(k, p);
@@ -140,6 +158,23 @@ pub(crate) fn cholesky_solve(l: &DMatrix<f64>, b: &mut DVector<f64>) {
 /// Solves `A^T x = b` in place with the factors of [`lu_in_place`] (`P A = L U`, so
 /// `A^T = U^T L^T P`).
 pub(crate) fn lu_solve_transpose(lu: &DMatrix<f64>, piv: &[usize], b: &mut DVector<f64>) {
+    let n = lu.nrows();
+    if n == 2 {
+        // Written out for 2 x 2 (same operations, same order as the sweeps below).
+        let (a, x) = (lu.as_slice(), b.as_mut_slice());
+        x[0] /= a[0];
+        x[1] = (x[1] - a[2] * x[0]) / a[3];
+        x[0] -= a[1] * x[1];
+        if piv[0] != 0 {
+            x.swap(0, 1);
+        }
+        return;
+    }
+    lu_solve_transpose_sweeps(lu, piv, b);
+}
+
+/// The sweeps of [`lu_solve_transpose`] for any size.
+fn lu_solve_transpose_sweeps(lu: &DMatrix<f64>, piv: &[usize], b: &mut DVector<f64>) {
     let n = lu.nrows();
     for i in 0..n {
         let mut s = b[i];
@@ -230,6 +265,28 @@ pub(crate) fn singular_range(a: &DMatrix<f64>, w: &mut DMatrix<f64>) -> (f64, f6
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_two_by_two_solves_equal_the_general_sweeps_bit_for_bit() {
+        let mut rng = mbs_symbolic::samples::SplitMix64::new(7);
+        for _ in 0..200 {
+            let a = DMatrix::from_fn(2, 2, |_, _| rng.symmetric(2.0));
+            let b = DVector::from_fn(2, |_, _| rng.symmetric(1.0));
+            let mut lu = a.clone();
+            let mut piv = Vec::new();
+            if !lu_in_place(&mut lu, &mut piv) {
+                continue;
+            }
+            let (mut x, mut y) = (b.clone(), b.clone());
+            lu_solve(&lu, &piv, &mut x);
+            lu_solve_transpose(&lu, &piv, &mut y);
+            let (mut gx, mut gy) = (b.clone(), b.clone());
+            lu_solve_sweeps(&lu, &piv, &mut gx);
+            lu_solve_transpose_sweeps(&lu, &piv, &mut gy);
+            assert_eq!(x, gx);
+            assert_eq!(y, gy);
+        }
+    }
 
     #[test]
     fn transpose_solve_and_singular_values_match_nalgebra() {
