@@ -32,10 +32,14 @@ const MODELS: [&str; 3] = [
     "models/four_bar.toml",
     "models/slider_crank.toml",
 ];
-const SCENARIOS: [&str; 3] = [
+const SCENARIOS: [&str; 7] = [
     "scenarios/damper.toml",
     "scenarios/four_bar.toml",
     "scenarios/slider_crank.toml",
+    "scenarios/two_dampers.toml",
+    "scenarios/pendulum_absorber.toml",
+    "scenarios/slider_crank_damper.toml",
+    "scenarios/forced_damper.toml",
 ];
 const BEAMS: [&str; 1] = ["beams/cantilever.toml"];
 
@@ -197,7 +201,37 @@ fn check_scenario(text: &str, base: &Path) {
                 assert!(o.peak.is_finite(), "peak {}", o.peak);
             }
         }
-        Ok(Scenario::Hybrid(_)) => accepted(1),
+        Ok(Scenario::Hybrid(sc)) => {
+            accepted(1);
+            // Models, names and geometry are checked by `build`: a typed error naming the
+            // scenario file, or a state to step from.
+            let built = match sc.build() {
+                Err(d) => return names_file("hybrid build", &d.to_string(), "fuzz_scenario.toml"),
+                Ok(b) => b,
+            };
+            let (model, mut state) = (&built.model, built.state.clone());
+            let dt = sc.integrator.dt;
+            let Ok(mut integ) = hybrid_core::hybrid::Integrator::new(model, sc.method, dt, &state)
+            else {
+                return;
+            };
+            // A few time steps only; a stop is a typed error (singular position, divergence).
+            for _ in 0..20 {
+                if integ.step(model, &mut state).is_err() {
+                    return;
+                }
+                assert!(
+                    state.q.iter().chain(&state.v).all(|x| x.is_finite())
+                        && state
+                            .mechanisms
+                            .iter()
+                            .all(|m| m.q.iter().all(|x| x.is_finite())),
+                    "non-finite hybrid state at t = {}",
+                    state.t
+                );
+            }
+            accepted(3);
+        }
         Ok(Scenario::Mechanism(sc)) => {
             accepted(1);
             let s = &sc.settings;
