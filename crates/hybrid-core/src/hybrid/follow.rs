@@ -476,17 +476,25 @@ impl Follower {
         let m = &model.mechanisms[self.mech];
         let (cs, sn) = m.mount.rotation();
         self.bias.fill(0.0);
-        for a in &self.atts {
-            m.system
-                .point_kinematics(a.point, self.q.as_slice(), self.qd.as_slice(), &mut self.ws);
+        for (i, a) in self.atts.iter().enumerate() {
+            let (q, qd) = (self.q.as_slice(), self.qd.as_slice());
+            if i == 0 {
+                // M, F, Q, A and the first point from one (generated: fused) call.
+                m.system
+                    .evaluate_with_point(a.point, q, qd, t, &mut self.ws);
+            } else {
+                m.system.point_kinematics(a.point, q, qd, &mut self.ws);
+            }
             let (ax, ay) = (self.ws.point_a[0], self.ws.point_a[1]);
             self.bias[a.row] = sn * ax + cs * ay;
             if let Some(r) = a.axial_row {
                 self.bias[r] = cs * ax - sn * ay;
             }
         }
-        m.system
-            .evaluate(self.q.as_slice(), self.qd.as_slice(), t, &mut self.ws);
+        if self.atts.is_empty() {
+            m.system
+                .evaluate(self.q.as_slice(), self.qd.as_slice(), t, &mut self.ws);
+        }
         for r in 0..self.loops {
             self.bias[r] = self.ws.a[r];
         }

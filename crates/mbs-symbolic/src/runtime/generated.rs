@@ -160,7 +160,45 @@ where
         true
     }
 
+    fn evaluate_with_point(
+        &self,
+        k: usize,
+        q: &[f64],
+        qd: &[f64],
+        t: f64,
+        ws: &mut Workspace,
+    ) -> bool {
+        let np = self.names.points.len();
+        if np > FUSED_POINTS || k >= np {
+            self.evaluate(q, qd, t, ws);
+            return self.point_kinematics(k, q, qd, ws);
+        }
+        let (q, qd) = (array::<N>(q), array::<N>(qd));
+        let mut e = Evaluation::<N, NC>::default();
+        let mut points = [PointKinematics::<N>::default(); FUSED_POINTS];
+        let fused = self
+            .mech
+            .evaluate_with_points(&q, &qd, t, &mut e, &mut points[..np]);
+        debug_assert!(fused, "one entry per named point");
+        copy_rows(&e.mass, ws.m.as_mut_slice());
+        ws.f.as_mut_slice().copy_from_slice(&e.f);
+        ws.q.as_mut_slice().copy_from_slice(&e.q);
+        ws.h.as_mut_slice().copy_from_slice(&e.h);
+        ws.a.as_mut_slice().copy_from_slice(&e.a);
+        copy_rows(&e.j, ws.j.as_mut_slice());
+        let pk = &points[k];
+        ws.point_p.as_mut_slice().copy_from_slice(&pk.p);
+        ws.point_a.as_mut_slice().copy_from_slice(&pk.a);
+        copy_rows(&pk.j, ws.point_j.as_mut_slice());
+        true
+    }
+
     fn clone_box(&self) -> Box<dyn System> {
         Box::new(self.clone())
     }
 }
+
+/// Mechanisms with at most this many named points use the fused
+/// [`Mechanism::evaluate_with_points`] in [`System::evaluate_with_point`] (the points live
+/// on the stack); larger ones make the two separate calls.
+const FUSED_POINTS: usize = 8;

@@ -183,6 +183,22 @@ pub trait System: Send + Sync {
     /// (workspace unchanged) when there is no such point.
     fn point_kinematics(&self, k: usize, q: &[f64], qd: &[f64], ws: &mut Workspace) -> bool;
 
+    /// [`System::evaluate`] and [`System::point_kinematics`] of point `k` at the same state,
+    /// in one call: generated code computes them in one fused body sharing the trigonometric
+    /// leaves (bit-identical to the separate calls). `false` (and only `M`, `F`, `Q`, `h`,
+    /// `J`, `A` written) when there is no such point.
+    fn evaluate_with_point(
+        &self,
+        k: usize,
+        q: &[f64],
+        qd: &[f64],
+        t: f64,
+        ws: &mut Workspace,
+    ) -> bool {
+        self.evaluate(q, qd, t, ws);
+        self.point_kinematics(k, q, qd, ws)
+    }
+
     /// A boxed copy (same backend, same parameter values).
     fn clone_box(&self) -> Box<dyn System>;
 
