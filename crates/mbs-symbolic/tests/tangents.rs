@@ -240,7 +240,13 @@ fn hessian_of_potential(sys: &InterpretedSystem, q: &[f64]) -> (DMatrix<f64>, f6
 
 /// At rest (`q' = 0`, `q'' = 0`) a conservative system's `K` is the Hessian of `V`
 /// (symmetric).
-fn check_potential(what: &str, sys: &InterpretedSystem, tan: &TangentSystem, seed: u64) {
+fn check_potential(
+    what: &str,
+    model: &Model,
+    sys: &InterpretedSystem,
+    tan: &TangentSystem,
+    seed: u64,
+) {
     let n = sys.dof();
     let (q, _, _) = random_state(seed, n);
     let zero = vec![0.0; n];
@@ -255,6 +261,21 @@ fn check_potential(what: &str, sys: &InterpretedSystem, tan: &TangentSystem, see
         REL,
     );
     assert_symmetric(&format!("{what}: K at rest"), &tw.k);
+    // At rest the velocity terms of F (quadratic in q') have no q'-derivative: C is the
+    // damping of the force elements alone.
+    if undamped(model) {
+        assert_eq!(tw.c.abs().max(), 0.0, "{what}: C at rest without dampers");
+    }
+}
+
+/// Whether no force element has damping.
+fn undamped(m: &Model) -> bool {
+    m.forces.iter().all(|f| match f {
+        ForceElement::Joint { damping, .. } | ForceElement::PointSpring { damping, .. } => {
+            *damping == Scalar::ZERO
+        }
+        ForceElement::External { .. } => true,
+    })
 }
 
 #[test]
@@ -279,7 +300,7 @@ fn bundled_models_tangents_equal_finite_differences() {
         }
         assert!(conservative_at_rest(m), "{name}");
         for seed in 0..3 {
-            check_potential(&format!("{name} seed {seed}"), &sys, &tan, seed);
+            check_potential(&format!("{name} seed {seed}"), m, &sys, &tan, seed);
         }
     }
 }
@@ -380,14 +401,34 @@ fn random_conservative_trees_stiffness_at_rest_is_the_hessian_of_the_potential()
                 m.forces
                     .retain(|f| !matches!(f, ForceElement::External { .. }));
                 for f in &mut m.forces {
-                    if let ForceElement::Joint { constant, .. } = f {
-                        *constant = Scalar::ZERO;
+                    match f {
+                        ForceElement::Joint {
+                            constant, damping, ..
+                        } => {
+                            *constant = Scalar::ZERO;
+                            if s == 2 {
+                                *damping = Scalar::ZERO;
+                            }
+                        }
+                        ForceElement::PointSpring { damping, .. } if s == 2 => {
+                            *damping = Scalar::ZERO;
+                        }
+                        _ => {}
                     }
+                }
+                if s == 2 {
+                    assert!(undamped(&m) && !m.forces.is_empty());
                 }
                 assert!(conservative_at_rest(&m));
                 let sys = InterpretedSystem::new(&m);
                 let tan = TangentSystem::new(&m);
-                check_potential(&format!("random {opts:?} seed {seed}"), &sys, &tan, seed);
+                check_potential(
+                    &format!("random {opts:?} seed {seed}"),
+                    &m,
+                    &sys,
+                    &tan,
+                    seed,
+                );
             }
         }
     }

@@ -30,13 +30,22 @@
 //! - for a named point `k` with position `p_k(q)` and Jacobian `J_k = dp_k/dq` (eq. 49), the
 //!   curvature `G_k(f) = d(J_k^T f)/dq = sum_c f_c d²p_kc/dq²` for a ground-frame force `f`
 //!   held fixed (symmetric): the stiffness of a force acting through a point Jacobian, such
-//!   as an attachment's reaction (whose generalised force is `J_k^T f`).
+//!   as an attachment's reaction.
 //!
-//! The linearisation of issue #11 assembles exactly these: about an equilibrium
-//! `(q0, q' = 0, q'' = 0, lambda0)` the linearised equations are
-//! `M dq'' + C dq' + (K + G(lambda0) + sum_k G_k(f_k0)) dq + J^T dlambda = 0` with
-//! `J dq = 0`, reduced to the independent coordinates by the coordinate partitioning of
-//! eqs. 18–25.
+//! The linearisation of issue #11 assembles exactly these. About an equilibrium
+//! `(q0, q' = 0, q'' = 0, lambda0)` of the tree with loop multipliers `lambda0` and point
+//! forces `f_k0` entering the left-hand side as `+ J_k^T f_k` (a force `f` *applied* at the
+//! point enters `Q` as `- J_k^T f`, eq. 13, and so contributes `- G_k(f)`), the linearised
+//! equations are
+//!
+//! ```text
+//! M dq'' + C dq' + (K + G(lambda0) + sum_k G_k(f_k0)) dq + J^T dlambda
+//!        + sum_k J_k^T df_k = 0,                     J dq = 0,
+//! ```
+//!
+//! reduced to the independent coordinates by the coordinate partitioning of eqs. 18–25. At
+//! rest the bias `A = J' q'` (eq. 16) and the velocity terms of `F` are quadratic in `q'`, so
+//! they contribute nothing to first order; `C` there is the damping of the force elements.
 //!
 //! # How
 //!
@@ -53,6 +62,11 @@
 //! the run-time parameter values and the extra inputs into [`TangentWorkspace::inputs`] and
 //! runs a tape into [`TangentWorkspace::scratch`]: nothing is allocated once the workspace
 //! exists.
+//!
+//! Cost: forward mode makes one derivative pass per coordinate, so the `K`, `C` tape grows
+//! about `n`-fold over the equations' own: measured tape slots 127 against the
+//! interpreter's 73 for the double bar (`n = 2`), 25,597 against 2,968 for a 12-body
+//! spatial chain.
 
 use nalgebra::{DMatrix, DVector, Vector3};
 
