@@ -22,6 +22,7 @@ mod interpreted;
 mod mechanism;
 mod numeric;
 mod system;
+mod tangent;
 
 pub use generated::GeneratedSystem;
 pub use generated::NameCount;
@@ -31,3 +32,4 @@ pub use numeric::NumericSystem;
 pub use system::{
     Backend, Names, ParamError, System, Workspace, constraint_row_names, coordinate_names,
 };
+pub use tangent::{TangentSystem, TangentWorkspace};
