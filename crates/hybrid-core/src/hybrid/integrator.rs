@@ -561,7 +561,6 @@ impl Integrator {
         model: &HybridModel,
         state: &mut HybridState,
     ) -> Result<(), HybridError> {
-        let n = state.q.len();
         self.q_hat.copy_from_slice(&state.q);
         self.v_hat.copy_from_slice(&state.v);
         if let Some(beam) = &model.beam {
@@ -576,20 +575,13 @@ impl Integrator {
         self.predict_mechanisms(model, state);
         self.prepare(model);
         self.solve(model, state.t, state)?;
-        let _ = n;
-        self.accept(model, state, state.t, false);
+        self.accept(model, state, false);
         Ok(())
     }
 
     /// Writes the accepted solution into `state` (beam accelerations from
     /// `a = a0 - K^-1 N phi_w`, mechanisms from the followers).
-    fn accept(
-        &mut self,
-        model: &HybridModel,
-        state: &mut HybridState,
-        t_new: f64,
-        integrate: bool,
-    ) {
+    fn accept(&mut self, model: &HybridModel, state: &mut HybridState, integrate: bool) {
         let n = state.q.len();
         let (h, beta, gamma) = (self.h, self.beta, self.gamma);
         for i in 0..n {
@@ -625,7 +617,6 @@ impl Integrator {
                 _ => 0.0,
             };
         }
-        let _ = t_new;
     }
 
     /// Advances `state` by one step. Allocates nothing (unless a mechanism is
@@ -686,7 +677,7 @@ impl Integrator {
         for i in 0..n {
             self.v_mid[i] = state.v[i];
         }
-        self.accept(model, state, t_new, true);
+        self.accept(model, state, true);
         let finite = state.q.iter().chain(&state.v).all(|x| x.is_finite())
             && state
                 .mechanisms
