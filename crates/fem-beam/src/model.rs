@@ -329,6 +329,30 @@ impl BeamModel {
         }
     }
 
+    /// The time-independent part of the load vector: the loads whose time function is
+    /// [`TimeFunction::Constant`] (the static loads of an equilibrium; harmonic, step and
+    /// table loads are the dynamic input) into `out`.
+    ///
+    /// # Panics
+    /// If `out` does not have length [`dof_count`](Self::dof_count).
+    pub fn constant_load_into(&self, out: &mut [f64]) {
+        assert_eq!(
+            out.len(),
+            self.dof_count(),
+            "BeamModel::constant_load_into: buffer has the wrong length"
+        );
+        out.fill(0.0);
+        for p in self
+            .loads
+            .iter()
+            .filter(|p| p.time == TimeFunction::Constant)
+        {
+            for &(i, v) in &p.entries {
+                out[i] += v;
+            }
+        }
+    }
+
     /// The load vector at time `t` (allocating wrapper of [`load_into`](Self::load_into)).
     pub fn load(&self, t: f64) -> Vec<f64> {
         let mut p = vec![0.0; self.dof_count()];
@@ -417,6 +441,28 @@ impl BeamModel {
         } else {
             matrix.factorize()
         }
+    }
+
+    /// The order in which [`factorize`](Self::factorize) eliminates the reduced DOFs:
+    /// entry `k` is the DOF eliminated `k`-th (the nodes from the end farther from the
+    /// supports, each node's DOFs in their own order). For solvers written elsewhere (for
+    /// example complex-shifted pencils) that want the same rounding behaviour.
+    pub fn elimination_order(&self) -> Vec<usize> {
+        if !self.reverse {
+            return (0..self.dof_count()).collect();
+        }
+        let groups = self.node_groups();
+        let mut starts = Vec::with_capacity(groups.len());
+        let mut at = 0;
+        for &g in &groups {
+            starts.push(at);
+            at += g;
+        }
+        let mut order = Vec::with_capacity(at);
+        for (&start, &g) in starts.iter().zip(&groups).rev() {
+            order.extend(start..start + g);
+        }
+        order
     }
 
     /// Number of free DOFs of each node with any (the groups of

@@ -552,6 +552,40 @@ impl Follower {
         Ok(())
     }
 
+    /// The multipliers `lambda = -J_d^-T g_d` of this mechanism's rows (loops, then per
+    /// attachment the transverse and axial rows) after [`Follower::follow`]: with them
+    /// `g + J^T lambda` vanishes on the dependent coordinates (eq. 17).
+    pub fn multipliers(&self) -> impl ExactSizeIterator<Item = f64> + '_ {
+        self.rhs.iter().map(|m| -m)
+    }
+
+    /// `R = dq/ds` of this mechanism at the last position solve, in the global layout `s`
+    /// of [`Follower::follow`] (attachment displacements, then every free coordinate):
+    /// the columns of eq. (18), `q_d' = J_d^-1 (E w' - J_f u')`, `q_f' = u'`. `r` is
+    /// `dof x s.len()`; columns of other mechanisms' entries stay zero.
+    pub fn basis_into(&mut self, r: &mut DMatrix<f64>) {
+        r.fill(0.0);
+        let off = self.nb + self.free_offset;
+        for a in &self.atts {
+            self.rhs.fill(0.0);
+            self.rhs[a.row] = 1.0;
+            lu_solve(&self.lu, &self.piv, &mut self.rhs);
+            for (k, &c) in self.dep.iter().enumerate() {
+                r[(c, a.attachment)] = self.rhs[k];
+            }
+        }
+        for (j, &f) in self.free.iter().enumerate() {
+            for row in 0..self.rows {
+                self.rhs[row] = -self.jfull[(row, f)];
+            }
+            lu_solve(&self.lu, &self.piv, &mut self.rhs);
+            for (k, &c) in self.dep.iter().enumerate() {
+                r[(c, off + j)] = self.rhs[k];
+            }
+            r[(f, off + j)] = 1.0;
+        }
+    }
+
     /// `rhs = E x_w - J_f x_u` for a position-level vector `x` in the global layout.
     fn constraint_rhs(&mut self, x: &[f64]) {
         self.rhs.fill(0.0);

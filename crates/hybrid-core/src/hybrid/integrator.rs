@@ -158,7 +158,7 @@ pub struct Integrator {
     pub repartitions: Vec<Repartition>,
 }
 
-fn map_follow(
+pub(super) fn map_follow(
     model: &HybridModel,
     state_w: &[f64],
     mech: usize,

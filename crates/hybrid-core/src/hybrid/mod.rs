@@ -63,19 +63,27 @@
 //! mechanism with free coordinates is re-partitioned (logged) when its `J_d` degrades and a
 //! better block exists.
 
+mod eigen;
 mod error;
 mod follow;
 mod integrator;
+mod linear;
 mod model;
+mod pencil;
 pub mod reference;
 mod run;
 
+pub use eigen::{EigenMethod, Mode, ModeKind, modes};
 pub use error::HybridError;
 pub use integrator::{Account, HybridState, Integrator, MechanismState, Repartition, Stored};
+pub use linear::{
+    ElectricalState, Equilibrium, EquilibriumOptions, LinearError, Linearization, Matrix,
+};
 pub use model::{
     Attachment, AttachmentKind, BeamPoint, Excitation, ExcitationTarget, ForceKind, HybridModel,
     JointForce, ModelError, Mount, MountedMechanism,
 };
+pub use pencil::Pencil;
 pub use run::{RunError, RunFigures, RunOptions, RunOutcome, balance_error, input_work, run};
 
 use crate::damper::Method;
