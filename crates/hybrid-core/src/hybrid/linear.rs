@@ -717,3 +717,37 @@ fn joint_terms(
     model.add_joint_forces(mech, 0.0, q, qd, currents, &mut m, &mut v);
     (m, v)
 }
+
+impl Linearization {
+    /// The generalised force in `z` of a unit excitation at `target`: a unit transverse force
+    /// at a beam point (`n`), or a unit torque/force driving a mechanism joint (`Q_j -= f`,
+    /// so `+P^T R_i^T e_j`).
+    pub fn force_vector(&self, target: &ExcitationTarget) -> Vec<f64> {
+        let mut f = vec![0.0; self.dim()];
+        match target {
+            ExcitationTarget::Beam(p) => p.add_force(1.0, &mut f[..self.n]),
+            ExcitationTarget::Joint { mechanism, joint } => {
+                let r = &self.basis[*mechanism];
+                let s: Vec<f64> = (0..r.ncols()).map(|c| r[(*joint, c)]).collect();
+                self.add_from_small(&s, &mut f);
+            }
+        }
+        f
+    }
+
+    /// The response `z(omega)` to the harmonic generalised force `f e^{i omega t}`:
+    /// `(K_R + i omega C_R - omega^2 M_R + electrical) z = f` (the pencil at
+    /// `sigma = i omega`, eliminating the currents). The receptance at a beam point `p` is
+    /// `p.value(z)` (m/N).
+    pub fn harmonic_response(
+        &self,
+        f: &[f64],
+        omega: f64,
+    ) -> Result<Vec<nalgebra::Complex<f64>>, LinearError> {
+        let p = Pencil::new(self, nalgebra::Complex::new(0.0, omega))?;
+        let mut z: Vec<nalgebra::Complex<f64>> =
+            f.iter().map(|&v| nalgebra::Complex::new(v, 0.0)).collect();
+        p.solve_in_place(&mut z);
+        Ok(z)
+    }
+}
