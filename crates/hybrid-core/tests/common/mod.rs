@@ -373,6 +373,17 @@ pub fn paper_damper(
     connected: bool,
     inductance: f64,
 ) -> (HybridModel, Vec<f64>) {
+    paper_damper_at(elements, damping, connected, inductance, 10.0)
+}
+
+/// [`paper_damper`] at half-angle `half_angle_deg`.
+pub fn paper_damper_at(
+    elements: usize,
+    damping: bool,
+    connected: bool,
+    inductance: f64,
+    half_angle_deg: f64,
+) -> (HybridModel, Vec<f64>) {
     let mut text = format!(
         "[[segment]]\nlength = 1.0\nyoungs_modulus = 210e9\ndensity = 7850.0\n\
          width = 0.040\nheight = 0.008\nelements = {elements}\n\
@@ -386,7 +397,7 @@ pub fn paper_damper(
         parameters: BTreeMap::new(),
         point: "tip".into(),
         x: 1.0,
-        placement: Placement::HalfAngle(10.0),
+        placement: Placement::HalfAngle(half_angle_deg),
         generator_joint: "crank".into(),
         max_condition: 1e4,
         generator: generator(inductance, true),
