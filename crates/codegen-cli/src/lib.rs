@@ -10,8 +10,8 @@
 //!   interpreter) → `hybrid-core` → observer; [`run_hybrid`] for hybrid systems;
 //! - [`report`]: CSV time histories, typed JSON summaries, the SVG plot, and the one atomic
 //!   writer that commits all files of a run together;
-//! - [`commands`]: `generate`, `eval`, `modes`, `simulate` (the binary parses arguments and
-//!   calls these).
+//! - [`commands`]: `generate`, `eval`, `modes`, `simulate`, `sweep`, `merge` (the binary
+//!   parses arguments and calls these); [`sweep_point`] evaluates one point of a sweep.
 //!
 //! Standard output closed early (`damper modes .. | head -1`) is [`Error::Stdout`] with
 //! [`std::io::ErrorKind::BrokenPipe`]; the binary exits quietly with status 141
@@ -31,6 +31,7 @@ pub mod report;
 pub mod run;
 pub mod run_hybrid;
 pub mod scenario;
+pub mod sweep_point;
 
 use std::io::Write;
 

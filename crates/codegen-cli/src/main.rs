@@ -9,7 +9,7 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use codegen_cli::commands::{eval, generate, modes, simulate};
+use codegen_cli::commands::{eval, generate, merge, modes, simulate, sweep};
 
 /// Design and verification of electromagnetic vibration dampers with a mechanism near its
 /// singular position.
@@ -31,6 +31,11 @@ enum Command {
     Modes(modes::Args),
     /// Run a scenario: the damper (beam + mechanism + generator) or a closed-loop mechanism.
     Simulate(simulate::Args),
+    /// Evaluate a scenario over a grid of `--set PATH=VALUES` (parallel; `--shard I/N` for
+    /// cluster job arrays).
+    Sweep(sweep::Args),
+    /// Join the parts of a sharded sweep into the files of the unsharded run.
+    Merge(merge::Args),
 }
 
 /// Exit status when standard output was closed by the reader (128 + SIGPIPE).
@@ -42,6 +47,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Eval(args) => eval::run(args)?,
         Command::Modes(args) => modes::run(args)?,
         Command::Simulate(args) => simulate::run(args)?,
+        Command::Sweep(args) => sweep::run(args)?,
+        Command::Merge(args) => merge::run(args)?,
     }
     Ok(())
 }

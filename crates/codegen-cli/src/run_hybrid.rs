@@ -34,6 +34,8 @@ use crate::report::rows::{CsvRows, RowSink};
 use crate::report::summary::json_bytes;
 use crate::report::{OutputFile, ReportError, StreamFile, commit};
 use crate::scenario::HybridScenario;
+use crate::scenario::OverrideRecord;
+use crate::scenario::hybrid::Built;
 
 /// Bytes of one CSV cell in the work estimate.
 const CELL_BYTES: f64 = 25.0;
@@ -62,12 +64,26 @@ struct Tracks {
     peak_current: Vec<f64>,
 }
 
-/// Runs `damper simulate` on a hybrid scenario and writes its files into `out`.
+/// A finished hybrid run as kept in memory: its summary and the displacement of every
+/// attached beam point at the output steps.
+pub struct HybridRun<'a> {
+    /// `summary.json`.
+    pub summary: HybridSummary<'a>,
+    /// `(t, w)` of every attachment, at the output steps.
+    pub displacements: Vec<Vec<(f64, f64)>>,
+}
+
+/// Where the rows of a hybrid run go: the columns and a row sink.
+pub type Rows<'r> = (&'r mut Columns, &'r mut dyn RowSink);
+
+/// Runs `damper simulate` on a hybrid scenario and writes its files into `out`;
+/// `overrides`: the `--set` options applied, recorded in the summary.
 pub fn simulate(
     sc: &HybridScenario,
     out: &Path,
     progress: bool,
     allow_long: bool,
+    overrides: Vec<OverrideRecord>,
 ) -> Result<(), Error> {
     let file = sc.path.display().to_string();
     let built = sc.build()?;
@@ -82,6 +98,69 @@ pub fn simulate(
         bytes: rows * (columns.header().len() as f64 * CELL_BYTES + series),
     }
     .check(&file, allow_long)?;
+    // The time history streams to `<name>.tmp-<pid>` as the run goes and is committed with
+    // the other files at the end (or removed when the run fails): memory stays flat.
+    let csv_path = out.join("time_history.csv");
+    let stream = StreamFile::create(&csv_path).map_err(ReportError::from)?;
+    let mut csv = CsvRows::new(stream, columns.header()).map_err(ReportError::from)?;
+    let run = evaluate(
+        sc,
+        &built,
+        Some((&mut columns, &mut csv)),
+        overrides,
+        progress,
+    )?;
+    let stream = csv.into_inner().map_err(ReportError::from)?;
+    let summary = &run.summary;
+    let na = model.attachments.len();
+    let mut files = vec![OutputFile {
+        path: out.join("summary.json"),
+        bytes: json_bytes(summary).map_err(ReportError::from)?,
+    }];
+    if na > 0 {
+        let lines: Vec<(&str, &[(f64, f64)])> = model
+            .attachments
+            .iter()
+            .zip(&run.displacements)
+            .map(|(a, w)| (a.name.as_str(), &w[..]))
+            .collect();
+        files.push(OutputFile {
+            path: out.join("beam_displacement.svg"),
+            bytes: plot_displacements_svg("Beam point displacements", "displacement (mm)", &lines)
+                .map_err(ReportError::from)?,
+        });
+    }
+    commit(vec![stream], &files).map_err(ReportError::from)?;
+    let zeta = summary
+        .damping_ratio
+        .map_or("n/a".to_string(), |z| format!("{:.3} %", z * 100.0));
+    crate::print(&format!(
+        "{file}: {} steps in {:.3} s ({} mechanism(s), {} attachment(s), {} repartition(s)); peak {}; zeta {zeta}; energy balance error {:.1e}; outputs in {}\n",
+        summary.steps,
+        summary.wall_seconds,
+        model.mechanisms.len(),
+        na,
+        summary.repartitions.len(),
+        summary
+            .peak_amplitude
+            .map_or("n/a".to_string(), |p| format!("{:.3} mm", p * 1e3)),
+        summary.energy_balance_rel_error,
+        out.display()
+    ))
+}
+
+/// Integrates a built hybrid scenario and makes its summary; every output row goes to
+/// `rows` when given (nothing is written otherwise). `overrides` are recorded in the
+/// summary.
+pub fn evaluate<'a>(
+    sc: &'a HybridScenario,
+    built: &Built,
+    mut rows: Option<Rows<'_>>,
+    overrides: Vec<OverrideRecord>,
+    progress: bool,
+) -> Result<HybridRun<'a>, Error> {
+    let file = sc.path.display().to_string();
+    let model = &built.model;
     let mut integrator = Integrator::new(model, sc.method, sc.integrator.dt, &built.state)
         .map_err(|error| Error::Hybrid {
             file: file.clone(),
@@ -96,12 +175,8 @@ pub fn simulate(
         max_residual: vec![0.0; model.mechanisms.len()],
         peak_current: vec![0.0; model.forces.len()],
     };
-    // The time history streams to `<name>.tmp-<pid>` as the run goes and is committed with
-    // the other files at the end (or removed when the run fails): memory stays flat.
-    let csv_path = out.join("time_history.csv");
-    let stream = StreamFile::create(&csv_path).map_err(ReportError::from)?;
-    let mut csv = CsvRows::new(stream, columns.header()).map_err(ReportError::from)?;
     let mut e0 = None;
+    let mut output_rows: u64 = 0;
     let bar = progress_bar(progress);
     let outcome = run(
         model,
@@ -133,7 +208,11 @@ pub fn simulate(
             for (k, i) in state.currents.iter().enumerate() {
                 tracks.peak_current[k] = tracks.peak_current[k].max(i.abs());
             }
-            csv.write_row(columns.row(model, state, stored, e0))
+            output_rows += 1;
+            match &mut rows {
+                Some((columns, sink)) => sink.write_row(columns.row(model, state, stored, e0)),
+                None => Ok(()),
+            }
         },
         &mut |f| bar.set_position((f * 1000.0) as u64),
     );
@@ -143,8 +222,6 @@ pub fn simulate(
         Err(RunError::Hybrid(error)) => return Err(Error::Hybrid { file, error }),
         Err(RunError::Sink(e)) => return Err(ReportError::from(e).into()),
     };
-    let output_rows = csv.rows();
-    let stream = csv.into_inner().map_err(ReportError::from)?;
     let fig = &outcome.figures;
     let state = &outcome.state;
 
@@ -249,6 +326,7 @@ pub fn simulate(
     };
     let summary = HybridSummary {
         scenario: file.clone(),
+        overrides,
         description: sc.description.as_deref(),
         generator_version: mbs_symbolic::emit::GENERATOR_VERSION,
         integrator: &sc.integrator,
@@ -304,38 +382,8 @@ pub fn simulate(
             .collect(),
     };
 
-    let mut files = vec![OutputFile {
-        path: out.join("summary.json"),
-        bytes: json_bytes(&summary).map_err(ReportError::from)?,
-    }];
-    if na > 0 {
-        let lines: Vec<(&str, &[(f64, f64)])> = model
-            .attachments
-            .iter()
-            .zip(&tracks.w)
-            .map(|(a, w)| (a.name.as_str(), &w[..]))
-            .collect();
-        files.push(OutputFile {
-            path: out.join("beam_displacement.svg"),
-            bytes: plot_displacements_svg("Beam point displacements", "displacement (mm)", &lines)
-                .map_err(ReportError::from)?,
-        });
-    }
-    commit(vec![stream], &files).map_err(ReportError::from)?;
-    let zeta = summary
-        .damping_ratio
-        .map_or("n/a".to_string(), |z| format!("{:.3} %", z * 100.0));
-    crate::print(&format!(
-        "{file}: {} steps in {:.3} s ({} mechanism(s), {} attachment(s), {} repartition(s)); peak {}; zeta {zeta}; energy balance error {:.1e}; outputs in {}\n",
-        fig.steps,
-        fig.wall.as_secs_f64(),
-        model.mechanisms.len(),
-        na,
-        fig.repartitions.len(),
-        summary
-            .peak_amplitude
-            .map_or("n/a".to_string(), |p| format!("{:.3} mm", p * 1e3)),
-        fig.balance_rel_error,
-        out.display()
-    ))
+    Ok(HybridRun {
+        summary,
+        displacements: tracks.w,
+    })
 }

@@ -2,5 +2,7 @@
 
 pub mod eval;
 pub mod generate;
+pub mod merge;
 pub mod modes;
 pub mod simulate;
+pub mod sweep;

@@ -40,13 +40,14 @@ use crate::budget::{self, Estimate};
 use crate::report::csv::{MechanismCsv, SamplesCsv};
 use crate::report::plot::plot_svg;
 use crate::report::summary::{
-    ChangeSummary, DamperSummary, DriftSummary, EnergySummary, EnergyWithout, FinalState,
-    InitialSummary, IntegratorSummary, MechanismSettings, MechanismSummary, PartitionSummary,
-    Requested, json_bytes,
+    ChangeSummary, DamperSummary, DriftSummary, FinalState, IntegratorSummary, MechanismSettings,
+    MechanismSummary, PartitionSummary, Requested, json_bytes,
 };
 use crate::report::{OutputFile, ReportError, StreamFile, WriteError, commit};
 use crate::run::{self, DamperOutcome, MechanismOutcome};
-use crate::scenario::{self, DamperScenario, MechanismScenario, Scenario};
+use crate::scenario::{
+    self, DamperScenario, MechanismScenario, Override, OverrideRecord, Scenario,
+};
 
 /// Arguments of `damper simulate`.
 #[derive(clap::Args, Debug)]
@@ -63,12 +64,18 @@ pub struct Args {
     /// (`codegen_cli::budget`: 2e7 steps, 2e6 rows, 1 GiB).
     #[arg(long)]
     pub allow_long: bool,
+    /// Override a field of the scenario file: `--set PATH=VALUE` (repeatable, applied in
+    /// order), PATH with dots and indices (`mechanism.half_angle_deg`,
+    /// `beam.segment[0].elements`), VALUE a TOML value (a bare word is a string).
+    #[arg(long = "set", value_name = "PATH=VALUE")]
+    pub set: Vec<Override>,
 }
 
 /// Runs `damper simulate`.
 pub fn run(args: Args) -> Result<(), Error> {
     let started = Instant::now();
-    let sc = scenario::load(&args.scenario)?;
+    let loaded = scenario::load_with(&args.scenario, &args.set)?;
+    let overrides = loaded.applied.records();
     let stem = args
         .scenario
         .file_stem()
@@ -79,14 +86,37 @@ pub fn run(args: Args) -> Result<(), Error> {
         .unwrap_or_else(|| PathBuf::from("out").join(stem.clone().unwrap_or_else(|| "run".into())));
     let progress = !args.quiet;
     check_out_dir(&out)?;
-    match sc {
-        Scenario::Damper(sc) => damper(&args.scenario, &out, &sc, progress, args.allow_long),
+    // Problems found later (checks against the model) name the `--set` they come from.
+    let remap = |e: Error| match e {
+        Error::Input(d) => Error::Input(loaded.remap(d)),
+        e => e,
+    };
+    match &loaded.scenario {
+        Scenario::Damper(sc) => damper(
+            &args.scenario,
+            &out,
+            sc,
+            progress,
+            args.allow_long,
+            overrides,
+        ),
         Scenario::Mechanism(sc) => {
             let stem = stem.unwrap_or_else(|| "mechanism".into());
-            mechanism(&sc, &out, &stem, progress, started, args.allow_long)
+            mechanism(
+                sc,
+                &out,
+                &stem,
+                progress,
+                started,
+                args.allow_long,
+                overrides,
+            )
         }
-        Scenario::Hybrid(sc) => crate::run_hybrid::simulate(&sc, &out, progress, args.allow_long),
+        Scenario::Hybrid(sc) => {
+            crate::run_hybrid::simulate(sc, &out, progress, args.allow_long, overrides)
+        }
     }
+    .map_err(remap)
 }
 
 /// Checks before any work that the output directory can be used: it is a directory or does
@@ -107,6 +137,7 @@ fn damper(
     sc: &DamperScenario,
     progress: bool,
     allow_long: bool,
+    overrides: Vec<OverrideRecord>,
 ) -> Result<(), Error> {
     Estimate::damper(sc).check(&path.display().to_string(), allow_long)?;
     let model = mbs_symbolic::model::load(&sc.model_path)?;
@@ -140,7 +171,7 @@ fn damper(
     if let Some(w) = without_csv {
         streams.push(w.into_inner().map_err(|e| csv_error(&without_path, e))?);
     }
-    let files = damper_files(path, out, sc, &model, &outcome)?;
+    let files = damper_files(path, out, sc, &model, &outcome, overrides)?;
     commit(streams, &files).map_err(ReportError::from)?;
     let with = &outcome.with;
     let fmt_zeta = |z: Option<f64>| z.map_or("n/a".to_string(), |z| format!("{:.3} %", z * 100.0));
@@ -182,51 +213,11 @@ fn damper_files(
     sc: &DamperScenario,
     model: &mbs_symbolic::model::Model,
     o: &DamperOutcome,
+    overrides: Vec<OverrideRecord>,
 ) -> Result<Vec<OutputFile>, ReportError> {
-    let (with, without) = (&o.with, o.without.as_ref());
-    let e = with.state.energy;
-    let s0 = with
-        .digest
-        .first()
-        .expect("a damper run samples its initial state");
-    let steps = with.state.steps;
-    let summary = DamperSummary {
-        scenario: path.display().to_string(),
-        model: &model.name,
-        model_file: sc.model_path.display().to_string(),
-        model_hash: &model.source.hash,
-        generator_version: mbs_symbolic::emit::GENERATOR_VERSION,
-        mechanism_backend: o.backend,
-        settings: &sc.spec,
-        steps,
-        wall_seconds: with.wall.as_secs_f64(),
-        steps_per_second: steps as f64 / with.wall.as_secs_f64().max(1e-12),
-        beam_first_frequency_hz: o.beam_first_frequency_hz,
-        initial: InitialSummary {
-            tip_displacement: s0.tip_displacement,
-            crank_angle_deg: s0.crank_angle.to_degrees(),
-            coupler_angle_deg: s0.coupler_angle.to_degrees(),
-            amplification_rad_per_m: s0.amplification,
-            jacobian_condition: s0.jacobian_condition,
-        },
-        peak_amplitude: o.peak,
-        zeta_with_generator: o.zeta_with,
-        zeta_without_generator: o.zeta_without,
-        energy: EnergySummary {
-            initial: with.initial_energy,
-            final_stored: e.total(),
-            dissipated_generator: e.dissipated_armature + e.dissipated_load,
-            dissipated_armature: e.dissipated_armature,
-            harvested_in_load: e.dissipated_load,
-            dissipated_structure: e.dissipated_structure,
-            external_work: e.external_work,
-            without_generator: without.map(|r| EnergyWithout {
-                dissipated_structure: r.state.energy.dissipated_structure,
-                final_stored: r.state.energy.total(),
-            }),
-        },
-        energy_balance_rel_error: with.energy_balance_rel_error,
-    };
+    let summary = DamperSummary::new(path, sc, model, o, overrides);
+    let with = &o.with;
+    let without = o.without.as_ref();
     let mut files = vec![OutputFile {
         path: out.join("summary.json"),
         bytes: json_bytes(&summary)?,
@@ -250,6 +241,7 @@ fn mechanism(
     progress: bool,
     started: Instant,
     allow_long: bool,
+    overrides: Vec<OverrideRecord>,
 ) -> Result<(), Error> {
     let model = mbs_symbolic::model::load(&sc.model)?;
     let estimate = Estimate::mechanism(sc, model.dof());
@@ -299,7 +291,14 @@ fn mechanism(
         (None, None) => unreachable!("the stream is in the CSV or still here"),
     };
     let rows = csv.rows();
-    let summary = mechanism_summary(sc, &model, &outcome, rows, started.elapsed().as_secs_f64());
+    let summary = mechanism_summary(
+        sc,
+        &model,
+        &outcome,
+        rows,
+        started.elapsed().as_secs_f64(),
+        overrides,
+    );
     let stream = csv.into_inner().map_err(|e| csv_error(&csv_path, e))?;
     let files = vec![OutputFile {
         path: summary_path.clone(),
@@ -343,6 +342,7 @@ fn mechanism_summary(
     o: &MechanismOutcome,
     rows: usize,
     wall: f64,
+    overrides: Vec<OverrideRecord>,
 ) -> MechanismSummary {
     let (stats, settings, names) = (&o.stats, &o.settings, &o.names);
     let integrator = match settings.method {
@@ -391,6 +391,7 @@ fn mechanism_summary(
     };
     MechanismSummary {
         scenario: sc.file.clone(),
+        overrides,
         description: sc.description.clone(),
         model: sc.model.display().to_string(),
         model_name: model.name.clone(),

@@ -24,6 +24,8 @@ use std::collections::BTreeMap;
 use hybrid_core::hybrid::{ExcitationTarget, HybridModel, HybridState, Stored, balance_error};
 use serde::Serialize;
 
+use crate::scenario::OverrideRecord;
+
 use crate::scenario::damper::IntegratorSpec;
 
 /// The CSV layout of a hybrid run: header and the row of a state.
@@ -180,6 +182,9 @@ impl Columns {
 pub struct HybridSummary<'a> {
     /// The scenario file.
     pub scenario: String,
+    /// The `--set` overrides applied, in command-line order.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub overrides: Vec<OverrideRecord>,
     /// Its description.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub description: Option<&'a str>,

@@ -3,15 +3,23 @@
 
 use std::collections::BTreeMap;
 
+use std::path::Path;
+
+use mbs_symbolic::model::Model;
 use serde::Serialize;
 
-use crate::scenario::damper::ScenarioSpec;
+use crate::run::DamperOutcome;
+use crate::scenario::OverrideRecord;
+use crate::scenario::damper::{DamperScenario, ScenarioSpec};
 
 /// `summary.json` of a damper run.
 #[derive(Clone, Debug, Serialize)]
 pub struct DamperSummary<'a> {
     /// The scenario file.
     pub scenario: String,
+    /// The `--set` overrides applied, in command-line order.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub overrides: Vec<OverrideRecord>,
     /// The mechanism model's name.
     pub model: &'a str,
     /// The mechanism model file.
@@ -95,11 +103,72 @@ pub struct EnergyWithout {
     pub final_stored: f64,
 }
 
+impl<'a> DamperSummary<'a> {
+    /// The summary of a finished damper run of the scenario `sc` (file `path`) on `model`
+    /// (`simulate` writes it; a sweep point reads its figures from it).
+    pub fn new(
+        path: &Path,
+        sc: &'a DamperScenario,
+        model: &'a Model,
+        o: &'a DamperOutcome,
+        overrides: Vec<OverrideRecord>,
+    ) -> DamperSummary<'a> {
+        let (with, without) = (&o.with, o.without.as_ref());
+        let e = with.state.energy;
+        let s0 = with
+            .digest
+            .first()
+            .expect("a damper run samples its initial state");
+        let steps = with.state.steps;
+        DamperSummary {
+            scenario: path.display().to_string(),
+            overrides,
+            model: &model.name,
+            model_file: sc.model_path.display().to_string(),
+            model_hash: &model.source.hash,
+            generator_version: mbs_symbolic::emit::GENERATOR_VERSION,
+            mechanism_backend: o.backend,
+            settings: &sc.spec,
+            steps,
+            wall_seconds: with.wall.as_secs_f64(),
+            steps_per_second: steps as f64 / with.wall.as_secs_f64().max(1e-12),
+            beam_first_frequency_hz: o.beam_first_frequency_hz,
+            initial: InitialSummary {
+                tip_displacement: s0.tip_displacement,
+                crank_angle_deg: s0.crank_angle.to_degrees(),
+                coupler_angle_deg: s0.coupler_angle.to_degrees(),
+                amplification_rad_per_m: s0.amplification,
+                jacobian_condition: s0.jacobian_condition,
+            },
+            peak_amplitude: o.peak,
+            zeta_with_generator: o.zeta_with,
+            zeta_without_generator: o.zeta_without,
+            energy: EnergySummary {
+                initial: with.initial_energy,
+                final_stored: e.total(),
+                dissipated_generator: e.dissipated_armature + e.dissipated_load,
+                dissipated_armature: e.dissipated_armature,
+                harvested_in_load: e.dissipated_load,
+                dissipated_structure: e.dissipated_structure,
+                external_work: e.external_work,
+                without_generator: without.map(|r| EnergyWithout {
+                    dissipated_structure: r.state.energy.dissipated_structure,
+                    final_stored: r.state.energy.total(),
+                }),
+            },
+            energy_balance_rel_error: with.energy_balance_rel_error,
+        }
+    }
+}
+
 /// `<name>_summary.json` of a closed-loop mechanism run.
 #[derive(Clone, Debug, Serialize)]
 pub struct MechanismSummary {
     /// The scenario file.
     pub scenario: String,
+    /// The `--set` overrides applied, in command-line order.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub overrides: Vec<OverrideRecord>,
     /// Its description.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub description: Option<String>,

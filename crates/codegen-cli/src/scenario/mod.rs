@@ -13,10 +13,14 @@
 //! read on its own, so that every problem of the file — an unknown key in one section, a bad
 //! value in another — is reported at once as [`Diagnostics`], each with file:line:column
 //! from the parser's spans ([`LineIndex`]).
+//!
+//! `--set PATH=VALUE` overrides ([`overrides`]) edit the text before it is parsed
+//! ([`load_with`], [`parse_with`]): one code path for every kind.
 
 pub mod damper;
 pub mod hybrid;
 pub mod mechanism;
+pub mod overrides;
 pub mod tangents;
 
 use std::ops::Range;
@@ -30,6 +34,7 @@ use toml::de::{DeTable, DeValue, ValueDeserializer};
 pub use damper::DamperScenario;
 pub use hybrid::HybridScenario;
 pub use mechanism::MechanismScenario;
+pub use overrides::{Applied, Override, OverrideRecord};
 
 /// The kinds of scenario, as written after `kind =`.
 pub const KINDS: [&str; 3] = ["damper", "mechanism", "hybrid"];
@@ -47,14 +52,57 @@ pub enum Scenario {
 
 /// Reads and checks a scenario file of any kind; every problem is reported at once.
 pub fn load(path: &Path) -> Result<Scenario, Diagnostics> {
-    let text = std::fs::read_to_string(path).map_err(|e| {
+    load_with(path, &[]).map(|l| l.scenario)
+}
+
+/// The text of a scenario file.
+pub fn read(path: &Path) -> Result<String, Diagnostics> {
+    std::fs::read_to_string(path).map_err(|e| {
         Diagnostics::from(Diagnostic::new(
             Kind::Io,
             path.display().to_string(),
             format!("cannot read the scenario file: {e}"),
         ))
-    })?;
-    parse(&text, path)
+    })
+}
+
+/// A scenario loaded with `--set` overrides.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    /// The scenario, overrides applied.
+    pub scenario: Scenario,
+    /// The overrides applied; [`Applied::remap`] reports later problems of the scenario
+    /// (run-time checks against the model) against the file and the options.
+    pub applied: Applied,
+    file: String,
+}
+
+impl Loaded {
+    /// Later problems of this scenario (checks against its model) about the file and the
+    /// options the user wrote.
+    pub fn remap(&self, diags: Diagnostics) -> Diagnostics {
+        self.applied.remap(&self.file, diags)
+    }
+}
+
+/// Reads a scenario file, applies the `--set` overrides (in order) and checks the result;
+/// every problem is reported at once, a problem with an overridden value naming its option.
+pub fn load_with(path: &Path, overrides: &[Override]) -> Result<Loaded, Diagnostics> {
+    parse_with(&read(path)?, path, overrides)
+}
+
+/// [`parse`] after applying the overrides to `text` ([`overrides::apply`]).
+pub fn parse_with(text: &str, path: &Path, overrides: &[Override]) -> Result<Loaded, Diagnostics> {
+    let file = path.display().to_string();
+    let applied = overrides::apply(text, &file, overrides)?;
+    match parse(&applied.text, path) {
+        Ok(scenario) => Ok(Loaded {
+            scenario,
+            applied,
+            file,
+        }),
+        Err(d) => Err(applied.remap(&file, d)),
+    }
 }
 
 /// Parses and checks scenario text; `path` names the file in messages and is the base of

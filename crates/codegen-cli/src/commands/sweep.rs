@@ -1,0 +1,623 @@
+//! `damper sweep SCENARIO --set PATH=VALUES ... -o OUT [--shard I/N] [--threads T]
+//! [--time-domain] [--t-end T]`: a cartesian grid over scenario fields.
+//!
+//! VALUES is `a:b:n` (n points from a to b inclusive, `a + (b - a) k / (n - 1)`, the
+//! endpoints exact; integers when a and b are integers and the step is a whole number) or a
+//! comma list of TOML values (`0.5,1,2,5`; one value is a fixed override). The grid is the
+//! product of the options in command-line order, the last one varying fastest. Each point
+//! is [`crate::sweep_point::evaluate`]d (in parallel, rayon; results collected by index, so
+//! identical whatever the thread count); a point that fails is recorded with its message
+//! and the sweep goes on.
+//!
+//! OUT receives `sweep.csv` (one row per point in grid order: `index`, each swept PATH, the
+//! figures with their units, `error`) and `sweep.json` (the same with the scenario, the
+//! specs and the grid size), committed together by the one writer. With `--shard I/N` only
+//! the points with `index % N == I` are evaluated and `OUT/sweep.part-I-of-N.json` is
+//! written; `damper merge` ([`super::merge`]) joins the N parts into exactly the files of
+//! the unsharded run, byte for byte.
+//!
+//! Numbers are written in one form everywhere: the shortest representation that reads back
+//! to the same `f64` (`crate::report::csv` cells; `serde_json` in the JSON).
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use toml_edit::Value;
+
+use crate::Error;
+use crate::report::csv::cell;
+use crate::report::{OutputFile, ReportError, commit_files};
+use crate::scenario::overrides::{json_value, parse_value, value_text};
+use crate::scenario::{self, Override};
+use crate::sweep_point::{self, Figure, PointOptions};
+
+/// Arguments of `damper sweep`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Scenario file (`kind = "damper"` or `kind = "hybrid"`).
+    pub scenario: PathBuf,
+    /// A swept field: `PATH=a:b:n` or `PATH=v1,v2,...` (repeatable; the grid is their
+    /// product, the last option varying fastest).
+    #[arg(long = "set", value_name = "PATH=VALUES", required = true)]
+    pub set: Vec<String>,
+    /// Output directory.
+    #[arg(short = 'o', long = "out")]
+    pub out: PathBuf,
+    /// Evaluate only the points with index % N == I and write `sweep.part-I-of-N.json`.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<String>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Evaluate each point by a time-domain run of the scenario (its summary figures).
+    #[arg(long)]
+    pub time_domain: bool,
+    /// Override the integrator's end time (s) of every point (keeps sweeps cheap).
+    #[arg(long, value_name = "T")]
+    pub t_end: Option<f64>,
+    /// No progress bar even on a terminal.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// One swept field: its PATH and its values.
+#[derive(Clone, Debug)]
+pub struct Axis {
+    /// PATH.
+    pub path: String,
+    /// The values, in order.
+    pub values: Vec<Value>,
+}
+
+impl Axis {
+    /// `PATH=VALUES`.
+    pub fn parse(spec: &str) -> Result<Axis, String> {
+        let (path, values) = spec
+            .split_once('=')
+            .ok_or_else(|| format!("--set {spec}: expected PATH=VALUES"))?;
+        let path = path.trim();
+        scenario::overrides::parse_path(path).map_err(|e| format!("--set {spec}: {e}"))?;
+        let values = parse_values(values.trim()).map_err(|e| format!("--set {spec}: {e}"))?;
+        Ok(Axis {
+            path: path.to_string(),
+            values,
+        })
+    }
+}
+
+/// VALUES: `a:b:n` or a comma list of TOML values.
+pub fn parse_values(text: &str) -> Result<Vec<Value>, String> {
+    if let Some(range) = parse_range(text)? {
+        return Ok(range);
+    }
+    let items = split_top_level(text);
+    if items.iter().any(|i| i.trim().is_empty()) {
+        return Err(format!("empty value in the list `{text}`"));
+    }
+    Ok(items.iter().map(|i| parse_value(i.trim())).collect())
+}
+
+/// `a:b:n` when the text is three numbers separated by colons.
+fn parse_range(text: &str) -> Result<Option<Vec<Value>>, String> {
+    let parts: Vec<&str> = text.split(':').map(str::trim).collect();
+    let [a, b, n] = parts[..] else {
+        return Ok(None);
+    };
+    let (a, b) = (parse_value(a), parse_value(b));
+    let number = |v: &Value| match v {
+        Value::Integer(i) => Some(*i.value() as f64),
+        Value::Float(f) => Some(*f.value()),
+        _ => None,
+    };
+    let (Some(fa), Some(fb)) = (number(&a), number(&b)) else {
+        return Ok(None);
+    };
+    let n: usize = n
+        .parse()
+        .map_err(|_| format!("`{text}`: n in a:b:n must be a whole number of points"))?;
+    if n < 2 {
+        return Err(format!("`{text}`: a:b:n needs n >= 2 points"));
+    }
+    if !(fa.is_finite() && fb.is_finite()) {
+        return Err(format!("`{text}`: a and b must be finite"));
+    }
+    let steps = (n - 1) as i64;
+    if let (Value::Integer(ia), Value::Integer(ib)) = (&a, &b) {
+        let (ia, ib) = (*ia.value(), *ib.value());
+        if let Some(d) = ib.checked_sub(ia).filter(|d| d % steps == 0) {
+            let step = d / steps;
+            return Ok(Some(
+                (0..=steps).map(|k| Value::from(ia + step * k)).collect(),
+            ));
+        }
+    }
+    Ok(Some(
+        (0..n)
+            .map(|k| {
+                let x = if k + 1 == n {
+                    fb
+                } else {
+                    fa + (fb - fa) * k as f64 / (n - 1) as f64
+                };
+                Value::from(x)
+            })
+            .collect(),
+    ))
+}
+
+/// Splits at the commas outside brackets, braces and quotes.
+fn split_top_level(text: &str) -> Vec<&str> {
+    let (mut depth, mut quote, mut start) = (0i32, None::<char>, 0);
+    let mut items = vec![];
+    let mut escaped = false;
+    for (i, c) in text.char_indices() {
+        match quote {
+            Some(q) => {
+                if escaped {
+                    escaped = false;
+                } else if c == '\\' && q == '"' {
+                    escaped = true;
+                } else if c == q {
+                    quote = None;
+                }
+            }
+            None => match c {
+                '"' | '\'' => quote = Some(c),
+                '[' | '{' => depth += 1,
+                ']' | '}' => depth -= 1,
+                ',' if depth == 0 => {
+                    items.push(&text[start..i]);
+                    start = i + 1;
+                }
+                _ => {}
+            },
+        }
+    }
+    items.push(&text[start..]);
+    items
+}
+
+/// The cartesian grid of the swept fields (the last axis fastest).
+#[derive(Clone, Debug)]
+pub struct Grid {
+    /// The axes, in command-line order.
+    pub axes: Vec<Axis>,
+}
+
+impl Grid {
+    /// The grid of `--set` specs.
+    pub fn parse(specs: &[String]) -> Result<Grid, String> {
+        let axes = specs
+            .iter()
+            .map(|s| Axis::parse(s))
+            .collect::<Result<_, _>>()?;
+        Ok(Grid { axes })
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.axes.iter().map(|a| a.values.len()).product()
+    }
+
+    /// Whether the grid has no point (never: every axis has a value).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The values of point `index` (one per axis).
+    pub fn point(&self, index: usize) -> Vec<&Value> {
+        let mut rest = index;
+        let mut values: Vec<&Value> = self
+            .axes
+            .iter()
+            .rev()
+            .map(|a| {
+                let v = &a.values[rest % a.values.len()];
+                rest /= a.values.len();
+                v
+            })
+            .collect();
+        values.reverse();
+        values
+    }
+
+    /// The overrides of point `index`.
+    pub fn overrides(&self, index: usize) -> Vec<Override> {
+        self.axes
+            .iter()
+            .zip(self.point(index))
+            .map(|(a, v)| Override::new(&a.path, v.clone(), &value_text(v)).expect("PATH checked"))
+            .collect()
+    }
+}
+
+/// `--shard I/N`.
+pub fn parse_shard(text: &str) -> Result<(usize, usize), String> {
+    let bad = || format!("--shard {text}: expected I/N with 0 <= I < N");
+    let (i, n) = text.split_once('/').ok_or_else(bad)?;
+    let (i, n): (usize, usize) = (
+        i.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if n == 0 || i >= n {
+        return Err(bad());
+    }
+    Ok((i, n))
+}
+
+/// What identifies a sweep: equal in every part of one sweep.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SweepSpec {
+    /// The scenario file, as given.
+    pub scenario: String,
+    /// FNV-1a hash of the scenario file's text.
+    pub scenario_hash: String,
+    /// The `--set` specs, in command-line order.
+    pub sets: Vec<String>,
+    /// `--t-end` (s), when given, as the text that reads back to the same number.
+    pub t_end: Option<String>,
+    /// `--time-domain`.
+    pub time_domain: bool,
+    /// Number of grid points.
+    pub grid_size: usize,
+}
+
+/// The result of one point.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointResult {
+    /// Grid index.
+    pub index: usize,
+    /// The figures (empty when the point failed).
+    pub figures: Vec<Figure>,
+    /// Why the point failed.
+    pub error: Option<String>,
+}
+
+/// FNV-1a (64 bit) of `bytes`, in hex.
+pub fn fnv1a_hex(bytes: &[u8]) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
+
+/// Runs `damper sweep`.
+pub fn run(args: Args) -> Result<(), Error> {
+    let started = Instant::now();
+    let grid = Grid::parse(&args.set).map_err(Error::Usage)?;
+    let shard = args
+        .shard
+        .as_deref()
+        .map(parse_shard)
+        .transpose()
+        .map_err(Error::Usage)?;
+    if !args.time_domain {
+        return Err(Error::Usage(
+            "nothing to evaluate: pass --time-domain (each point is then run in the time domain)"
+                .into(),
+        ));
+    }
+    if let Some(t) = args.t_end {
+        if !(t.is_finite() && t > 0.0) {
+            return Err(Error::Usage(format!(
+                "--t-end {t}: must be a positive time"
+            )));
+        }
+    }
+    if args.threads == Some(0) {
+        return Err(Error::Usage("--threads must be at least 1".into()));
+    }
+    if std::fs::metadata(&args.out).is_ok_and(|m| !m.is_dir()) {
+        return Err(Error::Usage(format!(
+            "output directory {} is not a directory",
+            args.out.display()
+        )));
+    }
+    let text = scenario::read(&args.scenario)?;
+    let spec = SweepSpec {
+        scenario: args.scenario.display().to_string(),
+        scenario_hash: fnv1a_hex(text.as_bytes()),
+        sets: args.set.clone(),
+        t_end: args.t_end.map(|t| cell(Some(t))),
+        time_domain: args.time_domain,
+        grid_size: grid.len(),
+    };
+    let (shard_i, shards) = shard.unwrap_or((0, 1));
+    let indices: Vec<usize> = (0..grid.len()).filter(|i| i % shards == shard_i).collect();
+    let options = PointOptions {
+        time_domain: args.time_domain,
+    };
+    let bar = progress_bar(!args.quiet, indices.len());
+    let evaluate = |index: usize| {
+        let mut overrides = grid.overrides(index);
+        if let Some(t) = args.t_end {
+            let o = Override::new("integrator.t_end", Value::from(t), &cell(Some(t)))
+                .expect("a valid PATH");
+            overrides.push(o);
+        }
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            sweep_point::evaluate(&args.scenario, &text, &overrides, &options)
+        }))
+        .unwrap_or_else(|_| Err("the evaluation panicked".into()));
+        bar.inc(1);
+        match result {
+            Ok(figures) => PointResult {
+                index,
+                figures,
+                error: None,
+            },
+            Err(e) => PointResult {
+                index,
+                figures: vec![],
+                error: Some(e),
+            },
+        }
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.unwrap_or(0))
+        .build()
+        .map_err(|e| Error::Usage(format!("cannot start the worker threads: {e}")))?;
+    // Collected in index order (never in completion order).
+    let results: Vec<PointResult> =
+        pool.install(|| indices.par_iter().map(|&i| evaluate(i)).collect());
+    bar.finish_and_clear();
+    let failed = results.iter().filter(|r| r.error.is_some()).count();
+    let files = match shard {
+        Some((i, n)) => vec![OutputFile {
+            path: args.out.join(part_name(i, n)),
+            bytes: pretty(&Part::new(&spec, i, n, &results))?,
+        }],
+        None => outputs(&args.out, &spec, &grid, &results)?,
+    };
+    commit_files(&files).map_err(ReportError::from)?;
+    let written: Vec<String> = files.iter().map(|f| f.path.display().to_string()).collect();
+    eprintln!(
+        "sweep: {} of {} point(s) evaluated in {:.1} s, {failed} failed; wrote {}",
+        results.len(),
+        grid.len(),
+        started.elapsed().as_secs_f64(),
+        written.join(", ")
+    );
+    Ok(())
+}
+
+fn progress_bar(show: bool, len: usize) -> ProgressBar {
+    if !(show && std::io::stderr().is_terminal()) {
+        return ProgressBar::hidden();
+    }
+    let pb = ProgressBar::new(len as u64);
+    pb.set_style(
+        ProgressStyle::with_template("sweep [{bar:40}] {pos}/{len} ETA {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    pb
+}
+
+/// Pretty-printed JSON with a final newline (`null` for an absent figure or no error).
+fn pretty<T: Serialize>(value: &T) -> Result<Vec<u8>, Error> {
+    let mut v = serde_json::to_vec_pretty(value).map_err(ReportError::from)?;
+    v.push(b'\n');
+    Ok(v)
+}
+
+/// The name of part I of N.
+pub fn part_name(i: usize, n: usize) -> String {
+    format!("sweep.part-{i}-of-{n}.json")
+}
+
+/// A figure as stored in a part file: its value as the text that reads back to the same
+/// `f64`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PartFigure {
+    /// Name.
+    pub name: String,
+    /// Unit.
+    pub unit: String,
+    /// Value (shortest round-trip text), `None` when absent.
+    pub value: Option<String>,
+}
+
+/// A point as stored in a part file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PartRow {
+    /// Grid index.
+    pub index: usize,
+    /// Figures.
+    pub figures: Vec<PartFigure>,
+    /// Why the point failed.
+    pub error: Option<String>,
+}
+
+/// `sweep.part-I-of-N.json`: the rows of shard I of N and what identifies the sweep.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Part {
+    /// The sweep.
+    pub sweep: SweepSpec,
+    /// I.
+    pub shard: usize,
+    /// N.
+    pub shards: usize,
+    /// The rows computed, in index order.
+    pub rows: Vec<PartRow>,
+}
+
+/// Units known to figures (a part file names them as text).
+const UNITS: [&str; 6] = ["-", "Hz", "m", "rad/m", "J", "A"];
+
+impl Part {
+    fn new(spec: &SweepSpec, shard: usize, shards: usize, results: &[PointResult]) -> Part {
+        Part {
+            sweep: spec.clone(),
+            shard,
+            shards,
+            rows: results
+                .iter()
+                .map(|r| PartRow {
+                    index: r.index,
+                    figures: r
+                        .figures
+                        .iter()
+                        .map(|f| PartFigure {
+                            name: f.name.clone(),
+                            unit: f.unit.to_string(),
+                            value: f.value.map(|v| cell(Some(v))),
+                        })
+                        .collect(),
+                    error: r.error.clone(),
+                })
+                .collect(),
+        }
+    }
+
+    /// The rows back as results (values read back exactly).
+    pub fn results(&self) -> Result<Vec<PointResult>, String> {
+        self.rows
+            .iter()
+            .map(|r| {
+                let figures = r
+                    .figures
+                    .iter()
+                    .map(|f| {
+                        let unit = UNITS
+                            .iter()
+                            .find(|u| **u == f.unit)
+                            .ok_or_else(|| format!("unknown unit `{}`", f.unit))?;
+                        let value = match &f.value {
+                            Some(v) => Some(
+                                v.parse::<f64>()
+                                    .map_err(|_| format!("bad value `{v}` of {}", f.name))?,
+                            ),
+                            None => None,
+                        };
+                        Ok(Figure {
+                            name: f.name.clone(),
+                            unit,
+                            value,
+                        })
+                    })
+                    .collect::<Result<_, String>>()?;
+                Ok(PointResult {
+                    index: r.index,
+                    figures,
+                    error: r.error.clone(),
+                })
+            })
+            .collect()
+    }
+}
+
+/// `sweep.json`.
+#[derive(Serialize)]
+struct SweepJson<'a> {
+    #[serde(flatten)]
+    spec: &'a SweepSpec,
+    parameters: Vec<&'a str>,
+    figures: Vec<FigureHead<'a>>,
+    failed: usize,
+    points: Vec<PointJson<'a>>,
+}
+
+#[derive(Serialize)]
+struct FigureHead<'a> {
+    name: &'a str,
+    unit: &'a str,
+}
+
+#[derive(Serialize)]
+struct PointJson<'a> {
+    index: usize,
+    parameters: Vec<serde_json::Value>,
+    figures: Vec<Option<f64>>,
+    error: Option<&'a str>,
+}
+
+/// The files of a complete sweep (`sweep.csv`, `sweep.json`) from the results of every point
+/// (in any order); the same bytes whether the results come from one run or merged parts.
+pub fn outputs(
+    out: &Path,
+    spec: &SweepSpec,
+    grid: &Grid,
+    results: &[PointResult],
+) -> Result<Vec<OutputFile>, Error> {
+    let mut rows: Vec<&PointResult> = results.iter().collect();
+    rows.sort_by_key(|r| r.index);
+    if rows.len() != grid.len() || rows.iter().enumerate().any(|(i, r)| r.index != i) {
+        return Err(Error::Usage(format!(
+            "the results do not cover the grid of {} point(s) exactly once",
+            grid.len()
+        )));
+    }
+    // The figure columns: every figure name in order of first appearance, in grid order.
+    let mut heads: Vec<(&str, &str)> = vec![];
+    for r in &rows {
+        for f in &r.figures {
+            if !heads.iter().any(|(n, _)| *n == f.name) {
+                heads.push((&f.name, f.unit));
+            }
+        }
+    }
+    let value_of = |r: &PointResult, name: &str| {
+        r.figures
+            .iter()
+            .find(|f| f.name == name)
+            .and_then(|f| f.value)
+    };
+    let param_cell = |v: &Value| match v {
+        Value::Float(f) => cell(Some(*f.value())),
+        Value::Integer(i) => i.value().to_string(),
+        Value::String(s) => s.value().clone(),
+        v => value_text(v),
+    };
+    let mut csv = ::csv::Writer::from_writer(vec![]);
+    let mut header = vec!["index".to_string()];
+    header.extend(grid.axes.iter().map(|a| a.path.clone()));
+    header.extend(heads.iter().map(|(n, u)| format!("{n} [{u}]")));
+    header.push("error".into());
+    let csv_err = |e: ::csv::Error| Error::from(ReportError::from(e));
+    csv.write_record(&header).map_err(csv_err)?;
+    let mut points = vec![];
+    for r in &rows {
+        let values = grid.point(r.index);
+        let mut record = vec![r.index.to_string()];
+        record.extend(values.iter().map(|v| param_cell(v)));
+        record.extend(heads.iter().map(|(n, _)| cell(value_of(r, n))));
+        record.push(r.error.clone().unwrap_or_default());
+        csv.write_record(&record).map_err(csv_err)?;
+        points.push(PointJson {
+            index: r.index,
+            parameters: values.iter().map(|v| json_value(v)).collect(),
+            figures: heads.iter().map(|(n, _)| value_of(r, n)).collect(),
+            error: r.error.as_deref(),
+        });
+    }
+    let csv = csv
+        .into_inner()
+        .map_err(|e| csv_err(e.into_error().into()))?;
+    let json = SweepJson {
+        spec,
+        parameters: grid.axes.iter().map(|a| a.path.as_str()).collect(),
+        figures: heads
+            .iter()
+            .map(|(name, unit)| FigureHead { name, unit })
+            .collect(),
+        failed: rows.iter().filter(|r| r.error.is_some()).count(),
+        points,
+    };
+    Ok(vec![
+        OutputFile {
+            path: out.join("sweep.csv"),
+            bytes: csv,
+        },
+        OutputFile {
+            path: out.join("sweep.json"),
+            bytes: pretty(&json)?,
+        },
+    ])
+}

@@ -1,0 +1,155 @@
+//! One point of a sweep: the scenario text with the point's `--set` overrides applied,
+//! loaded by the one loader, run, and reduced to an ordered list of named figures.
+//!
+//! The figures come from the run's own summary, the one `damper simulate` writes (nothing
+//! is recomputed here), with the outputs kept in memory (no file is written):
+//!
+//! - `kind = "damper"`: the [`DamperSummary`] of the run with the generator and the
+//!   comparison run without it: equivalent damping ratios, the bare beam's first frequency,
+//!   peak tip displacement, initial amplification q1'/y' and cond(J^b), the energy account
+//!   (dissipated in the generator, harvested in the load, dissipated by the structure);
+//! - `kind = "hybrid"`: the [`crate::report::hybrid::HybridSummary`]: damping ratio of a free
+//!   decay, first beam frequency, peak amplitude, per attachment its peak and final
+//!   amplitude, per generator its dissipated and harvested energy and peak current, the
+//!   energy account.
+//!
+//! Every figure is a pure function of the scenario, the overrides and the options: the same
+//! point gives the same figures bit for bit on any thread.
+
+use std::path::Path;
+
+use crate::Error;
+use crate::report::summary::DamperSummary;
+use crate::scenario::{self, Loaded, Override, Scenario};
+
+/// A named figure of a sweep point.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Figure {
+    /// Name (a summary field, e.g. `zeta_with_generator`, `energy.harvested_in_load`).
+    pub name: String,
+    /// Unit (`-` for a ratio).
+    pub unit: &'static str,
+    /// Value; `None` when the run does not give it (e.g. a damping ratio from fewer than
+    /// three peaks) or it is not finite.
+    pub value: Option<f64>,
+}
+
+impl Figure {
+    fn new(name: impl Into<String>, unit: &'static str, value: impl Into<Option<f64>>) -> Figure {
+        Figure {
+            name: name.into(),
+            unit,
+            value: value.into().filter(|v| v.is_finite()),
+        }
+    }
+
+    /// The CSV header of the figure: `name [unit]`.
+    pub fn header(&self) -> String {
+        format!("{} [{}]", self.name, self.unit)
+    }
+}
+
+/// What a point evaluates.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PointOptions {
+    /// Run the scenario in the time domain and report its summary figures.
+    pub time_domain: bool,
+}
+
+/// Evaluates one point: `text` (the scenario file `path`, the base of its relative paths)
+/// with `overrides` applied in order. An error (a value the loader rejects, a run that
+/// stops at the singular position, a divergence) is returned as its one-line message.
+pub fn evaluate(
+    path: &Path,
+    text: &str,
+    overrides: &[Override],
+    options: &PointOptions,
+) -> Result<Vec<Figure>, String> {
+    let one_line = |e: &dyn std::fmt::Display| e.to_string().replace('\n', "; ");
+    let loaded = scenario::parse_with(text, path, overrides).map_err(|d| one_line(&d))?;
+    let mut figures = vec![];
+    if options.time_domain {
+        let remap = |e: Error| match e {
+            Error::Input(d) => Error::Input(loaded.remap(d)),
+            e => e,
+        };
+        time_domain(path, &loaded, &mut figures).map_err(|e| one_line(&remap(e)))?;
+    }
+    Ok(figures)
+}
+
+/// The figures of the time-domain run of a loaded scenario.
+fn time_domain(path: &Path, loaded: &Loaded, figures: &mut Vec<Figure>) -> Result<(), Error> {
+    match &loaded.scenario {
+        Scenario::Damper(sc) => {
+            let model = mbs_symbolic::model::load(&sc.model_path)?;
+            sc.check_parameters(&model)?;
+            let outcome = crate::run::damper(sc, &model, false, &mut |_| Ok(()), &mut |_| Ok(()))?;
+            let s = DamperSummary::new(path, sc, &model, &outcome, vec![]);
+            let e = &s.energy;
+            figures.extend([
+                Figure::new("zeta_with_generator", "-", s.zeta_with_generator),
+                Figure::new("zeta_without_generator", "-", s.zeta_without_generator),
+                Figure::new("beam_first_frequency", "Hz", s.beam_first_frequency_hz),
+                Figure::new("peak_amplitude", "m", s.peak_amplitude),
+                Figure::new(
+                    "initial.amplification",
+                    "rad/m",
+                    s.initial.amplification_rad_per_m,
+                ),
+                Figure::new(
+                    "initial.jacobian_condition",
+                    "-",
+                    s.initial.jacobian_condition,
+                ),
+                Figure::new("energy.initial", "J", e.initial),
+                Figure::new("energy.dissipated_generator", "J", e.dissipated_generator),
+                Figure::new("energy.harvested_in_load", "J", e.harvested_in_load),
+                Figure::new("energy.dissipated_structure", "J", e.dissipated_structure),
+                Figure::new("energy.final_stored", "J", e.final_stored),
+                Figure::new("energy_balance_rel_error", "-", s.energy_balance_rel_error),
+            ]);
+            Ok(())
+        }
+        Scenario::Hybrid(sc) => {
+            let built = sc.build()?;
+            let run = crate::run_hybrid::evaluate(sc, &built, None, vec![], false)?;
+            let s = &run.summary;
+            figures.extend([
+                Figure::new("damping_ratio", "-", s.damping_ratio),
+                Figure::new("beam_first_frequency", "Hz", s.beam_first_frequency_hz),
+                Figure::new("peak_amplitude", "m", s.peak_amplitude),
+            ]);
+            for a in &s.attachments {
+                let name = |f: &str| format!("attachment.{}.{f}", a.name);
+                figures.push(Figure::new(
+                    name("peak_displacement"),
+                    "m",
+                    a.peak_displacement,
+                ));
+                figures.push(Figure::new(name("final_amplitude"), "m", a.final_amplitude));
+            }
+            for g in &s.generators {
+                let name = |f: &str| format!("generator.{}.{f}", g.name);
+                figures.push(Figure::new(name("dissipated"), "J", g.dissipated));
+                figures.push(Figure::new(
+                    name("harvested_in_load"),
+                    "J",
+                    g.harvested_in_load,
+                ));
+                figures.push(Figure::new(name("peak_current"), "A", g.peak_current));
+            }
+            let e = &s.energy;
+            figures.extend([
+                Figure::new("energy.initial", "J", e.initial),
+                Figure::new("energy.dissipated_structure", "J", e.dissipated_structure),
+                Figure::new("energy.final_stored", "J", e.final_stored),
+                Figure::new("energy_balance_rel_error", "-", s.energy_balance_rel_error),
+            ]);
+            Ok(())
+        }
+        Scenario::Mechanism(_) => Err(Error::Usage(
+            "sweeps evaluate `kind = \"damper\"` and `kind = \"hybrid\"` scenarios (a rigid mechanism has no sweep figures yet)".into(),
+        )),
+    }
+}
