@@ -27,6 +27,7 @@
 pub mod budget;
 pub mod commands;
 pub mod interrupt;
+pub mod linear;
 pub mod report;
 pub mod run;
 pub mod run_hybrid;
@@ -60,6 +61,15 @@ pub enum Error {
         file: String,
         /// Why.
         error: hybrid_core::hybrid::HybridError,
+    },
+    /// A scenario cannot be linearised (no static equilibrium, singular stiffness, a
+    /// tangent model that does not match).
+    #[error("{file}: linearisation: {error}")]
+    Linear {
+        /// The scenario file.
+        file: String,
+        /// Why.
+        error: hybrid_core::hybrid::LinearError,
     },
     /// The comparison run without generator panicked.
     #[error("the comparison run without generator panicked")]

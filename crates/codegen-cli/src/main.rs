@@ -9,7 +9,7 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use codegen_cli::commands::{eval, generate, merge, modes, simulate, sweep};
+use codegen_cli::commands::{eval, generate, linearize, merge, modes, simulate, sweep};
 
 /// Design and verification of electromagnetic vibration dampers with a mechanism near its
 /// singular position.
@@ -29,6 +29,9 @@ enum Command {
     Eval(eval::Args),
     /// Natural frequencies of a finite-element beam, with analytic values where known.
     Modes(modes::Args),
+    /// Static equilibrium and linearised modes of a damper or hybrid scenario: frequencies,
+    /// damping ratios, mode shapes, with and without the generator and for the bare beam.
+    Linearize(linearize::Args),
     /// Run a scenario: the damper (beam + mechanism + generator) or a closed-loop mechanism.
     Simulate(simulate::Args),
     /// Evaluate a scenario over a grid of `--set PATH=VALUES` (parallel; `--shard I/N` for
@@ -46,6 +49,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Generate(args) => generate::run(args)?,
         Command::Eval(args) => eval::run(args)?,
         Command::Modes(args) => modes::run(args)?,
+        Command::Linearize(args) => linearize::run(args)?,
         Command::Simulate(args) => simulate::run(args)?,
         Command::Sweep(args) => sweep::run(args)?,
         Command::Merge(args) => merge::run(args)?,

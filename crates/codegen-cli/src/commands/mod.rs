@@ -2,6 +2,7 @@
 
 pub mod eval;
 pub mod generate;
+pub mod linearize;
 pub mod merge;
 pub mod modes;
 pub mod simulate;

@@ -47,9 +47,8 @@ pub fn tangents_for(sc: &Scenario) -> Result<Linearisable, Error> {
             let model = mbs_symbolic::model::load(&sc.model_path)?;
             sc.check_parameters(&model)?;
             let system = model_registry::system_for(&model, None)?.system;
-            let (coupled, guess) =
-                hybrid_core::study::build_model(&sc.setup, &model, system, true)
-                    .map_err(|e| Error::Input(sc.diagnostic(&e).into()))?;
+            let (coupled, guess) = hybrid_core::study::build_model(&sc.setup, &model, system, true)
+                .map_err(|e| Error::Input(sc.diagnostic(&e).into()))?;
             let (hybrid, _) = hybrid_core::study::hybrid_of(&sc.setup, &coupled, guess)
                 .map_err(|e| Error::Input(sc.diagnostic(&e).into()))?;
             let mut tangent = TangentSystem::new(&model);

@@ -1,0 +1,141 @@
+//! `damper linearize SCENARIO [--modes K] [--json] [--method M] [--set PATH=VALUE ...]`:
+//! the static equilibrium of a damper or hybrid scenario and the first `K` modes of its
+//! linearised reduced equations ([`crate::linear`]): undamped and damped natural
+//! frequencies, damping ratios, decay rates, mode shapes (beam deflection and mechanism
+//! motion), with the generators connected, disconnected, and for the bare beam; the
+//! generators' velocity amplification at the equilibrium. A table on standard output, or the
+//! whole report as JSON with `--json`.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use hybrid_core::hybrid::{EigenMethod, ModeKind};
+
+use crate::Error;
+use crate::linear::{LinearReport, ModeReport, analyse};
+use crate::report::ReportError;
+use crate::report::summary::json_bytes;
+use crate::scenario::{self, Override};
+
+/// Arguments of `damper linearize`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Scenario file (`kind = "damper"` or `kind = "hybrid"`).
+    pub scenario: PathBuf,
+    /// Number of modes (lowest |lambda| first).
+    #[arg(long, default_value_t = 5)]
+    pub modes: usize,
+    /// Print the whole report (equilibrium, amplification, modes with shapes) as JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Eigen-solver: `auto` (dense below 600 states), `dense` or `shift-invert` (Arnoldi).
+    #[arg(long, default_value = "auto", value_parser = parse_method)]
+    pub method: EigenMethod,
+    /// Override a field of the scenario file: `--set PATH=VALUE` (repeatable).
+    #[arg(long = "set", value_name = "PATH=VALUE")]
+    pub set: Vec<Override>,
+}
+
+fn parse_method(s: &str) -> Result<EigenMethod, String> {
+    match s {
+        "auto" => Ok(EigenMethod::Auto),
+        "dense" => Ok(EigenMethod::Dense),
+        "shift-invert" => Ok(EigenMethod::ShiftInvert),
+        other => Err(format!(
+            "unknown method {other:?}: expected auto, dense or shift-invert"
+        )),
+    }
+}
+
+/// Runs `damper linearize`.
+pub fn run(args: Args) -> Result<(), Error> {
+    if args.modes == 0 {
+        return Err(Error::Usage("--modes must be at least 1".into()));
+    }
+    let loaded = scenario::load_with(&args.scenario, &args.set)?;
+    let file = args.scenario.display().to_string();
+    let report =
+        analyse(&file, &loaded.scenario, args.modes, args.method).map_err(|e| match e {
+            Error::Input(d) => Error::Input(loaded.remap(d)),
+            e => e,
+        })?;
+    if args.json {
+        let bytes = json_bytes(&report).map_err(ReportError::Json)?;
+        return crate::print(&String::from_utf8_lossy(&bytes));
+    }
+    crate::print(&table(&report))
+}
+
+fn mode_rows(out: &mut String, title: &str, modes: &[ModeReport]) {
+    let _ = writeln!(out, "\n{title}");
+    let _ = writeln!(
+        out,
+        "{:>4}  {:<12}  {:>14}  {:>14}  {:>12}  {:>12}  {:>9}",
+        "mode", "kind", "f_n [Hz]", "f_d [Hz]", "zeta [-]", "decay [1/s]", "bwd err"
+    );
+    for m in modes {
+        let kind = match m.kind {
+            ModeKind::Oscillatory => "oscillatory",
+            ModeKind::Overdamped => "overdamped",
+            ModeKind::Rigid => "rigid",
+            ModeKind::Unstable => "UNSTABLE",
+        };
+        let _ = writeln!(
+            out,
+            "{:>4}  {:<12}  {:>14.6}  {:>14.6}  {:>12.6e}  {:>12.5e}  {:>9.1e}",
+            m.index,
+            kind,
+            m.natural_frequency_hz,
+            m.damped_frequency_hz,
+            m.damping_ratio,
+            m.decay_rate,
+            m.backward_error
+        );
+    }
+}
+
+/// The terminal table.
+fn table(r: &LinearReport) -> String {
+    let mut out = String::new();
+    let _ = writeln!(out, "scenario: {}", r.scenario);
+    let eq = &r.equilibrium;
+    let _ = writeln!(
+        out,
+        "static equilibrium: {} Newton iteration(s), residual {:.2e}, largest beam deflection {:.4e} m",
+        eq.iterations, eq.residual, eq.beam_max_deflection
+    );
+    for m in &eq.mechanisms {
+        let q: Vec<String> = m.q.iter().map(|(n, v)| format!("{n} = {v:.6}")).collect();
+        let _ = writeln!(
+            out,
+            "  mechanism \"{}\": {}; free [{}]; cond(J_d) = {:.3e}",
+            m.name,
+            q.join(", "),
+            m.free.join(", "),
+            m.jacobian_condition
+        );
+    }
+    for a in &r.amplification {
+        let _ = writeln!(
+            out,
+            "  amplification: generator \"{}\" per attachment \"{}\": {:.4} rad/m at the joint, {:.4} rad/m at the rotor",
+            a.generator, a.attachment, a.joint_per_displacement, a.rotor_per_displacement
+        );
+    }
+    mode_rows(&mut out, "modes with the generator(s) connected:", &r.modes);
+    if let Some(m) = &r.generator_disconnected {
+        mode_rows(
+            &mut out,
+            "modes with the generator(s) disconnected (mechanism and rotor inertia attached):",
+            m,
+        );
+    }
+    if let Some(m) = &r.bare_beam {
+        mode_rows(&mut out, "modes of the bare beam (no mechanism):", m);
+    }
+    let _ = writeln!(
+        out,
+        "\n(mode shapes: --json; f_n = |lambda|/2pi, f_d = |Im lambda|/2pi, zeta = -Re lambda/|lambda|)"
+    );
+    out
+}

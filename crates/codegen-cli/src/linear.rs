@@ -1,0 +1,276 @@
+//! The linearised analysis of a damper or hybrid scenario (issue #11): its static
+//! equilibrium and the modes of the linearised reduced equations about it
+//! ([`hybrid_core::hybrid::Linearization`], [`hybrid_core::hybrid::modes`]), with the
+//! generator connected, with every generator disconnected (mechanism and rotor inertia still
+//! attached) and for the bare beam without mechanisms; the velocity amplification of every
+//! generator at the equilibrium. What `damper linearize` prints and the sweeps' linear
+//! figures are.
+
+use hybrid_core::hybrid::{
+    EigenMethod, EquilibriumOptions, HybridModel, Linearization, Mode, ModeKind, modes,
+};
+use mbs_symbolic::runtime::TangentSystem;
+use serde::Serialize;
+
+use crate::Error;
+use crate::scenario::Scenario;
+use crate::scenario::tangents::{Linearisable, tangents_for};
+
+/// One mode as reported: frequencies, damping and the shape in physical terms.
+#[derive(Clone, Debug, Serialize)]
+pub struct ModeReport {
+    /// 1-based, in increasing `|lambda|`.
+    pub index: usize,
+    /// Oscillatory, overdamped, rigid or unstable.
+    pub kind: ModeKind,
+    /// `lambda` (1/s): `[re, im]`.
+    pub eigenvalue: [f64; 2],
+    /// `|lambda| / 2 pi` (Hz).
+    pub natural_frequency_hz: f64,
+    /// `|Im lambda| / 2 pi` (Hz).
+    pub damped_frequency_hz: f64,
+    /// `-Re lambda / |lambda|`.
+    pub damping_ratio: f64,
+    /// `-Re lambda` (1/s).
+    pub decay_rate: f64,
+    /// Normwise backward error of the computed pair.
+    pub backward_error: f64,
+    /// Beam transverse deflection at every node: `[x (m), re, im]`, normalised to a largest
+    /// entry 1.
+    pub beam_shape: Vec<[f64; 3]>,
+    /// Per mechanism, per coordinate: `(name, [re, im])` (rad or m per unit of the
+    /// normalised beam deflection).
+    pub mechanism_shape: Vec<MechanismShape>,
+}
+
+/// A mechanism's part of a mode shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct MechanismShape {
+    /// The mechanism.
+    pub mechanism: String,
+    /// `(coordinate, [re, im])`.
+    pub coordinates: Vec<(String, [f64; 2])>,
+}
+
+/// A generator's kinematic amplification at the equilibrium.
+#[derive(Clone, Debug, Serialize)]
+pub struct Amplification {
+    /// The force element.
+    pub generator: String,
+    /// The attachment whose displacement drives it.
+    pub attachment: String,
+    /// `dq_joint / dw` (rad/m, or m/m on a prismatic joint).
+    pub joint_per_displacement: f64,
+    /// The rotor's speed per beam-point speed, `gear ratio * dq_joint / dw`.
+    pub rotor_per_displacement: f64,
+}
+
+/// A mechanism at the equilibrium.
+#[derive(Clone, Debug, Serialize)]
+pub struct MechanismEquilibrium {
+    /// Its name.
+    pub name: String,
+    /// Coordinates by name.
+    pub q: Vec<(String, f64)>,
+    /// The free (independent) coordinates.
+    pub free: Vec<String>,
+    /// cond_2 of its dependent Jacobian.
+    pub jacobian_condition: f64,
+    /// Multipliers of its constraint rows (loops, then per attachment transverse and axial).
+    pub multipliers: Vec<f64>,
+}
+
+/// The static equilibrium as reported.
+#[derive(Clone, Debug, Serialize)]
+pub struct EquilibriumReport {
+    /// Newton iterations.
+    pub iterations: usize,
+    /// Final residual norm.
+    pub residual: f64,
+    /// Largest beam transverse displacement at the equilibrium (m).
+    pub beam_max_deflection: f64,
+    /// Every mechanism.
+    pub mechanisms: Vec<MechanismEquilibrium>,
+}
+
+/// Everything `damper linearize` reports.
+#[derive(Clone, Debug, Serialize)]
+pub struct LinearReport {
+    /// The scenario file.
+    pub scenario: String,
+    /// The eigen-solver used.
+    pub method: EigenMethod,
+    /// The equilibrium (generator connected).
+    pub equilibrium: EquilibriumReport,
+    /// Generators' amplification at the equilibrium.
+    pub amplification: Vec<Amplification>,
+    /// Modes with the generators connected.
+    pub modes: Vec<ModeReport>,
+    /// Modes with every generator disconnected (absent without generators).
+    pub generator_disconnected: Option<Vec<ModeReport>>,
+    /// Modes of the bare beam (no mechanism; absent without a beam or mechanisms).
+    pub bare_beam: Option<Vec<ModeReport>>,
+}
+
+/// Linearises a loaded scenario and computes `k` modes of each variant.
+pub fn analyse(
+    file: &str,
+    sc: &Scenario,
+    k: usize,
+    method: EigenMethod,
+) -> Result<LinearReport, Error> {
+    let lin_in = tangents_for(sc)?;
+    analyse_model(file, &lin_in, k, method)
+}
+
+fn linearise(
+    file: &str,
+    model: &HybridModel,
+    tangents: &[&TangentSystem],
+) -> Result<Linearization, Error> {
+    Linearization::new(model, tangents, EquilibriumOptions::default()).map_err(|error| {
+        Error::Linear {
+            file: file.to_string(),
+            error,
+        }
+    })
+}
+
+fn modes_of(
+    file: &str,
+    lin: &Linearization,
+    model: &HybridModel,
+    k: usize,
+    method: EigenMethod,
+) -> Result<Vec<ModeReport>, Error> {
+    let found = modes(lin, k, method).map_err(|error| Error::Linear {
+        file: file.to_string(),
+        error,
+    })?;
+    Ok(found
+        .iter()
+        .enumerate()
+        .map(|(i, m)| mode_report(i, m, lin, model))
+        .collect())
+}
+
+/// [`analyse`] of an already built linearisable system.
+pub fn analyse_model(
+    file: &str,
+    input: &Linearisable,
+    k: usize,
+    method: EigenMethod,
+) -> Result<LinearReport, Error> {
+    let refs = input.tangent_refs();
+    let model = &input.model;
+    let lin = linearise(file, model, &refs)?;
+    let with = modes_of(file, &lin, model, k, method)?;
+    let has_generator = model.forces.iter().any(|f| f.generator().is_some());
+    let generator_disconnected = if has_generator {
+        let off = input.without_generators();
+        let lin_off = linearise(file, &off, &refs)?;
+        Some(modes_of(file, &lin_off, &off, k, method)?)
+    } else {
+        None
+    };
+    let bare_beam = match &model.beam {
+        Some(b) if !model.mechanisms.is_empty() => {
+            let bare = HybridModel::new(Some(b.clone()), vec![], vec![], vec![], vec![])
+                .expect("a beam alone is a valid hybrid model");
+            let lin_bare = linearise(file, &bare, &[])?;
+            Some(modes_of(file, &lin_bare, &bare, k, method)?)
+        }
+        _ => None,
+    };
+    let eq = &lin.equilibrium;
+    let mechanisms = model
+        .mechanisms
+        .iter()
+        .enumerate()
+        .map(|(i, m)| {
+            let names = m.system.coordinate_names();
+            MechanismEquilibrium {
+                name: m.name.clone(),
+                q: names
+                    .iter()
+                    .cloned()
+                    .zip(eq.mech_q[i].iter().copied())
+                    .collect(),
+                free: eq.free[i].iter().map(|&c| names[c].clone()).collect(),
+                jacobian_condition: eq.conditions[i],
+                multipliers: eq.multipliers[i].clone(),
+            }
+        })
+        .collect();
+    let beam_max_deflection = lin
+        .beam_deflection(&eq.beam_q)
+        .iter()
+        .fold(0.0f64, |m, (_, w)| m.max(w.abs()));
+    let mut amplification = vec![];
+    for f in &model.forces {
+        let Some(g) = f.generator() else { continue };
+        for (k, a) in model.attachments.iter().enumerate() {
+            if a.mechanism != f.mechanism {
+                continue;
+            }
+            let r = lin.amplification(f.mechanism, f.joint, k);
+            amplification.push(Amplification {
+                generator: f.name.clone(),
+                attachment: a.name.clone(),
+                joint_per_displacement: r,
+                rotor_per_displacement: g.gear_ratio * r,
+            });
+        }
+    }
+    Ok(LinearReport {
+        scenario: file.to_string(),
+        method,
+        equilibrium: EquilibriumReport {
+            iterations: eq.iterations,
+            residual: eq.residual,
+            beam_max_deflection,
+            mechanisms,
+        },
+        amplification,
+        modes: with,
+        generator_disconnected,
+        bare_beam,
+    })
+}
+
+fn mode_report(i: usize, m: &Mode, lin: &Linearization, model: &HybridModel) -> ModeReport {
+    let z = m.shape_complex();
+    let beam_shape = lin
+        .beam_deflection(&z)
+        .into_iter()
+        .map(|(x, w)| [x, w.re, w.im])
+        .collect();
+    let motion = lin.mechanism_motion(&z);
+    let mechanism_shape = model
+        .mechanisms
+        .iter()
+        .zip(motion)
+        .map(|(mm, dq)| MechanismShape {
+            mechanism: mm.name.clone(),
+            coordinates: mm
+                .system
+                .coordinate_names()
+                .iter()
+                .cloned()
+                .zip(dq.iter().map(|v| [v.re, v.im]))
+                .collect(),
+        })
+        .collect();
+    ModeReport {
+        index: i + 1,
+        kind: m.kind,
+        eigenvalue: m.eigenvalue,
+        natural_frequency_hz: m.natural_frequency_hz,
+        damped_frequency_hz: m.damped_frequency_hz,
+        damping_ratio: m.damping_ratio,
+        decay_rate: m.decay_rate,
+        backward_error: m.residual,
+        beam_shape,
+        mechanism_shape,
+    }
+}
