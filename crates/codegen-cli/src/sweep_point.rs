@@ -1,8 +1,14 @@
 //! One point of a sweep: the scenario text with the point's `--set` overrides applied,
 //! loaded by the one loader, run, and reduced to an ordered list of named figures.
 //!
-//! The figures come from the run's own summary, the one `damper simulate` writes (nothing
-//! is recomputed here), with the outputs kept in memory (no file is written):
+//! The linearised figures come from the report `damper linearize` prints
+//! ([`crate::linear::analyse`]): the first mode's natural frequency and damping ratio with
+//! the generator(s) connected and disconnected, the bare beam's first frequency, the first
+//! generator's amplification and the mechanisms' largest cond(J_d) at the equilibrium.
+//!
+//! With `--time-domain`, the figures of the run's own summary, the one `damper simulate`
+//! writes (nothing is recomputed here), with the outputs kept in memory (no file is
+//! written):
 //!
 //! - `kind = "damper"`: the [`DamperSummary`] of the run with the generator and the
 //!   comparison run without it: equivalent damping ratios, the bare beam's first frequency,
@@ -17,6 +23,8 @@
 //! point gives the same figures bit for bit on any thread.
 
 use std::path::Path;
+
+use hybrid_core::hybrid::EigenMethod;
 
 use crate::Error;
 use crate::report::summary::DamperSummary;
@@ -68,14 +76,58 @@ pub fn evaluate(
     let one_line = |e: &dyn std::fmt::Display| e.to_string().replace('\n', "; ");
     let loaded = scenario::parse_with(text, path, overrides).map_err(|d| one_line(&d))?;
     let mut figures = vec![];
+    let remap = |e: Error| match e {
+        Error::Input(d) => Error::Input(loaded.remap(d)),
+        e => e,
+    };
+    linearised(path, &loaded, &mut figures).map_err(|e| one_line(&remap(e)))?;
     if options.time_domain {
-        let remap = |e: Error| match e {
-            Error::Input(d) => Error::Input(loaded.remap(d)),
-            e => e,
-        };
         time_domain(path, &loaded, &mut figures).map_err(|e| one_line(&remap(e)))?;
     }
     Ok(figures)
+}
+
+/// The linearised figures of a loaded scenario (see the module documentation).
+fn linearised(path: &Path, loaded: &Loaded, figures: &mut Vec<Figure>) -> Result<(), Error> {
+    if let Scenario::Mechanism(_) = loaded.scenario {
+        return Ok(());
+    }
+    let file = path.display().to_string();
+    let r = crate::linear::analyse(&file, &loaded.scenario, 1, EigenMethod::Auto)?;
+    let first = |modes: &Option<Vec<crate::linear::ModeReport>>| {
+        modes
+            .as_ref()
+            .and_then(|m| m.first())
+            .map(|m| (m.natural_frequency_hz, m.damping_ratio))
+    };
+    let with = r
+        .modes
+        .first()
+        .map(|m| (m.natural_frequency_hz, m.damping_ratio));
+    let off = first(&r.generator_disconnected);
+    let bare = first(&r.bare_beam);
+    figures.extend([
+        Figure::new("linear.f1", "Hz", with.map(|m| m.0)),
+        Figure::new("linear.zeta1", "-", with.map(|m| m.1)),
+        Figure::new("linear.f1_generator_disconnected", "Hz", off.map(|m| m.0)),
+        Figure::new("linear.zeta1_generator_disconnected", "-", off.map(|m| m.1)),
+        Figure::new("linear.f1_bare_beam", "Hz", bare.map(|m| m.0)),
+        Figure::new(
+            "linear.amplification",
+            "rad/m",
+            r.amplification.first().map(|a| a.joint_per_displacement),
+        ),
+        Figure::new(
+            "linear.jacobian_condition",
+            "-",
+            r.equilibrium
+                .mechanisms
+                .iter()
+                .map(|m| m.jacobian_condition)
+                .reduce(f64::max),
+        ),
+    ]);
+    Ok(())
 }
 
 /// The figures of the time-domain run of a loaded scenario.

@@ -5,7 +5,8 @@
 //! endpoints exact; integers when a and b are integers and the step is a whole number) or a
 //! comma list of TOML values (`0.5,1,2,5`; one value is a fixed override). The grid is the
 //! product of the options in command-line order, the last one varying fastest. Each point
-//! is [`crate::sweep_point::evaluate`]d (in parallel, rayon; results collected by index, so
+//! is [`crate::sweep_point::evaluate`]d — linearised about its static equilibrium, and with
+//! `--time-domain` also run in the time domain — (in parallel, rayon; results collected by index, so
 //! identical whatever the thread count); a point that fails is recorded with its message
 //! and the sweep goes on.
 //!
@@ -53,7 +54,8 @@ pub struct Args {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Evaluate each point by a time-domain run of the scenario (its summary figures).
+    /// Also evaluate each point by a time-domain run of the scenario (its summary figures);
+    /// the linearised figures (equilibrium, first modes) are always computed.
     #[arg(long)]
     pub time_domain: bool,
     /// Override the integrator's end time (s) of every point (keeps sweeps cheap).
@@ -297,12 +299,6 @@ pub fn run(args: Args) -> Result<(), Error> {
         .map(parse_shard)
         .transpose()
         .map_err(Error::Usage)?;
-    if !args.time_domain {
-        return Err(Error::Usage(
-            "nothing to evaluate: pass --time-domain (each point is then run in the time domain)"
-                .into(),
-        ));
-    }
     if let Some(t) = args.t_end {
         if !(t.is_finite() && t > 0.0) {
             return Err(Error::Usage(format!(
