@@ -3,6 +3,7 @@
 
 use std::collections::BTreeMap;
 
+use hybrid_core::decay::DecayEstimate;
 use serde::Serialize;
 
 use crate::scenario::damper::ScenarioSpec;
@@ -37,12 +38,17 @@ pub struct DamperSummary<'a> {
     pub initial: InitialSummary,
     /// Largest |tip displacement| (m).
     pub peak_amplitude: f64,
-    /// Equivalent damping ratio of the free decay with the generator.
+    /// Equivalent damping ratio of the free decay with the generator (when it oscillates).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub zeta_with_generator: Option<f64>,
-    /// ... and with the generator disconnected.
+    /// Its damped frequency (Hz).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub zeta_without_generator: Option<f64>,
+    pub frequency_with_generator_hz: Option<f64>,
+    /// The decay with the generator: oscillatory (with damping per cycle), over- or
+    /// critically damped, or a rate (`hybrid_core::decay`).
+    pub decay_with_generator: DecayEstimate,
+    /// The comparison runs by key (`generator_disconnected`, `bare_beam`).
+    pub comparisons: BTreeMap<&'static str, ComparisonSummary>,
     /// The energy account.
     pub energy: EnergySummary,
     /// Largest |energy balance error| / initial energy.
@@ -81,18 +87,29 @@ pub struct EnergySummary {
     pub dissipated_structure: f64,
     /// Work of external forces.
     pub external_work: f64,
-    /// The run with the generator disconnected.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub without_generator: Option<EnergyWithout>,
 }
 
-/// Energy of the comparison run without generator (J).
+/// One comparison run of a damper scenario.
 #[derive(Clone, Debug, Serialize)]
-pub struct EnergyWithout {
-    /// Dissipated by the structure.
+pub struct ComparisonSummary {
+    /// What the run is (the plot's legend).
+    pub label: &'static str,
+    /// Equivalent damping ratio of its free decay (when it oscillates).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub zeta: Option<f64>,
+    /// Its damped frequency (Hz).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frequency_hz: Option<f64>,
+    /// The decay estimate.
+    pub decay: DecayEstimate,
+    /// Largest |tip displacement| (m).
+    pub peak_amplitude: f64,
+    /// Energy dissipated by the structure (J).
     pub dissipated_structure: f64,
-    /// Stored energy at the end.
+    /// Stored energy at the end (J).
     pub final_stored: f64,
+    /// Largest |energy balance error| / initial energy.
+    pub energy_balance_rel_error: f64,
 }
 
 /// `<name>_summary.json` of a closed-loop mechanism run.
