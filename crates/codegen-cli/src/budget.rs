@@ -90,13 +90,10 @@ impl fmt::Display for Estimate {
 }
 
 impl Estimate {
-    /// A damper scenario: both runs when the comparison without generator is asked for.
+    /// A damper scenario: the run with the generator and every comparison run (counted as
+    /// full runs: the bare beam's is cheaper).
     pub fn damper(sc: &DamperScenario) -> Estimate {
-        let runs = if sc.spec.output.compare_without_generator {
-            2.0
-        } else {
-            1.0
-        };
+        let runs = 1.0 + sc.spec.output.compare.len() as f64;
         let steps = (sc.setup.t_end / sc.setup.dt).ceil();
         let rows = runs * ((steps / sc.setup.every.max(1) as f64).floor() + 1.0);
         let sample = std::mem::size_of::<hybrid_core::study::Sample>() as f64;

@@ -2,9 +2,9 @@
 //!
 //! - [`damper`]: the coupled beam + double bar + generator (eqs. 45–58), on the model's
 //!   compiled-in generated code when the model registry has it (content hash) and the DAG
-//!   interpreter otherwise; the run with the generator and, in parallel, the comparison run
-//!   with it disconnected, each streaming its samples to a sink and keeping only their
-//!   digest ([`crate::report::digest`]);
+//!   interpreter otherwise; the run with the generator and, in parallel, the comparison runs
+//!   (generator disconnected; bare beam), each streaming its samples to a sink and keeping
+//!   only their digest ([`crate::report::digest`]);
 //! - [`mechanism`]: a rigid closed-loop mechanism (eqs. 14–25) on the compiled-in generated
 //!   code or the DAG interpreter, every output row passed to an observer.
 
@@ -18,12 +18,17 @@ use hybrid_core::closed_loop::{
 use std::ops::ControlFlow;
 
 use hybrid_core::damper::DamperModel;
-use hybrid_core::study::{RunEnd, RunError, Sample, prepare, run_streaming};
+use hybrid_core::decay::ModalFilter;
+use hybrid_core::hybrid::{HybridModel, HybridState, Integrator};
+use hybrid_core::study::{
+    Probe, RunEnd, RunError, Sample, prepare, prepare_bare_beam, run_streaming,
+};
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use mbs_symbolic::model::Model;
 
 use crate::Error;
 use crate::report::digest::SampleDigest;
+use crate::scenario::damper::Comparison;
 use crate::scenario::{DamperScenario, MechanismScenario};
 
 /// A damper run as kept in memory: the final state, the energy account and the digest of
@@ -50,16 +55,22 @@ pub struct DamperOutcome {
     pub backend: &'static str,
     /// The run with the generator.
     pub with: DamperRun,
-    /// The run with the generator disconnected, when asked for.
-    pub without: Option<DamperRun>,
+    /// The comparison runs, in the scenario's order (`[output] compare`).
+    pub comparisons: Vec<(Comparison, DamperRun)>,
     /// First natural frequency of the bare beam (Hz).
     pub beam_first_frequency_hz: Option<f64>,
-    /// Equivalent damping ratio with the generator.
-    pub zeta_with: Option<f64>,
-    /// ... and without.
-    pub zeta_without: Option<f64>,
     /// Largest |tip displacement| with the generator (m).
     pub peak: f64,
+}
+
+impl DamperOutcome {
+    /// The comparison run `c`, if the scenario asked for it.
+    pub fn comparison(&self, c: Comparison) -> Option<&DamperRun> {
+        self.comparisons
+            .iter()
+            .find(|(k, _)| *k == c)
+            .map(|(_, r)| r)
+    }
 }
 
 /// Where a damper run's samples go, one at a time, as they are taken (an error stops the
@@ -72,7 +83,7 @@ fn bar(multi: &MultiProgress, label: &str, show: bool) -> ProgressBar {
     }
     let pb = multi.add(ProgressBar::new(1000));
     pb.set_style(
-        ProgressStyle::with_template("{prefix:>18} [{bar:40}] {percent:>3}% ETA {eta}")
+        ProgressStyle::with_template("{prefix:>22} [{bar:40}] {percent:>3}% ETA {eta}")
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
     );
@@ -82,14 +93,28 @@ fn bar(multi: &MultiProgress, label: &str, show: bool) -> ProgressBar {
 
 /// Runs a damper scenario whose mechanism model is `model`; `progress`: progress bars (only
 /// when standard error is a terminal). The samples of the run with the generator go to
-/// `with`, those of the comparison run (when the scenario asks for it) to `without`.
+/// `with`, those of the comparison runs (`[output] compare`, in that order) to
+/// `comparisons`, one sink each.
+///
+/// The damping estimates read the tip displacement. To read the first mode instead, pass
+/// its [`hybrid_core::decay::ModalFilter`] as the `filter` of the probe in `stream_damper` (the
+/// samples' `signal` then is the modal coordinate, and every estimate follows).
+///
+/// # Panics
+///
+/// When `comparisons` does not have one sink per comparison run.
 pub fn damper(
     sc: &DamperScenario,
     model: &Model,
     progress: bool,
     with: SampleSink<'_>,
-    without: SampleSink<'_>,
+    comparisons: &mut [SampleSink<'_>],
 ) -> Result<DamperOutcome, Error> {
+    assert_eq!(
+        comparisons.len(),
+        sc.spec.output.compare.len(),
+        "run::damper: one sink per comparison run"
+    );
     let progress = progress && std::io::stderr().is_terminal();
     let resolved = model_registry::system_for(model, None)?;
     if resolved.compiled.is_none() {
@@ -100,47 +125,53 @@ pub fn damper(
         );
     }
     let backend = resolved.system.backend().as_str();
-    pair(
+    runs(
         sc,
         model,
         resolved.system,
         backend,
         progress,
-        [with, without],
+        with,
+        comparisons,
     )
 }
 
-/// Both runs (with and without the generator) in parallel threads; the results do not depend
-/// on the thread schedule (each run is independent and deterministic).
-fn pair<M: System + Clone + Send>(
+/// The run with the generator and every comparison run, each in its own thread; the results
+/// do not depend on the thread schedule (each run is independent and deterministic).
+fn runs<M: System + Clone + Send>(
     sc: &DamperScenario,
     model: &Model,
     mech: M,
     backend: &'static str,
     progress: bool,
-    [with_sink, without_sink]: [SampleSink<'_>; 2],
+    with_sink: SampleSink<'_>,
+    sinks: &mut [SampleSink<'_>],
 ) -> Result<DamperOutcome, Error> {
     let multi = MultiProgress::new();
-    let compare = sc.spec.output.compare_without_generator;
-    let (pa, pb) = (
-        bar(&multi, "with generator", progress),
-        bar(&multi, "without generator", progress && compare),
-    );
-    let (with, without) = std::thread::scope(|s| {
-        let m2 = mech.clone();
-        let other = compare.then(|| {
-            s.spawn(move || {
-                stream_run(
-                    sc,
-                    model,
-                    m2,
-                    false,
-                    &mut |f| pb.set_position((f * 1000.0) as u64),
-                    without_sink,
-                )
+    let pa = bar(&multi, "with generator", progress);
+    let (with, others) = std::thread::scope(|s| {
+        let handles: Vec<_> = sc
+            .spec
+            .output
+            .compare
+            .iter()
+            .zip(sinks.iter_mut())
+            .map(|(&c, sink)| {
+                let pb = bar(&multi, c.key(), progress);
+                let m2 = mech.clone();
+                s.spawn(move || {
+                    let progress = &mut |f: f64| pb.set_position((f * 1000.0) as u64);
+                    let run = match c {
+                        Comparison::GeneratorDisconnected => {
+                            stream_damper(sc, model, m2, false, progress, *sink).map(|r| r.1)
+                        }
+                        Comparison::BareBeam => stream_bare_beam(sc, progress, *sink),
+                    };
+                    (c, run)
+                })
             })
-        });
-        let with = stream_run(
+            .collect();
+        let with = stream_damper(
             sc,
             model,
             mech,
@@ -148,35 +179,41 @@ fn pair<M: System + Clone + Send>(
             &mut |f| pa.set_position((f * 1000.0) as u64),
             with_sink,
         );
-        let without = other.map(|h| h.join());
-        (with, without)
+        let others: Vec<_> = handles.into_iter().map(|h| h.join()).collect();
+        (with, others)
     });
     let (coupled, with) = with?;
-    let without = match without {
-        None => None,
-        Some(Ok(r)) => Some(r?.1),
-        Some(Err(_)) => return Err(Error::ComparisonPanicked),
-    };
-    let zeta_with = with.digest.damping_ratio();
-    let zeta_without = without.as_ref().and_then(|r| r.digest.damping_ratio());
+    let mut comparisons = vec![];
+    for r in others {
+        match r {
+            Ok((c, run)) => comparisons.push((c, run?)),
+            Err(_) => return Err(Error::ComparisonPanicked),
+        }
+    }
     let peak = with.digest.peak();
     let beam_first_frequency_hz = coupled.beam.modes(1).ok().map(|m| m.frequencies_hz()[0]);
     Ok(DamperOutcome {
         backend,
         with,
-        without,
+        comparisons,
         beam_first_frequency_hz,
-        zeta_with,
-        zeta_without,
         peak,
     })
+}
+
+fn run_error(sc: &DamperScenario) -> impl Fn(RunError) -> Error + '_ {
+    move |e: RunError| match e {
+        RunError::Setup(e) => Error::Input(sc.diagnostic(&e).into()),
+        RunError::Sim(e) => Error::Damper(e),
+        RunError::Stopped => unreachable!("handled with the sink's own error"),
+    }
 }
 
 /// One damper run of the scenario (generator `connected` or not), its samples streamed to
 /// `sink` through `hybrid_core::study::run_streaming` (the loop `run_setup` uses too): the
 /// same steps, the same samples, the same energy account, bit for bit (pinned by a test
 /// against `run_setup`); only a digest is kept.
-fn stream_run<M: System>(
+fn stream_damper<M: System>(
     sc: &DamperScenario,
     model: &Model,
     mechanism: M,
@@ -184,21 +221,70 @@ fn stream_run<M: System>(
     progress: &mut dyn FnMut(f64),
     sink: &mut (dyn FnMut(&Sample) -> Result<(), Error> + Send),
 ) -> Result<(DamperModel<M>, DamperRun), Error> {
-    let setup = &sc.setup;
-    let run_error = |e: RunError| match e {
-        RunError::Setup(e) => Error::Input(sc.diagnostic(&e).into()),
-        RunError::Sim(e) => Error::Damper(e),
-        RunError::Stopped => unreachable!("handled with the sink's own error"),
+    let mut p = prepare(&sc.setup, model, mechanism, connected).map_err(run_error(sc))?;
+    let probe = Probe {
+        point: &p.point,
+        filter: None,
     };
-    let mut p = prepare(setup, model, mechanism, connected).map_err(run_error)?;
+    let run = stream(
+        sc,
+        (&p.hybrid, &mut p.integrator, p.state),
+        probe,
+        progress,
+        sink,
+    )?;
+    Ok((p.coupled, run))
+}
+
+/// The bare beam of the scenario (no mechanism), read at the damper's beam point.
+fn stream_bare_beam(
+    sc: &DamperScenario,
+    progress: &mut dyn FnMut(f64),
+    sink: &mut (dyn FnMut(&Sample) -> Result<(), Error> + Send),
+) -> Result<DamperRun, Error> {
+    let mut b = prepare_bare_beam(&sc.setup).map_err(run_error(sc))?;
+    // The bare beam's first mode is fem-beam's: its decay is read through the modal filter
+    // of that shape (scaled to 1 at the beam point, so the signal is the mode's share of the
+    // point's displacement), free of the higher modes the initial shape holds.
+    let beam = b.hybrid.beam.as_ref().expect("the bare beam has a beam");
+    let filter = beam.modes(1).ok().and_then(|m| {
+        let phi = m.shape(0);
+        let at = b.point.value(phi);
+        let phi: Vec<f64> = phi.iter().map(|p| p / at).collect();
+        ModalFilter::new(&phi, beam.mass()).ok()
+    });
+    let probe = Probe {
+        point: &b.point,
+        filter: filter.as_ref(),
+    };
+    stream(
+        sc,
+        (&b.hybrid, &mut b.integrator, b.state),
+        probe,
+        progress,
+        sink,
+    )
+}
+
+/// A prepared run streamed to `sink`, keeping its digest; `probe`: where it is read (and
+/// the modal filter of the damping estimate, when there is one).
+fn stream(
+    sc: &DamperScenario,
+    (hybrid, integrator, state): (&HybridModel, &mut Integrator, HybridState),
+    probe: Probe<'_>,
+    progress: &mut dyn FnMut(f64),
+    sink: &mut (dyn FnMut(&Sample) -> Result<(), Error> + Send),
+) -> Result<DamperRun, Error> {
+    let setup = &sc.setup;
     let every = setup.every.max(1) as u64;
-    let steps = (setup.t_end / p.integrator.step_size()).round() as u64;
+    let steps = (setup.t_end / integrator.step_size()).round() as u64;
     let mut digest = SampleDigest::new(1 + steps / every + u64::from(steps % every != 0));
     let mut failed = None;
     let figures = run_streaming(
-        &p.hybrid,
-        &mut p.integrator,
-        p.state,
+        hybrid,
+        integrator,
+        state,
+        probe,
         setup.t_end,
         setup.every,
         progress,
@@ -215,18 +301,15 @@ fn stream_run<M: System>(
     );
     let figures = match (figures, failed) {
         (_, Some(e)) => return Err(e),
-        (r, None) => r.map_err(run_error)?,
+        (r, None) => r.map_err(run_error(sc))?,
     };
-    Ok((
-        p.coupled,
-        DamperRun {
-            digest,
-            state: figures.state,
-            initial_energy: figures.initial_energy,
-            energy_balance_rel_error: figures.energy_balance_rel_error,
-            wall: figures.wall,
-        },
-    ))
+    Ok(DamperRun {
+        digest,
+        state: figures.state,
+        initial_energy: figures.initial_energy,
+        energy_balance_rel_error: figures.energy_balance_rel_error,
+        wall: figures.wall,
+    })
 }
 
 /// A finished (or stopped) closed-loop mechanism run.

@@ -20,7 +20,6 @@ use std::io::IsTerminal;
 use std::path::Path;
 
 use hybrid_core::hybrid::{Integrator, RunError, RunOptions, run};
-use hybrid_core::study::{damping_ratio_of, peaks_of};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::Error;
@@ -126,8 +125,17 @@ pub fn simulate(
             .collect();
         files.push(OutputFile {
             path: out.join("beam_displacement.svg"),
-            bytes: plot_displacements_svg("Beam point displacements", "displacement (mm)", &lines)
-                .map_err(ReportError::from)?,
+            bytes: plot_displacements_svg(
+                &format!(
+                    "Beam point displacements: {}",
+                    sc.description
+                        .as_deref()
+                        .unwrap_or(&sc.path.display().to_string())
+                ),
+                "displacement [mm]",
+                &lines,
+            )
+            .map_err(ReportError::from)?,
         });
     }
     commit(vec![stream], &files).map_err(ReportError::from)?;
@@ -319,11 +327,8 @@ pub fn evaluate<'a>(
             .beam
             .as_ref()
             .is_none_or(|(b, _)| b.loads.is_empty() && b.distributed_loads.is_empty());
-    let damping_ratio = if free && peaks_of(&t, &y).len() >= 3 {
-        damping_ratio_of(&t, &y)
-    } else {
-        None
-    };
+    let decay = (free && !y.is_empty()).then(|| hybrid_core::decay::estimate(&t, &y));
+    let damping_ratio = decay.as_ref().and_then(|d| d.zeta());
     let summary = HybridSummary {
         scenario: file.clone(),
         overrides,
@@ -342,6 +347,7 @@ pub fn evaluate<'a>(
             .map(|m| m.frequencies_hz()[0]),
         peak_amplitude: attachments.first().map(|a| a.peak_displacement),
         damping_ratio,
+        decay,
         mechanisms,
         attachments,
         generators,

@@ -130,7 +130,7 @@ fn damper_scenario_t_end_1e5_is_refused_with_the_estimate_and_allow_long() {
             "-o",
             dir.join("out").to_str().unwrap(),
         ],
-        &["estimated at 2.00e9 steps", "--allow-long"],
+        &["estimated at 3.00e9 steps", "--allow-long"], // 3 runs: with generator, 2 comparisons
     );
     assert!(err.contains("output rows"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);

@@ -6,9 +6,10 @@
 use std::path::PathBuf;
 
 use codegen_cli::scenario::DamperScenario as Scenario;
+use codegen_cli::scenario::damper::Comparison;
 use fem_beam::BandedFactor;
 use hybrid_core::damper::{DamperModel, Integrator, full};
-use hybrid_core::study::{build_model, damping_ratio, run_setup};
+use hybrid_core::study::{build_model, damping_ratio, decay, run_setup};
 use mbs_symbolic::runtime::{NumericSystem, System};
 use mbs_symbolic::samples::SplitMix64;
 
@@ -305,21 +306,18 @@ fn massless_mechanism_leaves_the_first_beam_frequency() {
     let modes = model.beam.modes(1).unwrap();
     let f1 = modes.frequencies_hz()[0];
     let phi: Vec<f64> = modes.shape(0).to_vec();
-    let n = phi.len();
-    let mut aphi = vec![0.0; n];
-    model.beam.mass().mul_vec_into(&phi, &mut aphi);
+    let filter = hybrid_core::decay::ModalFilter::new(&phi, model.beam.mass()).unwrap();
     let mut state = model.initial_state(1e-3, guess).unwrap();
     let mut integ = Integrator::new(&model, sc.setup.method, 1e-4).unwrap();
     let (mut t, mut y) = (vec![], vec![]);
     for _ in 0..20_000 {
         integ.step(&model, &mut state).unwrap();
         t.push(state.t);
-        y.push(aphi.iter().zip(&state.q).map(|(a, q)| a * q).sum::<f64>());
+        y.push(filter.apply(&state.q));
     }
-    let p = hybrid_core::study::peaks_of(&t, &y);
-    let period = (p.last().unwrap().0 - p[0].0) / (p.len() - 1) as f64;
-    let f = 1.0 / period;
-    assert!(p.len() > 10);
+    let e = hybrid_core::decay::estimate(&t, &y);
+    let f = e.frequency_hz().unwrap();
+    assert!(e.cycles().len() > 10, "{e:?}");
     assert!(
         (f - f1).abs() / f1 < 1e-3,
         "simulated {f} Hz vs first mode {f1} Hz"
@@ -710,7 +708,13 @@ fn converged_newton_at_the_toggle_is_singular_not_cannot_reach() {
 /// state, energy account, peak and damping ratios — with and without the generator.
 #[test]
 fn streaming_run_equals_run_setup_bit_for_bit() {
-    let sc = scenario(&[("t_end = 5.0", "t_end = 0.6")]);
+    let sc = scenario(&[
+        ("t_end = 5.0", "t_end = 0.6"),
+        (
+            "compare = [\"generator_disconnected\", \"bare_beam\"]",
+            "compare = [\"generator_disconnected\"]",
+        ),
+    ]);
     let model = double_bar_model();
     let (mut with, mut without) = (vec![], vec![]);
     let o = codegen_cli::run::damper(
@@ -721,16 +725,14 @@ fn streaming_run_equals_run_setup_bit_for_bit() {
             with.push(*s);
             Ok(())
         },
-        &mut |s| {
+        &mut [&mut |s| {
             without.push(*s);
             Ok(())
-        },
+        }],
     )
     .unwrap();
-    for (connected, streamed, run) in [
-        (true, &with, &o.with),
-        (false, &without, o.without.as_ref().unwrap()),
-    ] {
+    let disconnected = o.comparison(Comparison::GeneratorDisconnected).unwrap();
+    for (connected, streamed, run) in [(true, &with, &o.with), (false, &without, disconnected)] {
         let (_, reference) =
             run_setup(&sc.setup, &model, double_bar(), connected, &mut |_| {}).unwrap();
         assert_eq!(streamed.len(), 601);
@@ -742,14 +744,13 @@ fn streaming_run_equals_run_setup_bit_for_bit() {
             reference.energy_balance_rel_error
         );
         assert_eq!(run.digest.count(), 601);
-        assert_eq!(
-            run.digest.damping_ratio(),
-            damping_ratio(&reference.samples)
-        );
+        assert_eq!(run.digest.decay(), decay(&reference.samples));
         // 601 samples are plotted whole.
         assert_eq!(run.digest.plot_points(), reference.samples);
     }
-    assert!(o.zeta_with.is_some() && o.zeta_without.is_some());
+    assert!(
+        o.with.digest.damping_ratio().is_some() && disconnected.digest.damping_ratio().is_some()
+    );
 }
 
 /// Memory stays flat whatever t_end: a run keeps at most 20,000 plot points a series (plus
@@ -763,8 +764,8 @@ fn retained_samples_do_not_grow_with_t_end() {
             ("t_end = 5.0", &format!("t_end = {t_end}")),
             ("every = 10", "every = 1"),
             (
-                "compare_without_generator = true",
-                "compare_without_generator = false",
+                "compare = [\"generator_disconnected\", \"bare_beam\"]",
+                "compare = []",
             ),
         ]);
         let mut streamed = 0u64;
@@ -776,7 +777,7 @@ fn retained_samples_do_not_grow_with_t_end() {
                 streamed += 1;
                 Ok(())
             },
-            &mut |_| Ok(()),
+            &mut [],
         )
         .unwrap();
         assert_eq!(o.with.digest.count(), streamed);

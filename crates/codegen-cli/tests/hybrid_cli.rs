@@ -95,9 +95,9 @@ fn two_dampers_reports_both_generators_and_closes_the_energy_balance() {
     let header = csv.lines().next().unwrap();
     for col in [
         "left.q1 [rad]",
-        "right.cond_jd",
+        "right.cond_jd [-]",
         "left_pin.w [m]",
-        "right_pin.amplification",
+        "right_pin.amplification [rad/m]",
         "gen_left.current [A]",
         "gen_right.harvested [J]",
         "balance_error [J]",

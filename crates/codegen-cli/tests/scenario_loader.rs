@@ -229,7 +229,7 @@ fn every_bundled_scenario_loads_and_runs_a_few_hundred_steps() {
             Scenario::Damper(mut sc) => {
                 let model = model::load(&sc.model_path).unwrap();
                 sc.setup.t_end = 300.0 * sc.setup.dt;
-                sc.spec.output.compare_without_generator = false;
+                sc.spec.output.compare = vec![];
                 let mut finite = true;
                 let o = codegen_cli::run::damper(
                     &sc,
@@ -239,7 +239,7 @@ fn every_bundled_scenario_loads_and_runs_a_few_hundred_steps() {
                         finite &= s.tip_displacement.is_finite() && s.total_energy.is_finite();
                         Ok(())
                     },
-                    &mut |_| Ok(()),
+                    &mut [],
                 )
                 .unwrap_or_else(|e| panic!("{name}: {e}"));
                 assert_eq!(o.with.state.steps, 300, "{name}");

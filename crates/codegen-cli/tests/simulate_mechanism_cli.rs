@@ -31,10 +31,11 @@ fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
     (header, rows)
 }
 
+/// The column named `name` (its header is `name [unit]`).
 fn col(header: &[String], name: &str) -> usize {
     header
         .iter()
-        .position(|h| h == name)
+        .position(|h| h.split(" [").next() == Some(name))
         .unwrap_or_else(|| panic!("no column {name} in {header:?}"))
 }
 
@@ -56,18 +57,18 @@ fn four_bar_scenario_writes_csv_and_summary() {
     assert_eq!(
         header,
         [
-            "t",
-            "q1",
-            "q2",
-            "q3",
-            "q1_dot",
-            "q2_dot",
-            "q3_dot",
-            "kinetic_energy",
-            "potential_energy",
-            "total_energy",
-            "constraint_residual_norm",
-            "cond_jv"
+            "t [s]",
+            "q1 [rad]",
+            "q2 [rad]",
+            "q3 [rad]",
+            "q1_dot [rad/s]",
+            "q2_dot [rad/s]",
+            "q3_dot [rad/s]",
+            "kinetic_energy [J]",
+            "potential_energy [J]",
+            "total_energy [J]",
+            "constraint_residual_norm [m]",
+            "cond_jv [-]"
         ]
     );
     assert!(header.iter().any(|h| h.contains("residual")));

@@ -13,6 +13,8 @@
 //!   scalar secant iteration. Kept as a second, independent formulation of the same
 //!   equations that the general engine is checked against (same trajectory to 1e-9), and
 //!   for the double-bar geometry [`study::build_model`] reads off;
+//! - [`decay`]: damping from a free decay (modal filter, damping vs amplitude, over- and
+//!   critically damped decays): the one estimator;
 //! - [`study`]: a damper run from a checked setup on the general engine, the damping ratio
 //!   from the free decay and the energy account;
 //! - [`closed_loop`], [`partition`]: rigid closed-loop mechanisms and coordinate
@@ -21,6 +23,7 @@
 pub mod closed_loop;
 pub mod coupling;
 pub mod damper;
+pub mod decay;
 pub mod generator;
 pub mod hybrid;
 pub mod partition;

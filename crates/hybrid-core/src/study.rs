@@ -300,14 +300,7 @@ pub fn build_model<M: System>(
     } = place_two_bar(&mechanism, point, setup.placement)?;
 
     let beam = fem_beam::BeamModel::new(&setup.beam).map_err(SetupError::Beam)?;
-    let shape = beam.shape_at(setup.x).map_err(SetupError::BeamPoint)?;
-    let coupling: Vec<(usize, f64)> = (0..4)
-        .filter_map(|k| shape.dofs[k].map(|i| (i, shape.weights[0][k])))
-        .filter(|&(_, w)| w != 0.0)
-        .collect();
-    if coupling.is_empty() {
-        return Err(SetupError::Locked(setup.x));
-    }
+    let coupling = coupling_at(&beam, setup.x)?;
     let mut generator = setup.generator.clone();
     generator.connected = generator.connected && connected;
     let mut link = MechanismLink::new(
@@ -330,6 +323,20 @@ pub fn build_model<M: System>(
         },
         guess,
     ))
+}
+
+/// The transverse displacement weights `(reduced DOF, weight)` of the beam point at `x`
+/// (eq. 35; zero weights left out).
+fn coupling_at(beam: &fem_beam::BeamModel, x: f64) -> Result<Vec<(usize, f64)>, SetupError> {
+    let shape = beam.shape_at(x).map_err(SetupError::BeamPoint)?;
+    let coupling: Vec<(usize, f64)> = (0..4)
+        .filter_map(|k| shape.dofs[k].map(|i| (i, shape.weights[0][k])))
+        .filter(|&(_, w)| w != 0.0)
+        .collect();
+    if coupling.is_empty() {
+        return Err(SetupError::Locked(x));
+    }
+    Ok(coupling)
 }
 
 /// One output row.
@@ -377,54 +384,75 @@ pub struct Sample {
     pub constraint_residual: f64,
     /// cond(J^b).
     pub jacobian_condition: f64,
+    /// The signal the damping estimate reads: the modal coordinate of the run's
+    /// [`Probe::filter`] (m, for a shape scaled to 1 at the beam point), else the beam point
+    /// displacement.
+    pub signal: f64,
 }
 
 impl Sample {
-    /// The row of the damper's hybrid state (mechanism 0, attachment 0, force element 0 =
-    /// the generator); stored energies in `stored`, initial energy `e0`.
+    /// The row of a damper's hybrid state (mechanism 0 and force element 0, the generator,
+    /// when there are any: the bare beam has none, and its mechanism columns are 0 and its
+    /// amplification NaN) read at the probe's beam point; stored energies in `stored`,
+    /// initial energy `e0`.
     fn of(
         model: &HybridModel,
         integrator: &mut HybridIntegrator,
         s: &HybridState,
         stored: &Stored,
         e0: f64,
+        probe: &Probe<'_>,
     ) -> Sample {
-        let point = &model.attachments[0].beam;
-        let force = &model.forces[0];
-        let joint = force.joint;
-        let g = force
-            .generator()
-            .expect("the damper's force element is its generator");
-        let m = &s.mechanisms[0];
-        let i = s.currents[0];
+        let point = probe.point;
         let acc = &s.account;
-        let total = stored.total();
-        Sample {
+        let tip_displacement = point.value(&s.q);
+        let mut sample = Sample {
             t: s.t,
-            tip_displacement: point.value(&s.q),
+            tip_displacement,
             tip_velocity: point.value(&s.v),
-            crank_angle: m.q[0],
-            coupler_angle: m.q[1],
-            crank_rate: m.qd[0],
-            coupler_rate: m.qd[1],
-            amplification: integrator
-                .amplification(model, s, 0, 0, joint)
-                .unwrap_or(f64::NAN),
-            current: i,
-            generator_power: g.resistance() * i * i,
-            load_power: g.load_resistance * i * i,
+            amplification: f64::NAN,
             beam_kinetic_energy: stored.beam_kinetic,
             beam_potential_energy: stored.beam_potential,
-            mechanism_kinetic_energy: stored.mechanism_kinetic[0],
-            mechanism_potential_energy: stored.mechanism_potential[0],
-            total_energy: total,
+            total_energy: stored.total(),
             dissipated_structure: acc.dissipated_structure,
-            dissipated_generator: acc.dissipated[0],
             energy_balance_error: balance_error(e0, stored, acc),
-            constraint_residual: m.residual,
-            jacobian_condition: m.condition,
+            signal: probe.filter.map_or(tip_displacement, |f| f.apply(&s.q)),
+            ..Sample::default()
+        };
+        if let (Some(m), Some(force)) = (s.mechanisms.first(), model.forces.first()) {
+            let g = force
+                .generator()
+                .expect("the damper's force element is its generator");
+            let i = s.currents[0];
+            sample.crank_angle = m.q[0];
+            sample.coupler_angle = m.q[1];
+            sample.crank_rate = m.qd[0];
+            sample.coupler_rate = m.qd[1];
+            sample.amplification = integrator
+                .amplification(model, s, 0, 0, force.joint)
+                .unwrap_or(f64::NAN);
+            sample.current = i;
+            sample.generator_power = g.resistance() * i * i;
+            sample.load_power = g.load_resistance * i * i;
+            sample.mechanism_kinetic_energy = stored.mechanism_kinetic[0];
+            sample.mechanism_potential_energy = stored.mechanism_potential[0];
+            sample.dissipated_generator = acc.dissipated[0];
+            sample.constraint_residual = m.residual;
+            sample.jacobian_condition = m.condition;
         }
+        sample
     }
+}
+
+/// Where a damper run is read: the beam point of its samples and, optionally, the modal
+/// filter whose coordinate is the samples' [`Sample::signal`] (the damping estimate's
+/// input; without one, the beam point displacement).
+#[derive(Clone, Copy, Debug)]
+pub struct Probe<'a> {
+    /// The beam point (the damper's attachment point).
+    pub point: &'a crate::hybrid::BeamPoint,
+    /// The modal filter of the first mode, if any.
+    pub filter: Option<&'a crate::decay::ModalFilter>,
 }
 
 /// The end of a run: the final hybrid state and its energy account.
@@ -471,10 +499,12 @@ pub struct Figures {
 /// energies are evaluated at those rows only); `sink` may stop the run
 /// ([`ControlFlow::Break`], then [`RunError::Stopped`]). `progress` receives the fraction
 /// done from time to time. Nothing is kept per sample: memory does not grow with `t_end`.
+#[allow(clippy::too_many_arguments)]
 pub fn run_streaming(
     model: &HybridModel,
     integrator: &mut HybridIntegrator,
     state: HybridState,
+    probe: Probe<'_>,
     t_end: f64,
     every: usize,
     progress: &mut dyn FnMut(f64),
@@ -488,7 +518,7 @@ pub fn run_streaming(
         RunOptions { t_end, every },
         &mut |s, stored, integrator| {
             let e0 = *e0.get_or_insert(stored.total());
-            match sink(&Sample::of(model, integrator, s, stored, e0)) {
+            match sink(&Sample::of(model, integrator, s, stored, e0, &probe)) {
                 ControlFlow::Continue(()) => Ok(()),
                 ControlFlow::Break(()) => Err(()),
             }
@@ -500,26 +530,24 @@ pub fn run_streaming(
         HybridRunError::Sink(()) => RunError::Stopped,
     })?;
     let (stored, state) = (&outcome.stored, outcome.state);
-    let g = model.forces[0]
-        .generator()
-        .expect("the damper's force element is its generator");
     let acc = &state.account;
-    let share = |r: f64| {
-        if g.resistance() > 0.0 {
-            r / g.resistance()
-        } else {
-            0.0
-        }
+    // The generator's dissipation split between armature and load (none on a bare beam).
+    let (armature, load) = match model.forces.first().and_then(|f| f.generator()) {
+        Some(g) if g.resistance() > 0.0 => (
+            acc.dissipated[0] * g.armature_resistance / g.resistance(),
+            acc.dissipated[0] * g.load_resistance / g.resistance(),
+        ),
+        _ => (0.0, 0.0),
     };
     let energy = Energy {
         beam_kinetic: stored.beam_kinetic,
         beam_potential: stored.beam_potential,
-        mechanism_kinetic: stored.mechanism_kinetic[0],
-        mechanism_potential: stored.mechanism_potential[0],
+        mechanism_kinetic: stored.mechanism_kinetic.first().copied().unwrap_or(0.0),
+        mechanism_potential: stored.mechanism_potential.first().copied().unwrap_or(0.0),
         magnetic: stored.magnetic,
         dissipated_structure: acc.dissipated_structure,
-        dissipated_armature: acc.dissipated[0] * share(g.armature_resistance),
-        dissipated_load: acc.dissipated[0] * share(g.load_resistance),
+        dissipated_armature: armature,
+        dissipated_load: load,
         external_work: input_work(acc),
     };
     let f = &outcome.figures;
@@ -540,16 +568,26 @@ pub fn run(
     model: &HybridModel,
     integrator: &mut HybridIntegrator,
     state: HybridState,
+    probe: Probe<'_>,
     t_end: f64,
     every: usize,
     progress: &mut dyn FnMut(f64),
 ) -> Result<Run, RunError> {
     let steps = (t_end / integrator.step_size()).round() as usize;
     let mut samples = Vec::with_capacity(steps / every.max(1) + 2);
-    let f = run_streaming(model, integrator, state, t_end, every, progress, &mut |s| {
-        samples.push(*s);
-        ControlFlow::Continue(())
-    })?;
+    let f = run_streaming(
+        model,
+        integrator,
+        state,
+        probe,
+        t_end,
+        every,
+        progress,
+        &mut |s| {
+            samples.push(*s);
+            ControlFlow::Continue(())
+        },
+    )?;
     Ok(Run {
         samples,
         state: f.state,
@@ -559,88 +597,20 @@ pub fn run(
     })
 }
 
-/// Positive peaks of `y(t)`, one per cycle: cycles are delimited by upward zero crossings
-/// with hysteresis (the signal must first drop below -5 % of the last peak), so ripple of
-/// higher modes near zero does not split a cycle. Each peak is the largest sample of its
-/// cycle, refined by a parabola through its neighbours.
-pub fn peaks(samples: &[Sample]) -> Vec<(f64, f64)> {
-    let y: Vec<f64> = samples.iter().map(|s| s.tip_displacement).collect();
-    let t: Vec<f64> = samples.iter().map(|s| s.t).collect();
-    peaks_of(&t, &y)
+/// How the free decay of `samples` decays ([`crate::decay::estimate`], the one estimator)
+/// of their [`Sample::signal`]: the tip displacement, or the modal coordinate when the run
+/// had a [`Probe::filter`].
+pub fn decay(samples: &[Sample]) -> crate::decay::DecayEstimate {
+    let mut d = crate::decay::DecayTracker::default();
+    samples.iter().for_each(|s| d.push(s.t, s.signal));
+    d.estimate()
 }
 
-/// [`peaks`] of a sampled signal `y(t)`.
-pub fn peaks_of(t: &[f64], y: &[f64]) -> Vec<(f64, f64)> {
-    let mut out = vec![];
-    let mut best: Option<usize> = None;
-    let mut armed = false;
-    let mut threshold = 0.0;
-    for k in 0..y.len() {
-        if y[k] < -threshold {
-            if !armed {
-                if let Some(b) = best.take() {
-                    out.push(refine(t, y, b));
-                    threshold = 0.05 * out.last().map_or(0.0, |p: &(f64, f64)| p.1);
-                }
-            }
-            armed = true;
-        } else if y[k] > 0.0 {
-            armed = false;
-            if best.is_none_or(|b| y[k] > y[b]) {
-                best = Some(k);
-            }
-        }
-    }
-    out
-}
-
-fn refine(t: &[f64], y: &[f64], k: usize) -> (f64, f64) {
-    if k == 0 || k + 1 >= y.len() {
-        return (t[k], y[k]);
-    }
-    let (a, b, c) = (y[k - 1], y[k], y[k + 1]);
-    let denom = a - 2.0 * b + c;
-    if denom >= 0.0 {
-        return (t[k], b);
-    }
-    let x = 0.5 * (a - c) / denom;
-    (t[k] + x * (t[k + 1] - t[k]), b - 0.25 * (a - c) * x)
-}
-
-/// Equivalent viscous damping ratio of the dominant mode from the free decay: a
-/// least-squares fit of `ln(peak_k) = c - delta k` (logarithmic decrement `delta`) over the
-/// positive peaks above 1e-3 of the first, `zeta = delta / sqrt(4 pi^2 + delta^2)`. `None`
-/// with fewer than three peaks.
+/// Equivalent viscous damping ratio of the dominant mode from the free decay of the tip
+/// ([`decay`]): `None` when the decay is not oscillatory (the estimate then says what it
+/// is: over- or critically damped, a rate under one cycle, or no decay).
 pub fn damping_ratio(samples: &[Sample]) -> Option<f64> {
-    let y: Vec<f64> = samples.iter().map(|s| s.tip_displacement).collect();
-    let t: Vec<f64> = samples.iter().map(|s| s.t).collect();
-    damping_ratio_of(&t, &y)
-}
-
-/// [`damping_ratio`] of a sampled signal `y(t)`.
-pub fn damping_ratio_of(t: &[f64], y: &[f64]) -> Option<f64> {
-    let pk = peaks_of(t, y);
-    let first = pk.first()?.1;
-    let used: Vec<f64> = pk
-        .iter()
-        .map(|p| p.1)
-        .take_while(|&p| p > 1e-3 * first)
-        .collect();
-    if used.len() < 3 {
-        return None;
-    }
-    let n = used.len() as f64;
-    let (mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0);
-    for (k, p) in used.iter().enumerate() {
-        let (x, y) = (k as f64, p.ln());
-        sx += x;
-        sy += y;
-        sxx += x * x;
-        sxy += x * y;
-    }
-    let slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
-    let delta = -slope;
-    Some(delta / (4.0 * std::f64::consts::PI.powi(2) + delta * delta).sqrt())
+    decay(samples).zeta()
 }
 
 /// A damper setup ready to run on the general hybrid engine ([`crate::hybrid`]; the damper
@@ -654,6 +624,8 @@ pub struct Prepared<M> {
     pub integrator: HybridIntegrator,
     /// The initial state.
     pub state: HybridState,
+    /// The beam point the damper is pinned to.
+    pub point: crate::hybrid::BeamPoint,
 }
 
 /// Builds the model, integrator and initial state of a setup.
@@ -668,11 +640,49 @@ pub fn prepare<M: System>(
     let n = q0.len();
     let state = crate::hybrid::initial_state(&hybrid, q0, vec![0.0; n])?;
     let integrator = HybridIntegrator::new(&hybrid, setup.method, setup.dt, &state)?;
+    let point = hybrid.attachments[0].beam.clone();
     Ok(Prepared {
         coupled,
         hybrid,
         integrator,
         state,
+        point,
+    })
+}
+
+/// The bare beam of a setup ready to run: the same beam, initial deflection and integrator
+/// without the mechanism (a hybrid model with a beam and no mechanism), read at the same
+/// beam point — the baseline "bare beam (no mechanism)" of the comparison runs.
+pub struct BareBeam {
+    /// The beam alone as a hybrid system.
+    pub hybrid: HybridModel,
+    /// The integrator.
+    pub integrator: HybridIntegrator,
+    /// The initial state.
+    pub state: HybridState,
+    /// The damper's beam point.
+    pub point: crate::hybrid::BeamPoint,
+}
+
+/// Builds the bare beam of a setup ([`BareBeam`]).
+pub fn prepare_bare_beam(setup: &DamperSetup) -> Result<BareBeam, RunError> {
+    let beam = fem_beam::BeamModel::new(&setup.beam).map_err(SetupError::Beam)?;
+    let point = crate::hybrid::BeamPoint {
+        x: setup.x,
+        weights: coupling_at(&beam, setup.x)?,
+    };
+    let q0 =
+        initial_deflection(&beam, &point, setup.initial_displacement).map_err(SetupError::Beam)?;
+    let n = q0.len();
+    let hybrid = HybridModel::new(Some(beam), vec![], vec![], vec![], vec![])
+        .expect("a beam alone is a valid hybrid model");
+    let state = crate::hybrid::initial_state(&hybrid, q0, vec![0.0; n])?;
+    let integrator = HybridIntegrator::new(&hybrid, setup.method, setup.dt, &state)?;
+    Ok(BareBeam {
+        hybrid,
+        integrator,
+        state,
+        point,
     })
 }
 
@@ -685,10 +695,15 @@ pub fn run_setup<M: System>(
     progress: &mut dyn FnMut(f64),
 ) -> Result<(DamperModel<M>, Run), RunError> {
     let mut p = prepare(setup, model, mechanism, connected)?;
+    let probe = Probe {
+        point: &p.point,
+        filter: None,
+    };
     let run = run(
         &p.hybrid,
         &mut p.integrator,
         p.state,
+        probe,
         setup.t_end,
         setup.every,
         progress,

@@ -1,21 +1,29 @@
 //! `damper simulate SCENARIO [-o DIR]`: the main job.
 //!
 //! A `kind = "damper"` scenario couples the beam and the generated double bar with its
-//! generator (hybrid-core), integrates it, runs the same scenario with the generator
-//! disconnected for comparison, and writes into DIR:
+//! generator (hybrid-core), integrates it, runs the comparison runs of `[output] compare`
+//! (`generator_disconnected`: the mechanism and rotor inertia still attached;
+//! `bare_beam`: the beam alone) next to it, and writes into DIR:
 //!
-//! - `time_history.csv` (and `time_history_without_generator.csv`): time, tip displacement
-//!   and velocity, crank and coupler angles and rates, amplification q1'/y', generator
-//!   current and power, energies, constraint residual, cond(J^b);
-//! - `summary.json`: model hash, generator version, settings, peak amplitude, equivalent
-//!   damping ratios `zeta_with_generator` / `zeta_without_generator`, energy account and
+//! - `time_history.csv` (and `time_history_<comparison>.csv`, the bare beam's with its
+//!   columns only): time, tip displacement and velocity, crank and coupler angles and
+//!   rates, amplification q1'/y', generator current and power, energies, constraint
+//!   residual, cond(J^b) — units in every header;
+//! - `summary.json`: model hash, generator version, settings, peak amplitude, the decay
+//!   with the generator (`zeta_with_generator`, `frequency_with_generator_hz`,
+//!   `decay_with_generator` with the damping of every cycle), a `comparisons` block per
+//!   comparison run (label, zeta, frequency, decay, energies), energy account and
 //!   `energy_balance_rel_error`;
-//! - `tip_displacement.svg`: the tip displacement with and without the generator.
+//! - `tip_displacement.svg`: the tip displacement of every run (settings in the title, the
+//!   legend below the plot);
+//! - `damping_vs_amplitude.svg`: the damping ratio of each cycle against its amplitude, for
+//!   every run.
 //!
 //! A `kind = "mechanism"` scenario is a plain closed-loop mechanism (paper section 2.2,
 //! eqs. 14–25): it writes `<stem>.csv` (`t`, every coordinate, every velocity
 //! `<name>_dot`, `kinetic_energy`, `potential_energy`, `total_energy`,
-//! `constraint_residual_norm`, `cond_jv`) and `<stem>_summary.json` (backend, settings,
+//! `constraint_residual_norm`, `cond_jv`, units in brackets), `<stem>_summary.json` and
+//! `<stem>.svg` (the coordinates against time, at most 20,000 rows plotted) (backend, settings,
 //! energy drift, largest constraint residual, partition changes, steps, wall time, status).
 //! When such a run stops on a singular configuration the samples up to that point are
 //! still written, the summary says `"status": "stopped"` with the error, and the command
@@ -37,14 +45,15 @@ use hybrid_core::study::Sample;
 
 use crate::Error;
 use crate::budget::{self, Estimate};
-use crate::report::csv::{MechanismCsv, SamplesCsv};
-use crate::report::plot::plot_svg;
+use crate::report::csv::{MechanismCsv, SampleLayout, SamplesCsv};
+use crate::report::plot::{plot_damping_vs_amplitude_svg, plot_series_svg, plot_svg};
 use crate::report::summary::{
     ChangeSummary, DamperSummary, DriftSummary, FinalState, IntegratorSummary, MechanismSettings,
     MechanismSummary, PartitionSummary, Requested, json_bytes,
 };
 use crate::report::{OutputFile, ReportError, StreamFile, WriteError, commit};
-use crate::run::{self, DamperOutcome, MechanismOutcome};
+use crate::run::{self, DamperOutcome, DamperRun, MechanismOutcome};
+use crate::scenario::damper::Comparison;
 use crate::scenario::{
     self, DamperScenario, MechanismScenario, Override, OverrideRecord, Scenario,
 };
@@ -145,44 +154,67 @@ fn damper(
     // The time histories stream to their files as the runs go (a dropped stream, when a run
     // fails, removes its temporary file); summary and plot follow from the digests.
     let with_path = out.join("time_history.csv");
-    let without_path = out.join("time_history_without_generator.csv");
-    let mut with_csv = SamplesCsv::new(StreamFile::create(&with_path).map_err(ReportError::from)?);
-    let mut without_csv = match sc.spec.output.compare_without_generator {
-        true => Some(SamplesCsv::new(
-            StreamFile::create(&without_path).map_err(ReportError::from)?,
-        )),
-        false => None,
+    let mut with_csv = SamplesCsv::new(
+        StreamFile::create(&with_path).map_err(ReportError::from)?,
+        SampleLayout::Damper,
+    );
+    let compare = &sc.spec.output.compare;
+    let mut others = vec![];
+    for c in compare {
+        let path = out.join(format!("time_history_{}.csv", c.key()));
+        let layout = match c {
+            Comparison::GeneratorDisconnected => SampleLayout::Damper,
+            Comparison::BareBeam => SampleLayout::BareBeam,
+        };
+        let csv = SamplesCsv::new(
+            StreamFile::create(&path).map_err(ReportError::from)?,
+            layout,
+        );
+        others.push((path, csv));
+    }
+    let outcome = {
+        type Sink<'a> = Box<dyn FnMut(&Sample) -> Result<(), Error> + Send + 'a>;
+        let mut sinks: Vec<Sink<'_>> = others
+            .iter_mut()
+            .map(|(path, csv)| {
+                let path = &*path;
+                Box::new(move |s: &Sample| csv.push(s).map_err(|e| csv_error(path, e))) as Sink<'_>
+            })
+            .collect();
+        let mut refs: Vec<run::SampleSink<'_>> = sinks.iter_mut().map(|b| &mut **b as _).collect();
+        run::damper(
+            sc,
+            &model,
+            progress,
+            &mut |s| with_csv.push(s).map_err(|e| csv_error(&with_path, e)),
+            &mut refs,
+        )?
     };
-    let outcome = run::damper(
-        sc,
-        &model,
-        progress,
-        &mut |s| with_csv.push(s).map_err(|e| csv_error(&with_path, e)),
-        &mut |s| match &mut without_csv {
-            Some(w) => w.push(s).map_err(|e| csv_error(&without_path, e)),
-            None => Ok(()),
-        },
-    )?;
     let mut streams = vec![
         with_csv
             .into_inner()
             .map_err(|e| csv_error(&with_path, e))?,
     ];
-    if let Some(w) = without_csv {
-        streams.push(w.into_inner().map_err(|e| csv_error(&without_path, e))?);
+    for (path, csv) in others {
+        streams.push(csv.into_inner().map_err(|e| csv_error(&path, e))?);
     }
     let files = damper_files(path, out, sc, &model, &outcome, overrides)?;
     commit(streams, &files).map_err(ReportError::from)?;
     let with = &outcome.with;
-    let fmt_zeta = |z: Option<f64>| z.map_or("n/a".to_string(), |z| format!("{:.3} %", z * 100.0));
+    let mut runs = format!("with generator: {}", with.digest.decay().describe());
+    for (c, r) in &outcome.comparisons {
+        runs.push_str(&format!(
+            "; {}: {}",
+            c.legend(),
+            r.digest.decay().describe()
+        ));
+    }
     crate::print(&format!(
-        "{}: {} steps in {:.3} s ({} mechanism); zeta with generator {}, without {}; peak {:.3} mm; energy balance error {:.1e}; outputs in {}\n",
+        "{}: {} steps in {:.3} s ({} mechanism); {runs}; peak {:.3} mm; energy balance error {:.1e}; outputs in {}\n",
         path.display(),
         with.state.steps,
         with.wall.as_secs_f64(),
         outcome.backend,
-        fmt_zeta(outcome.zeta_with),
-        fmt_zeta(outcome.zeta_without),
         outcome.peak * 1e3,
         with.energy_balance_rel_error,
         out.display()
@@ -217,19 +249,47 @@ fn damper_files(
 ) -> Result<Vec<OutputFile>, ReportError> {
     let summary = DamperSummary::new(path, sc, model, o, overrides);
     let with = &o.with;
-    let without = o.without.as_ref();
     let mut files = vec![OutputFile {
         path: out.join("summary.json"),
         bytes: json_bytes(&summary)?,
     }];
-    let points: Vec<(&str, Vec<Sample>)> = std::iter::once(("with generator", with))
-        .chain(without.map(|w| ("generator disconnected", w)))
-        .map(|(label, r)| (label, r.digest.plot_points()))
+    let runs: Vec<(&str, &DamperRun)> = std::iter::once(("with generator", with))
+        .chain(o.comparisons.iter().map(|(c, r)| (c.legend(), r)))
+        .collect();
+    let points: Vec<(&str, Vec<Sample>)> = runs
+        .iter()
+        .map(|(label, r)| (*label, r.digest.plot_points()))
         .collect();
     let series: Vec<(&str, &[Sample])> = points.iter().map(|(l, p)| (*l, &p[..])).collect();
+    let g = &sc.spec.generator;
+    let placement = match (sc.spec.mechanism.half_angle_deg, sc.spec.mechanism.pivot) {
+        (Some(a), _) => format!("half-angle {a} deg"),
+        (None, Some([x, y])) => format!("pivot ({x}, {y}) m"),
+        (None, None) => String::new(),
+    };
+    let settings = format!(
+        "{placement}, load resistance {} ohm, gear ratio {}",
+        g.load_resistance, g.gear_ratio
+    );
     files.push(OutputFile {
         path: out.join("tip_displacement.svg"),
-        bytes: plot_svg("Beam tip displacement", &series)?,
+        bytes: plot_svg(&format!("Beam tip displacement ({settings})"), &series)?,
+    });
+    let decays: Vec<(&str, Vec<(f64, f64)>)> = runs
+        .iter()
+        .map(|(label, r)| {
+            let d = r.digest.decay();
+            let points = d.cycles().iter().map(|c| (c.amplitude, c.zeta)).collect();
+            (*label, points)
+        })
+        .collect();
+    let decays: Vec<(&str, &[(f64, f64)])> = decays.iter().map(|(l, p)| (*l, &p[..])).collect();
+    files.push(OutputFile {
+        path: out.join("damping_vs_amplitude.svg"),
+        bytes: plot_damping_vs_amplitude_svg(
+            &format!("Damping ratio per cycle vs tip amplitude ({settings})"),
+            &decays,
+        )?,
     });
     Ok(files)
 }
@@ -265,14 +325,21 @@ fn mechanism(
     let mut stream = Some(StreamFile::create(&csv_path).map_err(ReportError::from)?);
     let mut csv: Option<MechanismCsv<StreamFile>> = None;
     let mut csv_failed: Option<::csv::Error> = None;
+    let revolute: Vec<bool> = model
+        .bodies
+        .iter()
+        .map(|b| b.joint.kind == mbs_symbolic::model::JointKind::Revolute)
+        .collect();
+    let mut plotted = Thinned::default();
     let outcome = run::mechanism(sc, &model, progress, &mut |names, row| {
+        plotted.push(row.t, &row.q);
         if csv_failed.is_some() {
             return;
         }
         let pushed = match (&mut csv, stream.take()) {
             (Some(w), _) => w.push(row),
             (None, Some(s)) => {
-                MechanismCsv::to_writer(names, s).and_then(|w| csv.insert(w).push(row))
+                MechanismCsv::to_writer(names, &revolute, s).and_then(|w| csv.insert(w).push(row))
             }
             (None, None) => Ok(()), // the header failed: reported below
         };
@@ -285,9 +352,8 @@ fn mechanism(
     }
     let csv = match (csv, stream) {
         (Some(w), _) => w,
-        (None, Some(s)) => {
-            MechanismCsv::to_writer(&outcome.names, s).map_err(|e| csv_error(&csv_path, e))?
-        }
+        (None, Some(s)) => MechanismCsv::to_writer(&outcome.names, &revolute, s)
+            .map_err(|e| csv_error(&csv_path, e))?,
         (None, None) => unreachable!("the stream is in the CSV or still here"),
     };
     let rows = csv.rows();
@@ -300,10 +366,35 @@ fn mechanism(
         overrides,
     );
     let stream = csv.into_inner().map_err(|e| csv_error(&csv_path, e))?;
-    let files = vec![OutputFile {
-        path: summary_path.clone(),
-        bytes: json_bytes(&summary).map_err(ReportError::from)?,
-    }];
+    let labels: Vec<String> = outcome
+        .names
+        .iter()
+        .zip(&revolute)
+        .map(|(n, r)| format!("{n} [{}]", if *r { "rad" } else { "m" }))
+        .collect();
+    let lines: Vec<Vec<(f64, f64)>> = (0..outcome.names.len())
+        .map(|c| plotted.rows.iter().map(|(t, q)| (*t, q[c])).collect())
+        .collect();
+    let series: Vec<(&str, &[(f64, f64)])> = labels
+        .iter()
+        .zip(&lines)
+        .map(|(l, p)| (l.as_str(), &p[..]))
+        .collect();
+    let title = format!(
+        "Coordinates: {}",
+        sc.description.as_deref().unwrap_or(&model.name)
+    );
+    let files = vec![
+        OutputFile {
+            path: summary_path.clone(),
+            bytes: json_bytes(&summary).map_err(ReportError::from)?,
+        },
+        OutputFile {
+            path: out.join(format!("{stem}.svg")),
+            bytes: plot_series_svg(&title, "coordinate [rad or m]", &series)
+                .map_err(ReportError::from)?,
+        },
+    ];
     commit(vec![stream], &files).map_err(ReportError::from)?;
     let stats = &outcome.stats;
     eprintln!(
@@ -333,6 +424,38 @@ fn mechanism(
             error,
         },
     })
+}
+
+/// Most rows a mechanism plot keeps.
+const MAX_PLOT_ROWS: usize = 20_000;
+
+/// A uniform subsample of the output rows for the plot, bounded by [`MAX_PLOT_ROWS`]: every
+/// `stride`-th row, the stride doubled (and every other kept row dropped) when full.
+#[derive(Default)]
+struct Thinned {
+    rows: Vec<(f64, Vec<f64>)>,
+    stride: usize,
+    seen: usize,
+}
+
+impl Thinned {
+    fn push(&mut self, t: f64, q: &[f64]) {
+        self.stride = self.stride.max(1);
+        if self.seen % self.stride == 0 {
+            if self.rows.len() == MAX_PLOT_ROWS {
+                let mut k = 0;
+                self.rows.retain(|_| {
+                    k += 1;
+                    k % 2 == 1
+                });
+                self.stride *= 2;
+            }
+            if self.seen % self.stride == 0 {
+                self.rows.push((t, q.to_vec()));
+            }
+        }
+        self.seen += 1;
+    }
 }
 
 /// The summary of a closed-loop mechanism run.

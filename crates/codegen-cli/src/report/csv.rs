@@ -9,23 +9,105 @@ use std::io::Write;
 use hybrid_core::closed_loop::OutputRow;
 use hybrid_core::study::Sample;
 
-/// The damper's CSV time history, row by row: a header naming every column (written with
-/// the first row), one row per sample.
+/// A column of the damper's time history: header (name and unit) and value.
+type SampleColumn = (&'static str, fn(&Sample) -> f64);
+
+/// Every column of a damper run, units in brackets (`[-]`: dimensionless).
+const DAMPER_COLUMNS: [SampleColumn; 20] = [
+    ("t [s]", |s| s.t),
+    ("tip_displacement [m]", |s| s.tip_displacement),
+    ("tip_velocity [m/s]", |s| s.tip_velocity),
+    ("crank_angle [rad]", |s| s.crank_angle),
+    ("coupler_angle [rad]", |s| s.coupler_angle),
+    ("crank_rate [rad/s]", |s| s.crank_rate),
+    ("coupler_rate [rad/s]", |s| s.coupler_rate),
+    ("amplification [rad/m]", |s| s.amplification),
+    ("current [A]", |s| s.current),
+    ("generator_power [W]", |s| s.generator_power),
+    ("load_power [W]", |s| s.load_power),
+    ("beam_kinetic_energy [J]", |s| s.beam_kinetic_energy),
+    ("beam_potential_energy [J]", |s| s.beam_potential_energy),
+    ("mechanism_kinetic_energy [J]", |s| {
+        s.mechanism_kinetic_energy
+    }),
+    ("mechanism_potential_energy [J]", |s| {
+        s.mechanism_potential_energy
+    }),
+    ("total_energy [J]", |s| s.total_energy),
+    ("dissipated_structure [J]", |s| s.dissipated_structure),
+    ("dissipated_generator [J]", |s| s.dissipated_generator),
+    ("energy_balance_error [J]", |s| s.energy_balance_error),
+    ("constraint_residual [m]", |s| s.constraint_residual),
+];
+
+/// The columns of the bare beam (no mechanism, no generator).
+const BEAM_COLUMNS: [SampleColumn; 8] = [
+    DAMPER_COLUMNS[0],
+    DAMPER_COLUMNS[1],
+    DAMPER_COLUMNS[2],
+    DAMPER_COLUMNS[11],
+    DAMPER_COLUMNS[12],
+    DAMPER_COLUMNS[15],
+    DAMPER_COLUMNS[16],
+    DAMPER_COLUMNS[18],
+];
+
+/// cond(J^b), the last column of a damper run.
+const CONDITION: SampleColumn = ("jacobian_condition [-]", |s| s.jacobian_condition);
+
+/// Which columns a damper time history has.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SampleLayout {
+    /// The damper (with or without generator): every column.
+    Damper,
+    /// The bare beam: time, tip displacement and velocity, beam energies, dissipation,
+    /// balance error.
+    BareBeam,
+}
+
+impl SampleLayout {
+    fn columns(self) -> impl Iterator<Item = &'static SampleColumn> {
+        let (main, last): (&'static [SampleColumn], &'static [SampleColumn]) = match self {
+            SampleLayout::Damper => (&DAMPER_COLUMNS, std::slice::from_ref(&CONDITION)),
+            SampleLayout::BareBeam => (&BEAM_COLUMNS, &[]),
+        };
+        main.iter().chain(last)
+    }
+
+    /// The header (units in brackets).
+    pub fn header(self) -> Vec<&'static str> {
+        self.columns().map(|c| c.0).collect()
+    }
+}
+
+/// The damper's CSV time history, row by row: a header naming every column with its unit
+/// (`t [s]`, `tip_displacement [m]`, ...), one row per sample; numbers in shortest
+/// round-trip form, an empty cell when not finite (the bare beam's amplification).
 pub struct SamplesCsv<W: Write> {
     w: csv::Writer<W>,
+    layout: SampleLayout,
+    record: Vec<String>,
 }
 
 impl<W: Write> SamplesCsv<W> {
-    /// A CSV writing to `out`.
-    pub fn new(out: W) -> SamplesCsv<W> {
+    /// A CSV of `layout` writing to `out` (the header is written with the first row).
+    pub fn new(out: W, layout: SampleLayout) -> SamplesCsv<W> {
         SamplesCsv {
             w: csv::Writer::from_writer(out),
+            layout,
+            record: vec![],
         }
     }
 
     /// Appends one sample.
     pub fn push(&mut self, s: &Sample) -> Result<(), csv::Error> {
-        self.w.serialize(s)
+        if self.record.is_empty() {
+            self.w.write_record(self.layout.header())?;
+        }
+        self.record.clear();
+        self.record
+            .extend(self.layout.columns().map(|c| cell(Some((c.1)(s)))));
+        self.w.write_record(&self.record)
     }
 
     /// Flushes and returns the writer.
@@ -35,17 +117,18 @@ impl<W: Write> SamplesCsv<W> {
 }
 
 /// The damper's CSV time history of `samples`, in memory.
-pub fn samples_csv(samples: &[Sample]) -> Result<Vec<u8>, csv::Error> {
-    let mut w = SamplesCsv::new(Vec::new());
+pub fn samples_csv(samples: &[Sample], layout: SampleLayout) -> Result<Vec<u8>, csv::Error> {
+    let mut w = SamplesCsv::new(Vec::new(), layout);
     for s in samples {
         w.push(s)?;
     }
     w.into_inner()
 }
 
-/// A closed-loop mechanism's CSV, filled row by row: `t`, every coordinate, every velocity
-/// (`<name>_dot`), `kinetic_energy`, `potential_energy`, `total_energy`,
-/// `constraint_residual_norm`, `cond_jv`. Numbers in shortest round-trip form (scientific
+/// A closed-loop mechanism's CSV, filled row by row: `t [s]`, every coordinate
+/// (`<name> [rad]` or `[m]`), every velocity (`<name>_dot [rad/s]` or `[m/s]`),
+/// `kinetic_energy [J]`, `potential_energy [J]`, `total_energy [J]`,
+/// `constraint_residual_norm [m]`, `cond_jv [-]`. Numbers in shortest round-trip form (scientific
 /// outside [1e-4, 1e15), no negative zero); an empty cell when unknown or not finite.
 pub struct MechanismCsv<W: Write = Vec<u8>> {
     w: csv::Writer<W>,
@@ -54,9 +137,10 @@ pub struct MechanismCsv<W: Write = Vec<u8>> {
 }
 
 impl MechanismCsv {
-    /// A CSV in memory with the header for these coordinate names.
-    pub fn new(names: &[String]) -> Result<MechanismCsv, csv::Error> {
-        MechanismCsv::to_writer(names, Vec::new())
+    /// A CSV in memory with the header for these coordinate names (`revolute[c]`: whether
+    /// coordinate `c` is an angle).
+    pub fn new(names: &[String], revolute: &[bool]) -> Result<MechanismCsv, csv::Error> {
+        MechanismCsv::to_writer(names, revolute, Vec::new())
     }
 
     /// The CSV text.
@@ -66,19 +150,46 @@ impl MechanismCsv {
 }
 
 impl<W: Write> MechanismCsv<W> {
-    /// A CSV writing to `out`, starting with the header for these coordinate names.
-    pub fn to_writer(names: &[String], out: W) -> Result<MechanismCsv<W>, csv::Error> {
+    /// A CSV writing to `out`, starting with the header for these coordinate names
+    /// (`revolute[c]`: whether coordinate `c` is an angle).
+    ///
+    /// # Panics
+    ///
+    /// When `names` and `revolute` have different lengths.
+    pub fn to_writer(
+        names: &[String],
+        revolute: &[bool],
+        out: W,
+    ) -> Result<MechanismCsv<W>, csv::Error> {
+        assert_eq!(names.len(), revolute.len(), "one unit per coordinate");
         let mut w = csv::Writer::from_writer(out);
-        let mut header = vec!["t".to_string()];
-        header.extend(names.iter().cloned());
-        header.extend(names.iter().map(|n| format!("{n}_dot")));
+        let mut header = vec!["t [s]".to_string()];
+        let unit = |r: bool, angle: &str, length: &str| {
+            if r {
+                angle.to_string()
+            } else {
+                length.to_string()
+            }
+        };
+        header.extend(
+            names
+                .iter()
+                .zip(revolute)
+                .map(|(n, r)| format!("{n} [{}]", unit(*r, "rad", "m"))),
+        );
+        header.extend(
+            names
+                .iter()
+                .zip(revolute)
+                .map(|(n, r)| format!("{n}_dot [{}]", unit(*r, "rad/s", "m/s"))),
+        );
         header.extend(
             [
-                "kinetic_energy",
-                "potential_energy",
-                "total_energy",
-                "constraint_residual_norm",
-                "cond_jv",
+                "kinetic_energy [J]",
+                "potential_energy [J]",
+                "total_energy [J]",
+                "constraint_residual_norm [m]",
+                "cond_jv [-]",
             ]
             .map(String::from),
         );

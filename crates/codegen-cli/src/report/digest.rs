@@ -2,10 +2,9 @@
 //! sample, the peak amplitude, the equivalent damping ratio computed on the fly, and the
 //! plot's points decimated to at most [`MAX_PLOT_POINTS`] — memory independent of `t_end`.
 //!
-//! The damping ratio is `hybrid_core::study::damping_ratio` computed online, bit for bit:
-//! the same peak detection (upward zero crossings with 5 % hysteresis, the largest sample of
-//! each cycle refined by a parabola through its neighbours), the same least-squares sums in
-//! the same order, over the peaks above 1e-3 of the first.
+//! The decay estimate is `hybrid_core::study::decay` of all the samples, computed online by
+//! the same [`DecayTracker`] (the one estimator, `hybrid_core::decay`): half-cycle peaks
+//! of the samples' `signal` and the least-squares fits, bit for bit.
 //!
 //! Plot decimation: a series of at most [`MAX_PLOT_POINTS`] samples is kept whole; a longer
 //! one is cut into fewer than `MAX_PLOT_POINTS / 2` buckets of equal sample count, each kept
@@ -13,108 +12,11 @@
 //! sample (min/max decimation: the envelope of the decay is drawn exactly, no oscillation
 //! is aliased away). 20,000 points are about 20 per pixel column of the 1000-pixel plot.
 
+use hybrid_core::decay::{DecayEstimate, DecayTracker};
 use hybrid_core::study::Sample;
 
 /// Largest number of points of one plotted series.
 pub const MAX_PLOT_POINTS: u64 = 20_000;
-
-/// `(t, y)` of a sample.
-type Point = (f64, f64);
-
-/// The candidate peak of the current cycle with what its parabola needs.
-#[derive(Clone, Copy, Debug)]
-struct Candidate {
-    index: u64,
-    at: Point,
-    before: Option<f64>,
-    after: Option<Point>,
-}
-
-/// Online `damping_ratio`: peak detection and the least-squares sums of `ln(peak_k)`.
-#[derive(Clone, Debug, Default)]
-struct DecayFit {
-    best: Option<Candidate>,
-    armed: bool,
-    threshold: f64,
-    first: Option<f64>,
-    used: usize,
-    closed: bool,
-    sums: [f64; 4],
-}
-
-impl DecayFit {
-    fn push(&mut self, index: u64, p: Point, prev: Option<f64>) {
-        if let Some(b) = &mut self.best {
-            if b.index + 1 == index {
-                b.after = Some(p);
-            }
-        }
-        let y = p.1;
-        if y < -self.threshold {
-            if !self.armed {
-                if let Some(b) = self.best.take() {
-                    let peak = refine(&b);
-                    self.threshold = 0.05 * peak.1;
-                    self.peak(peak.1);
-                }
-            }
-            self.armed = true;
-        } else if y > 0.0 {
-            self.armed = false;
-            if self.best.is_none_or(|b| y > b.at.1) {
-                self.best = Some(Candidate {
-                    index,
-                    at: p,
-                    before: prev,
-                    after: None,
-                });
-            }
-        }
-    }
-
-    /// One peak, in order: counted while above 1e-3 of the first (`take_while`).
-    fn peak(&mut self, p: f64) {
-        let first = *self.first.get_or_insert(p);
-        let above = p > 1e-3 * first; // false for NaN too, as in `take_while`
-        if self.closed || !above {
-            self.closed = true;
-            return;
-        }
-        let (x, y) = (self.used as f64, p.ln());
-        let [sx, sy, sxx, sxy] = &mut self.sums;
-        *sx += x;
-        *sy += y;
-        *sxx += x * x;
-        *sxy += x * y;
-        self.used += 1;
-    }
-
-    fn zeta(&self) -> Option<f64> {
-        self.first?;
-        if self.used < 3 {
-            return None;
-        }
-        let n = self.used as f64;
-        let [sx, sy, sxx, sxy] = self.sums;
-        let slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
-        let delta = -slope;
-        Some(delta / (4.0 * std::f64::consts::PI.powi(2) + delta * delta).sqrt())
-    }
-}
-
-/// The parabola through the peak and its neighbours (`study::peaks_of`'s refinement).
-fn refine(c: &Candidate) -> Point {
-    let (Some(a), Some((t1, c1))) = (c.before, c.after) else {
-        return c.at;
-    };
-    let (t, b) = c.at;
-    let denom = a - 2.0 * b + c1;
-    if denom >= 0.0 {
-        return (t, b);
-    }
-    let x = 0.5 * (a - c1) / denom;
-    (t + x * (t1 - t), b - 0.25 * (a - c1) * x)
-}
 
 /// Min/max decimation of a series whose length is known in advance.
 #[derive(Clone, Debug)]
@@ -181,8 +83,7 @@ pub struct SampleDigest {
     first: Option<Sample>,
     last: Option<Sample>,
     peak: f64,
-    prev_y: Option<f64>,
-    fit: DecayFit,
+    decay: DecayTracker,
     plot: Decimator,
 }
 
@@ -195,8 +96,7 @@ impl SampleDigest {
             first: None,
             last: None,
             peak: 0.0,
-            prev_y: None,
-            fit: DecayFit::default(),
+            decay: DecayTracker::default(),
             plot: Decimator::new(expected),
         }
     }
@@ -206,9 +106,7 @@ impl SampleDigest {
         self.first.get_or_insert(*s);
         self.last = Some(*s);
         self.peak = self.peak.max(s.tip_displacement.abs());
-        self.fit
-            .push(self.count, (s.t, s.tip_displacement), self.prev_y);
-        self.prev_y = Some(s.tip_displacement);
+        self.decay.push(s.t, s.signal);
         self.plot.push(s);
         self.count += 1;
     }
@@ -233,10 +131,15 @@ impl SampleDigest {
         self.peak
     }
 
+    /// How the free decay decays, as `study::decay` of all the samples.
+    pub fn decay(&self) -> DecayEstimate {
+        self.decay.estimate()
+    }
+
     /// Equivalent damping ratio of the free decay, as `study::damping_ratio` of all the
-    /// samples.
+    /// samples (`None` when the decay is not oscillatory: see [`Self::decay`]).
     pub fn damping_ratio(&self) -> Option<f64> {
-        self.fit.zeta()
+        self.decay().zeta()
     }
 
     /// The plot's points (at most [`MAX_PLOT_POINTS`], the first and last samples included).
@@ -268,21 +171,22 @@ impl SampleDigest {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hybrid_core::study::damping_ratio;
+    use hybrid_core::study::decay;
     use mbs_symbolic::samples::SplitMix64;
 
     fn sample(t: f64, y: f64) -> Sample {
         Sample {
             t,
             tip_displacement: y,
+            signal: y,
             ..Sample::default()
         }
     }
 
     /// Decaying oscillations with ripple and noise, sampled coarsely and finely: the online
-    /// damping ratio is bit-identical to `damping_ratio` of all the samples.
+    /// decay estimate is identical to `study::decay` of all the samples.
     #[test]
-    fn online_damping_ratio_equals_the_batch_one_bit_for_bit() {
+    fn online_decay_estimate_equals_the_batch_one_bit_for_bit() {
         let mut rng = SplitMix64::new(7);
         for case in 0..40 {
             let n = 50 + (rng.symmetric(1.0).abs() * 5000.0) as usize;
@@ -302,13 +206,8 @@ mod tests {
                 .collect();
             let mut d = SampleDigest::new(n as u64);
             samples.iter().for_each(|s| d.push(s));
-            let batch = damping_ratio(&samples);
-            assert_eq!(
-                d.damping_ratio().map(f64::to_bits),
-                batch.map(f64::to_bits),
-                "case {case}: {:?} vs {batch:?}",
-                d.damping_ratio()
-            );
+            let batch = decay(&samples);
+            assert_eq!(d.decay(), batch, "case {case}");
             let peak = samples
                 .iter()
                 .map(|s| s.tip_displacement.abs())

@@ -5,10 +5,10 @@
 //!
 //! - `t [s]`;
 //! - per mechanism `M`: every coordinate `M.q [rad|m]`, every rate `M.q_dot [rad/s|m/s]`,
-//!   `M.cond_jd` (2-norm condition number of its dependent Jacobian) and
-//!   `M.constraint_residual` (|h| after the position solve);
+//!   `M.cond_jd [-]` (2-norm condition number of its dependent Jacobian) and
+//!   `M.constraint_residual [m]` (|h| after the position solve);
 //! - per attachment `A`: `A.w [m]`, `A.w_dot [m/s]` (the beam point's displacement and
-//!   velocity) and, where a generator is on its mechanism, `A.amplification` (generator
+//!   velocity) and, where a generator is on its mechanism, `A.amplification [rad/m]` (generator
 //!   joint speed / beam point speed; empty where the beam point is at rest);
 //! - per force element `F`: `F.dissipated [J]`; a generator also `F.current [A]`,
 //!   `F.power [W]` (`(R_a + R_L) i^2`) and `F.harvested [J]` (the load's share `R_L / (R_a +
@@ -54,8 +54,8 @@ impl Columns {
             for (c, r) in names.iter().zip(rev) {
                 h.push(format!("{}.{c}_dot [{}]", m.name, unit(*r, "rad/s", "m/s")));
             }
-            h.push(format!("{}.cond_jd", m.name));
-            h.push(format!("{}.constraint_residual", m.name));
+            h.push(format!("{}.cond_jd [-]", m.name));
+            h.push(format!("{}.constraint_residual [m]", m.name));
         }
         let mut amplifier = vec![];
         for a in &model.attachments {
@@ -65,8 +65,10 @@ impl Columns {
                 .forces
                 .iter()
                 .position(|f| f.mechanism == a.mechanism && f.generator().is_some());
-            if g.is_some() {
-                h.push(format!("{}.amplification", a.name));
+            if let Some(g) = g {
+                let f = &model.forces[g];
+                let u = unit(revolute[f.mechanism][f.joint], "rad/m", "m/m");
+                h.push(format!("{}.amplification [{u}]", a.name));
             }
             amplifier.push(g);
         }
@@ -208,10 +210,14 @@ pub struct HybridSummary<'a> {
     /// Largest |displacement| of the first attachment's beam point (m).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub peak_amplitude: Option<f64>,
-    /// Equivalent damping ratio of the first attachment's displacement (logarithmic
-    /// decrement of its positive peaks); only for a free decay (no excitation, no beam load).
+    /// Equivalent damping ratio of the first attachment's displacement (`decay`, when it
+    /// oscillates); only for a free decay (no excitation, no beam load).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub damping_ratio: Option<f64>,
+    /// The decay of the first attachment's displacement (`hybrid_core::decay`: damping per
+    /// cycle, or over-/critically damped with a rate); only for a free decay.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub decay: Option<hybrid_core::decay::DecayEstimate>,
     /// The mechanisms.
     pub mechanisms: Vec<MechanismReport>,
     /// The attachments.

@@ -1,7 +1,12 @@
-//! The SVG plots of a run (plotters, SVG backend, no system fonts needed): displacements
-//! against time — the damper's tip with and without the generator, a hybrid run's beam
-//! points.
+//! The plots of a run (plotters, SVG backend, no system fonts needed): displacements
+//! against time — the damper's tip with and without the generator and the comparison runs,
+//! a hybrid run's beam points —, the damping ratio of each cycle against its amplitude, and
+//! a mechanism's coordinates against time.
+//!
+//! Every plot has its main settings in the title and its legend in a band below the plot
+//! area, never on the traces.
 
+use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use hybrid_core::study::Sample;
@@ -17,6 +22,60 @@ impl PlotError {
     }
 }
 
+/// Size of every plot (pixels).
+const WIDTH: u32 = 1000;
+/// Height of the plot area, without the legend band (pixels).
+const HEIGHT: u32 = 500;
+/// Height of one legend row (pixels).
+const LEGEND_ROW: u32 = 22;
+
+const COLORS: [RGBColor; 5] = [
+    RGBColor(200, 30, 30),
+    RGBColor(30, 80, 200),
+    RGBColor(20, 140, 60),
+    RGBColor(150, 60, 170),
+    RGBColor(200, 130, 0),
+];
+
+fn color(k: usize) -> RGBColor {
+    COLORS[k % COLORS.len()]
+}
+
+/// Draws `draw` on a plot area above a legend band with one row per label, and returns the
+/// SVG text.
+fn with_legend(
+    labels: &[&str],
+    draw: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), PlotError>,
+) -> Result<Vec<u8>, PlotError> {
+    let mut svg = String::new();
+    {
+        let band = 10 + LEGEND_ROW * labels.len() as u32;
+        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT + band)).into_drawing_area();
+        root.fill(&WHITE).map_err(PlotError::of)?;
+        let (plot, legend) = root.split_vertically(HEIGHT);
+        draw(&plot)?;
+        for (k, label) in labels.iter().enumerate() {
+            let y = 5 + (LEGEND_ROW * k as u32 + LEGEND_ROW / 2) as i32;
+            let c = color(k);
+            legend
+                .draw(&PathElement::new(
+                    vec![(80, y), (120, y)],
+                    c.stroke_width(2),
+                ))
+                .map_err(PlotError::of)?;
+            legend
+                .draw(&Text::new(
+                    label.to_string(),
+                    (130, y - 8),
+                    ("sans-serif", 15).into_font(),
+                ))
+                .map_err(PlotError::of)?;
+        }
+        root.present().map_err(PlotError::of)?;
+    }
+    Ok(svg.into_bytes())
+}
+
 /// SVG plot of the tip displacement (mm) against time for each labelled series (the first
 /// on top).
 pub fn plot_svg(title: &str, series: &[(&str, &[Sample])]) -> Result<Vec<u8>, PlotError> {
@@ -30,7 +89,7 @@ pub fn plot_svg(title: &str, series: &[(&str, &[Sample])]) -> Result<Vec<u8>, Pl
         })
         .collect();
     let lines: Vec<(&str, &[(f64, f64)])> = lines.iter().map(|(l, p)| (*l, &p[..])).collect();
-    plot_displacements_svg(title, "tip displacement (mm)", &lines)
+    plot_displacements_svg(title, "tip displacement [mm]", &lines)
 }
 
 /// SVG plot of displacements `(t (s), y (m))`, drawn in mm against time, one line per
@@ -40,58 +99,112 @@ pub fn plot_displacements_svg(
     y_desc: &str,
     series: &[(&str, &[(f64, f64)])],
 ) -> Result<Vec<u8>, PlotError> {
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (1000, 500)).into_drawing_area();
-        root.fill(&WHITE).map_err(PlotError::of)?;
-        let t_end = series
-            .iter()
-            .filter_map(|(_, s)| s.last().map(|x| x.0))
-            .fold(0.0, f64::max)
-            .max(1e-9);
-        let ymax = series
-            .iter()
-            .flat_map(|(_, s)| s.iter().map(|x| x.1.abs() * 1e3))
-            .fold(0.0, f64::max)
-            .max(1e-9)
-            * 1.05;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 20))
+    let mm: Vec<(&str, Vec<(f64, f64)>)> = series
+        .iter()
+        .map(|(l, s)| (*l, s.iter().map(|&(t, y)| (t, y * 1e3)).collect()))
+        .collect();
+    let mm: Vec<(&str, &[(f64, f64)])> = mm.iter().map(|(l, p)| (*l, &p[..])).collect();
+    plot_series_svg(title, y_desc, &mm)
+}
+
+/// SVG plot of series `(t (s), y)` against time, one line per labelled series (the first on
+/// top), the y axis symmetric about zero when the data change sign.
+pub fn plot_series_svg(
+    title: &str,
+    y_desc: &str,
+    series: &[(&str, &[(f64, f64)])],
+) -> Result<Vec<u8>, PlotError> {
+    let labels: Vec<&str> = series.iter().map(|s| s.0).collect();
+    with_legend(&labels, |area| {
+        let finite = || {
+            series
+                .iter()
+                .flat_map(|(_, s)| s.iter())
+                .filter(|p| p.0.is_finite() && p.1.is_finite())
+        };
+        let t0 = finite().map(|p| p.0).fold(f64::INFINITY, f64::min);
+        let t1 = finite().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
+        let (t0, t1) = if t0 < t1 { (t0, t1) } else { (0.0, 1e-9) };
+        let lo = finite().map(|p| p.1).fold(f64::INFINITY, f64::min);
+        let hi = finite().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max);
+        let (lo, hi) = if lo <= hi { (lo, hi) } else { (-1.0, 1.0) };
+        let (lo, hi) = if lo < 0.0 && hi > 0.0 {
+            let m = lo.abs().max(hi) * 1.05;
+            (-m, m)
+        } else {
+            let pad = ((hi - lo) * 0.05).max(1e-9 * hi.abs().max(1e-300));
+            (lo - pad, hi + pad)
+        };
+        let mut chart = ChartBuilder::on(area)
+            .caption(title, ("sans-serif", 18))
             .margin(15)
             .x_label_area_size(40)
-            .y_label_area_size(60)
-            .build_cartesian_2d(0.0..t_end, -ymax..ymax)
+            .y_label_area_size(70)
+            .build_cartesian_2d(t0..t1, lo..hi)
             .map_err(PlotError::of)?;
         chart
             .configure_mesh()
-            .x_desc("time (s)")
+            .x_desc("time [s]")
             .y_desc(y_desc)
             .draw()
             .map_err(PlotError::of)?;
-        let colors = [
-            RGBColor(200, 30, 30),
-            RGBColor(30, 80, 200),
-            RGBColor(20, 140, 60),
-        ];
         // Drawn last to first, so that the first series is on top.
-        for (k, (label, points)) in series.iter().enumerate().rev() {
-            let color = colors[k % colors.len()];
+        for (k, (_, points)) in series.iter().enumerate().rev() {
             chart
                 .draw_series(LineSeries::new(
-                    points.iter().map(|&(t, y)| (t, y * 1e3)),
-                    color.stroke_width(1),
+                    points.iter().copied().filter(|p| p.1.is_finite()),
+                    color(k).stroke_width(1),
                 ))
-                .map_err(PlotError::of)?
-                .label(*label)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color));
+                .map_err(PlotError::of)?;
         }
+        Ok(())
+    })
+}
+
+/// SVG plot of the damping ratio of each cycle (%) against the cycle's amplitude (mm, log
+/// scale), one marked line per labelled run (`(amplitude (m), zeta)` points).
+pub fn plot_damping_vs_amplitude_svg(
+    title: &str,
+    series: &[(&str, &[(f64, f64)])],
+) -> Result<Vec<u8>, PlotError> {
+    let labels: Vec<&str> = series.iter().map(|s| s.0).collect();
+    with_legend(&labels, |area| {
+        let all = || series.iter().flat_map(|(_, s)| s.iter());
+        let a_lo = all().map(|p| p.0 * 1e3).fold(f64::INFINITY, f64::min);
+        let a_hi = all().map(|p| p.0 * 1e3).fold(f64::NEG_INFINITY, f64::max);
+        let (a_lo, a_hi) = if a_lo.is_finite() && a_lo > 0.0 && a_hi > a_lo {
+            (a_lo / 1.2, a_hi * 1.2)
+        } else if a_lo.is_finite() && a_lo > 0.0 {
+            (a_lo / 2.0, a_lo * 2.0)
+        } else {
+            (1e-3, 1.0)
+        };
+        let z_hi = all().map(|p| p.1 * 100.0).fold(0.0, f64::max);
+        let z_lo = all().map(|p| p.1 * 100.0).fold(0.0, f64::min);
+        let z_hi = if z_hi > z_lo { z_hi * 1.1 } else { 1.0 };
+        let mut chart = ChartBuilder::on(area)
+            .caption(title, ("sans-serif", 18))
+            .margin(15)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d((a_lo..a_hi).log_scale(), z_lo..z_hi)
+            .map_err(PlotError::of)?;
         chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
+            .configure_mesh()
+            .x_desc("cycle amplitude of the tip [mm] (geometric mean of its bounding peaks)")
+            .y_desc("damping ratio of the cycle [%]")
             .draw()
             .map_err(PlotError::of)?;
-        root.present().map_err(PlotError::of)?;
-    }
-    Ok(svg.into_bytes())
+        for (k, (_, points)) in series.iter().enumerate().rev() {
+            let c = color(k);
+            let pts: Vec<(f64, f64)> = points.iter().map(|&(a, z)| (a * 1e3, z * 100.0)).collect();
+            chart
+                .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(1)))
+                .map_err(PlotError::of)?;
+            chart
+                .draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled())))
+                .map_err(PlotError::of)?;
+        }
+        Ok(())
+    })
 }

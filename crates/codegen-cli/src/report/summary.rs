@@ -5,6 +5,7 @@ use std::collections::BTreeMap;
 
 use std::path::Path;
 
+use hybrid_core::decay::DecayEstimate;
 use mbs_symbolic::model::Model;
 use serde::Serialize;
 
@@ -45,12 +46,17 @@ pub struct DamperSummary<'a> {
     pub initial: InitialSummary,
     /// Largest |tip displacement| (m).
     pub peak_amplitude: f64,
-    /// Equivalent damping ratio of the free decay with the generator.
+    /// Equivalent damping ratio of the free decay with the generator (when it oscillates).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub zeta_with_generator: Option<f64>,
-    /// ... and with the generator disconnected.
+    /// Its damped frequency (Hz).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub zeta_without_generator: Option<f64>,
+    pub frequency_with_generator_hz: Option<f64>,
+    /// The decay with the generator: oscillatory (with damping per cycle), over- or
+    /// critically damped, or a rate (`hybrid_core::decay`).
+    pub decay_with_generator: DecayEstimate,
+    /// The comparison runs by key (`generator_disconnected`, `bare_beam`).
+    pub comparisons: BTreeMap<&'static str, ComparisonSummary>,
     /// The energy account.
     pub energy: EnergySummary,
     /// Largest |energy balance error| / initial energy.
@@ -89,18 +95,29 @@ pub struct EnergySummary {
     pub dissipated_structure: f64,
     /// Work of external forces.
     pub external_work: f64,
-    /// The run with the generator disconnected.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub without_generator: Option<EnergyWithout>,
 }
 
-/// Energy of the comparison run without generator (J).
+/// One comparison run of a damper scenario.
 #[derive(Clone, Debug, Serialize)]
-pub struct EnergyWithout {
-    /// Dissipated by the structure.
+pub struct ComparisonSummary {
+    /// What the run is (the plot's legend).
+    pub label: &'static str,
+    /// Equivalent damping ratio of its free decay (when it oscillates).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub zeta: Option<f64>,
+    /// Its damped frequency (Hz).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frequency_hz: Option<f64>,
+    /// The decay estimate.
+    pub decay: DecayEstimate,
+    /// Largest |tip displacement| (m).
+    pub peak_amplitude: f64,
+    /// Energy dissipated by the structure (J).
     pub dissipated_structure: f64,
-    /// Stored energy at the end.
+    /// Stored energy at the end (J).
     pub final_stored: f64,
+    /// Largest |energy balance error| / initial energy.
+    pub energy_balance_rel_error: f64,
 }
 
 impl<'a> DamperSummary<'a> {
@@ -113,13 +130,34 @@ impl<'a> DamperSummary<'a> {
         o: &'a DamperOutcome,
         overrides: Vec<OverrideRecord>,
     ) -> DamperSummary<'a> {
-        let (with, without) = (&o.with, o.without.as_ref());
+        let with = &o.with;
         let e = with.state.energy;
         let s0 = with
             .digest
             .first()
             .expect("a damper run samples its initial state");
         let steps = with.state.steps;
+        let decay = with.digest.decay();
+        let comparisons = o
+            .comparisons
+            .iter()
+            .map(|(c, r)| {
+                let d = r.digest.decay();
+                (
+                    c.key(),
+                    ComparisonSummary {
+                        label: c.legend(),
+                        zeta: d.zeta(),
+                        frequency_hz: d.frequency_hz(),
+                        decay: d,
+                        peak_amplitude: r.digest.peak(),
+                        dissipated_structure: r.state.energy.dissipated_structure,
+                        final_stored: r.state.energy.total(),
+                        energy_balance_rel_error: r.energy_balance_rel_error,
+                    },
+                )
+            })
+            .collect();
         DamperSummary {
             scenario: path.display().to_string(),
             overrides,
@@ -141,8 +179,10 @@ impl<'a> DamperSummary<'a> {
                 jacobian_condition: s0.jacobian_condition,
             },
             peak_amplitude: o.peak,
-            zeta_with_generator: o.zeta_with,
-            zeta_without_generator: o.zeta_without,
+            zeta_with_generator: decay.zeta(),
+            frequency_with_generator_hz: decay.frequency_hz(),
+            decay_with_generator: decay.clone(),
+            comparisons,
             energy: EnergySummary {
                 initial: with.initial_energy,
                 final_stored: e.total(),
@@ -151,10 +191,6 @@ impl<'a> DamperSummary<'a> {
                 harvested_in_load: e.dissipated_load,
                 dissipated_structure: e.dissipated_structure,
                 external_work: e.external_work,
-                without_generator: without.map(|r| EnergyWithout {
-                    dissipated_structure: r.state.energy.dissipated_structure,
-                    final_stored: r.state.energy.total(),
-                }),
             },
             energy_balance_rel_error: with.energy_balance_rel_error,
         }

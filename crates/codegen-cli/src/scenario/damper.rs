@@ -23,7 +23,9 @@
 //! t_end = 5.0
 //! [output]
 //! every = 10                  # CSV row every 10 steps
-//! compare_without_generator = true
+//! compare = ["generator_disconnected", "bare_beam"]   # comparison runs (default: the first;
+//!                             # `compare_without_generator = true/false` is a synonym of
+//!                             # ["generator_disconnected"] / [])
 //! ```
 //!
 //! Every problem is reported at once with file:line:column: unknown keys and malformed
@@ -113,6 +115,41 @@ fn default_method() -> String {
     "newmark".into()
 }
 
+/// A comparison run of a damper scenario, run next to the run with the generator.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Comparison {
+    /// The same damper with the generator disconnected: the mechanism and the rotor inertia
+    /// (through the gear ratio) stay attached to the beam, only the electrical damping is
+    /// gone (near the toggle this lowers the first frequency a lot: not the bare beam).
+    GeneratorDisconnected,
+    /// The beam alone, without the mechanism: the structure before any damper.
+    BareBeam,
+}
+
+impl Comparison {
+    /// Every comparison, in output order.
+    pub const ALL: [Comparison; 2] = [Comparison::GeneratorDisconnected, Comparison::BareBeam];
+
+    /// The key in the scenario, the summary and the output file names.
+    pub fn key(self) -> &'static str {
+        match self {
+            Comparison::GeneratorDisconnected => "generator_disconnected",
+            Comparison::BareBeam => "bare_beam",
+        }
+    }
+
+    /// The legend of its plotted series.
+    pub fn legend(self) -> &'static str {
+        match self {
+            Comparison::GeneratorDisconnected => {
+                "generator disconnected (mechanism + rotor inertia attached)"
+            }
+            Comparison::BareBeam => "bare beam (no mechanism)",
+        }
+    }
+}
+
 /// `[output]`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -120,16 +157,23 @@ pub struct OutputSpec {
     /// Write a CSV row every `every` steps.
     #[serde(default = "default_every")]
     pub every: usize,
-    /// Also run with the generator disconnected, for the comparison (zeta, plot).
-    #[serde(default = "yes")]
-    pub compare_without_generator: bool,
+    /// The comparison runs (default `["generator_disconnected"]`), each with its own time
+    /// history, summary block and plotted series.
+    #[serde(default = "default_compare")]
+    pub compare: Vec<Comparison>,
+    /// Synonym kept for older scenarios: `true` is `compare = ["generator_disconnected"]`,
+    /// `false` is `compare = []` (not both keys in one file). Resolved into `compare` by the
+    /// loader, so it is never set on a loaded scenario.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub compare_without_generator: Option<bool>,
 }
 
 impl Default for OutputSpec {
     fn default() -> Self {
         OutputSpec {
             every: default_every(),
-            compare_without_generator: true,
+            compare: default_compare(),
+            compare_without_generator: None,
         }
     }
 }
@@ -137,8 +181,8 @@ impl Default for OutputSpec {
 fn default_every() -> usize {
     10
 }
-fn yes() -> bool {
-    true
+fn default_compare() -> Vec<Comparison> {
+    vec![Comparison::GeneratorDisconnected]
 }
 
 /// The whole scenario file.
@@ -343,6 +387,29 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<DamperScenario> {
         .as_ref()
         .and_then(|ig| check_integrator(doc, ig.get_ref()));
     if let Some(o) = &output {
+        let (given, synonym) = (
+            doc.span(&["output", "compare"]),
+            doc.span(&["output", "compare_without_generator"]),
+        );
+        if given.is_some() && synonym.is_some() {
+            doc.push(
+                Kind::InvalidValue,
+                synonym,
+                Some("[output] compare_without_generator"),
+                "give either `compare` or its older synonym `compare_without_generator`, not both",
+            );
+        }
+        let list = &o.get_ref().compare;
+        for (k, c) in list.iter().enumerate() {
+            if list[..k].contains(c) {
+                doc.push(
+                    Kind::InvalidValue,
+                    given.clone(),
+                    Some("[output] compare"),
+                    format!("{:?} is listed twice", c.key()),
+                );
+            }
+        }
         if o.get_ref().every == 0 {
             let span = at(doc, "output", "every");
             doc.push(
@@ -377,7 +444,10 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<DamperScenario> {
     );
     let (mechanism, generator) = (mechanism.into_inner(), generator.into_inner());
     let (initial, integrator) = (initial.into_inner(), integrator.into_inner());
-    let output = output.map(Spanned::into_inner).unwrap_or_default();
+    let mut output = output.map(Spanned::into_inner).unwrap_or_default();
+    if let Some(with) = output.compare_without_generator.take() {
+        output.compare = if with { default_compare() } else { vec![] };
+    }
     let placement = match (mechanism.half_angle_deg, mechanism.pivot) {
         (Some(a), None) => Placement::HalfAngle(a),
         (None, Some(p)) => Placement::Pivot(p),
