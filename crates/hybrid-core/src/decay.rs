@@ -109,6 +109,38 @@ impl ModalFilter {
         Ok(ModalFilter { weights })
     }
 
+    /// The filter of a mode of a linearised hybrid system ([`crate::hybrid::modes`]): the
+    /// real part `phi` of its shape, scaled to 1 at `point` (so the modal coordinate reads in
+    /// that point's metres), with the reduced mass `M_R` (beam plus the mechanisms' mass seen
+    /// through the attachments): weights `(M_R phi)_beam / (phi^T M_R phi)`. The modes of the
+    /// coupled system are `M_R`-orthogonal (exactly when undamped, to the order of their
+    /// damping otherwise), not `A`-orthogonal, so this removes the other modes where the
+    /// beam's own mass matrix would leave them. Free mechanism coordinates are not read by the
+    /// filter (their weights are dropped: exact when the mechanisms have none, as the double
+    /// bar).
+    pub fn of_mode(
+        lin: &crate::hybrid::Linearization,
+        mode: &crate::hybrid::Mode,
+        point: &crate::hybrid::BeamPoint,
+    ) -> Result<ModalFilter, ModalFilterError> {
+        let n = lin.beam_dofs();
+        let mut phi: Vec<f64> = mode.shape.iter().map(|v| v[0]).collect();
+        let at = point.value(&phi[..n]);
+        if !(at.is_finite() && at != 0.0) {
+            return Err(ModalFilterError::ModalMass(0.0));
+        }
+        phi.iter_mut().for_each(|p| *p /= at);
+        let mut mphi = vec![0.0; phi.len()];
+        lin.mul(crate::hybrid::Matrix::Mass, &phi, &mut mphi);
+        let m: f64 = mphi.iter().zip(&phi).map(|(a, b)| a * b).sum();
+        if !(m.is_finite() && m > 0.0) {
+            return Err(ModalFilterError::ModalMass(m));
+        }
+        Ok(ModalFilter {
+            weights: mphi[..n].iter().map(|w| w / m).collect(),
+        })
+    }
+
     /// The modal coordinate of the beam displacement `x` (no allocation).
     ///
     /// # Panics

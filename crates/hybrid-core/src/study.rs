@@ -626,9 +626,14 @@ pub struct Prepared<M> {
     pub state: HybridState,
     /// The beam point the damper is pinned to.
     pub point: crate::hybrid::BeamPoint,
+    /// The modal filter of the first linearised mode ([`first_mode_filter`]) through which
+    /// the run's damping is read, or why there is none (then the beam point's displacement
+    /// is read).
+    pub filter: Result<crate::decay::ModalFilter, String>,
 }
 
-/// Builds the model, integrator and initial state of a setup.
+/// Builds the model, integrator and initial state of a setup, and the modal filter of its
+/// first linearised mode.
 pub fn prepare<M: System>(
     setup: &DamperSetup,
     model: &Model,
@@ -641,12 +646,14 @@ pub fn prepare<M: System>(
     let state = crate::hybrid::initial_state(&hybrid, q0, vec![0.0; n])?;
     let integrator = HybridIntegrator::new(&hybrid, setup.method, setup.dt, &state)?;
     let point = hybrid.attachments[0].beam.clone();
+    let filter = first_mode_filter(setup, model, &hybrid, &point);
     Ok(Prepared {
         coupled,
         hybrid,
         integrator,
         state,
         point,
+        filter,
     })
 }
 
@@ -686,6 +693,32 @@ pub fn prepare_bare_beam(setup: &DamperSetup) -> Result<BareBeam, RunError> {
     })
 }
 
+/// The modal filter of the first linearised mode of a prepared damper (the double bar's
+/// exact tangents from `model` with the setup's parameters, the static equilibrium, the
+/// mode nearest zero; [`crate::decay::ModalFilter::of_mode`]), to read the first mode's
+/// decay free of the others. `Err` with the reason when the damper cannot be linearised.
+pub fn first_mode_filter(
+    setup: &DamperSetup,
+    model: &Model,
+    hybrid: &HybridModel,
+    point: &crate::hybrid::BeamPoint,
+) -> Result<crate::decay::ModalFilter, String> {
+    let mut tangent = mbs_symbolic::runtime::TangentSystem::new(model);
+    for (name, value) in &setup.parameters {
+        tangent.set_param(name, *value).map_err(|e| e.to_string())?;
+    }
+    let lin = crate::hybrid::Linearization::new(
+        hybrid,
+        &[&tangent],
+        crate::hybrid::EquilibriumOptions::default(),
+    )
+    .map_err(|e| e.to_string())?;
+    let modes = crate::hybrid::modes(&lin, 1, crate::hybrid::EigenMethod::Auto)
+        .map_err(|e| e.to_string())?;
+    let first = modes.first().ok_or("no mode")?;
+    crate::decay::ModalFilter::of_mode(&lin, first, point).map_err(|e| e.to_string())
+}
+
 /// Prepares a setup and runs it, keeping every sample.
 pub fn run_setup<M: System>(
     setup: &DamperSetup,
@@ -697,7 +730,7 @@ pub fn run_setup<M: System>(
     let mut p = prepare(setup, model, mechanism, connected)?;
     let probe = Probe {
         point: &p.point,
-        filter: None,
+        filter: p.filter.as_ref().ok(),
     };
     let run = run(
         &p.hybrid,
