@@ -9,7 +9,7 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use codegen_cli::commands::{eval, generate, modes, simulate};
+use codegen_cli::commands::{eval, frf, generate, modes, simulate};
 
 /// Design and verification of electromagnetic vibration dampers with a mechanism near its
 /// singular position.
@@ -31,6 +31,9 @@ enum Command {
     Modes(modes::Args),
     /// Run a scenario: the damper (beam + mechanism + generator) or a closed-loop mechanism.
     Simulate(simulate::Args),
+    /// Frequency response of a damper or hybrid scenario: the linear receptance with and
+    /// without the generator, and the nonlinear steady state from time-domain runs.
+    Frf(frf::Args),
 }
 
 /// Exit status when standard output was closed by the reader (128 + SIGPIPE).
@@ -42,6 +45,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Eval(args) => eval::run(args)?,
         Command::Modes(args) => modes::run(args)?,
         Command::Simulate(args) => simulate::run(args)?,
+        Command::Frf(args) => frf::run(args)?,
     }
     Ok(())
 }

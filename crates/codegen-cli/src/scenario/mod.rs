@@ -17,6 +17,7 @@
 pub mod damper;
 pub mod hybrid;
 pub mod mechanism;
+pub mod tangents;
 
 use std::ops::Range;
 use std::path::Path;
