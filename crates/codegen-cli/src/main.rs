@@ -9,7 +9,7 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use codegen_cli::commands::{eval, generate, linearize, merge, modes, simulate, sweep};
+use codegen_cli::commands::{eval, frf, generate, linearize, merge, modes, simulate, sweep};
 
 /// Design and verification of electromagnetic vibration dampers with a mechanism near its
 /// singular position.
@@ -39,6 +39,9 @@ enum Command {
     Sweep(sweep::Args),
     /// Join the parts of a sharded sweep into the files of the unsharded run.
     Merge(merge::Args),
+    /// Frequency response of a damper or hybrid scenario: the linear receptance with and
+    /// without the generator, and the nonlinear steady state from time-domain runs.
+    Frf(frf::Args),
 }
 
 /// Exit status when standard output was closed by the reader (128 + SIGPIPE).
@@ -53,6 +56,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Simulate(args) => simulate::run(args)?,
         Command::Sweep(args) => sweep::run(args)?,
         Command::Merge(args) => merge::run(args)?,
+        Command::Frf(args) => frf::run(args)?,
     }
     Ok(())
 }

@@ -72,6 +72,7 @@ mod model;
 mod pencil;
 pub mod reference;
 mod run;
+mod steady;
 
 pub use eigen::{EigenMethod, Mode, ModeKind, modes};
 pub use error::HybridError;
@@ -85,6 +86,10 @@ pub use model::{
 };
 pub use pencil::Pencil;
 pub use run::{RunError, RunFigures, RunOptions, RunOutcome, balance_error, input_work, run};
+pub use steady::{
+    SteadyError, SteadyOptions, SteadyState, output_value, rest_state, steady_state, steady_states,
+    warped_frequency,
+};
 
 use crate::damper::Method;
 use crate::partition::choose_partition;
