@@ -19,7 +19,7 @@ fn every_bundled_scenario_linearises_with_converged_modes() {
         let text = std::fs::read_to_string(&path).unwrap();
         let p = path.display().to_string();
         if text.contains("kind = \"mechanism\"") {
-            assert_bad_input(&["linearize", &p], &["mechanism scenario", "linearise"]);
+            assert_bad_input(&["linearize", &p], &["no beam to linearise", ".toml"]);
             continue;
         }
         let r = json(&["linearize", &p, "--modes", "4", "--json"]);

@@ -40,9 +40,8 @@ pub fn tangents_for(scenario: &Scenario) -> Result<Linearizable, Error> {
             // The model only (not `study::prepare`): the equilibrium does not need the
             // initial state, which may be out of the mechanism's reach where the rest
             // position is not.
-            let (coupled, guess) =
-                hybrid_core::study::build_model(&sc.setup, &model, system, true)
-                    .map_err(|e| Error::Input(sc.diagnostic(&e).into()))?;
+            let (coupled, guess) = hybrid_core::study::build_model(&sc.setup, &model, system, true)
+                .map_err(|e| Error::Input(sc.diagnostic(&e).into()))?;
             let (hybrid, _) = hybrid_core::study::hybrid_of(&sc.setup, &coupled, guess)
                 .map_err(|e| Error::Input(sc.diagnostic(&e).into()))?;
             let params: Vec<(String, f64)> = sc
@@ -82,9 +81,10 @@ pub fn tangents_for(scenario: &Scenario) -> Result<Linearizable, Error> {
                 dt: sc.integrator.dt,
             })
         }
-        Scenario::Mechanism(_) => Err(Error::Usage(
-            "a `kind = \"mechanism\"` scenario has no beam to linearise: give a `damper` or `hybrid` scenario".into(),
-        )),
+        Scenario::Mechanism(sc) => Err(Error::Usage(format!(
+            "{}: a `kind = \"mechanism\"` scenario has no beam to linearise: give a `damper` or `hybrid` scenario",
+            sc.file
+        ))),
     }
 }
 
