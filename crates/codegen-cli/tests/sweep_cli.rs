@@ -227,7 +227,13 @@ fn sweeps_record_failed_points_and_do_not_depend_on_threads_or_shards() {
     );
     let two = dir.join("two");
     run(&two, &["--threads", "2"]);
-    for f in ["sweep.csv", "sweep.json"] {
+    for f in [
+        "sweep.csv",
+        "sweep.json",
+        "sweep_damping.svg",
+        "sweep_frequency.svg",
+        "sweep_harvested.svg",
+    ] {
         assert_eq!(
             read(&one.join(f)),
             read(&two.join(f)),
@@ -288,7 +294,13 @@ fn sweeps_record_failed_points_and_do_not_depend_on_threads_or_shards() {
         assert!(!sharded.join("sweep.csv").exists());
         let (code, _, err) = damper(&["merge", sharded.to_str().unwrap()]);
         assert_eq!(code, 0, "{err}");
-        for f in ["sweep.csv", "sweep.json"] {
+        for f in [
+            "sweep.csv",
+            "sweep.json",
+            "sweep_damping.svg",
+            "sweep_frequency.svg",
+            "sweep_harvested.svg",
+        ] {
             assert_eq!(
                 read(&one.join(f)),
                 read(&sharded.join(f)),

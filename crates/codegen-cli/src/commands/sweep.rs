@@ -606,7 +606,7 @@ pub fn outputs(
         failed: rows.iter().filter(|r| r.error.is_some()).count(),
         points,
     };
-    Ok(vec![
+    let mut files = vec![
         OutputFile {
             path: out.join("sweep.csv"),
             bytes: csv,
@@ -615,5 +615,141 @@ pub fn outputs(
             path: out.join("sweep.json"),
             bytes: pretty(&json)?,
         },
-    ])
+    ];
+    files.extend(plots(out, spec, grid, &rows)?);
+    Ok(files)
+}
+
+/// The plots of a sweep against its first swept parameter (when its values are numbers),
+/// one line per combination of the other parameters: `sweep_damping.svg` (first-mode damping
+/// ratio with the generator, disconnected, and from the time domain when run),
+/// `sweep_frequency.svg` (first-mode frequency, the same variants and the bare beam) and,
+/// with `--time-domain`, `sweep_harvested.svg` (the fraction of the dissipated energy
+/// harvested in the load). Failed points are left out of the lines.
+fn plots(
+    out: &Path,
+    spec: &SweepSpec,
+    grid: &Grid,
+    rows: &[&PointResult],
+) -> Result<Vec<OutputFile>, Error> {
+    let number = |v: &Value| match v {
+        Value::Float(f) => Some(*f.value()),
+        Value::Integer(i) => Some(*i.value() as f64),
+        _ => None,
+    };
+    let Some(axis) = grid.axes.first() else {
+        return Ok(vec![]);
+    };
+    if axis.values.iter().any(|v| number(v).is_none()) {
+        return Ok(vec![]);
+    }
+    let value = |r: &PointResult, name: &str| {
+        r.figures
+            .iter()
+            .find(|f| f.name == name)
+            .and_then(|f| f.value)
+    };
+    // Groups: the values of the other axes, in grid order.
+    let mut groups: Vec<(String, Vec<&PointResult>)> = vec![];
+    for r in rows {
+        let values = grid.point(r.index);
+        let key: Vec<String> = grid.axes[1..]
+            .iter()
+            .zip(&values[1..])
+            .map(|(a, v)| format!("{}={}", a.path, value_text(v)))
+            .collect();
+        let key = key.join(", ");
+        match groups.iter_mut().find(|(k, _)| *k == key) {
+            Some((_, g)) => g.push(r),
+            None => groups.push((key, vec![r])),
+        }
+    }
+    let x_of = |r: &PointResult| number(grid.point(r.index)[0]).expect("checked numeric");
+    let line = |g: &[&PointResult], f: &dyn Fn(&PointResult) -> Option<f64>| -> Vec<(f64, f64)> {
+        g.iter()
+            .filter_map(|r| f(r).map(|y| (x_of(r), y)))
+            .collect()
+    };
+    let label = |key: &str, what: &str| {
+        if key.is_empty() {
+            what.to_string()
+        } else {
+            format!("{key}: {what}")
+        }
+    };
+    let log_x = axis.path.ends_with("resistance");
+    let title = |what: &str| format!("{what} vs {}: {}", axis.path, spec.scenario);
+    let mut files = vec![];
+    let mut draw = |file: &str,
+                    what: &str,
+                    y_desc: &str,
+                    variants: &[(&str, &dyn Fn(&PointResult) -> Option<f64>)]|
+     -> Result<(), Error> {
+        let mut series: Vec<(String, Vec<(f64, f64)>)> = vec![];
+        for (key, g) in &groups {
+            for (name, f) in variants {
+                let pts = line(g, *f);
+                if !pts.is_empty() {
+                    series.push((label(key, name), pts));
+                }
+            }
+        }
+        if series.is_empty() {
+            return Ok(());
+        }
+        let refs: Vec<(&str, &[(f64, f64)])> =
+            series.iter().map(|(l, p)| (l.as_str(), &p[..])).collect();
+        let bytes =
+            crate::report::plot::plot_xy_svg(&title(what), &axis.path, y_desc, &refs, log_x)
+                .map_err(ReportError::from)?;
+        files.push(OutputFile {
+            path: out.join(file),
+            bytes,
+        });
+        Ok(())
+    };
+    let pct = |name: &'static str| move |r: &PointResult| value(r, name).map(|z| 100.0 * z);
+    let (zw, zd, zt) = (
+        pct("linear.zeta1"),
+        pct("linear.zeta1_generator_disconnected"),
+        pct("zeta_with_generator"),
+    );
+    draw(
+        "sweep_damping.svg",
+        "First-mode damping ratio",
+        "damping ratio [%]",
+        &[
+            ("with generator (linearised)", &zw),
+            ("generator disconnected (linearised)", &zd),
+            ("with generator (time domain, filtered decay)", &zt),
+        ],
+    )?;
+    let hz = |name: &'static str| move |r: &PointResult| value(r, name);
+    let (fw, fd, fb) = (
+        hz("linear.f1"),
+        hz("linear.f1_generator_disconnected"),
+        hz("linear.f1_bare_beam"),
+    );
+    draw(
+        "sweep_frequency.svg",
+        "First-mode natural frequency",
+        "frequency [Hz]",
+        &[
+            ("with generator", &fw),
+            ("generator disconnected (mechanism + rotor attached)", &fd),
+            ("bare beam (no mechanism)", &fb),
+        ],
+    )?;
+    let harvested = |r: &PointResult| {
+        let h = value(r, "energy.harvested_in_load")?;
+        let d = value(r, "energy.dissipated_generator")? + value(r, "energy.dissipated_structure")?;
+        (d > 0.0).then(|| 100.0 * h / d)
+    };
+    draw(
+        "sweep_harvested.svg",
+        "Energy harvested in the load / energy dissipated (time domain)",
+        "harvested fraction [%]",
+        &[("harvested in the load", &harvested)],
+    )?;
+    Ok(files)
 }

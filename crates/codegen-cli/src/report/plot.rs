@@ -29,12 +29,17 @@ const HEIGHT: u32 = 500;
 /// Height of one legend row (pixels).
 const LEGEND_ROW: u32 = 22;
 
-const COLORS: [RGBColor; 5] = [
+const COLORS: [RGBColor; 10] = [
     RGBColor(200, 30, 30),
     RGBColor(30, 80, 200),
     RGBColor(20, 140, 60),
     RGBColor(150, 60, 170),
     RGBColor(200, 130, 0),
+    RGBColor(0, 150, 170),
+    RGBColor(120, 80, 30),
+    RGBColor(230, 90, 160),
+    RGBColor(90, 90, 90),
+    RGBColor(150, 170, 20),
 ];
 
 fn color(k: usize) -> RGBColor {
@@ -204,6 +209,105 @@ pub fn plot_damping_vs_amplitude_svg(
             chart
                 .draw_series(pts.iter().map(|&p| Circle::new(p, 3, c.filled())))
                 .map_err(PlotError::of)?;
+        }
+        Ok(())
+    })
+}
+
+/// SVG plot of labelled series of points `(x, y)` joined by lines, with markers (a
+/// parameter study: a figure against a swept parameter); the x axis logarithmic when
+/// `log_x` and every x is positive. Series with fewer than one finite point are left out of
+/// the plot area but keep their legend row.
+pub fn plot_xy_svg(
+    title: &str,
+    x_desc: &str,
+    y_desc: &str,
+    series: &[(&str, &[(f64, f64)])],
+    log_x: bool,
+) -> Result<Vec<u8>, PlotError> {
+    let labels: Vec<&str> = series.iter().map(|s| s.0).collect();
+    with_legend(&labels, |area| {
+        let finite = || {
+            series
+                .iter()
+                .flat_map(|(_, s)| s.iter())
+                .filter(|p| p.0.is_finite() && p.1.is_finite())
+        };
+        let x0 = finite().map(|p| p.0).fold(f64::INFINITY, f64::min);
+        let x1 = finite().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
+        let y0 = finite().map(|p| p.1).fold(f64::INFINITY, f64::min);
+        let y1 = finite().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max);
+        let pad = |lo: f64, hi: f64| {
+            if lo < hi {
+                let p = 0.05 * (hi - lo);
+                (lo - p, hi + p)
+            } else if lo.is_finite() {
+                let p = 0.05 * lo.abs().max(1e-12);
+                (lo - p, lo + p)
+            } else {
+                (0.0, 1.0)
+            }
+        };
+        let (y0, y1) = pad(y0, y1);
+        let caption = (title, ("sans-serif", 18));
+        let draw_points = |k: usize, pts: &[(f64, f64)]| {
+            pts.iter()
+                .copied()
+                .filter(|p| p.0.is_finite() && p.1.is_finite())
+                .map(move |p| Circle::new(p, 3, color(k).filled()))
+                .collect::<Vec<_>>()
+        };
+        let finite_line = |pts: &[(f64, f64)]| {
+            pts.iter()
+                .copied()
+                .filter(|p| p.0.is_finite() && p.1.is_finite())
+                .collect::<Vec<_>>()
+        };
+        if log_x && x0 > 0.0 && x1 > x0 {
+            let mut chart = ChartBuilder::on(area)
+                .caption(caption.0, caption.1)
+                .margin(15)
+                .x_label_area_size(40)
+                .y_label_area_size(80)
+                .build_cartesian_2d((x0 / 1.1..x1 * 1.1).log_scale(), y0..y1)
+                .map_err(PlotError::of)?;
+            chart
+                .configure_mesh()
+                .x_desc(x_desc)
+                .y_desc(y_desc)
+                .draw()
+                .map_err(PlotError::of)?;
+            for (k, (_, pts)) in series.iter().enumerate().rev() {
+                chart
+                    .draw_series(LineSeries::new(finite_line(pts), color(k).stroke_width(1)))
+                    .map_err(PlotError::of)?;
+                chart
+                    .draw_series(draw_points(k, pts))
+                    .map_err(PlotError::of)?;
+            }
+        } else {
+            let (x0, x1) = pad(x0, x1);
+            let mut chart = ChartBuilder::on(area)
+                .caption(caption.0, caption.1)
+                .margin(15)
+                .x_label_area_size(40)
+                .y_label_area_size(80)
+                .build_cartesian_2d(x0..x1, y0..y1)
+                .map_err(PlotError::of)?;
+            chart
+                .configure_mesh()
+                .x_desc(x_desc)
+                .y_desc(y_desc)
+                .draw()
+                .map_err(PlotError::of)?;
+            for (k, (_, pts)) in series.iter().enumerate().rev() {
+                chart
+                    .draw_series(LineSeries::new(finite_line(pts), color(k).stroke_width(1)))
+                    .map_err(PlotError::of)?;
+                chart
+                    .draw_series(draw_points(k, pts))
+                    .map_err(PlotError::of)?;
+            }
         }
         Ok(())
     })
