@@ -620,6 +620,9 @@ pub fn outputs(
     Ok(files)
 }
 
+/// A figure read from a point's results.
+type FigureOf<'a> = dyn Fn(&PointResult) -> Option<f64> + 'a;
+
 /// The plots of a sweep against its first swept parameter (when its values are numbers),
 /// one line per combination of the other parameters: `sweep_damping.svg` (first-mode damping
 /// ratio with the generator, disconnected, and from the time domain when run),
@@ -683,7 +686,7 @@ fn plots(
     let mut draw = |file: &str,
                     what: &str,
                     y_desc: &str,
-                    variants: &[(&str, &dyn Fn(&PointResult) -> Option<f64>)]|
+                    variants: &[(&str, &FigureOf<'_>)]|
      -> Result<(), Error> {
         let mut series: Vec<(String, Vec<(f64, f64)>)> = vec![];
         for (key, g) in &groups {
