@@ -30,18 +30,21 @@ fn sweep(c: &mut Criterion) {
             .num_threads(threads)
             .build()
             .unwrap();
-        g.bench_function(format!("damper_40_angles_linearised_{threads}_threads"), |b| {
-            b.iter(|| {
-                pool.install(|| {
-                    let r: Vec<_> = points
-                        .par_iter()
-                        .map(|o| evaluate(&path, &text, o, &options))
-                        .collect();
-                    assert!(r.iter().all(Result::is_ok));
-                    r
+        g.bench_function(
+            format!("damper_40_angles_linearised_{threads}_threads"),
+            |b| {
+                b.iter(|| {
+                    pool.install(|| {
+                        let r: Vec<_> = points
+                            .par_iter()
+                            .map(|o| evaluate(&path, &text, o, &options))
+                            .collect();
+                        assert!(r.iter().all(Result::is_ok));
+                        r
+                    })
                 })
-            })
-        });
+            },
+        );
     }
     g.finish();
 }

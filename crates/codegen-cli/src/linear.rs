@@ -98,6 +98,8 @@ pub struct EquilibriumReport {
 pub struct LinearReport {
     /// The scenario file.
     pub scenario: String,
+    /// The `--set` overrides applied, in command-line order.
+    pub overrides: Vec<crate::scenario::OverrideRecord>,
     /// The eigen-solver used.
     pub method: EigenMethod,
     /// The equilibrium (generator connected).
@@ -224,6 +226,7 @@ pub fn analyse_model(
     }
     Ok(LinearReport {
         scenario: file.to_string(),
+        overrides: vec![],
         method,
         equilibrium: EquilibriumReport {
             iterations: eq.iterations,

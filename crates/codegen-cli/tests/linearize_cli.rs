@@ -62,6 +62,8 @@ fn the_generator_adds_damping_and_the_half_angle_moves_it() {
     };
     let z = |r: &serde_json::Value, v: &str| r[v][0]["damping_ratio"].as_f64().unwrap();
     let (r10, r20) = (at("10"), at("20"));
+    assert_eq!(r10["overrides"][0]["path"], "mechanism.half_angle_deg");
+    assert_eq!(r10["overrides"][0]["value"], 10);
     // Closer to the toggle: more amplification, more damping of the first mode.
     let a = |r: &serde_json::Value| {
         r["amplification"][0]["joint_per_displacement"]
@@ -100,4 +102,56 @@ fn bad_linearize_input_is_one_line() {
         ],
         &["load_resistance"],
     );
+}
+
+/// The exact tangents of every bundled damper and hybrid scenario, about its equilibrium
+/// (as bundled, and preloaded by in-plane gravity on the double bar and the absorber's
+/// arm), equal central differences of the independent dense KKT accelerations
+/// (`hybrid_core::hybrid::reference::tangent_error`) to 1e-7 relative.
+#[test]
+fn tangents_of_every_bundled_scenario_equal_differences_of_the_kkt_system() {
+    use codegen_cli::scenario::{self, Override, tangents::tangents_for};
+    use hybrid_core::hybrid::reference::tangent_error;
+    let gravity = |path: &str, g: &str| {
+        let text = format!("{{ {g} = -9.81 }}");
+        Override::new(path, text.parse::<toml_edit::Value>().unwrap(), &text).unwrap()
+    };
+    let mut checked = 0;
+    for path in bundled_scenarios() {
+        let text = std::fs::read_to_string(&path).unwrap();
+        if text.contains("kind = \"mechanism\"") {
+            continue;
+        }
+        let mut variants = vec![vec![]];
+        if text.contains("double_bar.toml") && !text.contains("kind = \"hybrid\"") {
+            variants.push(vec![gravity("mechanism.parameters", "gy")]);
+        }
+        if text.contains("absorber.toml") {
+            variants.push(vec![gravity("mechanism[0].parameters", "gy")]);
+        }
+        for overrides in variants {
+            let loaded = scenario::load_with(&path, &overrides)
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            let input = tangents_for(&loaded.scenario).unwrap();
+            let lin = input.linearize(&input.model).unwrap();
+            let worst = tangent_error(&input.model, &lin, 11);
+            let preload = lin
+                .equilibrium
+                .multipliers
+                .iter()
+                .flatten()
+                .fold(0.0f64, |m, l| m.max(l.abs()));
+            println!(
+                "{} {:?}: worst {worst:e}, largest multiplier {preload:e}",
+                path.display(),
+                overrides.len()
+            );
+            assert!(worst < 1e-7, "{}: {worst:e}", path.display());
+            if !overrides.is_empty() {
+                assert!(preload > 1e-3, "gravity preloads the attachment");
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked >= 7, "{checked}");
 }

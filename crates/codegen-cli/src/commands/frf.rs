@@ -193,6 +193,7 @@ pub struct NonlinearRow {
 #[derive(Serialize)]
 struct FrfJson<'a> {
     scenario: String,
+    overrides: Vec<scenario::OverrideRecord>,
     output: &'a str,
     response_unit: &'a str,
     force_unit: &'a str,
@@ -707,6 +708,7 @@ fn outputs(
     }
     let json = FrfJson {
         scenario: file.to_string(),
+        overrides: args.set.iter().map(scenario::Override::record).collect(),
         output: &io.output_label,
         response_unit: io.response_unit,
         force_unit: io.force_unit,

@@ -54,11 +54,12 @@ pub fn run(args: Args) -> Result<(), Error> {
     }
     let loaded = scenario::load_with(&args.scenario, &args.set)?;
     let file = args.scenario.display().to_string();
-    let report =
+    let mut report =
         analyse(&file, &loaded.scenario, args.modes, args.method).map_err(|e| match e {
             Error::Input(d) => Error::Input(loaded.remap(d)),
             e => e,
         })?;
+    report.overrides = loaded.applied.records();
     if args.json {
         let bytes = json_bytes(&report).map_err(ReportError::Json)?;
         return crate::print(&String::from_utf8_lossy(&bytes));

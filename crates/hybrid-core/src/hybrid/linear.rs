@@ -215,7 +215,7 @@ fn static_beam_load(model: &HybridModel) -> Vec<f64> {
 
 /// The model with only its time-independent excitations (the joint forces of the
 /// equilibrium come from [`HybridModel::add_joint_forces`] at `t = 0`).
-fn static_model(model: &HybridModel) -> HybridModel {
+pub(crate) fn static_model(model: &HybridModel) -> HybridModel {
     let mut m = model.clone();
     m.excitations
         .retain(|e| e.time == fem_beam::TimeFunction::Constant);

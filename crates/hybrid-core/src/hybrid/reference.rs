@@ -39,7 +39,10 @@
 //! classical Runge–Kutta step and then projects `x` onto `h(x) = 0` by Gauss–Newton with the
 //! full Jacobian (minimum-norm corrections `-J^T (J J^T)^-1 h`) and `x'` onto `J x' = 0`.
 
+use mbs_symbolic::samples::SplitMix64;
 use nalgebra::{DMatrix, DVector};
+
+use super::linear::{Linearization, Matrix};
 
 use super::integrator::HybridState;
 use super::model::{AttachmentKind, HybridModel};
@@ -447,4 +450,149 @@ impl Reference {
         self.worst_residual.0 = self.worst_residual.0.max(res);
         self.worst_residual.1 = self.worst_residual.1.max(vres);
     }
+}
+
+// ---------------------------------------------------------------------------------------
+// The linearisation against central differences of the KKT accelerations
+// ---------------------------------------------------------------------------------------
+
+/// The rows `T dz` of a reduced direction in the full coordinates: the beam part, and
+/// every mechanism's `R_i P dz`.
+fn full_direction(lin: &Linearization, dz: &[f64]) -> (Vec<f64>, Vec<Vec<f64>>) {
+    (dz[..lin.beam_dofs()].to_vec(), lin.mechanism_motion(dz))
+}
+
+fn axpy(x: &[f64], a: f64, y: &[f64]) -> Vec<f64> {
+    x.iter().zip(y).map(|(x, y)| x + a * y).collect()
+}
+
+/// The dense KKT accelerations (beam, then every mechanism's, flattened) at positions
+/// `x0 + e dx`, velocities `e dv` (both in full coordinates) and currents `e di`.
+#[allow(clippy::too_many_arguments)]
+fn kkt(
+    model: &HybridModel,
+    beam_q: &[f64],
+    mech_q: &[Vec<f64>],
+    e: f64,
+    dx: &(Vec<f64>, Vec<Vec<f64>>),
+    dv: &(Vec<f64>, Vec<Vec<f64>>),
+    di: &[f64],
+) -> Vec<f64> {
+    let bq = axpy(beam_q, e, &dx.0);
+    let mq: Vec<Vec<f64>> = mech_q
+        .iter()
+        .zip(&dx.1)
+        .map(|(q, d)| axpy(q, e, d))
+        .collect();
+    let bv: Vec<f64> = dv.0.iter().map(|v| e * v).collect();
+    let mv: Vec<Vec<f64>> =
+        dv.1.iter()
+            .map(|d| d.iter().map(|v| e * v).collect())
+            .collect();
+    let cur: Vec<f64> = di.iter().map(|v| e * v).collect();
+    let (a, qdd, _) = accelerations(model, 0.0, &bq, &bv, &mq, &mv, &cur);
+    let mut out = a;
+    for q in qdd {
+        out.extend(q);
+    }
+    out
+}
+
+/// Largest relative difference between `-T M_R^-1 f` (the linearised accelerations for a
+/// generalised force `f` in `z`) and the central difference of the KKT accelerations.
+fn compare(lin: &Linearization, f: &DVector<f64>, fd: &[f64]) -> f64 {
+    let m = lin.dense(Matrix::Mass);
+    let y = m.lu().solve(&(-f)).unwrap();
+    let (b, mech) = full_direction(lin, y.as_slice());
+    let mut pred = b;
+    for q in mech {
+        pred.extend(q);
+    }
+    let scale = pred.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    pred.iter()
+        .zip(fd)
+        .fold(0.0f64, |m, (p, d)| m.max((p - d).abs()))
+        / scale
+}
+
+/// The worst relative error of a linearisation's tangents: checks `K_R`, `C_R` (and `M_R`
+/// through them) and the current coupling of a linearised
+/// model against central differences of the independent dense KKT accelerations
+/// ([`accelerations`]) along two random consistent directions `T dz` (seeded), and the
+/// current coupling of every inductive generator. Returns the worst relative difference.
+///
+/// At the equilibrium the KKT accelerations vanish; along `x0 + e T dz` (rest) they are
+/// `-T M_R^-1 K_R dz e + O(e^2)` (the derivative of `M x'' + F + Q + J^T lambda = 0`,
+/// `J x'' = -a` at `x'' = 0`, `lambda = lambda0` is the linearised system with the
+/// curvature `G(lambda0)`), at velocities `e T dz` they are `-T M_R^-1 C_R dz e + O(e^2)`,
+/// and with currents `e` they are `-T M_R^-1 P^T b e`. Central differences cancel the
+/// `O(e^2)` terms; `e` is chosen so the `O(e^2)` remainder and the KKT solve's rounding
+/// (relative 1e-13 of the elastic forces, divided by `e`) both stay near 1e-9.
+pub fn tangent_error(model: &HybridModel, lin: &Linearization, seed: u64) -> f64 {
+    let mut rng = SplitMix64::new(seed);
+    let rng = &mut rng;
+    let model = super::linear::static_model(model);
+    let eq = &lin.equilibrium;
+    let d = lin.dim();
+    let n = lin.beam_dofs();
+    let mut worst = 0.0f64;
+    let zero_dir = (
+        vec![0.0; n],
+        eq.mech_q.iter().map(|q| vec![0.0; q.len()]).collect(),
+    );
+    let nf = model.forces.len();
+    for _ in 0..2 {
+        // A random direction: beam DOFs of the static deflection's size, free coordinates
+        // of order 0.1 rad.
+        let beam_size = 1e-3;
+        let dz: Vec<f64> = (0..d)
+            .map(|i| {
+                if i < n {
+                    beam_size * rng.uniform(-1.0, 1.0)
+                } else {
+                    0.1 * rng.uniform(-1.0, 1.0)
+                }
+            })
+            .collect();
+        let dir = full_direction(lin, &dz);
+        let e = 1e-4;
+        let zero_i = vec![0.0; nf];
+        // Stiffness.
+        let p = kkt(&model, &eq.beam_q, &eq.mech_q, e, &dir, &zero_dir, &zero_i);
+        let m = kkt(&model, &eq.beam_q, &eq.mech_q, -e, &dir, &zero_dir, &zero_i);
+        let fd: Vec<f64> = p.iter().zip(&m).map(|(a, b)| (a - b) / (2.0 * e)).collect();
+        let k = lin.dense(Matrix::Stiffness) * DVector::from_column_slice(&dz);
+        worst = worst.max(compare(lin, &k, &fd));
+        // Damping (velocity terms quadratic in e cancel).
+        let ev = 1e-3;
+        let p = kkt(&model, &eq.beam_q, &eq.mech_q, ev, &zero_dir, &dir, &zero_i);
+        let m = kkt(
+            &model, &eq.beam_q, &eq.mech_q, -ev, &zero_dir, &dir, &zero_i,
+        );
+        let fd: Vec<f64> = p
+            .iter()
+            .zip(&m)
+            .map(|(a, b)| (a - b) / (2.0 * ev))
+            .collect();
+        let c = lin.dense(Matrix::Damping) * DVector::from_column_slice(&dz);
+        if c.amax() > 0.0 {
+            worst = worst.max(compare(lin, &c, &fd));
+        }
+    }
+    // Currents of inductive generators.
+    for el in &lin.electrical {
+        let mut di = vec![0.0; nf];
+        di[el.force] = 1.0;
+        let p = kkt(
+            &model, &eq.beam_q, &eq.mech_q, 1.0, &zero_dir, &zero_dir, &di,
+        );
+        let m = kkt(
+            &model, &eq.beam_q, &eq.mech_q, -1.0, &zero_dir, &zero_dir, &di,
+        );
+        let fd: Vec<f64> = p.iter().zip(&m).map(|(a, b)| (a - b) / 2.0).collect();
+        let mut f = vec![0.0; d];
+        lin.add_from_small(el.torque.as_slice(), &mut f);
+        worst = worst.max(compare(lin, &DVector::from_vec(f), &fd));
+    }
+    worst
 }
