@@ -183,6 +183,21 @@ pub fn evaluate<'a>(
         max_residual: vec![0.0; model.mechanisms.len()],
         peak_current: vec![0.0; model.forces.len()],
     };
+    // A free decay is read through the modal filter of the first linearised mode (the
+    // system's own first mode, free of the others), scaled to the first attachment's beam
+    // point; without one (no attachment, no equilibrium) the attachment's displacement.
+    let free = model.excitations.is_empty()
+        && sc
+            .beam
+            .as_ref()
+            .is_none_or(|(b, _)| b.loads.is_empty() && b.distributed_loads.is_empty());
+    let filter = if free && na > 0 {
+        first_mode_filter(sc, built)
+    } else {
+        None
+    };
+    let mut eta: Vec<(f64, f64)> = vec![];
+    let mut z = vec![0.0; model.beam_dofs()];
     let mut e0 = None;
     let mut output_rows: u64 = 0;
     let bar = progress_bar(progress);
@@ -196,6 +211,15 @@ pub fn evaluate<'a>(
         },
         &mut |state, stored, _| {
             let e0 = *e0.get_or_insert(stored.total());
+            if let Some((f, free)) = &filter {
+                // z as the linearisation orders it (its partition, whatever the run's).
+                z.clear();
+                z.extend_from_slice(&state.q);
+                for (m, free) in state.mechanisms.iter().zip(free) {
+                    z.extend(free.iter().map(|&c| m.q[c]));
+                }
+                eta.push((state.t, f.apply(&z)));
+            }
             for (k, a) in model.attachments.iter().enumerate() {
                 let wd = a.beam.value(&state.v);
                 tracks.w[k].push((state.t, a.beam.value(&state.q)));
@@ -319,14 +343,14 @@ pub fn evaluate<'a>(
             work: *w,
         })
         .collect();
-    let first = tracks.w.first();
-    let (t, y): (Vec<f64>, Vec<f64>) = first.map(|w| w.iter().copied().unzip()).unwrap_or_default();
-    // A free decay only: no excitation and no beam load.
-    let free = model.excitations.is_empty()
-        && sc
-            .beam
-            .as_ref()
-            .is_none_or(|(b, _)| b.loads.is_empty() && b.distributed_loads.is_empty());
+    let signal = if filter.is_some() {
+        Some(&eta)
+    } else {
+        tracks.w.first()
+    };
+    let (t, y): (Vec<f64>, Vec<f64>) = signal
+        .map(|w| w.iter().copied().unzip())
+        .unwrap_or_default();
     let decay = (free && !y.is_empty()).then(|| hybrid_core::decay::estimate(&t, &y));
     let damping_ratio = decay.as_ref().and_then(|d| d.zeta());
     let summary = HybridSummary {
@@ -348,6 +372,13 @@ pub fn evaluate<'a>(
         peak_amplitude: attachments.first().map(|a| a.peak_displacement),
         damping_ratio,
         decay,
+        decay_signal: match (&filter, free && na > 0) {
+            (Some(_), _) => {
+                Some("modal filter of the first linearised mode, scaled to the first attachment")
+            }
+            (None, true) => Some("first attachment's displacement (no linearised mode)"),
+            (None, false) => None,
+        },
         mechanisms,
         attachments,
         generators,
@@ -392,4 +423,26 @@ pub fn evaluate<'a>(
         summary,
         displacements: tracks.w,
     })
+}
+
+/// The modal filter of the first linearised mode of a built hybrid scenario
+/// ([`hybrid_core::decay::ModalFilter::of_mode`], scaled to the first attachment's beam
+/// point) with the free coordinates of each mechanism it reads (after the beam DOFs), or
+/// `None` when it cannot be linearised.
+fn first_mode_filter(
+    sc: &HybridScenario,
+    built: &Built,
+) -> Option<(hybrid_core::decay::ModalFilter, Vec<Vec<usize>>)> {
+    let tangents = crate::scenario::tangents::hybrid_tangents(sc, built).ok()?;
+    let refs: Vec<_> = tangents.iter().collect();
+    let lin = hybrid_core::hybrid::Linearization::new(
+        &built.model,
+        &refs,
+        hybrid_core::hybrid::EquilibriumOptions::default(),
+    )
+    .ok()?;
+    let modes = hybrid_core::hybrid::modes(&lin, 1, hybrid_core::hybrid::EigenMethod::Auto).ok()?;
+    let point = &built.model.attachments.first()?.beam;
+    let filter = hybrid_core::decay::ModalFilter::of_mode(&lin, modes.first()?, point).ok()?;
+    Some((filter, lin.equilibrium.free.clone()))
 }

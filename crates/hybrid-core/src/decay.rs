@@ -115,9 +115,9 @@ impl ModalFilter {
     /// through the attachments): weights `(M_R phi)_beam / (phi^T M_R phi)`. The modes of the
     /// coupled system are `M_R`-orthogonal (exactly when undamped, to the order of their
     /// damping otherwise), not `A`-orthogonal, so this removes the other modes where the
-    /// beam's own mass matrix would leave them. Free mechanism coordinates are not read by the
-    /// filter (their weights are dropped: exact when the mechanisms have none, as the double
-    /// bar).
+    /// beam's own mass matrix would leave them. The filter reads the reduced coordinates
+    /// `z = (beam DOFs, free mechanism coordinates)` ([`crate::hybrid::Linearization::dim`]
+    /// weights): for mechanisms without free coordinates (the double bar), the beam DOFs.
     pub fn of_mode(
         lin: &crate::hybrid::Linearization,
         mode: &crate::hybrid::Mode,
@@ -137,11 +137,13 @@ impl ModalFilter {
             return Err(ModalFilterError::ModalMass(m));
         }
         Ok(ModalFilter {
-            weights: mphi[..n].iter().map(|w| w / m).collect(),
+            weights: mphi.iter().map(|w| w / m).collect(),
         })
     }
 
-    /// The modal coordinate of the beam displacement `x` (no allocation).
+    /// The modal coordinate of the displacement `x`: the beam DOFs for a filter made by
+    /// [`ModalFilter::new`], the reduced coordinates `z` for one made by
+    /// [`ModalFilter::of_mode`] (no allocation).
     ///
     /// # Panics
     ///

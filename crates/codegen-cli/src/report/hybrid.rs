@@ -210,14 +210,18 @@ pub struct HybridSummary<'a> {
     /// Largest |displacement| of the first attachment's beam point (m).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub peak_amplitude: Option<f64>,
-    /// Equivalent damping ratio of the first attachment's displacement (`decay`, when it
+    /// Equivalent damping ratio of the first mode's free decay (`decay`, when it
     /// oscillates); only for a free decay (no excitation, no beam load).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub damping_ratio: Option<f64>,
-    /// The decay of the first attachment's displacement (`hybrid_core::decay`: damping per
+    /// The decay of the first mode (see `decay_signal`; `hybrid_core::decay`: damping per
     /// cycle, or over-/critically damped with a rate); only for a free decay.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub decay: Option<hybrid_core::decay::DecayEstimate>,
+    /// What the decay is read from: the modal filter of the first linearised mode (scaled
+    /// to the first attachment's beam point), or that point's displacement.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub decay_signal: Option<&'static str>,
     /// The mechanisms.
     pub mechanisms: Vec<MechanismReport>,
     /// The attachments.

@@ -9,7 +9,8 @@ use mbs_symbolic::runtime::TangentSystem;
 use hybrid_core::damper::Method;
 use hybrid_core::hybrid::{EquilibriumOptions, ForceKind, HybridModel, LinearError, Linearization};
 
-use super::Scenario;
+use super::hybrid::Built;
+use super::{HybridScenario, Scenario};
 use crate::Error;
 
 /// A scenario built for linearisation.
@@ -60,19 +61,7 @@ pub fn tangents_for(scenario: &Scenario) -> Result<Linearizable, Error> {
         }
         Scenario::Hybrid(sc) => {
             let built = sc.build()?;
-            let tangents = built
-                .models
-                .iter()
-                .zip(&sc.mechanisms)
-                .map(|(m, entry)| {
-                    let params: Vec<(String, f64)> = entry
-                        .parameters
-                        .iter()
-                        .map(|(k, v, _)| (k.clone(), *v))
-                        .collect();
-                    tangent(m, &params)
-                })
-                .collect::<Result<Vec<_>, _>>()?;
+            let tangents = hybrid_tangents(sc, &built)?;
             Ok(Linearizable {
                 model: built.model,
                 tangents,
@@ -86,6 +75,24 @@ pub fn tangents_for(scenario: &Scenario) -> Result<Linearizable, Error> {
             sc.file
         ))),
     }
+}
+
+/// One tangent model per mechanism of a built hybrid scenario, with the scenario's
+/// run-time parameters.
+pub fn hybrid_tangents(sc: &HybridScenario, built: &Built) -> Result<Vec<TangentSystem>, Error> {
+    built
+        .models
+        .iter()
+        .zip(&sc.mechanisms)
+        .map(|(m, entry)| {
+            let params: Vec<(String, f64)> = entry
+                .parameters
+                .iter()
+                .map(|(k, v, _)| (k.clone(), *v))
+                .collect();
+            tangent(m, &params)
+        })
+        .collect()
 }
 
 /// The tangent model of `model` with run-time parameters `params` (already checked by the
