@@ -263,51 +263,37 @@ pub fn plot_xy_svg(
                 .filter(|p| p.0.is_finite() && p.1.is_finite())
                 .collect::<Vec<_>>()
         };
+        // The same chart on a logarithmic or a linear x axis (different coordinate types).
+        macro_rules! chart_on {
+            ($x:expr) => {{
+                let mut chart = ChartBuilder::on(area)
+                    .caption(caption.0, caption.1)
+                    .margin(15)
+                    .x_label_area_size(40)
+                    .y_label_area_size(80)
+                    .build_cartesian_2d($x, y0..y1)
+                    .map_err(PlotError::of)?;
+                chart
+                    .configure_mesh()
+                    .x_desc(x_desc)
+                    .y_desc(y_desc)
+                    .draw()
+                    .map_err(PlotError::of)?;
+                for (k, (_, pts)) in series.iter().enumerate().rev() {
+                    chart
+                        .draw_series(LineSeries::new(finite_line(pts), color(k).stroke_width(1)))
+                        .map_err(PlotError::of)?;
+                    chart
+                        .draw_series(draw_points(k, pts))
+                        .map_err(PlotError::of)?;
+                }
+            }};
+        }
         if log_x && x0 > 0.0 && x1 > x0 {
-            let mut chart = ChartBuilder::on(area)
-                .caption(caption.0, caption.1)
-                .margin(15)
-                .x_label_area_size(40)
-                .y_label_area_size(80)
-                .build_cartesian_2d((x0 / 1.1..x1 * 1.1).log_scale(), y0..y1)
-                .map_err(PlotError::of)?;
-            chart
-                .configure_mesh()
-                .x_desc(x_desc)
-                .y_desc(y_desc)
-                .draw()
-                .map_err(PlotError::of)?;
-            for (k, (_, pts)) in series.iter().enumerate().rev() {
-                chart
-                    .draw_series(LineSeries::new(finite_line(pts), color(k).stroke_width(1)))
-                    .map_err(PlotError::of)?;
-                chart
-                    .draw_series(draw_points(k, pts))
-                    .map_err(PlotError::of)?;
-            }
+            chart_on!((x0 / 1.1..x1 * 1.1).log_scale());
         } else {
             let (x0, x1) = pad(x0, x1);
-            let mut chart = ChartBuilder::on(area)
-                .caption(caption.0, caption.1)
-                .margin(15)
-                .x_label_area_size(40)
-                .y_label_area_size(80)
-                .build_cartesian_2d(x0..x1, y0..y1)
-                .map_err(PlotError::of)?;
-            chart
-                .configure_mesh()
-                .x_desc(x_desc)
-                .y_desc(y_desc)
-                .draw()
-                .map_err(PlotError::of)?;
-            for (k, (_, pts)) in series.iter().enumerate().rev() {
-                chart
-                    .draw_series(LineSeries::new(finite_line(pts), color(k).stroke_width(1)))
-                    .map_err(PlotError::of)?;
-                chart
-                    .draw_series(draw_points(k, pts))
-                    .map_err(PlotError::of)?;
-            }
+            chart_on!(x0..x1);
         }
         Ok(())
     })
