@@ -78,6 +78,12 @@ pub struct MechanismEquilibrium {
     pub jacobian_condition: f64,
     /// Multipliers of its constraint rows (loops, then per attachment transverse and axial).
     pub multipliers: Vec<f64>,
+    /// How far its first attached beam point can still move, from the equilibrium, in the
+    /// direction that stretches the mechanism to its singular (toggle) position (m), where
+    /// the geometry gives it (the double bar: `2 L (1 - cos a0)` minus the static
+    /// deflection): the amplitude the linearisation cannot hold beyond.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reach: Option<f64>,
 }
 
 /// The static equilibrium as reported.
@@ -201,6 +207,14 @@ pub fn analyse_model(
                 free: eq.free[i].iter().map(|&c| names[c].clone()).collect(),
                 jacobian_condition: eq.conditions[i],
                 multipliers: eq.multipliers[i].clone(),
+                reach: m.reach.map(|r| {
+                    let w = model
+                        .attachments
+                        .iter()
+                        .find(|a| a.mechanism == i)
+                        .map_or(0.0, |a| a.beam.value(&eq.beam_q));
+                    r - w
+                }),
             }
         })
         .collect();

@@ -4,7 +4,8 @@
 //! The linearised figures come from the report `damper linearize` prints
 //! ([`crate::linear::analyse`]): the first mode's natural frequency and damping ratio with
 //! the generator(s) connected and disconnected, the bare beam's first frequency, the first
-//! generator's amplification and the mechanisms' largest cond(J_d) at the equilibrium.
+//! generator's amplification, the smallest remaining reach to a singular position and the
+//! mechanisms' largest cond(J_d) at the equilibrium.
 //!
 //! With `--time-domain`, the figures of the run's own summary, the one `damper simulate`
 //! writes (nothing is recomputed here), with the outputs kept in memory (no file is
@@ -116,6 +117,15 @@ fn linearised(path: &Path, loaded: &Loaded, figures: &mut Vec<Figure>) -> Result
             "linear.amplification",
             "rad/m",
             r.amplification.first().map(|a| a.joint_per_displacement),
+        ),
+        Figure::new(
+            "linear.reach",
+            "m",
+            r.equilibrium
+                .mechanisms
+                .iter()
+                .filter_map(|m| m.reach)
+                .reduce(f64::min),
         ),
         Figure::new(
             "linear.jacobian_condition",

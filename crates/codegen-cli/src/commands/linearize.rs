@@ -107,9 +107,12 @@ fn table(r: &LinearReport) -> String {
     );
     for m in &eq.mechanisms {
         let q: Vec<String> = m.q.iter().map(|(n, v)| format!("{n} = {v:.6}")).collect();
+        let reach = m.reach.map_or(String::new(), |r| {
+            format!("; reach to the singular position {:.4} mm", r * 1e3)
+        });
         let _ = writeln!(
             out,
-            "  mechanism \"{}\": {}; free [{}]; cond(J_d) = {:.3e}",
+            "  mechanism \"{}\": {}; free [{}]; cond(J_d) = {:.3e}{reach}",
             m.name,
             q.join(", "),
             m.free.join(", "),
