@@ -4,7 +4,8 @@
 //! Rust module: a struct holding the model's run-time parameters and methods that evaluate
 //! `M^b`, `F^b`, `Q^b` (eqs. 11–13), `h`, `J`, `A` (eqs. 14–16) and point kinematics
 //! (eqs. 49–50) into caller-owned fixed-size arrays. Each method computes only the nodes its
-//! outputs need, as scalar intermediate variables (`let (s1, c1) = f64::sin_cos(q[0]);`,
+//! outputs need, as scalar intermediate variables (the sines and cosines of all the
+//! coordinates at once, `let ([s1, s2], [c1, c2]) = rt::sin_cos([q[0], q[1]]);`, then
 //! `x12 = ...`); a node used once is inlined into its user, zero terms were never built.
 //! Subexpressions of the run-time parameters alone are computed once per parameter change
 //! into a private cache (`hoist.rs`). `evaluate_with_points` computes everything, the named
@@ -180,6 +181,7 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
     let cache_field = names::cache_field(&param_idents);
     let param_names: Vec<String> = param_idents.iter().map(ToString::to_string).collect();
     let cache_name = cache_field.to_string();
+    let runtime_text: String = opts.runtime_path.split_whitespace().collect();
 
     let mut m = methods::Methods {
         em: statements::FnEmitter {
@@ -188,6 +190,7 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
             names: &rewrite.names,
             hoisted: &hoisting.index,
             cache_field: &cache_name,
+            runtime: &runtime_text,
         },
         n,
         nc,

@@ -31,6 +31,8 @@ enum Kind {
     Neg(Box<E>),
     /// `f(a, b)`
     Call(String, Vec<E>),
+    /// `[a, b]`
+    Array(Vec<E>),
 }
 
 impl E {
@@ -70,6 +72,16 @@ impl E {
         }
     }
 
+    /// `[items]`
+    pub fn array(items: Vec<E>) -> E {
+        let len =
+            2 + items.iter().map(|a| a.len).sum::<usize>() + 2 * items.len().saturating_sub(1);
+        E {
+            len,
+            kind: Kind::Array(items),
+        }
+    }
+
     /// The one-line form.
     fn flat(&self, out: &mut String) {
         match &self.kind {
@@ -98,6 +110,16 @@ impl E {
                     a.flat(out);
                 }
                 out.push(')');
+            }
+            Kind::Array(items) => {
+                out.push('[');
+                for (k, a) in items.iter().enumerate() {
+                    if k > 0 {
+                        out.push_str(", ");
+                    }
+                    a.flat(out);
+                }
+                out.push(']');
             }
         }
     }
@@ -135,6 +157,15 @@ impl E {
             Kind::Call(f, args) => {
                 // `f(\n    a,\n    b,\n)`
                 out.push_str(f);
+                if let [one] = args.as_slice()
+                    && let Kind::Array(_) = one.kind
+                {
+                    // `f([\n    a,\n    b,\n])`: rustfmt's overflow of a last array argument.
+                    out.push('(');
+                    let end = one.write(out, col + f.len() + 1, indent, tail + 1);
+                    out.push(')');
+                    return end + 1;
+                }
                 out.push('(');
                 let inner = indent + 4;
                 for a in args {
@@ -146,6 +177,21 @@ impl E {
                 out.push('\n');
                 push_spaces(out, indent);
                 out.push(')');
+                indent + 1
+            }
+            Kind::Array(items) => {
+                // `[\n    a,\n    b,\n]`
+                out.push('[');
+                let inner = indent + 4;
+                for a in items {
+                    out.push('\n');
+                    push_spaces(out, inner);
+                    a.write(out, inner, inner, 1);
+                    out.push(',');
+                }
+                out.push('\n');
+                push_spaces(out, indent);
+                out.push(']');
                 indent + 1
             }
         }

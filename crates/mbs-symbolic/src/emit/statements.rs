@@ -1,6 +1,6 @@
 //! DAG expressions to Rust statements: the nodes a function's outputs need, in DAG order
-//! (children before parents), become scalar intermediates (`let (s1, c1) =
-//! f64::sin_cos(q[0]);`, `let x12 = ...;`) when they are shared, trigonometric, named angle
+//! (children before parents), become scalar intermediates (`let ([s1, s2], [c1, c2]) =
+//! rt::sin_cos([q[0], q[1]]);`, `let x12 = ...;`) when they are shared, trigonometric, named angle
 //! sums (`s12`, `c12`), or would nest too deeply; every other node is inlined into its single
 //! user. Parameter-only subexpressions hoisted into the struct's cache are read from it
 //! (`self.hoisted[3]`) and never recomputed. Outputs are assigned to their destinations
@@ -53,6 +53,8 @@ pub(super) struct FnEmitter<'a> {
     pub hoisted: &'a [u32],
     /// Name of the cache field.
     pub cache_field: &'a str,
+    /// Path of the runtime module (`::mbs_symbolic::runtime`), for its `sin_cos`.
+    pub runtime: &'a str,
 }
 
 /// Marker of a node that is not hoisted.
@@ -151,6 +153,45 @@ impl FnEmitter<'_> {
             }
             name
         };
+        // The sines and cosines of the coordinates, all at once first: `let ([s1, s2], [c1,
+        // c2]) = rt::sin_cos([q[0], q[1]]);` (the lanes of one branch-free kernel, about
+        // the time of one libm `sincos` for two angles; `runtime/trig.rs`). A coordinate
+        // of which only the sine or only the cosine is used still goes through the kernel
+        // (cheaper than a lone libm call); the unused value is bound to `_`.
+        {
+            let mut angles: Vec<(Option<Id>, Option<Id>, usize)> = Vec::new();
+            let mut seen: BTreeSet<Id> = BTreeSet::new();
+            for &id in order {
+                if self.hoisted_index(id).is_some() {
+                    continue;
+                }
+                if let Node::Fun(Fun::Sin | Fun::Cos, a) = dag.node(id)
+                    && let Node::Var(Var::Q(i)) = dag.node(a)
+                    && seen.insert(a)
+                {
+                    angles.push((sin_of.get(&a).copied(), cos_of.get(&a).copied(), i as usize));
+                }
+            }
+            if !angles.is_empty() {
+                let mut bind = |t: Option<Id>, taken: &mut BTreeSet<String>| match t {
+                    Some(t) => {
+                        let name = unique(self.name_of(t), taken);
+                        named[at(t)] = Some(name.clone());
+                        name
+                    }
+                    None => "_".to_string(),
+                };
+                let mut sines = Vec::new();
+                let mut cosines = Vec::new();
+                let mut args = Vec::new();
+                for &(s, c, i) in &angles {
+                    sines.push(bind(s, &mut taken));
+                    cosines.push(bind(c, &mut taken));
+                    args.push(format!("q[{i}]"));
+                }
+                write_sin_cos(&mut text, self.runtime, &sines, &cosines, &args);
+            }
+        }
         for (k, &id) in order.iter().enumerate() {
             if self.hoisted_index(id).is_some() {
                 continue;
@@ -167,23 +208,23 @@ impl FnEmitter<'_> {
                 pos: &pos,
                 named: &named,
             };
-            // `let (s1, c1) = f64::sin_cos(q[0]);` when both are needed: one libm `sincos`.
-            // (LLVM merges separate `sin` and `cos` calls of one argument into the same
-            // `sincos` call; measured on the development machine: 47 ns for two angles
-            // with `sin_cos`, 48 ns with separate calls, 39 ns for two `sin` alone. The pair
-            // makes the single evaluation explicit; a lone sine or cosine stays a single
-            // call, which is cheaper than `sincos`.)
-            if let Node::Fun(Fun::Sin | Fun::Cos, a) = node {
-                if let (Some(&s), Some(&c)) = (sin_of.get(&a), cos_of.get(&a)) {
-                    let sname = unique(self.name_of(s), &mut taken);
-                    let cname = unique(self.name_of(c), &mut taken);
-                    let head = format!("let ({sname}, {cname}) = ");
-                    let call = E::call("f64::sin_cos", vec![self.expr(a, &names)]);
-                    write_statement(&mut text, BODY_INDENT, &head, &call);
-                    named[at(s)] = Some(sname);
-                    named[at(c)] = Some(cname);
-                    continue;
-                }
+            // Sine and cosine of any other argument, both needed: one lane of the same kernel
+            // (`let ([s12], [c12]) = rt::sin_cos([(q[0] + q[1])]);`). A lone sine or cosine
+            // of such an argument stays a libm call.
+            if let Node::Fun(Fun::Sin | Fun::Cos, a) = node
+                && let (Some(&s), Some(&c)) = (sin_of.get(&a), cos_of.get(&a))
+            {
+                let sname = unique(self.name_of(s), &mut taken);
+                let cname = unique(self.name_of(c), &mut taken);
+                let head = format!("let ([{sname}], [{cname}]) = ");
+                let call = E::call(
+                    &format!("{}::sin_cos", self.runtime),
+                    vec![E::array(vec![self.expr(a, &names)])],
+                );
+                write_statement(&mut text, BODY_INDENT, &head, &call);
+                named[at(s)] = Some(sname);
+                named[at(c)] = Some(cname);
+                continue;
             }
             let d = 1 + node.children().map(|c| depth[at(c)]).max().unwrap_or(0);
             let trig = trig_name(dag, id);
@@ -345,6 +386,46 @@ impl FnEmitter<'_> {
             Node::Fun(f, a) => E::call(&format!("f64::{}", f.name()), vec![sub(a)]),
         }
     }
+}
+
+/// Writes `let ([s1, s2], [c1, c2]) = rt::sin_cos([q[0], q[1]]);` on one line when it fits
+/// in [`MAX_WIDTH`], else with one name or argument per line (rustfmt's vertical layout).
+fn write_sin_cos(
+    text: &mut String,
+    runtime: &str,
+    sines: &[String],
+    cosines: &[String],
+    args: &[String],
+) {
+    let pad = " ".repeat(BODY_INDENT);
+    let line = format!(
+        "{pad}let ([{}], [{}]) = {runtime}::sin_cos([{}]);",
+        sines.join(", "),
+        cosines.join(", "),
+        args.join(", ")
+    );
+    if line.len() <= MAX_WIDTH {
+        text.push_str(&line);
+        text.push('\n');
+        return;
+    }
+    let list = |items: &[String], indent: usize, text: &mut String| {
+        let inner = " ".repeat(indent + 4);
+        for item in items {
+            let _ = writeln!(text, "{inner}{item},");
+        }
+        text.push_str(&" ".repeat(indent));
+    };
+    let _ = writeln!(text, "{pad}let (");
+    let _ = writeln!(text, "{pad}    [");
+    list(sines, BODY_INDENT + 4, text);
+    text.push_str("],\n");
+    let _ = writeln!(text, "{pad}    [");
+    list(cosines, BODY_INDENT + 4, text);
+    text.push_str("],\n");
+    let _ = writeln!(text, "{pad}) = {runtime}::sin_cos([");
+    list(args, BODY_INDENT, text);
+    text.push_str("]);\n");
 }
 
 /// The names given so far in one body, by node.

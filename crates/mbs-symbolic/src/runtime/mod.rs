@@ -23,6 +23,7 @@ mod mechanism;
 mod numeric;
 mod system;
 mod tangent;
+mod trig;
 
 pub use generated::GeneratedSystem;
 pub use generated::NameCount;
@@ -33,3 +34,4 @@ pub use system::{
     Backend, Names, ParamError, System, Workspace, constraint_row_names, coordinate_names,
 };
 pub use tangent::{TangentSystem, TangentWorkspace};
+pub use trig::sin_cos;
