@@ -111,7 +111,8 @@ impl FnEmitter<'_> {
         }
         let at = |id: Id| pos[id.index()] as usize;
         let mut uses = vec![0u32; order.len()];
-        // sin and cos of the same argument: computed together by one `f64::sin_cos`.
+        // sin and cos of the same argument: computed together (the coordinates' in one batched
+        // `runtime::sin_cos` call at the top of the body, any other argument in a one-lane call).
         let mut sin_of: BTreeMap<Id, Id> = BTreeMap::new();
         let mut cos_of: BTreeMap<Id, Id> = BTreeMap::new();
         for &id in order {
