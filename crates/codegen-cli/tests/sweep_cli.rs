@@ -227,19 +227,7 @@ fn sweeps_record_failed_points_and_do_not_depend_on_threads_or_shards() {
     );
     let two = dir.join("two");
     run(&two, &["--threads", "2"]);
-    for f in [
-        "sweep.csv",
-        "sweep.json",
-        "sweep_damping.svg",
-        "sweep_frequency.svg",
-        "sweep_harvested.svg",
-    ] {
-        assert_eq!(
-            read(&one.join(f)),
-            read(&two.join(f)),
-            "{f}: 1 vs 2 threads"
-        );
-    }
+    assert_same_outputs(&one, &two, "1 vs 2 threads");
     // Grid order, failed points recorded with their error, the others computed.
     let csv = String::from_utf8(read(&one.join("sweep.csv"))).unwrap();
     let mut rows = csv::Reader::from_reader(csv.as_bytes());
@@ -294,19 +282,7 @@ fn sweeps_record_failed_points_and_do_not_depend_on_threads_or_shards() {
         assert!(!sharded.join("sweep.csv").exists());
         let (code, _, err) = damper(&["merge", sharded.to_str().unwrap()]);
         assert_eq!(code, 0, "{err}");
-        for f in [
-            "sweep.csv",
-            "sweep.json",
-            "sweep_damping.svg",
-            "sweep_frequency.svg",
-            "sweep_harvested.svg",
-        ] {
-            assert_eq!(
-                read(&one.join(f)),
-                read(&sharded.join(f)),
-                "{f}: {n} shards"
-            );
-        }
+        assert_same_outputs(&one, &sharded, &format!("{n} shards"));
     }
 
     // A missing shard, a shard given twice, parts of different sweeps.
@@ -406,4 +382,20 @@ fn bad_sweep_specs_are_one_line_and_write_nothing() {
     );
     assert!(!out.exists());
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Every file a (time-domain) sweep of the damper writes is the same, byte for byte, in
+/// `a` and `b`.
+fn assert_same_outputs(a: &std::path::Path, b: &std::path::Path, what: &str) {
+    for f in [
+        "sweep.csv",
+        "sweep.json",
+        "sweep_damping.svg",
+        "sweep_frequency.svg",
+        "sweep_harvested.svg",
+    ] {
+        let read =
+            |d: &std::path::Path| std::fs::read(d.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
+        assert_eq!(read(a), read(b), "{f}: {what}");
+    }
 }

@@ -112,6 +112,24 @@ pub fn plot_displacements_svg(
     plot_series_svg(title, y_desc, &mm)
 }
 
+/// The extent `(x0, x1, y0, y1)` of the finite points of `series` (infinities when there is
+/// none: the callers fall back to a default range).
+fn extent(series: &[(&str, &[(f64, f64)])]) -> (f64, f64, f64, f64) {
+    series
+        .iter()
+        .flat_map(|(_, s)| s.iter())
+        .filter(|p| p.0.is_finite() && p.1.is_finite())
+        .fold(
+            (
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+            ),
+            |(x0, x1, y0, y1), p| (x0.min(p.0), x1.max(p.0), y0.min(p.1), y1.max(p.1)),
+        )
+}
+
 /// SVG plot of series `(t (s), y)` against time, one line per labelled series (the first on
 /// top), the y axis symmetric about zero when the data change sign.
 pub fn plot_series_svg(
@@ -121,17 +139,8 @@ pub fn plot_series_svg(
 ) -> Result<Vec<u8>, PlotError> {
     let labels: Vec<&str> = series.iter().map(|s| s.0).collect();
     with_legend(&labels, |area| {
-        let finite = || {
-            series
-                .iter()
-                .flat_map(|(_, s)| s.iter())
-                .filter(|p| p.0.is_finite() && p.1.is_finite())
-        };
-        let t0 = finite().map(|p| p.0).fold(f64::INFINITY, f64::min);
-        let t1 = finite().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
+        let (t0, t1, lo, hi) = extent(series);
         let (t0, t1) = if t0 < t1 { (t0, t1) } else { (0.0, 1e-9) };
-        let lo = finite().map(|p| p.1).fold(f64::INFINITY, f64::min);
-        let hi = finite().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max);
         let (lo, hi) = if lo <= hi { (lo, hi) } else { (-1.0, 1.0) };
         let (lo, hi) = if lo < 0.0 && hi > 0.0 {
             let m = lo.abs().max(hi) * 1.05;
@@ -227,16 +236,7 @@ pub fn plot_xy_svg(
 ) -> Result<Vec<u8>, PlotError> {
     let labels: Vec<&str> = series.iter().map(|s| s.0).collect();
     with_legend(&labels, |area| {
-        let finite = || {
-            series
-                .iter()
-                .flat_map(|(_, s)| s.iter())
-                .filter(|p| p.0.is_finite() && p.1.is_finite())
-        };
-        let x0 = finite().map(|p| p.0).fold(f64::INFINITY, f64::min);
-        let x1 = finite().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
-        let y0 = finite().map(|p| p.1).fold(f64::INFINITY, f64::min);
-        let y1 = finite().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max);
+        let (x0, x1, y0, y1) = extent(series);
         let pad = |lo: f64, hi: f64| {
             if lo < hi {
                 let p = 0.05 * (hi - lo);
