@@ -435,14 +435,6 @@ fn first_mode_filter(
 ) -> Option<(hybrid_core::decay::ModalFilter, Vec<Vec<usize>>)> {
     let tangents = crate::scenario::tangents::hybrid_tangents(sc, built).ok()?;
     let refs: Vec<_> = tangents.iter().collect();
-    let lin = hybrid_core::hybrid::Linearization::new(
-        &built.model,
-        &refs,
-        hybrid_core::hybrid::EquilibriumOptions::default(),
-    )
-    .ok()?;
-    let modes = hybrid_core::hybrid::modes(&lin, 1, hybrid_core::hybrid::EigenMethod::Auto).ok()?;
     let point = &built.model.attachments.first()?.beam;
-    let filter = hybrid_core::decay::ModalFilter::of_mode(&lin, modes.first()?, point).ok()?;
-    Some((filter, lin.equilibrium.free.clone()))
+    hybrid_core::decay::ModalFilter::first_mode(&built.model, &refs, point).ok()
 }

@@ -141,6 +141,25 @@ impl ModalFilter {
         })
     }
 
+    /// The filter of the first mode (nearest zero) of `model` linearised about its static
+    /// equilibrium ([`crate::hybrid::Linearization`] with one tangent model per mechanism),
+    /// scaled to 1 at `point` ([`ModalFilter::of_mode`]), with the free coordinates of each
+    /// mechanism it reads after the beam DOFs (the linearisation's partition). `Err` with the
+    /// reason when the model cannot be linearised.
+    pub fn first_mode(
+        model: &crate::hybrid::HybridModel,
+        tangents: &[&mbs_symbolic::runtime::TangentSystem],
+        point: &crate::hybrid::BeamPoint,
+    ) -> Result<(ModalFilter, Vec<Vec<usize>>), String> {
+        use crate::hybrid::{EigenMethod, EquilibriumOptions, Linearization, modes};
+        let lin = Linearization::new(model, tangents, EquilibriumOptions::default())
+            .map_err(|e| e.to_string())?;
+        let found = modes(&lin, 1, EigenMethod::Auto).map_err(|e| e.to_string())?;
+        let first = found.first().ok_or("no mode")?;
+        let filter = ModalFilter::of_mode(&lin, first, point).map_err(|e| e.to_string())?;
+        Ok((filter, lin.equilibrium.free))
+    }
+
     /// The modal coordinate of the displacement `x`: the beam DOFs for a filter made by
     /// [`ModalFilter::new`], the reduced coordinates `z` for one made by
     /// [`ModalFilter::of_mode`] (no allocation).

@@ -694,9 +694,9 @@ pub fn prepare_bare_beam(setup: &DamperSetup) -> Result<BareBeam, RunError> {
 }
 
 /// The modal filter of the first linearised mode of a prepared damper (the double bar's
-/// exact tangents from `model` with the setup's parameters, the static equilibrium, the
-/// mode nearest zero; [`crate::decay::ModalFilter::of_mode`]), to read the first mode's
-/// decay free of the others. `Err` with the reason when the damper cannot be linearised.
+/// exact tangents from `model` with the setup's parameters;
+/// [`crate::decay::ModalFilter::first_mode`]), to read the first mode's decay free of the
+/// others. `Err` with the reason when the damper cannot be linearised.
 pub fn first_mode_filter(
     setup: &DamperSetup,
     model: &Model,
@@ -707,16 +707,7 @@ pub fn first_mode_filter(
     for (name, value) in &setup.parameters {
         tangent.set_param(name, *value).map_err(|e| e.to_string())?;
     }
-    let lin = crate::hybrid::Linearization::new(
-        hybrid,
-        &[&tangent],
-        crate::hybrid::EquilibriumOptions::default(),
-    )
-    .map_err(|e| e.to_string())?;
-    let modes = crate::hybrid::modes(&lin, 1, crate::hybrid::EigenMethod::Auto)
-        .map_err(|e| e.to_string())?;
-    let first = modes.first().ok_or("no mode")?;
-    crate::decay::ModalFilter::of_mode(&lin, first, point).map_err(|e| e.to_string())
+    crate::decay::ModalFilter::first_mode(hybrid, &[&tangent], point).map(|(f, _)| f)
 }
 
 /// Prepares a setup and runs it, keeping every sample.

@@ -431,7 +431,7 @@ fn refine(lin: &Linearization, l: C64) -> Result<Mode, LinearError> {
     // Normalise: the largest beam transverse entry (or largest entry) real and 1.
     let n = lin.beam_dofs();
     let candidates: Vec<usize> = if n > 0 {
-        transverse_dofs(lin)
+        lin.nodes().iter().filter_map(|&(_, dof)| dof).collect()
     } else {
         (0..d).collect()
     };
@@ -478,11 +478,6 @@ fn refine(lin: &Linearization, l: C64) -> Result<Mode, LinearError> {
         shape: z.iter().map(|x| [x.re, x.im]).collect(),
         residual,
     })
-}
-
-/// The beam's transverse DOFs (free nodes' `w`).
-fn transverse_dofs(lin: &Linearization) -> Vec<usize> {
-    lin.nodes().iter().filter_map(|&(_, dof)| dof).collect()
 }
 
 /// `(K_R z, C_R z, M_R z)` for a complex `z`.
