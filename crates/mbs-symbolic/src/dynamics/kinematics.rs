@@ -27,6 +27,10 @@ pub struct BodyKinematics {
     pub accel: V3,
     /// The same without gravity (base acceleration zero).
     pub accel_no_gravity: V3,
+    /// The part of the origin acceleration remainder the joint adds, in the parent frame:
+    /// `al_p x d + w_p x (w_p x d) + 2 w_p x u q'_i`, so that
+    /// `accel = R_i^T (accel_p + rel_accel)`.
+    pub rel_accel: V3,
     /// The parent body (`None` = ground).
     pub parent: Option<usize>,
     /// The joint axis in the ground frame, `T^i e_i`: the rotation axis of a revolute joint,
@@ -118,6 +122,7 @@ pub(super) fn forward_kinematics(b: &mut Builder<'_>) -> Vec<BodyKinematics> {
             alpha,
             accel,
             accel_no_gravity,
+            rel_accel: rel,
             parent: body.parent,
             ground_axis,
             slides: slide.is_some(),

@@ -26,7 +26,12 @@
 //! * `F^b` (12): the `D` terms — the inertial wrench of each body with `q'' = 0`,
 //!   `f_i = m_i a_Ci`, `n_i = I_i al_i + w_i x (I_i w_i) + c_i x f_i` about `O_i`, summed from
 //!   the leaves to the root (`W_p += (R_i f, R_i n + d_i x R_i f)`) and projected on the joint
-//!   axis (`e . n` for a revolute, `a . f` for a prismatic joint).
+//!   axis (`e . n` for a revolute, `a . f` for a prismatic joint). Two exact variants are
+//!   derived and the cheaper kept: gravity as the base acceleration or as body forces
+//!   `m T^i^T g`, and the wrench carried plain or in composite form `F_i = M_i a_i + G_i`,
+//!   `N_i = S_i x a_i + H_i` (subtree mass `M_i`, first moment `S_i`), in which a child's
+//!   force reaches its parent as `M_k (a_p + rel_k) + R_k G_k` and the acceleration is not
+//!   rotated back to the frame it came from (`forces.rs`).
 //! * `M^b` (11): the `C` terms — the response of the subtree of body `j` to a unit `q''_j`
 //!   is the composite rigid body of that subtree (mass, first moment, inertia about `O_j`,
 //!   accumulated from the leaves) times the joint's motion; projecting it on the axes of `j`
@@ -57,7 +62,7 @@ pub use kinematics::BodyKinematics;
 
 use crate::expr::{Dag, Id, OpCount};
 use crate::model::{Model, Scalar};
-use forces::Gravity;
+use forces::{Gravity, Recursion};
 use vec3::{M3, V3};
 
 /// The symbolic equations of motion `M q'' + F + Q = 0` of a tree (eq. 10) and the
@@ -121,19 +126,21 @@ impl Symbolic {
         let bodies = kinematics::forward_kinematics(&mut b);
         let n = model.dof();
         let mass = mass::mass_matrix(&mut b, &bodies);
-        // Both ways of bringing in gravity are exact; keep the one that needs fewer
-        // operations together with M (the other's nodes are never emitted).
-        let f_base = forces::velocity_and_gravity_terms(&mut b, &bodies, Gravity::BaseAcceleration);
-        let f_forces = forces::velocity_and_gravity_terms(&mut b, &bodies, Gravity::BodyForces);
-        let cost = |f: &[Id], dag: &Dag| {
-            let roots: Vec<Id> = mass.iter().chain(f).copied().collect();
-            dag.op_count(&roots).total()
-        };
-        let f = if cost(&f_forces, &b.dag) < cost(&f_base, &b.dag) {
-            f_forces
-        } else {
-            f_base
-        };
+        // Every way of bringing in gravity and of carrying the wrenches is exact; keep the
+        // one that needs the fewest operations together with M (the others' nodes are never
+        // emitted). Ties keep the earlier variant, so the choice is deterministic.
+        let mut best: Option<(usize, Vec<Id>)> = None;
+        for recursion in [Recursion::Plain, Recursion::Composite] {
+            for gravity in [Gravity::BaseAcceleration, Gravity::BodyForces] {
+                let f = forces::velocity_and_gravity_terms(&mut b, &bodies, gravity, recursion);
+                let roots: Vec<Id> = mass.iter().chain(&f).copied().collect();
+                let cost = b.dag.op_count(&roots).total();
+                if best.as_ref().is_none_or(|(c, _)| cost < *c) {
+                    best = Some((cost, f));
+                }
+            }
+        }
+        let f = best.map(|(_, f)| f).unwrap_or_default();
         let q = forces::applied_terms(&mut b, &bodies);
         let potential = energy::potential_energy(&mut b, &bodies);
         Symbolic {

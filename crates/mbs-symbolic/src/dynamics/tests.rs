@@ -1,7 +1,7 @@
 //! Unit tests of the symbolic derivation against closed forms (the randomised comparison
 //! with the numeric reference lives in the crate's integration tests).
 
-use super::forces::velocity_and_gravity_terms;
+use super::forces::{Recursion, velocity_and_gravity_terms};
 use super::kinematics::forward_kinematics;
 use super::*;
 use crate::expr::{EvalInput, Tape};
@@ -162,8 +162,9 @@ fn planar_chain_operation_counts() {
     }
 }
 
-/// Both ways of bringing gravity into `F^b` (base acceleration, body forces) give the same
-/// values; `derive` keeps the cheaper one, so both must be right.
+/// Every way of bringing gravity into `F^b` (base acceleration, body forces) and of carrying
+/// the wrenches (plain, composite) gives the same values; `derive` keeps the cheapest, so
+/// all must be right.
 #[test]
 fn gravity_as_base_acceleration_or_body_forces_agree() {
     for model in [
@@ -176,8 +177,14 @@ fn gravity_as_base_acceleration_or_body_forces_agree() {
             dag: Dag::new(),
         };
         let kin = forward_kinematics(&mut b);
-        let fa = velocity_and_gravity_terms(&mut b, &kin, Gravity::BaseAcceleration);
-        let fb = velocity_and_gravity_terms(&mut b, &kin, Gravity::BodyForces);
+        let fa =
+            velocity_and_gravity_terms(&mut b, &kin, Gravity::BaseAcceleration, Recursion::Plain);
+        let variants = [
+            (Gravity::BodyForces, Recursion::Plain),
+            (Gravity::BaseAcceleration, Recursion::Composite),
+            (Gravity::BodyForces, Recursion::Composite),
+        ]
+        .map(|(g, r)| velocity_and_gravity_terms(&mut b, &kin, g, r));
         let n = model.dof();
         let params: Vec<f64> = model
             .parameters
@@ -196,13 +203,17 @@ fn gravity_as_base_acceleration_or_body_forces_agree() {
                 t: 0.0,
                 params: &params,
             };
-            let (va, vb) = (
-                Tape::new(&b.dag, &fa).eval_vec(&input),
-                Tape::new(&b.dag, &fb).eval_vec(&input),
-            );
+            let va = Tape::new(&b.dag, &fa).eval_vec(&input);
             let scale = va.iter().fold(1.0f64, |m, x| m.max(x.abs()));
-            for (x, y) in va.iter().zip(&vb) {
-                assert!((x - y).abs() <= 1e-13 * scale, "{}: {x} vs {y}", model.name);
+            for (k, fb) in variants.iter().enumerate() {
+                let vb = Tape::new(&b.dag, fb).eval_vec(&input);
+                for (x, y) in va.iter().zip(&vb) {
+                    assert!(
+                        (x - y).abs() <= 1e-13 * scale,
+                        "{} variant {k}: {x} vs {y}",
+                        model.name
+                    );
+                }
             }
         }
     }
