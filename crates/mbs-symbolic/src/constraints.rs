@@ -8,7 +8,9 @@
 //! rotation products are shared.
 //!
 //! Constraint rows are stacked in declaration order (eq. 14); `J = dh/dq` (eq. 15) and
-//! `A = J' q'` (eq. 16) follow the same rows and signs.
+//! `A = J' q'` (eq. 16) follow the same rows and signs. Rows of point constraints can take
+//! the points' lever-arm Jacobians instead (O(N) per point): [`constraints`] keeps the
+//! cheaper form.
 
 use crate::dynamics::vec3::V3;
 use crate::dynamics::{self, Symbolic};
@@ -141,9 +143,27 @@ fn chain_to_root(model: &Model, mut body: Option<usize>) -> Vec<usize> {
     out
 }
 
+/// Where a constraint row comes from: component `k` of point `b` minus the same component
+/// of point `a` (if any), or an angle closure.
+#[derive(Clone, Copy)]
+enum RowSource {
+    Points {
+        a: Option<usize>,
+        b: usize,
+        k: usize,
+    },
+    Angle,
+}
+
 /// The constraint rows of the model.
+///
+/// `J` and `A` of the rows are formed two ways and the cheaper kept (operations counted
+/// alone and together with `M`, `F`, `Q`, as for [`points`]): by differentiating `h`
+/// (eqs. 15–16), or, for the rows of point constraints, from the points' Jacobians built
+/// from shared lever arms and their biases from the forward recursion (eqs. 49–50).
 pub fn constraints(model: &Model, sym: &mut Symbolic) -> ConstraintExprs {
     let mut out = ConstraintExprs::default();
+    let mut sources = vec![];
     let point_pos = |sym: &mut Symbolic, k: usize| {
         let pt = &model.points[k];
         let r = [0, 1, 2].map(|c| sym.dag.scalar(&pt.position[c], &model.parameters));
@@ -163,6 +183,11 @@ pub fn constraints(model: &Model, sym: &mut Symbolic) -> ConstraintExprs {
                     let k = ax.index();
                     out.h.push(sym.dag.sub(pb[k], pa[k]));
                     out.names.push(format!("{name}.{ax}"));
+                    sources.push(RowSource::Points {
+                        a: Some(*a),
+                        b: *b,
+                        k,
+                    });
                 }
             }
             Constraint::Fixed {
@@ -177,6 +202,11 @@ pub fn constraints(model: &Model, sym: &mut Symbolic) -> ConstraintExprs {
                     let target = sym.dag.scalar(&position[k], &model.parameters);
                     out.h.push(sym.dag.sub(p[k], target));
                     out.names.push(format!("{name}.{ax}"));
+                    sources.push(RowSource::Points {
+                        a: None,
+                        b: *point,
+                        k,
+                    });
                 }
             }
             Constraint::Angle {
@@ -202,12 +232,75 @@ pub fn constraints(model: &Model, sym: &mut Symbolic) -> ConstraintExprs {
                 let off = sym.dag.scalar(offset, &model.parameters);
                 out.h.push(sym.dag.sub(h, off));
                 out.names.push(name.clone());
+                sources.push(RowSource::Angle);
             }
         }
     }
     let h = out.h.clone();
-    let (j, a) = jacobian_and_bias(sym, &h);
-    out.j = j;
-    out.a = a;
+    let derived = jacobian_and_bias(sym, &h);
+    let g = [0, 1, 2].map(|c| sym.dag.scalar(&model.gravity[c], &model.parameters));
+    let mut candidates = vec![derived.clone()];
+    if sources
+        .iter()
+        .any(|s| matches!(s, RowSource::Points { .. }))
+    {
+        for gravity in [None, Some(g)] {
+            candidates.push(lever_rows(model, sym, &sources, &derived, gravity));
+        }
+    }
+    let context: Vec<Id> = sym.mf_roots().into_iter().chain(sym.q.clone()).collect();
+    let cost = |(j, a): &(Vec<Vec<Id>>, Vec<Id>), sym: &Symbolic| {
+        let mut roots: Vec<Id> = j.iter().flatten().chain(a).copied().collect();
+        let alone = sym.dag.op_count(&roots).total();
+        roots.extend(&context);
+        alone + sym.dag.op_count(&roots).total()
+    };
+    let costs: Vec<usize> = candidates.iter().map(|c| cost(c, sym)).collect();
+    let best = (0..candidates.len()).min_by_key(|&k| costs[k]).unwrap_or(0);
+    (out.j, out.a) = candidates.swap_remove(best);
     out
+}
+
+/// `J` and `A` of the constraint rows with the point rows from the points' lever-arm
+/// Jacobians and forward-recursion biases (`gravity`: which acceleration remainders, see
+/// [`Symbolic::point_bias`]); angle rows keep their rows from `derived`.
+fn lever_rows(
+    model: &Model,
+    sym: &mut Symbolic,
+    sources: &[RowSource],
+    derived: &(Vec<Vec<Id>>, Vec<Id>),
+    gravity: Option<V3>,
+) -> (Vec<Vec<Id>>, Vec<Id>) {
+    let kin = |sym: &mut Symbolic, k: usize| {
+        let pt = &model.points[k];
+        let r = [0, 1, 2].map(|c| sym.dag.scalar(&pt.position[c], &model.parameters));
+        (
+            sym.point_jacobian(pt.body, r),
+            sym.point_bias(pt.body, r, gravity),
+        )
+    };
+    let mut rows = Vec::with_capacity(sources.len());
+    let mut bias = Vec::with_capacity(sources.len());
+    for (row, src) in sources.iter().enumerate() {
+        match *src {
+            RowSource::Angle => {
+                rows.push(derived.0[row].clone());
+                bias.push(derived.1[row]);
+            }
+            RowSource::Points { a, b, k } => {
+                let (jb, ab) = kin(sym, b);
+                let (mut jr, mut ar) = (jb[k].clone(), ab[k]);
+                if let Some(a) = a {
+                    let (ja, aa) = kin(sym, a);
+                    for (x, y) in jr.iter_mut().zip(&ja[k]) {
+                        *x = sym.dag.sub(*x, *y);
+                    }
+                    ar = sym.dag.sub(ar, aa[k]);
+                }
+                rows.push(jr);
+                bias.push(ar);
+            }
+        }
+    }
+    (rows, bias)
 }

@@ -29,7 +29,11 @@ fn assert_close(what: &str, got: &[f64], want: &[f64], seed: u64) {
 }
 
 fn check(seed: u64, opts: &RandomOpts) {
-    let model = random_model(seed, opts);
+    check_model(seed, &random_model(seed, opts));
+}
+
+fn check_model(seed: u64, model: &mbs_symbolic::model::Model) {
+    let model = model.clone();
     let n = model.dof();
     let mut sym = Symbolic::derive(&model);
     let pts = constraints::points(&model, &mut sym);
@@ -231,5 +235,43 @@ fn power_balance_of_the_symbolic_equations() {
             (de_dt - power).abs() <= 1e-7 * scale,
             "seed {seed}: dE/dt {de_dt} vs -q'^T Q_nc {power}"
         );
+    }
+}
+
+/// Long chains whose tip is held or looped back to the ground: their constraint rows take the
+/// points' lever-arm Jacobians and forward-recursion biases (`constraints.rs`; the
+/// differentiated form costs O(N^2) there, see `op_counts.rs`), checked like every other
+/// quantity against the numeric reference.
+#[test]
+fn lever_arm_constraint_rows_of_long_chains() {
+    use mbs_symbolic::model::{Axis, Constraint, Point, Scalar};
+    for (seed, n) in [(1u64, 9usize), (2, 14)] {
+        let mut m = mbs_symbolic::samples::spatial_chain(n);
+        m.constraints.push(Constraint::Fixed {
+            name: "hold".into(),
+            point: 0,
+            position: [0.1, 0.2, 0.3].map(Scalar::Num),
+            components: vec![Axis::X, Axis::Z],
+        });
+        m.points.push(Point {
+            name: "mid".into(),
+            body: Some(n / 2),
+            position: [0.05, -0.02, 0.01].map(Scalar::Num),
+        });
+        m.constraints.push(Constraint::Loop {
+            name: "loop".into(),
+            a: 1,
+            b: 0,
+            components: vec![Axis::X, Axis::Y, Axis::Z],
+        });
+        check_model(seed, &m);
+        let mut p = mbs_symbolic::samples::planar_chain(n);
+        p.constraints.push(Constraint::Fixed {
+            name: "hold".into(),
+            point: 0,
+            position: [0.5, 1.0, 0.0].map(Scalar::Num),
+            components: vec![Axis::X, Axis::Y],
+        });
+        check_model(seed, &p);
     }
 }
