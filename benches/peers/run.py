@@ -152,6 +152,35 @@ def count_ops(exprs):
     return counts
 
 
+def sympy_cache_key():
+    """What the SymPy side's output depends on: SymPy's version and the code above."""
+    import hashlib
+    import inspect
+    import sympy as sp
+    code = "".join(inspect.getsource(f) for f in (kane_chain, sympy_side, count_ops))
+    return f"sympy {sp.__version__} " + hashlib.sha256(code.encode()).hexdigest()[:16]
+
+
+def sympy_side_cached(n, d, fresh):
+    """`sympy_side(n)`, reusing `d/chain.c` and `d/sympy.json` when they were produced by
+    the same SymPy version and the same code (N = 16 takes SymPy's Kane about 20 minutes);
+    returns (source, ops, Kane seconds, CSE seconds, reused)."""
+    meta_path, c_path = os.path.join(d, "sympy.json"), os.path.join(d, "chain.c")
+    key = sympy_cache_key()
+    if not fresh and os.path.exists(meta_path) and os.path.exists(c_path):
+        with open(meta_path) as f:
+            meta = json.load(f)
+        if meta.get("key") == key and meta.get("n") == n:
+            with open(c_path) as f:
+                return f.read(), meta["ops"], meta["kane"], meta["cse"], True
+    source, ops, t_kane, t_cse = sympy_side(n)
+    with open(c_path, "w") as f:
+        f.write(source)
+    with open(meta_path, "w") as f:
+        json.dump(dict(key=key, n=n, ops=ops, kane=t_kane, cse=t_cse), f)
+    return source, ops, t_kane, t_cse, False
+
+
 # ---------------------------------------------------------------------------------------
 # Builds and runs
 
@@ -229,13 +258,16 @@ def compare(n, rust_checks, c_checks):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", type=int, nargs="+", default=[2, 4, 8],
-                    help="chain sizes (default 2 4 8; 16 takes SymPy a long time)")
+                    help="chain sizes (default 2 4 8; 16 takes SymPy about 20 minutes once)")
     ap.add_argument("--states", type=int, default=1000, help="states in the sequence")
     ap.add_argument("--check", type=int, default=8, help="states checked for agreement")
     ap.add_argument("--secs", type=float, default=0.5, help="seconds per repetition")
     ap.add_argument("--reps", type=int, default=5, help="repetitions (median reported)")
     ap.add_argument("--seed", type=int, default=1, help="seed of the state sequence")
     ap.add_argument("--cc", default=os.environ.get("CC", "cc"), help="C compiler")
+    ap.add_argument("--fresh-sympy", action="store_true",
+                    help="rederive with SymPy even if build/n<N>/ holds its output for the "
+                         "same SymPy version and code")
     args = ap.parse_args()
     ns = sorted(set(args.n))
     if any(n < 1 for n in ns):
@@ -252,10 +284,9 @@ def main():
         write_states(states, n, args.states, args.seed)
 
         log(f"N={n}: SymPy KanesMethod + cse ...")
-        source, sympy_ops, t_kane, t_cse = sympy_side(n)
-        log(f"N={n}: Kane {t_kane:.1f} s, cse {t_cse:.1f} s")
-        with open(os.path.join(d, "chain.c"), "w") as f:
-            f.write(source)
+        source, sympy_ops, t_kane, t_cse, reused = sympy_side_cached(n, d, args.fresh_sympy)
+        log(f"N={n}: Kane {t_kane:.1f} s, cse {t_cse:.1f} s"
+            + (" (reused from build/, --fresh-sympy to rederive)" if reused else ""))
         driver = os.path.join(d, "driver")
         run([args.cc, "-O3", "-std=c99", "-D_POSIX_C_SOURCE=199309L", "-I", d,
              os.path.join(HERE, "driver.c"), "-o", driver, "-lm"])
