@@ -17,6 +17,8 @@
 //! when the improvement is meant to stay). The table of counts is printed
 //! (`cargo test -p mbs-symbolic --release --test op_counts -- --nocapture`).
 
+mod common;
+
 use std::path::PathBuf;
 
 use mbs_symbolic::dynamics::Symbolic;
@@ -268,17 +270,15 @@ fn point_jacobians_are_linear_in_the_chain_length() {
 
 /// A spatial chain whose tip is held at a ground point (three constraint rows).
 fn held_chain(n: usize) -> Model {
+    use mbs_symbolic::model::Axis;
     let mut m = spatial_chain(n);
-    m.constraints.push(mbs_symbolic::model::Constraint::Fixed {
-        name: "hold".into(),
-        point: 0,
-        position: [0.1, 0.2, 0.3].map(mbs_symbolic::model::Scalar::Num),
-        components: vec![
-            mbs_symbolic::model::Axis::X,
-            mbs_symbolic::model::Axis::Y,
-            mbs_symbolic::model::Axis::Z,
-        ],
-    });
+    common::hold(
+        &mut m,
+        "hold",
+        0,
+        [0.1, 0.2, 0.3],
+        &[Axis::X, Axis::Y, Axis::Z],
+    );
     m
 }
 

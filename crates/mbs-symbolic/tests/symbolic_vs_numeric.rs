@@ -247,12 +247,7 @@ fn lever_arm_constraint_rows_of_long_chains() {
     use mbs_symbolic::model::{Axis, Constraint, Point, Scalar};
     for (seed, n) in [(1u64, 9usize), (2, 14)] {
         let mut m = mbs_symbolic::samples::spatial_chain(n);
-        m.constraints.push(Constraint::Fixed {
-            name: "hold".into(),
-            point: 0,
-            position: [0.1, 0.2, 0.3].map(Scalar::Num),
-            components: vec![Axis::X, Axis::Z],
-        });
+        common::hold(&mut m, "hold", 0, [0.1, 0.2, 0.3], &[Axis::X, Axis::Z]);
         m.points.push(Point {
             name: "mid".into(),
             body: Some(n / 2),
@@ -266,12 +261,7 @@ fn lever_arm_constraint_rows_of_long_chains() {
         });
         check_model(seed, &m);
         let mut p = mbs_symbolic::samples::planar_chain(n);
-        p.constraints.push(Constraint::Fixed {
-            name: "hold".into(),
-            point: 0,
-            position: [0.5, 1.0, 0.0].map(Scalar::Num),
-            components: vec![Axis::X, Axis::Y],
-        });
+        common::hold(&mut p, "hold", 0, [0.5, 1.0, 0.0], &[Axis::X, Axis::Y]);
         check_model(seed, &p);
     }
 }

@@ -470,3 +470,14 @@ pub fn random_state(seed: u64, n: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let qdd = (0..n).map(|_| rng.uniform(-2.0, 2.0)).collect();
     (q, qd, qdd)
 }
+
+/// Holds point `point` of `model` at the ground position `position` (components `axes`): a
+/// `Fixed` constraint named `name`.
+pub fn hold(model: &mut Model, name: &str, point: usize, position: [f64; 3], axes: &[Axis]) {
+    model.constraints.push(Constraint::Fixed {
+        name: name.into(),
+        point,
+        position: position.map(Scalar::Num),
+        components: axes.to_vec(),
+    });
+}
