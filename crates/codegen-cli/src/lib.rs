@@ -28,6 +28,7 @@ pub mod budget;
 pub mod commands;
 pub mod interrupt;
 pub mod linear;
+pub mod progress;
 pub mod report;
 pub mod run;
 pub mod run_hybrid;

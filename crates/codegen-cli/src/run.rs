@@ -23,7 +23,7 @@ use hybrid_core::hybrid::{HybridModel, HybridState, Integrator};
 use hybrid_core::study::{
     Probe, RunEnd, RunError, Sample, prepare, prepare_bare_beam, run_streaming,
 };
-use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
+use indicatif::{MultiProgress, ProgressBar};
 use mbs_symbolic::model::Model;
 
 use crate::Error;
@@ -82,11 +82,9 @@ fn bar(multi: &MultiProgress, label: &str, show: bool) -> ProgressBar {
         return ProgressBar::hidden();
     }
     let pb = multi.add(ProgressBar::new(1000));
-    pb.set_style(
-        ProgressStyle::with_template("{prefix:>22} [{bar:40}] {percent:>3}% ETA {eta}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
+    pb.set_style(crate::progress::style(
+        "{prefix:>22} [{bar:40}] {percent:>3}% ETA {eta}",
+    ));
     pb.set_prefix(label.to_string());
     pb
 }
@@ -362,15 +360,11 @@ fn system(model: &Model) -> Result<(Box<dyn System>, String), Error> {
 }
 
 fn progress_bar(requested: bool, settings: &Settings) -> Option<ProgressBar> {
-    if !(requested && std::io::stderr().is_terminal()) {
-        return None;
-    }
-    let pb = ProgressBar::new(1000);
-    pb.set_style(
-        ProgressStyle::with_template("simulate [{bar:40}] {percent:>3}% ETA {eta} {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
+    let pb = crate::progress::bar(
+        requested,
+        1000,
+        "simulate [{bar:40}] {percent:>3}% ETA {eta} {msg}",
+    )?;
     pb.set_message(format!("t_end = {} s", settings.t_end));
     Some(pb)
 }

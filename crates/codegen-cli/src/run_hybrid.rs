@@ -16,11 +16,10 @@
 //! by the one writer at the end; a run that fails leaves nothing.
 
 use std::collections::BTreeMap;
-use std::io::IsTerminal;
 use std::path::Path;
 
 use hybrid_core::hybrid::{Integrator, RunError, RunOptions, run};
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::ProgressBar;
 
 use crate::Error;
 use crate::budget::Estimate;
@@ -40,16 +39,7 @@ use crate::scenario::hybrid::Built;
 const CELL_BYTES: f64 = 25.0;
 
 fn progress_bar(show: bool) -> ProgressBar {
-    if !(show && std::io::stderr().is_terminal()) {
-        return ProgressBar::hidden();
-    }
-    let pb = ProgressBar::new(1000);
-    pb.set_style(
-        ProgressStyle::with_template("simulate [{bar:40}] {percent:>3}% ETA {eta}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
-    pb
+    crate::progress::bar_or_hidden(show, 1000, "simulate [{bar:40}] {percent:>3}% ETA {eta}")
 }
 
 /// Per-output-row figures the summary needs (not the rows themselves).

@@ -71,6 +71,7 @@ fn run_all(
         &ExcitationTarget::Beam(tip.clone()),
         freqs,
         options,
+        &|| {},
     )
     .into_iter()
     .map(|r| r.unwrap_or_else(|e| panic!("{e}")))

@@ -100,6 +100,9 @@ pub struct Args {
     /// Output directory (default: `out/<scenario name>`).
     #[arg(short = 'o', long = "out")]
     pub out: Option<PathBuf>,
+    /// No progress bar for the nonlinear runs even on a terminal.
+    #[arg(long)]
+    pub quiet: bool,
 }
 
 /// The response and the force, resolved against the model.
@@ -563,7 +566,13 @@ fn nonlinear_rows(
         max_periods: args.max_periods,
     };
     let freqs = grid(args.from, args.to, m, args.log);
-    let results = steady_states(&model, &start, &io.output, &freqs, &options);
+    let bar = crate::progress::bar_or_hidden(
+        !args.quiet,
+        freqs.len() as u64,
+        "frf nonlinear [{bar:40}] {pos}/{len} ETA {eta}",
+    );
+    let results = steady_states(&model, &start, &io.output, &freqs, &options, &|| bar.inc(1));
+    bar.finish_and_clear();
     let force = io.excitation.amplitude.abs();
     let mut rows = Vec::with_capacity(m);
     for (&f, r) in freqs.iter().zip(results) {
@@ -756,7 +765,9 @@ fn outputs(
         plot(
             &title,
             &unit,
-            (args.from..args.to).log_scale(),
+            (args.from..args.to)
+                .log_scale()
+                .with_key_points(log_ticks(args.from, args.to)),
             linear,
             nonlinear,
         )
@@ -769,6 +780,41 @@ fn outputs(
         bytes: svg,
     });
     Ok(files)
+}
+
+/// Tick values of a log axis over `[a, b]` (`0 < a < b`): the 1-2-5 sequence of every
+/// decade, thinned to 1-3 or to the decades when it would give more than 12 ticks; the two
+/// ends are added when fewer than 3 values fall inside.
+fn log_ticks(a: f64, b: f64) -> Vec<f64> {
+    let (lo, hi) = (a.log10().floor() as i32, b.log10().ceil() as i32);
+    let inside = |mantissas: &[f64]| -> Vec<f64> {
+        (lo..=hi)
+            .flat_map(|e| mantissas.iter().map(move |m| m * 10f64.powi(e)))
+            .filter(|v| *v >= a * (1.0 - 1e-12) && *v <= b * (1.0 + 1e-12))
+            .collect()
+    };
+    let mut ticks = [&[1.0, 2.0, 5.0][..], &[1.0, 3.0], &[1.0]]
+        .iter()
+        .map(|m| inside(m))
+        .find(|t| t.len() <= 12)
+        .unwrap_or_default();
+    if ticks.len() < 3 {
+        ticks.extend([a, b]);
+        ticks.sort_by(f64::total_cmp);
+        ticks.dedup_by(|x, y| (*x - *y).abs() <= 1e-9 * y.abs());
+    }
+    ticks
+}
+
+/// A tick label: at most four significant digits, no trailing zeros (`2`, `0.5`, `12.5`).
+fn tick_label(v: f64) -> String {
+    let digits = (3 - v.abs().log10().floor() as i32).clamp(0, 12) as usize;
+    let s = format!("{v:.digits$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
 }
 
 /// The SVG plot: `|H|` on a log axis against frequency (`x`: a linear or log range), the
@@ -823,6 +869,7 @@ where
             .configure_mesh()
             .x_desc("frequency (Hz)")
             .x_labels(12)
+            .x_label_formatter(&|v| tick_label(*v))
             .y_desc(format!("|H| ({unit})"))
             .y_label_formatter(&|v| format!("{v:.0e}"))
             .draw()
@@ -888,4 +935,38 @@ where
         root.present().map_err(|e| err(&e))?;
     }
     Ok(svg.into_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{log_ticks, tick_label};
+
+    #[test]
+    fn log_ticks_follow_1_2_5_and_thin_out() {
+        assert_eq!(log_ticks(2.0, 20.0), vec![2.0, 5.0, 10.0, 20.0]);
+        assert_eq!(
+            log_ticks(0.1, 100.0),
+            vec![0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0]
+        );
+        // Six decades: 1-3 would give 13, so the decades alone.
+        assert_eq!(
+            log_ticks(1.0, 1e6),
+            vec![1.0, 10.0, 100.0, 1e3, 1e4, 1e5, 1e6]
+        );
+        // Less than a tick pair inside: the ends are added.
+        assert_eq!(log_ticks(5.5, 7.5), vec![5.5, 7.5]);
+        assert_eq!(log_ticks(4.5, 9.0), vec![4.5, 5.0, 9.0]);
+    }
+
+    #[test]
+    fn tick_labels_are_short() {
+        let labels: Vec<String> = [2.0, 0.5, 12.5, 100.0, 6.425, 0.002, 1e5]
+            .into_iter()
+            .map(tick_label)
+            .collect();
+        assert_eq!(
+            labels,
+            ["2", "0.5", "12.5", "100", "6.425", "0.002", "100000"]
+        );
+    }
 }

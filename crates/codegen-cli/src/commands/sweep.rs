@@ -20,11 +20,10 @@
 //! Numbers are written in one form everywhere: the shortest representation that reads back
 //! to the same `f64` (`crate::report::csv` cells; `serde_json` in the JSON).
 
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::ProgressBar;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use toml_edit::Value;
@@ -384,16 +383,7 @@ pub fn run(args: Args) -> Result<(), Error> {
 }
 
 fn progress_bar(show: bool, len: usize) -> ProgressBar {
-    if !(show && std::io::stderr().is_terminal()) {
-        return ProgressBar::hidden();
-    }
-    let pb = ProgressBar::new(len as u64);
-    pb.set_style(
-        ProgressStyle::with_template("sweep [{bar:40}] {pos}/{len} ETA {eta}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
-    pb
+    crate::progress::bar_or_hidden(show, len as u64, "sweep [{bar:40}] {pos}/{len} ETA {eta}")
 }
 
 /// Pretty-printed JSON with a final newline (`null` for an absent figure or no error).

@@ -312,17 +312,24 @@ pub fn steady_state(
 }
 
 /// [`steady_state`] at every frequency, in parallel (rayon); the results are in the order of
-/// `frequencies_hz` and do not depend on the number of threads.
+/// `frequencies_hz` and do not depend on the number of threads. `done` is called once as
+/// each frequency finishes (in completion order, from the worker threads: a progress
+/// report).
 pub fn steady_states(
     model: &HybridModel,
     start: &HybridState,
     output: &ExcitationTarget,
     frequencies_hz: &[f64],
     options: &SteadyOptions,
+    done: &(dyn Fn() + Sync),
 ) -> Vec<Result<SteadyState, SteadyError>> {
     frequencies_hz
         .par_iter()
-        .map(|&f| steady_state(model, start, output, f, options))
+        .map(|&f| {
+            let r = steady_state(model, start, output, f, options);
+            done();
+            r
+        })
         .collect()
 }
 
