@@ -162,6 +162,53 @@ fn planar_chain_operation_counts() {
     }
 }
 
+/// A spatial tree: two branches from the base, one through a prismatic joint (whose offset
+/// `d` depends on `q`, so the composite form's first moments do), tilted joint frames,
+/// off-axis centres of mass and full inertia tensors, gravity off every axis.
+fn branched_tree_with_a_slider() -> Model {
+    let src = r#"
+name = "branched"
+gravity = [1.2, -9.3, 2.1]
+
+[[bodies]]
+name = "base"
+parent = "ground"
+joint = "R3"
+mass = 2.0
+com = [0.01, 0.02, 0.1]
+inertia = { xx = 0.03, yy = 0.04, zz = 0.02, xy = 0.001, xz = -0.002, yz = 0.0015 }
+
+[[bodies]]
+name = "slide"
+parent = "base"
+joint = { type = "prismatic", axis = "x", rotation = [{ axis = "y", angle = 0.4 }] }
+anchor = [0.1, 0.05, 0.2]
+mass = 0.8
+com = [0.05, -0.01, 0.02]
+inertia = { xx = 0.001, yy = 0.003, zz = 0.003, yz = 0.0002 }
+
+[[bodies]]
+name = "wrist"
+parent = "slide"
+joint = { type = "revolute", axis = "x", rotation = [{ axis = "z", angle = 0.3 }] }
+anchor = [0.1, 0.0, 0.0]
+mass = 0.3
+com = [0.03, 0.005, 0.01]
+inertia = { xx = 0.0004, yy = 0.0006, zz = 0.0007, xy = 0.0001 }
+
+[[bodies]]
+name = "arm"
+parent = "base"
+joint = "R2"
+anchor = [-0.2, 0.0, 0.3]
+mass = 1.1
+com = [0.15, 0.02, -0.01]
+inertia = { xx = 0.002, yy = 0.02, zz = 0.021, xz = 0.0003 }
+"#;
+    crate::model::parse_str(src, "branched.toml", crate::model::Format::Toml)
+        .unwrap_or_else(|e| panic!("{e:?}"))
+}
+
 /// Every way of bringing gravity into `F^b` (base acceleration, body forces) and of carrying
 /// the wrenches (plain, composite) gives the same values; `derive` keeps the cheapest, so
 /// all must be right.
@@ -171,6 +218,7 @@ fn gravity_as_base_acceleration_or_body_forces_agree() {
         crate::samples::planar_chain(3),
         crate::samples::spatial_chain(5),
         double_pendulum(0.7, 1.3, 0.31, 0.05, 0.9, 0.42, 0.03),
+        branched_tree_with_a_slider(),
     ] {
         let mut b = Builder {
             model: &model,
