@@ -116,6 +116,32 @@ struct Operator<'a> {
     /// `(omega z, z', i)` gives positions and velocities of one scale, so the Krylov basis
     /// and the Ritz values are not dominated by one block.
     omega: f64,
+    /// Work vectors of [`Operator::apply`], allocated once.
+    work: std::cell::RefCell<Work>,
+}
+
+/// Work vectors of one application of the operator.
+struct Work {
+    unscaled: Vec<f64>,
+    t: Vec<f64>,
+    rhs: Vec<f64>,
+    small: Vec<f64>,
+    force: Vec<f64>,
+    a: Vec<C64>,
+}
+
+impl Work {
+    fn new(lin: &Linearization) -> Work {
+        let (d, ns) = (lin.dim(), lin.small_dim());
+        Work {
+            unscaled: vec![0.0; d],
+            t: vec![0.0; d],
+            rhs: vec![0.0; d],
+            small: vec![0.0; ns],
+            force: vec![0.0; ns],
+            a: vec![C64::new(0.0, 0.0); d],
+        }
+    }
 }
 
 impl Operator<'_> {
@@ -129,37 +155,47 @@ impl Operator<'_> {
 
     fn apply(&self, y: &[f64], out: &mut [f64]) {
         let (lin, d, s) = (self.lin, self.d, self.sigma());
-        let unscaled: Vec<f64> = y[..d].iter().map(|x| x / self.omega).collect();
+        let mut work = self.work.borrow_mut();
+        let Work {
+            unscaled,
+            t,
+            rhs,
+            small: sm,
+            force,
+            a,
+        } = &mut *work;
+        for (u, x) in unscaled.iter_mut().zip(&y[..d]) {
+            *u = x / self.omega;
+        }
         let (c, dd, g) = (&unscaled[..], &y[d..2 * d], &y[2 * d..]);
-        let mut t = vec![0.0; d];
-        let mut rhs = vec![0.0; d];
-        lin.mul(Matrix::Mass, dd, &mut t);
-        rhs.iter_mut().zip(&t).for_each(|(r, x)| *r -= x);
-        lin.mul(Matrix::Damping, c, &mut t);
-        rhs.iter_mut().zip(&t).for_each(|(r, x)| *r -= x);
-        lin.mul(Matrix::Mass, c, &mut t);
-        rhs.iter_mut().zip(&t).for_each(|(r, x)| *r -= s * x);
-        let ns = lin.small_dim();
-        let mut sm = vec![0.0; ns];
-        lin.to_small(c, &mut sm);
-        let mut force = vec![0.0; ns];
+        rhs.fill(0.0);
+        lin.mul(Matrix::Mass, dd, t);
+        rhs.iter_mut().zip(t.iter()).for_each(|(r, x)| *r -= x);
+        lin.mul(Matrix::Damping, c, t);
+        rhs.iter_mut().zip(t.iter()).for_each(|(r, x)| *r -= x);
+        lin.mul(Matrix::Mass, c, t);
+        rhs.iter_mut().zip(t.iter()).for_each(|(r, x)| *r -= s * x);
+        lin.to_small(c, sm);
+        force.fill(0.0);
         for (k, e) in lin.electrical.iter().enumerate() {
-            let gc: f64 = e.emf.iter().zip(&sm).map(|(a, b)| a * b).sum();
+            let gc: f64 = e.emf.iter().zip(sm.iter()).map(|(a, b)| a * b).sum();
             let f = (gc - e.inductance * g[k]) / (e.resistance + s * e.inductance);
             for (fi, b) in force.iter_mut().zip(e.torque.iter()) {
                 *fi -= b * f;
             }
         }
-        lin.add_from_small(&force, &mut rhs);
-        let mut a: Vec<C64> = rhs.iter().map(|&x| C64::new(x, 0.0)).collect();
-        self.pencil.solve_in_place(&mut a);
+        lin.add_from_small(force, rhs);
+        for (ai, &x) in a.iter_mut().zip(rhs.iter()) {
+            *ai = C64::new(x, 0.0);
+        }
+        self.pencil.solve_in_place(a);
         for i in 0..d {
             out[i] = self.omega * a[i].re;
             out[d + i] = c[i] + s * a[i].re;
         }
-        lin.to_small(&out[d..2 * d], &mut sm);
+        lin.to_small(&out[d..2 * d], sm);
         for (k, e) in lin.electrical.iter().enumerate() {
-            let gb: f64 = e.emf.iter().zip(&sm).map(|(a, b)| a * b).sum();
+            let gb: f64 = e.emf.iter().zip(sm.iter()).map(|(a, b)| a * b).sum();
             out[2 * d + k] = (gb - e.inductance * g[k]) / (e.resistance + s * e.inductance);
         }
     }
@@ -190,6 +226,7 @@ pub fn modes(lin: &Linearization, k: usize, method: EigenMethod) -> Result<Vec<M
         pencil,
         d,
         omega,
+        work: std::cell::RefCell::new(Work::new(lin)),
     };
     let n = op.states();
     if n == 0 || k == 0 {
