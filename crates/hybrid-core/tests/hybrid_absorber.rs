@@ -16,6 +16,8 @@
 //!
 //! The measured side of every comparison is the simulated time history.
 
+mod common;
+
 use std::f64::consts::PI;
 use std::path::Path;
 
@@ -91,18 +93,9 @@ fn first_mode(beam: &BeamModel) -> (f64, Vec<f64>) {
     (modes.angular_frequencies()[0], modes.shape(0).to_vec())
 }
 
-/// The paper's generator (scenarios/damper.toml) with inductance `inductance`.
+/// The paper's generator (scenarios/damper.toml), connected, with inductance `inductance`.
 fn generator(inductance: f64) -> GeneratorSpec {
-    GeneratorSpec {
-        kt: 0.0235,
-        ke: 0.0235,
-        armature_resistance: 1.5,
-        load_resistance: 3.5,
-        inductance,
-        gear_ratio: 5.0,
-        rotor_inertia: 1e-6,
-        connected: true,
-    }
+    common::generator(inductance, true)
 }
 
 /// Independent check that every attached point is on its beam point: the transverse

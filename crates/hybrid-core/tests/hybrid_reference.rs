@@ -13,7 +13,7 @@ use hybrid_core::damper::Method;
 use hybrid_core::hybrid::reference::{self, Reference};
 use hybrid_core::hybrid::{
     Attachment, AttachmentKind, BeamPoint, Excitation, ExcitationTarget, ForceKind, HybridModel,
-    HybridState, Integrator, JointForce, MountedMechanism, Stored, initial_state,
+    HybridState, Integrator, MountedMechanism, Stored, initial_state,
 };
 use mbs_symbolic::runtime::System;
 use mbs_symbolic::samples::SplitMix64;
@@ -414,30 +414,15 @@ fn composite(dissipative: bool, excited: bool) -> Case {
     for (i, &(shape, x)) in spots.iter().enumerate() {
         let bp = BeamPoint::on(&bm, x).unwrap();
         let placed = place(shape, &mut rng, [x, bp.value(&q0)], 2e-3);
-        atts.push(Attachment {
-            name: format!("att{i}"),
-            mechanism: i,
-            point: placed.point,
-            kind: placed.kind,
-            beam: bp,
-        });
-        for (k, (joint, kind)) in placed.forces.into_iter().enumerate() {
-            let kind = match kind {
-                ForceKind::Generator(mut g) => {
-                    g.connected = dissipative;
-                    ForceKind::Generator(g)
-                }
-                ForceKind::Damper { .. } if !dissipative => continue,
-                other => other,
-            };
-            forces.push(JointForce {
-                name: format!("f{i}_{k}"),
-                mechanism: i,
-                joint,
-                kind,
-            });
-        }
-        mechs.push(placed.mech);
+        let keep = |kind| match kind {
+            ForceKind::Generator(mut g) => {
+                g.connected = dissipative;
+                Some(ForceKind::Generator(g))
+            }
+            ForceKind::Damper { .. } if !dissipative => None,
+            other => Some(other),
+        };
+        placed.push_into(i, bp, (&mut mechs, &mut atts, &mut forces), keep);
     }
     let excitations = if excited {
         vec![

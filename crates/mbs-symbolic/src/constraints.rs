@@ -59,6 +59,15 @@ fn jacobian_and_bias(sym: &mut Symbolic, pos: &[Id]) -> (Vec<Vec<Id>>, Vec<Id>) 
     (rows, bias)
 }
 
+/// The model's equations, constraint rows and point kinematics, derived in that order on
+/// one DAG (what the interpreter and the tangents evaluate).
+pub fn derive_all(model: &Model) -> (Symbolic, ConstraintExprs, Vec<PointExprs>) {
+    let mut sym = Symbolic::derive(model);
+    let cons = constraints(model, &mut sym);
+    let pts = points(model, &mut sym);
+    (sym, cons, pts)
+}
+
 /// Point kinematics of every named point of the model, in declaration order.
 ///
 /// The Jacobian is built by columns from shared lever arms (O(N) per point, see

@@ -487,22 +487,14 @@ pub fn run(args: Args) -> Result<(), Error> {
         generators,
     )?;
     commit_files(&files).map_err(ReportError::from)?;
-    let peak = linear
-        .iter()
-        .max_by(|a, b| {
-            a.with_generator
-                .magnitude
-                .total_cmp(&b.with_generator.magnitude)
-        })
-        .expect("at least two frequencies");
-    let peak_off = linear
-        .iter()
-        .max_by(|a, b| {
-            a.generator_disconnected
-                .magnitude
-                .total_cmp(&b.generator_disconnected.magnitude)
-        })
-        .expect("at least two frequencies");
+    let peak_of = |of: fn(&LinearRow) -> f64| {
+        linear
+            .iter()
+            .max_by(|a, b| of(a).total_cmp(&of(b)))
+            .expect("at least two frequencies")
+    };
+    let peak = peak_of(|r| r.with_generator.magnitude);
+    let peak_off = peak_of(|r| r.generator_disconnected.magnitude);
     let unit = io.unit();
     let mut text = format!(
         "{file}: {} frequencies {}-{} Hz; peak |H| with generator {:.4e} {unit} at {:.4} Hz, generator disconnected {:.4e} {unit} at {:.4} Hz",

@@ -167,6 +167,14 @@ pub fn output_value(output: &ExcitationTarget, state: &HybridState) -> f64 {
 /// Periods per window of the settle test's decay-rate estimate.
 const WINDOW: usize = 8;
 
+/// `cos` and `sin` of `2 pi j / n` for the `n` samples `j` of one period.
+fn harmonic_basis(n: usize) -> (Vec<f64>, Vec<f64>) {
+    (0..n)
+        .map(|j| (2.0 * PI * j as f64 / n as f64).sin_cos())
+        .map(|(s, c)| (c, s))
+        .unzip()
+}
+
 /// The fit of one period: `(a, C = c + i b, RMS residual)`.
 fn fit(y: &[f64], cos: &[f64], sin: &[f64]) -> (f64, [f64; 2], f64) {
     let n = y.len() as f64;
@@ -220,12 +228,7 @@ pub fn steady_state(
     let n = options.steps_per_period.max(8);
     let period = 1.0 / frequency_hz;
     let h = period / n as f64;
-    let cos: Vec<f64> = (0..n)
-        .map(|j| (2.0 * PI * j as f64 / n as f64).cos())
-        .collect();
-    let sin: Vec<f64> = (0..n)
-        .map(|j| (2.0 * PI * j as f64 / n as f64).sin())
-        .collect();
+    let (cos, sin) = harmonic_basis(n);
     let stop = |k: usize, error: HybridError| SteadyError {
         frequency_hz,
         period: k,
@@ -340,12 +343,7 @@ mod tests {
     #[test]
     fn the_fit_of_a_sampled_sinusoid_is_exact() {
         let n = 16;
-        let cos: Vec<f64> = (0..n)
-            .map(|j| (2.0 * PI * j as f64 / n as f64).cos())
-            .collect();
-        let sin: Vec<f64> = (0..n)
-            .map(|j| (2.0 * PI * j as f64 / n as f64).sin())
-            .collect();
+        let (cos, sin) = harmonic_basis(n);
         let y: Vec<f64> = (0..n)
             .map(|j| 0.3 + 2.0 * (2.0 * PI * j as f64 / n as f64 + 0.7).sin())
             .collect();

@@ -164,6 +164,41 @@ pub struct Placed {
     pub forces: Vec<(usize, ForceKind)>,
 }
 
+impl Placed {
+    /// Adds the placed mechanism as mechanism `i`, attached at `beam` (attachment `att{i}`),
+    /// with its force elements (`f{i}_{k}`) as `keep` changes them (`None`: left out).
+    pub fn push_into(
+        self,
+        i: usize,
+        beam: BeamPoint,
+        (mechs, atts, forces): (
+            &mut Vec<MountedMechanism>,
+            &mut Vec<Attachment>,
+            &mut Vec<JointForce>,
+        ),
+        mut keep: impl FnMut(ForceKind) -> Option<ForceKind>,
+    ) {
+        atts.push(Attachment {
+            name: format!("att{i}"),
+            mechanism: i,
+            point: self.point,
+            kind: self.kind,
+            beam,
+        });
+        for (k, (joint, kind)) in self.forces.into_iter().enumerate() {
+            if let Some(kind) = keep(kind) {
+                forces.push(JointForce {
+                    name: format!("f{i}_{k}"),
+                    mechanism: i,
+                    joint,
+                    kind,
+                });
+            }
+        }
+        mechs.push(self.mech);
+    }
+}
+
 /// What [`place`] draws for a shape: the system, its attached point's name, pin or roller,
 /// the configuration, the mounting angle and the force elements.
 pub type Drawn = (
@@ -316,22 +351,7 @@ pub fn random_case(seed: u64, shapes: Option<&[Shape]>, damped: bool) -> Case {
         let target = [x, bp.value(&q0)];
         let inductance = if rng.below(2) == 0 { 0.0 } else { 2e-3 };
         let placed = place(shape, &mut rng, target, inductance);
-        atts.push(Attachment {
-            name: format!("att{i}"),
-            mechanism: i,
-            point: placed.point,
-            kind: placed.kind,
-            beam: bp,
-        });
-        for (k, (joint, kind)) in placed.forces.into_iter().enumerate() {
-            forces.push(JointForce {
-                name: format!("f{i}_{k}"),
-                mechanism: i,
-                joint,
-                kind,
-            });
-        }
-        mechs.push(placed.mech);
+        placed.push_into(i, bp, (&mut mechs, &mut atts, &mut forces), Some);
     }
     let mut excitations = Vec::new();
     if rng.below(2) == 0 {

@@ -166,36 +166,31 @@ impl E {
                     out.push(')');
                     return end + 1;
                 }
-                out.push('(');
-                let inner = indent + 4;
-                for a in args {
-                    out.push('\n');
-                    push_spaces(out, inner);
-                    a.write(out, inner, inner, 1);
-                    out.push(',');
-                }
-                out.push('\n');
-                push_spaces(out, indent);
-                out.push(')');
-                indent + 1
+                write_block(out, args, indent, '(', ')')
             }
             Kind::Array(items) => {
                 // `[\n    a,\n    b,\n]`
-                out.push('[');
-                let inner = indent + 4;
-                for a in items {
-                    out.push('\n');
-                    push_spaces(out, inner);
-                    a.write(out, inner, inner, 1);
-                    out.push(',');
-                }
-                out.push('\n');
-                push_spaces(out, indent);
-                out.push(']');
-                indent + 1
+                write_block(out, items, indent, '[', ']')
             }
         }
     }
+}
+
+/// `open`, one item per line indented by `indent + 4` with a trailing comma, `close` on a
+/// line indented by `indent` (rustfmt's vertical list); returns the column after `close`.
+fn write_block(out: &mut String, items: &[E], indent: usize, open: char, close: char) -> usize {
+    out.push(open);
+    let inner = indent + 4;
+    for a in items {
+        out.push('\n');
+        push_spaces(out, inner);
+        a.write(out, inner, inner, 1);
+        out.push(',');
+    }
+    out.push('\n');
+    push_spaces(out, indent);
+    out.push(close);
+    indent + 1
 }
 
 fn push_spaces(out: &mut String, n: usize) {

@@ -38,6 +38,25 @@ fn copy_rows<const R: usize, const C: usize>(rows: &[[f64; C]; R], out: &mut [f6
     }
 }
 
+/// `M`, `F`, `Q`, `h`, `A`, `J` of a generated evaluation into the workspace. Column-major
+/// copies through the raw slices (no per-entry bounds checks: this is on every step of the
+/// damper).
+fn store_evaluation<const N: usize, const NC: usize>(e: &Evaluation<N, NC>, ws: &mut Workspace) {
+    copy_rows(&e.mass, ws.m.as_mut_slice());
+    ws.f.as_mut_slice().copy_from_slice(&e.f);
+    ws.q.as_mut_slice().copy_from_slice(&e.q);
+    ws.h.as_mut_slice().copy_from_slice(&e.h);
+    ws.a.as_mut_slice().copy_from_slice(&e.a);
+    copy_rows(&e.j, ws.j.as_mut_slice());
+}
+
+/// A point's position, bias and Jacobian into the workspace.
+fn store_point<const N: usize>(pk: &PointKinematics<N>, ws: &mut Workspace) {
+    ws.point_p.as_mut_slice().copy_from_slice(&pk.p);
+    ws.point_a.as_mut_slice().copy_from_slice(&pk.a);
+    copy_rows(&pk.j, ws.point_j.as_mut_slice());
+}
+
 fn array<const N: usize>(v: &[f64]) -> [f64; N] {
     let mut a = [0.0; N];
     a.copy_from_slice(v);
@@ -118,14 +137,7 @@ where
         // One fused generated body: trigonometric leaves and rotations computed once.
         let mut e = Evaluation::<N, NC>::default();
         self.mech.evaluate(&q, &qd, t, &mut e);
-        // Column-major copies through the raw slices (no per-entry bounds checks: this is
-        // on every step of the damper).
-        copy_rows(&e.mass, ws.m.as_mut_slice());
-        ws.f.as_mut_slice().copy_from_slice(&e.f);
-        ws.q.as_mut_slice().copy_from_slice(&e.q);
-        ws.h.as_mut_slice().copy_from_slice(&e.h);
-        ws.a.as_mut_slice().copy_from_slice(&e.a);
-        copy_rows(&e.j, ws.j.as_mut_slice());
+        store_evaluation(&e, ws);
     }
 
     fn evaluate_positions(&self, q: &[f64], ws: &mut Workspace) {
@@ -154,9 +166,7 @@ where
         {
             return false;
         }
-        ws.point_p.as_mut_slice().copy_from_slice(&pk.p);
-        ws.point_a.as_mut_slice().copy_from_slice(&pk.a);
-        copy_rows(&pk.j, ws.point_j.as_mut_slice());
+        store_point(&pk, ws);
         true
     }
 
@@ -180,16 +190,8 @@ where
             .mech
             .evaluate_with_points(&q, &qd, t, &mut e, &mut points[..np]);
         debug_assert!(fused, "one entry per named point");
-        copy_rows(&e.mass, ws.m.as_mut_slice());
-        ws.f.as_mut_slice().copy_from_slice(&e.f);
-        ws.q.as_mut_slice().copy_from_slice(&e.q);
-        ws.h.as_mut_slice().copy_from_slice(&e.h);
-        ws.a.as_mut_slice().copy_from_slice(&e.a);
-        copy_rows(&e.j, ws.j.as_mut_slice());
-        let pk = &points[k];
-        ws.point_p.as_mut_slice().copy_from_slice(&pk.p);
-        ws.point_a.as_mut_slice().copy_from_slice(&pk.a);
-        copy_rows(&pk.j, ws.point_j.as_mut_slice());
+        store_evaluation(&e, ws);
+        store_point(&points[k], ws);
         true
     }
 

@@ -3,7 +3,6 @@
 //! emits, without generating code.
 
 use crate::constraints;
-use crate::dynamics::Symbolic;
 use crate::expr::{EvalInput, Id, Tape};
 use crate::model::Model;
 
@@ -33,9 +32,7 @@ impl InterpretedSystem {
     /// tapes. Folded parameters take their values from `model`; run-time parameters start at
     /// their defaults.
     pub fn new(model: &Model) -> InterpretedSystem {
-        let mut sym = Symbolic::derive(model);
-        let cons = constraints::constraints(model, &mut sym);
-        let pts = constraints::points(model, &mut sym);
+        let (sym, cons, pts) = constraints::derive_all(model);
         let n = sym.n;
         let rows = cons.h.len();
         let mut outs: Vec<Id> = Vec::with_capacity(n * n + 2 * n + rows * (n + 2));

@@ -71,7 +71,6 @@
 use nalgebra::{DMatrix, DVector, Vector3};
 
 use crate::constraints;
-use crate::dynamics::Symbolic;
 use crate::expr::{Dag, EvalInput, Id, Tape, Var};
 use crate::model::Model;
 
@@ -173,9 +172,7 @@ impl TangentSystem {
     /// the equations and compiles the tapes. Folded parameters take their values from
     /// `model`; run-time parameters start at their defaults.
     pub fn new(model: &Model) -> TangentSystem {
-        let mut sym = Symbolic::derive(model);
-        let cons = constraints::constraints(model, &mut sym);
-        let pts = constraints::points(model, &mut sym);
+        let (mut sym, cons, pts) = constraints::derive_all(model);
         let n = sym.n;
         let rows = cons.h.len();
         let np = model.parameters.len();
