@@ -38,6 +38,13 @@ fn check_model(seed: u64, model: &mbs_symbolic::model::Model) {
     let mut sym = Symbolic::derive(&model);
     let pts = constraints::points(&model, &mut sym);
     let cons = constraints::constraints(&model, &mut sym);
+    // Every backend names the rows from the model alone (`Names::of`); the generated code
+    // from the symbolic rows: both must agree.
+    assert_eq!(
+        cons.names,
+        mbs_symbolic::runtime::constraint_row_names(&model),
+        "seed {seed}"
+    );
     // Perturb the run-time parameters away from their defaults: the symbolic side must read
     // them at evaluation time, the numeric side is rebuilt with the same values.
     let mut params = model.default_params();

@@ -6,9 +6,7 @@ use crate::constraints;
 use crate::expr::{EvalInput, Id, Tape};
 use crate::model::Model;
 
-use super::system::{
-    Backend, Names, ParamError, System, Workspace, coordinate_names, runtime_params,
-};
+use super::system::{Backend, Names, ParamError, System, Workspace};
 
 /// The symbolic equations of a model evaluated by the DAG interpreter: complete — `M`, `F`,
 /// `Q`, `h`, `J`, `A` (one tape), `h`, `J` (the position-level tape), `V`, and the
@@ -57,7 +55,7 @@ impl InterpretedSystem {
                 Tape::new(&sym.dag, &o)
             })
             .collect();
-        let (params, param_index) = runtime_params(model);
+        let (names, param_index) = Names::of(model);
         InterpretedSystem {
             n,
             rows,
@@ -66,12 +64,7 @@ impl InterpretedSystem {
             potential: Tape::new(&sym.dag, &[sym.potential]),
             point_tapes,
             values: model.default_params(),
-            names: Names {
-                coordinates: coordinate_names(model),
-                constraints: cons.names,
-                points: pts.into_iter().map(|p| p.name).collect(),
-                params,
-            },
+            names,
             param_index,
         }
     }

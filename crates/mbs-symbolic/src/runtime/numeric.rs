@@ -4,10 +4,7 @@
 use crate::model::Model;
 use crate::numeric::NumericModel;
 
-use super::system::{
-    Backend, Names, ParamError, System, Workspace, constraint_row_names, coordinate_names,
-    runtime_params,
-};
+use super::system::{Backend, Names, ParamError, System, Workspace};
 
 /// The numeric recursive reference as a [`System`]. It allocates its results (a reference,
 /// not a hot path).
@@ -24,17 +21,12 @@ impl NumericSystem {
     /// The numeric model of `model` with its default parameter values.
     pub fn new(model: &Model) -> NumericSystem {
         let values = model.default_params();
-        let (params, param_index) = runtime_params(model);
+        let (names, param_index) = Names::of(model);
         NumericSystem {
             numeric: NumericModel::new(model, &values),
             model: model.clone(),
             values,
-            names: Names {
-                coordinates: coordinate_names(model),
-                constraints: constraint_row_names(model),
-                points: model.points.iter().map(|p| p.name.clone()).collect(),
-                params,
-            },
+            names,
             param_index,
         }
     }

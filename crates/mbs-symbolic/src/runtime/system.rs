@@ -304,7 +304,7 @@ pub fn constraint_row_names(model: &Model) -> Vec<String> {
 
 /// Names and model indices of the run-time parameters of a model (derived parameters
 /// cannot be set on their own).
-pub(super) fn runtime_params(model: &Model) -> (Vec<String>, Vec<usize>) {
+fn runtime_params(model: &Model) -> (Vec<String>, Vec<usize>) {
     model
         .parameters
         .iter()
@@ -329,6 +329,19 @@ pub struct Names {
 }
 
 impl Names {
+    /// The names of `model`, with the model indices of its run-time parameters (in the
+    /// order of [`Names::params`]).
+    pub fn of(model: &Model) -> (Names, Vec<usize>) {
+        let (params, param_index) = runtime_params(model);
+        let names = Names {
+            coordinates: coordinate_names(model),
+            constraints: constraint_row_names(model),
+            points: model.points.iter().map(|p| p.name.clone()).collect(),
+            params,
+        };
+        (names, param_index)
+    }
+
     /// The position of run-time parameter `name` in [`Names::params`], after checking that
     /// `value` is finite.
     pub fn param(&self, name: &str, value: f64) -> Result<usize, ParamError> {

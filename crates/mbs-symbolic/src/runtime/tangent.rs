@@ -74,7 +74,7 @@ use crate::constraints;
 use crate::expr::{Dag, EvalInput, Id, Tape, Var};
 use crate::model::Model;
 
-use super::system::{Names, ParamError, coordinate_names, runtime_params};
+use super::system::{Names, ParamError};
 
 /// Caller-owned buffers for the evaluations of a [`TangentSystem`]; created by
 /// [`TangentSystem::workspace`]. Each evaluation method overwrites the buffers it documents
@@ -225,7 +225,7 @@ impl TangentSystem {
             })
             .collect();
 
-        let (params, param_index) = runtime_params(model);
+        let (names, param_index) = Names::of(model);
         TangentSystem {
             n,
             rows,
@@ -234,12 +234,7 @@ impl TangentSystem {
             constraints,
             point_tapes,
             values: model.default_params(),
-            names: Names {
-                coordinates: coordinate_names(model),
-                constraints: cons.names,
-                points: pts.into_iter().map(|p| p.name).collect(),
-                params,
-            },
+            names,
             param_index,
         }
     }
