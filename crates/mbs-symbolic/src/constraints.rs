@@ -102,15 +102,8 @@ pub fn points_in_context(model: &Model, sym: &mut Symbolic, context: &[Id]) -> V
                 (jd, [ad[0], ad[1], ad[2]]),
             ];
             let cost = |(j, a): &([Vec<Id>; 3], V3), sym: &Symbolic| {
-                let mut roots: Vec<Id> = p
-                    .iter()
-                    .chain(j.iter().flatten())
-                    .chain(a)
-                    .copied()
-                    .collect();
-                let alone = sym.dag.op_count(&roots).total();
-                roots.extend(context);
-                alone + sym.dag.op_count(&roots).total()
+                let roots = p.iter().chain(j.iter().flatten()).chain(a);
+                cost_alone_and_with(sym, roots.copied().collect(), context)
             };
             let costs: Vec<_> = candidates.iter().map(|c| cost(c, sym)).collect();
             let best = (0..candidates.len()).min_by_key(|&k| costs[k]).unwrap_or(0);
@@ -123,6 +116,14 @@ pub fn points_in_context(model: &Model, sym: &mut Symbolic, context: &[Id]) -> V
             }
         })
         .collect()
+}
+
+/// The cost by which a formulation is chosen: the operations of `roots` alone (their own
+/// function) plus those of `roots` together with `context` (the fused entry point).
+fn cost_alone_and_with(sym: &Symbolic, mut roots: Vec<Id>, context: &[Id]) -> usize {
+    let alone = sym.dag.op_count(&roots).total();
+    roots.extend(context);
+    alone + sym.dag.op_count(&roots).total()
 }
 
 /// `A = d(J q')/dq q'` (eq. 50) from the Jacobian's rows.
@@ -259,10 +260,8 @@ pub fn constraints(model: &Model, sym: &mut Symbolic) -> ConstraintExprs {
     }
     let context: Vec<Id> = sym.mf_roots().into_iter().chain(sym.q.clone()).collect();
     let cost = |(j, a): &(Vec<Vec<Id>>, Vec<Id>), sym: &Symbolic| {
-        let mut roots: Vec<Id> = j.iter().flatten().chain(a).copied().collect();
-        let alone = sym.dag.op_count(&roots).total();
-        roots.extend(&context);
-        alone + sym.dag.op_count(&roots).total()
+        let roots = j.iter().flatten().chain(a).copied().collect();
+        cost_alone_and_with(sym, roots, &context)
     };
     let costs: Vec<usize> = candidates.iter().map(|c| cost(c, sym)).collect();
     let best = (0..candidates.len()).min_by_key(|&k| costs[k]).unwrap_or(0);

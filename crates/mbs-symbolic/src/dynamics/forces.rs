@@ -47,8 +47,9 @@ pub(super) enum Recursion {
 /// `accel_no_gravity - T^i^T g`), `M_i` the subtree's mass, `S_i = m_i c_i + sum_k M_k d_k`
 /// the first moment of the body's own mass and of its children's masses placed at their
 /// origins, and `G_i`, `H_i` the rest (the body's own `m (al x c + w x (w x c))`, its
-/// moment, and what the children transmit besides `M_k a_i`). Because `R_k a_k = a_i + rel_k` for a child `k` (the forward recursion), the force a
-/// child transmits is `R_k F_k = M_k (a_i + rel_k) + R_k G_k`: the acceleration is never
+/// moment, and what the children transmit besides `M_k a_i`). Because
+/// `R_k a_k = a_i + rel_k` for a child `k` (the forward recursion), the force a child
+/// transmits is `R_k F_k = M_k (a_i + rel_k) + R_k G_k`: the acceleration is never
 /// rotated back to the frame it came from (`R_k R_k^T a_i` leaves products of sines and
 /// cosines that cancel only through `sin^2 + cos^2 = 1`), and each body's gravity comes from
 /// its own `T^i` (angle sums) instead of travelling through the relative rotations. This
