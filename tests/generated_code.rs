@@ -23,7 +23,7 @@ use damper_e2e::workspace_root;
 use mbs_symbolic::constraints;
 use mbs_symbolic::dynamics::Symbolic;
 use mbs_symbolic::expr::{EvalInput, Id, Tape};
-use mbs_symbolic::model::{self, Model};
+use mbs_symbolic::model::{self, CoordinateUnit, JointKind, Model};
 use mbs_symbolic::numeric::NumericModel;
 use mbs_symbolic::runtime::{
     Backend, Evaluation, GeneratedSystem, InterpretedSystem, Mechanism, NumericSystem,
@@ -505,7 +505,18 @@ fn backends_agree(what: &str, model: &Model, systems: &mut [Box<dyn System>], se
         assert_eq!(s.constraint_names(), reference.constraint_names(), "{who}");
         assert_eq!(s.point_names(), reference.point_names(), "{who}");
         assert_eq!(s.param_names(), reference.param_names(), "{who}");
+        assert_eq!(s.coordinate_units(), reference.coordinate_units(), "{who}");
     }
+    // The units follow the joint types (the fixtures mix revolute and prismatic joints).
+    let units: Vec<CoordinateUnit> = model
+        .bodies
+        .iter()
+        .map(|b| match b.joint.kind {
+            JointKind::Revolute => CoordinateUnit::Angle,
+            JointKind::Prismatic => CoordinateUnit::Length,
+        })
+        .collect();
+    assert_eq!(reference.coordinate_units(), &units[..], "{what}: units");
 
     let mut rng = SplitMix64::new(seed);
     let states: Vec<(Vec<f64>, Vec<f64>, f64)> = (0..8)

@@ -6,7 +6,7 @@
 use proc_macro2::{Ident, Literal, TokenStream};
 use quote::{format_ident, quote};
 
-use crate::model::Model;
+use crate::model::{CoordinateUnit, Model};
 
 /// What the items need to know about the model.
 pub(super) struct Items<'a> {
@@ -118,6 +118,11 @@ impl Items<'_> {
         let npts = Literal::usize_unsuffixed(names.points.len());
         let (point_names, coord_names, cons_names) =
             (&names.points, &names.coordinates, &names.constraints);
+        let rt = self.rt;
+        let units = names.units.iter().map(|u| match u {
+            CoordinateUnit::Angle => quote! { #rt::CoordinateUnit::Angle },
+            CoordinateUnit::Length => quote! { #rt::CoordinateUnit::Length },
+        });
         let mut inits = TokenStream::new();
         let mut getters = TokenStream::new();
         for (k, (p, id)) in self.runtime_params().enumerate() {
@@ -156,6 +161,8 @@ impl Items<'_> {
                 pub const COORDINATE_NAMES: [&'static str; #nl] = [#(#coord_names),*];
                 /// Names of the constraint rows.
                 pub const CONSTRAINT_NAMES: [&'static str; #ncl] = [#(#cons_names),*];
+                /// What each joint coordinate measures (angle or length).
+                pub const COORDINATE_UNITS: [#rt::CoordinateUnit; #nl] = [#(#units),*];
                 /// The mechanism with the run-time parameters `values`, in the order of
                 /// `PARAM_NAMES`.
                 pub fn with_params(#values: [f64; #npar]) -> Self {
@@ -213,6 +220,7 @@ impl Items<'_> {
                     }
                 }
                 fn point_names(&self) -> &[&'static str] { &Self::POINT_NAMES }
+                fn coordinate_units(&self) -> &[#rt::CoordinateUnit] { &Self::COORDINATE_UNITS }
                 fn mass_matrix(&self, q: &[f64; #nl], m: &mut [[f64; #nl]; #nl]) { #sname::mass_matrix(self, q, m) }
                 fn f_vector(&self, q: &[f64; #nl], qd: &[f64; #nl], f: &mut [f64; #nl]) { #sname::f_vector(self, q, qd, f) }
                 fn q_vector(&self, q: &[f64; #nl], qd: &[f64; #nl], t: f64, out: &mut [f64; #nl]) { #sname::q_vector(self, q, qd, t, out) }
@@ -248,4 +256,6 @@ pub(super) struct Names<'a> {
     pub coordinates: Vec<&'a str>,
     /// Constraint row names.
     pub constraints: Vec<&'a str>,
+    /// Coordinate units (from the joint types).
+    pub units: Vec<CoordinateUnit>,
 }

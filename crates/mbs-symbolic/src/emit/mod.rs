@@ -231,6 +231,11 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
         points: model.points.iter().map(|p| p.name.as_str()).collect(),
         coordinates: model.bodies.iter().map(|b| b.coordinate.as_str()).collect(),
         constraints: cons.names.iter().map(String::as_str).collect(),
+        units: model
+            .bodies
+            .iter()
+            .map(|b| b.joint.kind.coordinate_unit())
+            .collect(),
     };
     let mut tokens = items.struct_item();
     tokens.extend(items.default_impl());

@@ -78,6 +78,70 @@ pub enum JointKind {
     Prismatic,
 }
 
+impl JointKind {
+    /// The unit of this joint's coordinate: the one place that maps a joint type to a unit
+    /// (a new joint type names its unit here).
+    pub fn coordinate_unit(self) -> CoordinateUnit {
+        match self {
+            JointKind::Revolute => CoordinateUnit::Angle,
+            JointKind::Prismatic => CoordinateUnit::Length,
+        }
+    }
+}
+
+/// What a joint coordinate measures; the unit symbols of the coordinate, its rates and its
+/// generalised force follow from it (SI, radians inside).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum CoordinateUnit {
+    /// An angle (rad): the generalised force is a torque (N m).
+    Angle,
+    /// A length (m): the generalised force is a force (N).
+    Length,
+}
+
+impl CoordinateUnit {
+    /// The coordinate's unit: `"rad"` or `"m"`.
+    pub fn symbol(self) -> &'static str {
+        match self {
+            CoordinateUnit::Angle => "rad",
+            CoordinateUnit::Length => "m",
+        }
+    }
+
+    /// The unit of the coordinate's rate: `"rad/s"` or `"m/s"`.
+    pub fn rate(self) -> &'static str {
+        match self {
+            CoordinateUnit::Angle => "rad/s",
+            CoordinateUnit::Length => "m/s",
+        }
+    }
+
+    /// The unit of the coordinate's acceleration: `"rad/s^2"` or `"m/s^2"`.
+    pub fn acceleration(self) -> &'static str {
+        match self {
+            CoordinateUnit::Angle => "rad/s^2",
+            CoordinateUnit::Length => "m/s^2",
+        }
+    }
+
+    /// The unit of the generalised force on the coordinate: `"N m"` or `"N"`.
+    pub fn force(self) -> &'static str {
+        match self {
+            CoordinateUnit::Angle => "N m",
+            CoordinateUnit::Length => "N",
+        }
+    }
+
+    /// The unit of the coordinate per metre of another coordinate (a kinematic influence
+    /// `dq/dw` on a length `w`): `"rad/m"` or `"m/m"`.
+    pub fn per_metre(self) -> &'static str {
+        match self {
+            CoordinateUnit::Angle => "rad/m",
+            CoordinateUnit::Length => "m/m",
+        }
+    }
+}
+
 /// A unary function usable in parameter expressions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Func {

@@ -5,6 +5,8 @@
 //! bounds. The equations follow the paper's convention `M q'' + F + Q + J^T lambda = 0`
 //! (eqs. 10 and 17).
 
+use crate::model::CoordinateUnit;
+
 /// Position, Jacobian and bias of a named point (eqs. 49–50).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PointKinematics<const N: usize> {
@@ -67,6 +69,10 @@ pub trait Mechanism<const N: usize, const NC: usize> {
 
     /// Names of the named points, in the model's order.
     fn point_names(&self) -> &[&'static str];
+
+    /// What each coordinate measures (angle or length, from its joint type), in
+    /// coordinate order.
+    fn coordinate_units(&self) -> &[CoordinateUnit];
 
     /// `M^b(q)` (eq. 11).
     fn mass_matrix(&self, q: &[f64; N], m: &mut [[f64; N]; N]);

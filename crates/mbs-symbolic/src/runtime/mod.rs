@@ -25,6 +25,7 @@ mod system;
 mod tangent;
 mod trig;
 
+pub use crate::model::CoordinateUnit;
 pub use generated::GeneratedSystem;
 pub use generated::NameCount;
 pub use interpreted::InterpretedSystem;

@@ -5,7 +5,7 @@ use std::fmt;
 
 use nalgebra::{DMatrix, DVector, Vector3};
 
-use crate::model::{Constraint, Model};
+use crate::model::{Constraint, CoordinateUnit, Model};
 
 /// Preallocated buffers for the evaluations of a [`System`].
 ///
@@ -136,6 +136,11 @@ pub trait System: Send + Sync {
     /// Names of the coordinates, in the model's order.
     fn coordinate_names(&self) -> &[String] {
         &self.names().coordinates
+    }
+
+    /// What each coordinate measures (angle or length), in the model's order.
+    fn coordinate_units(&self) -> &[CoordinateUnit] {
+        &self.names().units
     }
 
     /// Names of the constraint rows (`"<constraint>.<component>"`), in the model's order.
@@ -326,6 +331,9 @@ pub struct Names {
     pub points: Vec<String>,
     /// Run-time parameters.
     pub params: Vec<String>,
+    /// What each coordinate measures (angle or length, from its joint type), in
+    /// coordinate order: the units of the coordinate's columns and generalised force.
+    pub units: Vec<CoordinateUnit>,
 }
 
 impl Names {
@@ -338,6 +346,11 @@ impl Names {
             constraints: constraint_row_names(model),
             points: model.points.iter().map(|p| p.name.clone()).collect(),
             params,
+            units: model
+                .bodies
+                .iter()
+                .map(|b| b.joint.kind.coordinate_unit())
+                .collect(),
         };
         (names, param_index)
     }
