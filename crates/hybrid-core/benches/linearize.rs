@@ -4,7 +4,7 @@
 //! damper (target: under 50 ms), on one core.
 #![allow(missing_docs)] // criterion's macros generate undocumented items
 
-#[path = "../tests/common/mod.rs"]
+#[path = "../tests/it/common/mod.rs"]
 mod common;
 
 use std::hint::black_box;

@@ -1,0 +1,370 @@
+//! The frequency response (issue #11, item 4): the pendulum absorber scenario against the
+//! two-degree-of-freedom closed form and Den Hartog's equal-peak tuning, and `damper frf`
+//! run as a user would.
+
+use crate::common;
+
+use std::f64::consts::PI;
+
+use codegen_cli::scenario::tangents::{Linearizable, disconnected, tangents_for};
+use common::{assert_bad_input, damper, root};
+use hybrid_core::hybrid::{
+    BeamPoint, EigenMethod, EquilibriumOptions, ExcitationTarget, ForceKind, HybridModel,
+    Linearization, modes,
+};
+use nalgebra::{Complex, DMatrix};
+
+/// The absorber scenario, loaded and built as the CLI does.
+fn absorber() -> Linearizable {
+    let sc = codegen_cli::scenario::load(&root().join("scenarios/pendulum_absorber.toml"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    tangents_for(&sc).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The arm's run-time parameters (`models/absorber.toml` defaults; the scenario keeps them).
+struct Arm {
+    m_c: f64,
+    mass: f64,
+    /// `M l_c`.
+    first_moment: f64,
+    /// `l_a^2 (m_a/3 + m_t)`.
+    i_pivot: f64,
+}
+
+fn arm() -> Arm {
+    let model = mbs_symbolic::model::load(&root().join("models/absorber.toml")).unwrap();
+    let values = model.default_params();
+    let p = |name: &str| values[model.param_index(name).unwrap()];
+    let (m_c, m_a, m_t, l_a) = (p("m_c"), p("m_a"), p("m_t"), p("l_a"));
+    Arm {
+        m_c,
+        mass: m_a + m_t,
+        first_moment: l_a * (m_a / 2.0 + m_t),
+        i_pivot: l_a * l_a * (m_a / 3.0 + m_t),
+    }
+}
+
+/// The beam's first mode reduced to the tip (`q^c = y phi / phi_tip`, unit modal mass):
+/// `(m1, k1, omega_1, zeta_1)` with `zeta_1` its Rayleigh damping ratio.
+fn primary(model: &HybridModel) -> (f64, f64, f64, f64) {
+    let beam = model.beam.as_ref().unwrap();
+    let modes = beam.modes(1).unwrap();
+    let w1 = modes.angular_frequencies()[0];
+    let tip = BeamPoint::on(beam, 1.0).unwrap();
+    let phi_tip = tip.value(modes.shape(0));
+    let m1 = 1.0 / (phi_tip * phi_tip);
+    let (a, b) = beam.rayleigh_coefficients();
+    (m1, w1 * w1 * m1, w1, a / (2.0 * w1) + b * w1 / 2.0)
+}
+
+/// The eigenvalues (upper half plane, by increasing imaginary part) of the two-DOF model
+/// `M2 x'' + C2 x' + K2 x = 0` in `x = (y, theta)` (see `hybrid-core/tests/hybrid_absorber.rs`
+/// for its derivation from the absorber's kinetic energy):
+///
+/// ```text
+/// M2 = [[m1 + m_c + M, M l_c], [M l_c, I_p]],  C2 = diag(2 zeta_1 omega_1 m1, c),
+/// K2 = diag(k1, k_t)
+/// ```
+///
+/// solved through the 4 x 4 first-order matrix.
+fn two_dof(
+    (m1, k1, w1, z1): (f64, f64, f64, f64),
+    arm: &Arm,
+    i_p: f64,
+    k_t: f64,
+    c: f64,
+) -> Vec<Complex<f64>> {
+    let m2 = DMatrix::from_row_slice(
+        2,
+        2,
+        &[
+            m1 + arm.m_c + arm.mass,
+            arm.first_moment,
+            arm.first_moment,
+            i_p,
+        ],
+    );
+    let c2 = DMatrix::from_row_slice(2, 2, &[2.0 * z1 * w1 * m1, 0.0, 0.0, c]);
+    let k2 = DMatrix::from_row_slice(2, 2, &[k1, 0.0, 0.0, k_t]);
+    let minv = m2.try_inverse().unwrap();
+    let mut a = DMatrix::zeros(4, 4);
+    a.view_mut((0, 2), (2, 2))
+        .copy_from(&DMatrix::identity(2, 2));
+    a.view_mut((2, 0), (2, 2)).copy_from(&(-&minv * k2));
+    a.view_mut((2, 2), (2, 2)).copy_from(&(-&minv * c2));
+    let mut l: Vec<Complex<f64>> = a
+        .complex_eigenvalues()
+        .iter()
+        .copied()
+        .filter(|l| l.im > 0.0)
+        .collect();
+    l.sort_by(|a, b| a.im.total_cmp(&b.im));
+    l
+}
+
+fn joint_forces(model: &HybridModel) -> (f64, f64, Option<f64>) {
+    let mut k_t = 0.0;
+    let mut rotor = 0.0;
+    let mut c = None;
+    for f in &model.forces {
+        match &f.kind {
+            ForceKind::Spring { k, .. } => k_t = *k,
+            ForceKind::Generator(g) => {
+                rotor = g.reflected_inertia();
+                c = Some(g.damping_coefficient());
+            }
+            ForceKind::Damper { c: d } => c = Some(*d),
+        }
+    }
+    (k_t, rotor, c)
+}
+
+#[test]
+fn absorber_scenario_linearised_modes_equal_the_two_dof_closed_form() {
+    let lz = absorber();
+    let arm = arm();
+    let p = primary(&lz.model);
+    let (k_t, rotor, c_g) = joint_forces(&lz.model);
+    // The rotor stays attached when the generator is disconnected: n^2 J_r at the pivot.
+    let i_p = arm.i_pivot + rotor;
+    for (label, model, c) in [
+        ("generator disconnected", disconnected(&lz.model), 0.0),
+        ("with generator", lz.model.clone(), c_g.unwrap()),
+    ] {
+        let lin = lz.linearize(&model).unwrap();
+        let found = modes(&lin, 2, EigenMethod::Dense).unwrap();
+        let reference = two_dof(p, &arm, i_p, k_t, c);
+        for (m, r) in found.iter().zip(&reference) {
+            let l = m.lambda();
+            let rel = (l - r).norm() / r.norm();
+            let fn_rel = (m.natural_frequency_hz * 2.0 * PI - r.norm()) / r.norm();
+            println!(
+                "{label}: linearised {l:.5} ({:.5} Hz, zeta {:.4}), 2-DOF {r:.5} ({:.5} Hz, zeta {:.4}): eigenvalue {rel:.2e}, natural frequency {fn_rel:.2e}",
+                m.natural_frequency_hz,
+                m.damping_ratio,
+                r.norm() / (2.0 * PI),
+                -r.re / r.norm()
+            );
+            // The 2-DOF model leaves out the higher beam modes (their static flexibility
+            // at the tip shifts the frequencies by ~1e-3): 0.5 % per the issue.
+            assert!(rel < 5e-3, "{label}: {rel:e}");
+        }
+    }
+}
+
+/// Den Hartog's tuning of the absorber on the scenario's beam, with a viscous damper `c` on
+/// the arm in place of the generator (no rotor inertia).
+///
+/// The arm is a translational absorber in disguise: with `x_a = y + (I_p / b) theta`
+/// (`b = M l_c`) the kinetic energy `(a y'^2 + 2 b y' theta' + I_p theta'^2) / 2` splits
+/// into `m_p y'^2 / 2 + m_a x_a'^2 / 2` with `m_a = b^2 / I_p`, `m_p = a - m_a`, the spring
+/// `k_t theta^2 / 2` into `k_a (x_a - y)^2 / 2` with `k_a = k_t b^2 / I_p^2` (so
+/// `omega_a^2 = k_t / I_p`), the damper into `c_a = c b^2 / I_p^2`. With `mu = m_a / m_p`,
+/// `omega_p^2 = k1 / m_p`: `omega_a = omega_p / (1 + mu)`,
+/// `zeta = c_a / (2 m_a omega_p) = sqrt(3 mu / (8 (1 + mu)^3))`.
+fn tuned(lz: &Linearizable, detune: f64) -> (HybridModel, f64, f64) {
+    let arm = arm();
+    let (m1, k1, _, _) = primary(&lz.model);
+    let i_p = arm.i_pivot;
+    let b = arm.first_moment;
+    let m_a = b * b / i_p;
+    let m_p = m1 + arm.m_c + arm.mass - m_a;
+    let mu = m_a / m_p;
+    let w_p = (k1 / m_p).sqrt();
+    let w_a = detune * w_p / (1.0 + mu);
+    let zeta = (3.0 * mu / (8.0 * (1.0 + mu).powi(3))).sqrt();
+    let c_a = 2.0 * zeta * m_a * w_p;
+    let mut model = lz.model.clone();
+    for f in &mut model.forces {
+        f.kind = match f.kind {
+            ForceKind::Spring { q0, .. } => ForceKind::Spring {
+                k: i_p * w_a * w_a,
+                q0,
+            },
+            _ => ForceKind::Damper {
+                c: c_a * i_p * i_p / (b * b),
+            },
+        };
+    }
+    (model, mu, w_p)
+}
+
+/// `|H|` at the tip for a force at the tip.
+fn tip_receptance(lin: &Linearization, tip: &BeamPoint, omega: f64) -> f64 {
+    let f = lin.force_vector(&ExcitationTarget::Beam(tip.clone()));
+    let z = lin.harmonic_response(&f, omega).unwrap();
+    let re: Vec<f64> = z.iter().map(|v| v.re).collect();
+    let im: Vec<f64> = z.iter().map(|v| v.im).collect();
+    tip.value(&re).hypot(tip.value(&im))
+}
+
+/// The two highest local maxima of `|H|` (rad/s, value) between `lo` and `hi`: a grid, then
+/// golden-section refinement of each.
+fn two_peaks(h: &dyn Fn(f64) -> f64, lo: f64, hi: f64) -> Vec<(f64, f64)> {
+    let n = 2000;
+    let w: Vec<f64> = (0..=n)
+        .map(|k| lo + (hi - lo) * k as f64 / n as f64)
+        .collect();
+    let v: Vec<f64> = w.iter().map(|&x| h(x)).collect();
+    let mut peaks: Vec<(f64, f64)> = (1..n)
+        .filter(|&k| v[k] > v[k - 1] && v[k] >= v[k + 1])
+        .map(|k| {
+            let (mut a, mut b) = (w[k - 1], w[k + 1]);
+            let g = (5f64.sqrt() - 1.0) / 2.0;
+            for _ in 0..60 {
+                let (c, d) = (b - g * (b - a), a + g * (b - a));
+                if h(c) > h(d) {
+                    b = d;
+                } else {
+                    a = c;
+                }
+            }
+            let x = 0.5 * (a + b);
+            (x, h(x))
+        })
+        .collect();
+    peaks.sort_by(|a, b| b.1.total_cmp(&a.1));
+    peaks.truncate(2);
+    peaks.sort_by(|a, b| a.0.total_cmp(&b.0));
+    peaks
+}
+
+#[test]
+fn den_hartog_tuning_gives_equal_peaks_in_the_frf() {
+    let lz = absorber();
+    let tip = BeamPoint::on(lz.model.beam.as_ref().unwrap(), 1.0).unwrap();
+    let arm = arm();
+    let mut ratios = vec![];
+    for detune in [1.0, 0.9] {
+        let (model, mu, w_p) = tuned(&lz, detune);
+        let lin =
+            Linearization::new(&model, &lz.tangent_refs(), EquilibriumOptions::default()).unwrap();
+        let h = |w: f64| tip_receptance(&lin, &tip, w);
+        let peaks = two_peaks(&h, 0.6 * w_p, 1.4 * w_p);
+        // The ideal two-DOF system (undamped primary, first beam mode only) with the same
+        // arm, spring and damper: Den Hartog's own setting.
+        let (k_t, _, c) = joint_forces(&model);
+        let (m1, k1, _, _) = primary(&lz.model);
+        let h2 = |w: f64| {
+            let m = [
+                [m1 + arm.m_c + arm.mass, arm.first_moment],
+                [arm.first_moment, arm.i_pivot],
+            ];
+            let d =
+                |r: usize, col: usize, k: f64, c: f64| Complex::new(k - w * w * m[r][col], w * c);
+            let (a, b) = (d(0, 0, k1, 0.0), d(0, 1, 0.0, 0.0));
+            let dd = d(1, 1, k_t, c.unwrap());
+            (dd / (a * dd - b * b)).norm()
+        };
+        let ideal = two_peaks(&h2, 0.6 * w_p, 1.4 * w_p);
+        let ratio = |p: &[(f64, f64)]| {
+            if p.len() == 2 {
+                p[0].1 / p[1].1
+            } else {
+                f64::INFINITY // one peak: the other is a shoulder
+            }
+        };
+        println!(
+            "mu = {mu:.4}, f_p = {:.4} Hz, arm tuned to {detune} x f_opt: peaks (Hz, m/N) {:?}: ratio {:.4}; ideal two-DOF: {:?}, ratio {:.4}",
+            w_p / (2.0 * PI),
+            peaks
+                .iter()
+                .map(|p| (p.0 / (2.0 * PI), p.1))
+                .collect::<Vec<_>>(),
+            ratio(&peaks),
+            ideal
+                .iter()
+                .map(|p| (p.0 / (2.0 * PI), p.1))
+                .collect::<Vec<_>>(),
+            ratio(&ideal)
+        );
+        ratios.push((ratio(&peaks), ratio(&ideal)));
+    }
+    // Tuned: Den Hartog's damping is the mean of the two values that put the maximum at
+    // either fixed point, so the peaks are equal only approximately; in the ideal two-DOF
+    // system at this mass ratio they agree to 2e-4 (measured: 0.9998). The scenario's
+    // beam adds its 0.2 % structural damping and its higher modes' flexibility: measured
+    // 1.014 (the lower peak 1.4 % above the upper one). 3 % is
+    // the classical "equal within a few percent", twice the measured mismatch.
+    let (tuned_ratio, ideal_ratio) = ratios[0];
+    assert!((tuned_ratio - 1.0).abs() < 0.03, "tuned: {tuned_ratio}");
+    assert!((ideal_ratio - 1.0).abs() < 1e-3, "ideal: {ideal_ratio}");
+    // Detuned to 0.9 f_opt, the peaks are clearly unequal (here the upper one becomes a
+    // shoulder): the test can fail.
+    assert!((ratios[1].0 - 1.0).abs() > 0.2, "detuned: {:?}", ratios[1]);
+}
+
+#[test]
+fn frf_command_writes_linear_and_nonlinear_responses() {
+    let dir = std::env::temp_dir().join(format!("frf_cli_{}", std::process::id()));
+    let out = dir.to_str().unwrap();
+    let (code, stdout, stderr) = damper(&[
+        "frf",
+        "scenarios/forced_damper.toml",
+        "--output",
+        "1.0",
+        "--from",
+        "4",
+        "--to",
+        "8",
+        "--points",
+        "41",
+        "--nonlinear",
+        "3",
+        "-o",
+        out,
+    ]);
+    assert_eq!(code, 0, "{stdout} {stderr}");
+    assert!(stdout.contains("3 settled"), "{stdout}");
+    let csv = std::fs::read_to_string(dir.join("frf.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert!(
+        lines.next().unwrap().starts_with(
+            "f [Hz],|H| with generator [m/N],phase with generator [deg],|H| generator disconnected [m/N]"
+        )
+    );
+    assert_eq!(lines.count(), 41);
+    let nl = std::fs::read_to_string(dir.join("frf_nonlinear.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = nl.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 3);
+    for r in &rows {
+        // |H| nonlinear against linear: the shaker's 0.05 N keeps the tip far from the
+        // toggle (linear regime), and the scheme's frequency warping at 200 steps per
+        // period is 1e-4.
+        let (h, hl): (f64, f64) = (r[2].parse().unwrap(), r[4].parse().unwrap());
+        assert!((h - hl).abs() < 0.02 * hl, "{r:?}");
+        assert_eq!(r[7], "true");
+    }
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("frf.json")).unwrap()).unwrap();
+    assert_eq!(json["linear"].as_array().unwrap().len(), 41);
+    assert_eq!(json["nonlinear"].as_array().unwrap().len(), 3);
+    assert_eq!(json["excitation"], "shaker");
+    let svg = std::fs::read_to_string(dir.join("frf.svg")).unwrap();
+    assert!(svg.contains("generator disconnected") && svg.contains("<circle"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn frf_command_rejects_what_it_cannot_do_in_one_line() {
+    let dir = std::env::temp_dir().join(format!("frf_bad_{}", std::process::id()));
+    let out = dir.to_str().unwrap();
+    let base = ["frf", "scenarios/damper.toml", "--from", "2", "--to", "20"];
+    let with = |extra: &[&'static str]| {
+        let mut v: Vec<&str> = base.to_vec();
+        v.extend_from_slice(extra);
+        v.extend_from_slice(&["-o", out]);
+        v
+    };
+    assert_bad_input(
+        &with(&["--output", "1.0", "--nonlinear", "2"]),
+        &["--force"],
+    );
+    assert_bad_input(&with(&["--output", "1.5"]), &["--output 1.5"]);
+    assert_bad_input(&with(&["--output", "damper/q9"]), &["q9", "q1"]);
+    assert_bad_input(
+        &with(&["--output", "1.0", "--excitation", "shaker"]),
+        &["shaker", "none"],
+    );
+    assert!(!dir.exists(), "nothing written on an error");
+}

@@ -1,0 +1,401 @@
+//! `--set PATH=VALUE` overrides on `damper simulate`, and `damper sweep` / `damper merge`:
+//! grid parsing, failed points recorded, results independent of the thread count, and
+//! sharded runs (separate processes, as a Slurm job array runs them) merged byte for byte
+//! into the unsharded files.
+
+use crate::common;
+
+use std::path::{Path, PathBuf};
+
+use codegen_cli::commands::sweep::{Grid, parse_values};
+use common::{assert_bad_input, damper, root};
+use toml_edit::Value;
+
+/// A fresh scratch directory for one test.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("damper-sweep-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn summary(dir: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(dir.join("summary.json")).unwrap()).unwrap()
+}
+
+fn floats(values: &[Value]) -> Vec<f64> {
+    values
+        .iter()
+        .map(|v| v.as_float().expect("a float"))
+        .collect()
+}
+
+#[test]
+fn a_b_n_ranges_have_exact_endpoints_and_lists_are_toml_values() {
+    let v = floats(&parse_values("0.1:0.7:7").unwrap());
+    assert_eq!(v.len(), 7);
+    assert_eq!(v[0], 0.1);
+    assert_eq!(v[6], 0.7);
+    for (k, x) in v.iter().enumerate() {
+        if k < 6 {
+            assert_eq!(*x, 0.1 + (0.7 - 0.1) * k as f64 / 6.0, "point {k}");
+        }
+    }
+    assert_eq!(
+        floats(&parse_values("5.0:20:4").unwrap()),
+        [5.0, 10.0, 15.0, 20.0]
+    );
+    assert_eq!(floats(&parse_values("1:2:3").unwrap()), [1.0, 1.5, 2.0]);
+    // Integers stay integers when the step is whole (element counts).
+    let ints: Vec<i64> = parse_values("10:40:4")
+        .unwrap()
+        .iter()
+        .map(|v| v.as_integer().unwrap())
+        .collect();
+    assert_eq!(ints, [10, 20, 30, 40]);
+    let list = parse_values("0.5,1,abc,[1, 2],{ a = 1 }").unwrap();
+    assert_eq!(list.len(), 5);
+    assert_eq!(list[0].as_float(), Some(0.5));
+    assert_eq!(list[1].as_integer(), Some(1));
+    assert_eq!(list[2].as_str(), Some("abc"));
+    assert!(list[3].is_array() && list[4].is_inline_table());
+    assert!(parse_values("1:2:1").is_err());
+    assert!(parse_values("1,,2").is_err());
+    // The last option varies fastest.
+    let g = Grid::parse(&["a=1,2".into(), "b=x,y,z".into()]).unwrap();
+    assert_eq!(g.len(), 6);
+    let p = |i| {
+        g.point(i)
+            .iter()
+            .map(|v| v.to_string())
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    assert_eq!(p(0), "1 \"x\"");
+    assert_eq!(p(2), "1 \"z\"");
+    assert_eq!(p(3), "2 \"x\"");
+}
+
+#[test]
+fn set_changes_the_result_and_is_recorded_in_the_summary() {
+    let dir = scratch("set");
+    let run = |name: &str, sets: &[&str]| {
+        let out = dir.join(name);
+        let mut args = vec!["simulate", "scenarios/damper.toml", "--quiet", "-o"];
+        let out_s = out.to_str().unwrap().to_string();
+        args.push(&out_s);
+        for s in sets {
+            args.extend(["--set", s]);
+        }
+        let (code, _, err) = damper(&args);
+        assert_eq!(code, 0, "{err}");
+        summary(&out)
+    };
+    let base = run("base", &["integrator.t_end=0.5"]);
+    let high = run(
+        "high",
+        &["integrator.t_end=0.5", "generator.load_resistance=10"],
+    );
+    let z = |s: &serde_json::Value| s["zeta_with_generator"].as_f64().unwrap();
+    // A larger load resistance lowers the current, hence the electrical damping.
+    assert!(z(&high) < 0.6 * z(&base), "{} vs {}", z(&high), z(&base));
+    assert_eq!(
+        high["overrides"],
+        serde_json::json!([
+            {"path": "integrator.t_end", "value": 0.5},
+            {"path": "generator.load_resistance", "value": 10}
+        ])
+    );
+    assert_eq!(high["settings"]["generator"]["load_resistance"], 10.0);
+    // A hybrid scenario: a field of the second mechanism.
+    let out = dir.join("hybrid");
+    let (code, _, err) = damper(&[
+        "simulate",
+        "scenarios/two_dampers.toml",
+        "--quiet",
+        "-o",
+        out.to_str().unwrap(),
+        "--set",
+        "integrator.t_end=0.01",
+        "--set",
+        "mechanism[1].placement.half_angle_deg=12.5",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(
+        summary(&out)["overrides"][1],
+        serde_json::json!({"path": "mechanism[1].placement.half_angle_deg", "value": 12.5})
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_overrides_are_one_line_naming_the_option_and_write_nothing() {
+    let dir = scratch("bad");
+    let out = dir.join("out");
+    let out_s = out.to_str().unwrap();
+    for (set, needles) in [
+        (
+            "mechanizm.x=1",
+            vec!["--set mechanizm.x=1", "no `mechanizm`"],
+        ),
+        (
+            "beam.segment[3].elements=4",
+            vec!["--set beam.segment[3].elements=4", "index 3 out of range"],
+        ),
+        (
+            "mechanism.half_angle_deg=-1",
+            vec!["--set mechanism.half_angle_deg=-1", "between 0"],
+        ),
+        (
+            "mechanism.half_angle_deg=abc",
+            vec!["--set mechanism.half_angle_deg=abc", "invalid type"],
+        ),
+        (
+            "beam.segment[0].elements=0",
+            vec!["--set beam.segment[0].elements=0", "at least 1"],
+        ),
+        (
+            "mechanism.half_angel_deg=5",
+            vec![
+                "--set mechanism.half_angel_deg=5",
+                "unknown field `half_angel_deg`",
+            ],
+        ),
+    ] {
+        let err = assert_bad_input(
+            &[
+                "simulate",
+                "scenarios/damper.toml",
+                "--quiet",
+                "-o",
+                out_s,
+                "--set",
+                set,
+            ],
+            &needles,
+        );
+        // Not a misleading line of the file: the option is named instead.
+        assert!(err.contains("damper.toml: --set "), "{err}");
+        assert!(!out.exists(), "{set}: no output directory");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn range_and_list_cannot_be_mixed() {
+    // `2,10:20:3` is a list of two TOML values: `10:20:3` is then a string.
+    let v = parse_values("2,10:20:3").unwrap();
+    assert_eq!(v[1].as_str(), Some("10:20:3"));
+}
+
+fn read(p: &Path) -> Vec<u8> {
+    std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+#[test]
+fn sweeps_record_failed_points_and_do_not_depend_on_threads_or_shards() {
+    let dir = scratch("grid");
+    let spec = [
+        "--set",
+        "mechanism.half_angle_deg=2,8,12,16,20",
+        "--set",
+        "generator.load_resistance=1,10",
+    ];
+    let run = |out: &Path, extra: &[&str]| {
+        let mut args = vec![
+            "sweep",
+            "scenarios/damper.toml",
+            "--time-domain",
+            "--quiet",
+            "--t-end",
+            "0.5",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        args.extend(spec);
+        args.extend(extra);
+        let (code, stdout, err) = damper(&args);
+        assert_eq!(code, 0, "{err}");
+        assert!(stdout.is_empty(), "{stdout}");
+        err
+    };
+    let one = dir.join("one");
+    let err = run(&one, &["--threads", "1"]);
+    assert!(
+        err.contains("10 of 10 point(s)") && err.contains("2 failed"),
+        "{err}"
+    );
+    let two = dir.join("two");
+    run(&two, &["--threads", "2"]);
+    assert_same_outputs(&one, &two, "1 vs 2 threads");
+    // Grid order, failed points recorded with their error, the others computed.
+    let csv = String::from_utf8(read(&one.join("sweep.csv"))).unwrap();
+    let mut rows = csv::Reader::from_reader(csv.as_bytes());
+    let header = rows.headers().unwrap().clone();
+    assert_eq!(&header[0], "index");
+    assert_eq!(&header[1], "mechanism.half_angle_deg");
+    assert_eq!(&header[2], "generator.load_resistance");
+    assert_eq!(&header[3], "linear.f1 [Hz]");
+    assert_eq!(&header[header.len() - 1], "error");
+    let zeta_col = header
+        .iter()
+        .position(|h| h == "zeta_with_generator [-]")
+        .expect("time-domain figures after the linearised ones");
+    assert!(header.iter().any(|h| h == "linear.zeta1 [-]"));
+    let rows: Vec<csv::StringRecord> = rows.records().map(Result::unwrap).collect();
+    assert_eq!(rows.len(), 10);
+    let angles: Vec<&str> = rows.iter().map(|r| r.get(1).unwrap()).collect();
+    assert_eq!(
+        angles,
+        ["2", "2", "8", "8", "12", "12", "16", "16", "20", "20"]
+    );
+    for (i, r) in rows.iter().enumerate() {
+        assert_eq!(r.get(0).unwrap(), i.to_string());
+        let error = r.get(header.len() - 1).unwrap();
+        if i < 2 {
+            assert!(error.contains("cannot reach the beam point"), "{error}");
+            assert!(r.get(zeta_col).unwrap().is_empty());
+        } else {
+            assert!(error.is_empty(), "{error}");
+            let zeta: f64 = r.get(zeta_col).unwrap().parse().unwrap();
+            assert!(zeta > 0.005 && zeta < 0.5, "point {i}: zeta {zeta}");
+        }
+    }
+    // Less damping with the larger load resistance, at every angle.
+    for pair in rows[2..].chunks(2) {
+        let z = |r: &csv::StringRecord| r.get(zeta_col).unwrap().parse::<f64>().unwrap();
+        assert!(z(&pair[1]) < z(&pair[0]));
+    }
+    let json: serde_json::Value = serde_json::from_slice(&read(&one.join("sweep.json"))).unwrap();
+    assert_eq!(json["grid_size"], 10);
+    assert_eq!(json["failed"], 2);
+    assert_eq!(json["scenario"], "scenarios/damper.toml");
+    assert_eq!(json["points"][2]["parameters"], serde_json::json!([8, 1]));
+
+    // Shards as separate processes (as a Slurm job array runs them), then merged.
+    for n in [1usize, 2, 3, 7] {
+        let sharded = dir.join(format!("shards-{n}"));
+        for i in 0..n {
+            let shard = format!("{i}/{n}");
+            run(&sharded, &["--shard", &shard, "--threads", "1"]);
+        }
+        assert!(!sharded.join("sweep.csv").exists());
+        let (code, _, err) = damper(&["merge", sharded.to_str().unwrap()]);
+        assert_eq!(code, 0, "{err}");
+        assert_same_outputs(&one, &sharded, &format!("{n} shards"));
+    }
+
+    // A missing shard, a shard given twice, parts of different sweeps.
+    let s3 = dir.join("shards-3");
+    let part = |i: usize| s3.join(format!("sweep.part-{i}-of-3.json"));
+    let merged = dir.join("merged").to_str().unwrap().to_string();
+    let p = |i| part(i).to_str().unwrap().to_string();
+    assert_bad_input(
+        &["merge", &p(0), &p(2), "-o", &merged],
+        &["missing shard", "sweep.part-1-of-3.json"],
+    );
+    assert_bad_input(
+        &["merge", &p(0), &p(1), &p(1), &p(2), "-o", &merged],
+        &["shard 1 of 3 given twice"],
+    );
+    let other = dir.join("other");
+    let mut args = vec![
+        "sweep",
+        "scenarios/damper.toml",
+        "--time-domain",
+        "--quiet",
+        "--t-end",
+        "0.5",
+        "-o",
+        other.to_str().unwrap(),
+        "--set",
+        "mechanism.half_angle_deg=2,8,12,16,20",
+        "--set",
+        "generator.load_resistance=1,11",
+        "--shard",
+        "1/3",
+    ];
+    let (code, _, err) = damper(&args);
+    assert_eq!(code, 0, "{err}");
+    let other_part = other.join("sweep.part-1-of-3.json");
+    assert_bad_input(
+        &[
+            "merge",
+            &p(0),
+            other_part.to_str().unwrap(),
+            &p(2),
+            "-o",
+            &merged,
+        ],
+        &["parts of different sweeps", "--set specs"],
+    );
+    // The same specs on a different scenario text.
+    let scenario = dir.join("damper.toml");
+    let text = std::fs::read_to_string(root().join("scenarios/damper.toml")).unwrap();
+    std::fs::write(
+        &scenario,
+        text.replace("../models/", &format!("{}/models/", root().display()))
+            .replace("rotor_inertia = 1e-6", "rotor_inertia = 2e-6"),
+    )
+    .unwrap();
+    let scenario_s = scenario.to_str().unwrap().to_string();
+    args[1] = &scenario_s;
+    args[11] = "generator.load_resistance=1,10";
+    let (code, _, err) = damper(&args);
+    assert_eq!(code, 0, "{err}");
+    assert_bad_input(
+        &[
+            "merge",
+            &p(0),
+            other_part.to_str().unwrap(),
+            &p(2),
+            "-o",
+            &merged,
+        ],
+        &["parts of different sweeps", "scenario content"],
+    );
+    assert!(!Path::new(&merged).exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_sweep_specs_are_one_line_and_write_nothing() {
+    let dir = scratch("badspec");
+    let out = dir.join("out");
+    let out_s = out.to_str().unwrap();
+    let base = [
+        "sweep",
+        "scenarios/damper.toml",
+        "--time-domain",
+        "-o",
+        out_s,
+    ];
+    let with = |extra: &[&'static str]| {
+        let mut a: Vec<&str> = base.to_vec();
+        a.extend(extra);
+        a
+    };
+    assert_bad_input(&with(&["--set", "a=1:2:1"]), &["--set a=1:2:1", "n >= 2"]);
+    assert_bad_input(
+        &with(&["--set", "mechanism.x=1", "--shard", "3/3"]),
+        &["--shard 3/3"],
+    );
+    assert!(!out.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Every file a (time-domain) sweep of the damper writes is the same, byte for byte, in
+/// `a` and `b`.
+fn assert_same_outputs(a: &std::path::Path, b: &std::path::Path, what: &str) {
+    for f in [
+        "sweep.csv",
+        "sweep.json",
+        "sweep_damping.svg",
+        "sweep_frequency.svg",
+        "sweep_harvested.svg",
+    ] {
+        let read =
+            |d: &std::path::Path| std::fs::read(d.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
+        assert_eq!(read(a), read(b), "{f}: {what}");
+    }
+}
