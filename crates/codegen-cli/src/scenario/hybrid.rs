@@ -80,7 +80,7 @@ use toml::Spanned;
 use toml::de::{DeTable, DeValue, ValueDeserializer};
 
 use super::Doc;
-use super::damper::{IntegratorSpec, check_integrator};
+use super::damper::{Comparison, IntegratorSpec, check_integrator};
 
 /// One `[[mechanism]]`, checked against the file (names not yet against its model).
 #[derive(Clone, Debug, PartialEq)]
@@ -193,6 +193,9 @@ pub struct HybridScenario {
     pub method: Method,
     /// A CSV row every `every` steps.
     pub every: usize,
+    /// The comparison runs beside the run as described (`[output] compare`; none by
+    /// default, `["generator_disconnected"]` for the damper preset).
+    pub compare: Vec<Comparison>,
     index: LineIndex,
     beam_span: Option<Range<usize>>,
     initial_x_span: Option<Range<usize>>,
@@ -306,6 +309,8 @@ struct RawInitial {
 struct RawOutput {
     #[serde(default)]
     every: Option<Spanned<usize>>,
+    #[serde(default)]
+    compare: Option<Spanned<Vec<Comparison>>>,
 }
 
 /// Deserializes one value on its own; a malformed one is reported (at the serde error's
@@ -690,15 +695,15 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<HybridScenario> {
         let entity = format!("force \"{}\"", f.name.get_ref());
         let mechanism = mechanism_ref(doc, &names, &f.mechanism, &entity);
         let kind = match f.kind.get_ref().as_str() {
-            "generator" => de::<GeneratorSpec>(doc, rest, &entity).and_then(|g| {
+            "generator" => de::<GeneratorSpec>(doc, rest.clone(), &entity).and_then(|g| {
                 let problems = g.problems();
                 for e in &problems {
-                    doc.push(
-                        Kind::InvalidValue,
-                        Some(f.kind.span()),
-                        Some(&entity),
-                        e.to_string(),
-                    );
+                    // At the field it is about when that is written, at `kind` otherwise.
+                    let span = e
+                        .field()
+                        .and_then(|field| rest.get_ref().get(field.name()))
+                        .map_or(f.kind.span(), |v| v.span());
+                    doc.push(Kind::InvalidValue, Some(span), Some(&entity), e.to_string());
                 }
                 problems.is_empty().then_some(ForceKind::Generator(g))
             }),
@@ -828,6 +833,23 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<HybridScenario> {
         Some(e) => *e.get_ref(),
         None => 10,
     };
+    let mut compare = vec![];
+    if let Some(list) = output.as_ref().and_then(|o| o.get_ref().compare.as_ref()) {
+        for c in list.get_ref() {
+            if compare.contains(c) {
+                let msg = format!("{:?} is listed twice", c.key());
+                doc.push(
+                    Kind::InvalidValue,
+                    Some(list.span()),
+                    Some("[output] compare"),
+                    msg,
+                );
+                ok = false;
+            } else {
+                compare.push(*c);
+            }
+        }
+    }
     let (integrator, method) = (integrator?.into_inner(), method?);
     if !ok {
         return None;
@@ -848,6 +870,7 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<HybridScenario> {
         integrator,
         method,
         every,
+        compare,
         index: doc.index().clone(),
         beam_span,
         initial_x_span,

@@ -21,6 +21,7 @@ pub mod damper;
 pub mod hybrid;
 pub mod mechanism;
 pub mod overrides;
+pub mod preset;
 pub mod tangents;
 
 use std::ops::Range;
@@ -127,6 +128,32 @@ pub fn parse_in(text: &str, file: &str, base: &Path) -> Result<Scenario, Diagnos
     let diags = doc.finish();
     match scenario {
         Some(s) if diags.is_empty() => Ok(s),
+        _ => Err(diags),
+    }
+}
+
+/// A damper scenario (`kind` absent or `"damper"`) read as the hybrid scenario it is a
+/// preset of ([`preset`]): the same checks as any hybrid scenario, every problem at the
+/// damper file's line and column.
+pub fn parse_damper_as_hybrid(text: &str, path: &Path) -> Result<HybridScenario, Diagnostics> {
+    let base = path.parent().unwrap_or(Path::new("."));
+    let mut doc = Doc::parse(text, &path.display().to_string(), base)?;
+    let scenario = match doc.kind().as_deref() {
+        Some("damper") => {
+            preset::expand(&mut doc);
+            hybrid::from_doc(&mut doc)
+        }
+        _ => None,
+    };
+    let diags = doc.finish();
+    match scenario {
+        Some(s) if diags.is_empty() => Ok(s),
+        _ if diags.is_empty() => Err(Diagnostic::new(
+            Kind::Unsupported,
+            path.display().to_string(),
+            "not a damper scenario (`kind = \"damper\"`)",
+        )
+        .into()),
         _ => Err(diags),
     }
 }

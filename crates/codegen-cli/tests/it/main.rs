@@ -18,6 +18,7 @@ mod hybrid_damper;
 mod linear_vs_time_domain;
 mod linearize_cli;
 mod modes_cli;
+mod preset;
 mod scenario_loader;
 mod simulate_cli;
 mod simulate_mechanism_cli;
