@@ -14,7 +14,7 @@ use serde::Serialize;
 
 use crate::Error;
 use crate::scenario::Scenario;
-use crate::scenario::tangents::{Linearizable, disconnected, tangents_for};
+use crate::scenario::tangents::{Linearizable, tangents_for};
 
 /// One mode as reported: frequencies, damping and the shape in physical terms.
 #[derive(Clone, Debug, Serialize)]
@@ -175,7 +175,7 @@ pub fn analyse_model(
     let with = modes_of(file, &lin, model, k, method)?;
     let has_generator = model.forces.iter().any(|f| f.generator().is_some());
     let generator_disconnected = if has_generator {
-        let off = disconnected(&input.model);
+        let off = input.model.generators_disconnected();
         let lin_off = linearise(file, &off, &refs)?;
         Some(modes_of(file, &lin_off, &off, k, method)?)
     } else {

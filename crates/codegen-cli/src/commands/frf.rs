@@ -50,7 +50,7 @@ use serde::Serialize;
 use crate::Error;
 use crate::report::summary::json_bytes;
 use crate::report::{OutputFile, ReportError, commit_files};
-use crate::scenario::tangents::{Linearizable, disconnected, tangents_for};
+use crate::scenario::tangents::{Linearizable, tangents_for};
 use crate::scenario::{self, Scenario};
 
 /// Arguments of `damper frf`.
@@ -449,7 +449,7 @@ pub fn run(args: Args) -> Result<(), Error> {
     let lin = lz
         .linearize(&lz.model)
         .map_err(|e| linear_error("with generator", e))?;
-    let off_model = disconnected(&lz.model);
+    let off_model = lz.model.generators_disconnected();
     let lin_off = lz
         .linearize(&off_model)
         .map_err(|e| linear_error("generator disconnected", e))?;

@@ -7,7 +7,7 @@ use mbs_symbolic::model::{JointKind, Model};
 use mbs_symbolic::runtime::TangentSystem;
 
 use hybrid_core::damper::Method;
-use hybrid_core::hybrid::{EquilibriumOptions, ForceKind, HybridModel, LinearError, Linearization};
+use hybrid_core::hybrid::{EquilibriumOptions, HybridModel, LinearError, Linearization};
 
 use super::hybrid::Built;
 use super::{HybridScenario, Scenario};
@@ -112,18 +112,6 @@ fn revolute(model: &Model) -> Vec<bool> {
         .iter()
         .map(|b| b.joint.kind == JointKind::Revolute)
         .collect()
-}
-
-/// The same system with every generator disconnected (`connected = false`: no current, no
-/// electrical damping; the rotor inertia stays attached, and the inductance plays no part).
-pub fn disconnected(model: &HybridModel) -> HybridModel {
-    let mut m = model.clone();
-    for f in &mut m.forces {
-        if let ForceKind::Generator(g) = &mut f.kind {
-            g.connected = false;
-        }
-    }
-    m
 }
 
 impl Linearizable {

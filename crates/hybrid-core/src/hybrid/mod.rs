@@ -73,6 +73,7 @@ mod pencil;
 pub mod reference;
 mod run;
 mod steady;
+mod variants;
 
 pub use eigen::{EigenMethod, Mode, ModeKind, modes};
 pub use error::HybridError;

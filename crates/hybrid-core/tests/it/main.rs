@@ -8,3 +8,4 @@ mod forced;
 mod hybrid_absorber;
 mod hybrid_reference;
 mod linearize;
+mod variants;
