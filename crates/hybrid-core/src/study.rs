@@ -14,20 +14,12 @@ use serde::Serialize;
 use crate::coupling::{Attachment, LinkShapeError, MechanismLink};
 use crate::damper::{DamperModel, Energy, Method};
 use crate::generator::GeneratorSpec;
+// The placement is the engine's (re-exported here for the damper setups).
 use crate::hybrid::{
     HybridError, HybridModel, HybridState, Integrator as HybridIntegrator,
     RunError as HybridRunError, RunOptions, Stored, balance_error, input_work,
 };
-
-/// Where the ground pivot of the double bar is, relative to the undeformed beam point.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Placement {
-    /// On the point's line of motion, the bars at this half-angle at the pivot (degrees;
-    /// 0 = the singular, straight position).
-    HalfAngle(f64),
-    /// The pivot at `[x, y]` (m) from the undeformed beam point.
-    Pivot([f64; 2]),
-}
+pub use crate::hybrid::{Placement, PlacementError, TwoBar, initial_deflection, place_two_bar};
 
 /// Everything a damper run needs, already checked (the scenario loader of the CLI builds it
 /// from a scenario file).
@@ -104,34 +96,9 @@ pub enum SetupError {
     /// No such body in the model.
     #[error("no body {0:?} in the model")]
     UnknownBody(String),
-    /// The point is not the end of a two-bar chain.
-    #[error("the point is not at the end of a two-bar chain (bar lengths {l1}, {l2})")]
-    NotTwoBar {
-        /// First bar length read off the kinematics.
-        l1: f64,
-        /// Second bar length.
-        l2: f64,
-    },
-    /// The half-angle cannot be reached.
-    #[error("{deg} degrees cannot be reached with bars {l1} m and {l2} m")]
-    AngleUnreachable {
-        /// The half-angle (degrees).
-        deg: f64,
-        /// First bar length.
-        l1: f64,
-        /// Second bar length.
-        l2: f64,
-    },
-    /// The pivot is out of reach.
-    #[error("the beam point is {d} m from the pivot, out of the reach of bars {l1} m and {l2} m")]
-    PivotUnreachable {
-        /// Distance from the pivot to the beam point.
-        d: f64,
-        /// First bar length.
-        l1: f64,
-        /// Second bar length.
-        l2: f64,
-    },
+    /// The double bar cannot be placed for the beam point.
+    #[error("{0}")]
+    Placement(PlacementError),
     /// The beam's finite-element model could not be built.
     #[error("{0}")]
     Beam(BeamError),
@@ -162,96 +129,15 @@ impl SetupError {
                 SetupField::Parameters
             }
             SetupError::Shape { .. } => SetupField::Model,
-            SetupError::UnknownPoint { .. } | SetupError::NotTwoBar { .. } => SetupField::Point,
+            SetupError::UnknownPoint { .. }
+            | SetupError::Placement(PlacementError::NotTwoBar { .. }) => SetupField::Point,
             SetupError::UnknownBody(_) => SetupField::GeneratorJoint,
-            SetupError::AngleUnreachable { .. } => SetupField::HalfAngle,
-            SetupError::PivotUnreachable { .. } => SetupField::Pivot,
+            SetupError::Placement(PlacementError::AngleUnreachable { .. }) => SetupField::HalfAngle,
+            SetupError::Placement(PlacementError::PivotUnreachable { .. }) => SetupField::Pivot,
             SetupError::Beam(_) => SetupField::Beam,
             SetupError::BeamPoint(_) | SetupError::Locked(_) => SetupField::X,
         }
     }
-}
-
-/// Link lengths `(L1, L2)` of a double bar read off its point kinematics: the point at
-/// `q = (0, 0)` lies at `L1 + L2` along x, at `q = (0, pi)` at `L1 - L2`.
-fn bar_lengths<M: System + ?Sized>(m: &M, point: usize) -> (f64, f64) {
-    let mut ws = m.workspace();
-    m.point_kinematics(point, &[0.0, 0.0], &[0.0; 2], &mut ws);
-    let s = ws.point_p[0];
-    m.point_kinematics(point, &[0.0, std::f64::consts::PI], &[0.0; 2], &mut ws);
-    let d = ws.point_p[0];
-    ((s + d) / 2.0, (s - d) / 2.0)
-}
-
-/// A double bar placed for a beam point: where the point is relative to the ground pivot,
-/// the initial guess of its coordinates and its reach.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TwoBar {
-    /// The attached point relative to the ground pivot, `[x0, y0]` (m, mechanism axes):
-    /// the pivot is at the beam point minus this.
-    pub target: [f64; 2],
-    /// Initial guess `(q1, q2)` (crank angle, coupler angle relative to the crank; rad).
-    pub guess: [f64; 2],
-    /// How far the point can move along the mechanism's `y` axis from `target` before the
-    /// bars are in line (m): `sqrt((L1 + L2)^2 - x0^2) - y0`, for `x0 = 0` and equal bars
-    /// `2 L (1 - cos a0)`.
-    pub reach: f64,
-}
-
-/// Places a two-bar chain (2 coordinates, no loop rows: crank on the ground pivot, coupler
-/// on the crank) so that its point `point` reaches a beam point: on the point's line of
-/// motion at a half-angle, or with the pivot at a given offset. The bar lengths are read off
-/// the point kinematics.
-///
-/// # Panics
-///
-/// When `mechanism` does not have exactly 2 coordinates and no loop rows.
-pub fn place_two_bar<M: System + ?Sized>(
-    mechanism: &M,
-    point: usize,
-    placement: Placement,
-) -> Result<TwoBar, SetupError> {
-    assert!(
-        mechanism.dof() == 2 && mechanism.rows() == 0,
-        "place_two_bar: a two-bar chain has 2 coordinates and no loop rows"
-    );
-    let (l1, l2) = bar_lengths(mechanism, point);
-    if !(l1 > 0.0 && l2 > 0.0) {
-        return Err(SetupError::NotTwoBar { l1, l2 });
-    }
-    // Target of the point in the mechanism frame (pivot at the origin) and the initial guess.
-    let (x0, y0, alpha) = match placement {
-        Placement::HalfAngle(deg) => {
-            let a = deg.to_radians();
-            let rad = l2 * l2 - (l1 * a.sin()).powi(2);
-            if rad < 0.0 {
-                return Err(SetupError::AngleUnreachable { deg, l1, l2 });
-            }
-            (0.0, l1 * a.cos() + rad.sqrt(), a)
-        }
-        Placement::Pivot(p) => {
-            let (x0, y0) = (-p[0], -p[1]);
-            let d = x0.hypot(y0);
-            let c = (l1 * l1 + d * d - l2 * l2) / (2.0 * l1 * d);
-            if !(-1.0..=1.0).contains(&c) {
-                return Err(SetupError::PivotUnreachable { d, l1, l2 });
-            }
-            (x0, y0, c.acos())
-        }
-    };
-    let d = x0.hypot(y0);
-    let theta = y0.atan2(x0);
-    let knee = ((l1 * l1 + l2 * l2 - d * d) / (2.0 * l1 * l2))
-        .clamp(-1.0, 1.0)
-        .acos();
-    // The stretched mechanism (bars in line) bounds the beam point's travel:
-    // |p - pivot| <= L1 + L2, i.e. for x0 = 0 and equal bars 2 L (1 - cos a0).
-    let reach = ((l1 + l2).powi(2) - x0 * x0).max(0.0).sqrt() - y0;
-    Ok(TwoBar {
-        target: [x0, y0],
-        guess: [theta - alpha, std::f64::consts::PI - knee],
-        reach,
-    })
 }
 
 /// The coupled model of a setup and the initial guess of the mechanism coordinates;
@@ -297,7 +183,7 @@ pub fn build_model<M: System>(
         target: [x0, y0],
         guess,
         reach,
-    } = place_two_bar(&mechanism, point, setup.placement)?;
+    } = place_two_bar(&mechanism, point, setup.placement).map_err(SetupError::Placement)?;
 
     let beam = fem_beam::BeamModel::new(&setup.beam).map_err(SetupError::Beam)?;
     let coupling = coupling_at(&beam, setup.x)?;
@@ -747,20 +633,6 @@ pub enum RunError {
     /// The sample sink asked to stop.
     #[error("stopped by the output")]
     Stopped,
-}
-
-/// The beam's initial deflection of the damper runs: the static shape of a transverse load
-/// at `point`, scaled so that the point is displaced by `displacement` (m).
-pub fn initial_deflection(
-    beam: &fem_beam::BeamModel,
-    point: &crate::hybrid::BeamPoint,
-    displacement: f64,
-) -> Result<Vec<f64>, BeamError> {
-    let mut p = vec![0.0; beam.dof_count()];
-    point.add_force(1.0, &mut p);
-    let shape = beam.static_deflection(&p)?;
-    let y1 = point.value(&shape);
-    Ok(shape.iter().map(|s| s * displacement / y1).collect())
 }
 
 /// The damper of a setup as a general [`crate::hybrid::HybridModel`]: the double bar

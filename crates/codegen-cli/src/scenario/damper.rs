@@ -40,7 +40,8 @@ use diagnostic::{Diagnostic, Diagnostics, Kind, LineIndex};
 use fem_beam::{Beam, BeamSpec};
 use hybrid_core::damper::Method;
 use hybrid_core::generator::GeneratorSpec;
-use hybrid_core::study::{DamperSetup, Placement, SetupError, SetupField};
+use hybrid_core::hybrid::{Placement, PlacementError};
+use hybrid_core::study::{DamperSetup, SetupError, SetupField};
 use mbs_symbolic::model::Model;
 use serde::{Deserialize, Serialize};
 use toml::Spanned;
@@ -286,7 +287,7 @@ impl DamperScenario {
             SetupError::UnknownParameter { .. }
             | SetupError::UnknownPoint { .. }
             | SetupError::UnknownBody(_) => Kind::UnknownName,
-            SetupError::NotTwoBar { .. } => Kind::Unsupported,
+            SetupError::Placement(PlacementError::NotTwoBar { .. }) => Kind::Unsupported,
             _ => Kind::InvalidValue,
         };
         let mut d =

@@ -69,9 +69,9 @@ use hybrid_core::damper::Method;
 use hybrid_core::generator::GeneratorSpec;
 use hybrid_core::hybrid::{
     Attachment, AttachmentKind, BeamPoint, Excitation, ExcitationTarget, ForceKind, HybridError,
-    HybridModel, HybridState, JointForce, Mount, MountedMechanism, initial_state,
+    HybridModel, HybridState, JointForce, Mount, MountedMechanism, Placement, initial_deflection,
+    initial_state, place_two_bar,
 };
-use hybrid_core::study::{Placement, initial_deflection, place_two_bar};
 use mbs_symbolic::model::{JointKind, Model};
 use mbs_symbolic::runtime::{ParamError, System};
 use serde::Deserialize;

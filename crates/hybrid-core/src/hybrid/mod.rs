@@ -70,6 +70,7 @@ mod integrator;
 mod linear;
 mod model;
 mod pencil;
+mod placement;
 pub mod reference;
 mod run;
 mod steady;
@@ -86,6 +87,7 @@ pub use model::{
     JointForce, ModelError, Mount, MountedMechanism,
 };
 pub use pencil::Pencil;
+pub use placement::{Placement, PlacementError, TwoBar, initial_deflection, place_two_bar};
 pub use run::{RunError, RunFigures, RunOptions, RunOutcome, balance_error, input_work, run};
 pub use steady::{
     SteadyError, SteadyOptions, SteadyState, output_value, rest_state, steady_state, steady_states,

@@ -10,11 +10,12 @@ use std::path::Path;
 use fem_beam::{Beam, BeamModel, TimeFunction};
 use hybrid_core::damper::Method;
 use hybrid_core::generator::GeneratorSpec;
+use hybrid_core::hybrid::Placement;
 use hybrid_core::hybrid::{
     Attachment, AttachmentKind, BeamPoint, Excitation, ExcitationTarget, ForceKind, HybridModel,
     JointForce, Mount, MountedMechanism,
 };
-use hybrid_core::study::{DamperSetup, Placement, build_model, hybrid_of};
+use hybrid_core::study::{DamperSetup, build_model, hybrid_of};
 use mbs_symbolic::runtime::{InterpretedSystem, System};
 use mbs_symbolic::samples::SplitMix64;
 use nalgebra::{DMatrix, DVector};
