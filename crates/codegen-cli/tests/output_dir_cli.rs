@@ -242,3 +242,54 @@ fn a_stopped_damper_run_names_its_scenario_and_commits_nothing() {
     );
     assert!(!out.exists(), "a failed run left {:?}", listing(&out));
 }
+
+/// A run killed with SIGKILL leaves its temporary files (and its unlocked lock file); the
+/// next run into the directory is not refused, removes them and leaves only its own set.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_run_after_a_sigkill_cleans_up_and_is_not_refused() {
+    let out = temp_path("sigkill");
+    let o = out.to_str().unwrap().to_string();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_damper"))
+        .args([
+            "simulate",
+            "scenarios/pendulum_absorber.toml",
+            "--quiet",
+            "-o",
+            &o,
+        ])
+        .args(["--set", "integrator.t_end=100", "--allow-long"])
+        .current_dir(root())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let tmp = format!("time_history.csv.tmp-{}", child.id());
+    let started = std::time::Instant::now();
+    while !out.join(&tmp).exists() {
+        assert!(
+            started.elapsed().as_secs() < 60,
+            "the run never started streaming"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    assert_eq!(listing(&out), [".damper.lock".to_string(), tmp.clone()]);
+    let (code, _, err) = damper(&[
+        "simulate",
+        "scenarios/pendulum_absorber.toml",
+        "--quiet",
+        "-o",
+        &o,
+        "--set",
+        "integrator.t_end=0.2",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains(&tmp), "{err}");
+    assert_eq!(
+        listing(&out),
+        ["beam_displacement.svg", "summary.json", "time_history.csv"]
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
