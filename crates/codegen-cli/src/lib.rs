@@ -51,9 +51,14 @@ pub enum Error {
     /// Code generation failed.
     #[error(transparent)]
     Emit(#[from] mbs_symbolic::emit::EmitError),
-    /// The damper simulation stopped (singular position, divergence).
-    #[error("{0}")]
-    Damper(hybrid_core::hybrid::HybridError),
+    /// The damper simulation stopped (singular position, divergence); nothing was written.
+    #[error("{file}: {error}")]
+    Damper {
+        /// The scenario file.
+        file: String,
+        /// Why.
+        error: hybrid_core::hybrid::HybridError,
+    },
     /// A hybrid run stopped (singular position, no convergence, divergence); nothing was
     /// written.
     #[error("{file}: {error}")]
@@ -94,12 +99,13 @@ pub enum Error {
         /// Why.
         error: hybrid_core::closed_loop::SimError,
     },
-    /// The mechanism simulation stopped; the samples up to `t` were written.
-    #[error("{file}: simulation stopped (samples up to t = {t} written): {error}")]
+    /// The mechanism simulation stopped at `t`; nothing was written (a failed run commits
+    /// no file).
+    #[error("{file}: simulation stopped at t = {t} (nothing written): {error}")]
     Stopped {
         /// The scenario file.
         file: String,
-        /// The last output time.
+        /// The last output time reached.
         t: f64,
         /// Why.
         error: hybrid_core::closed_loop::SimError,

@@ -202,7 +202,10 @@ fn runs<M: System + Clone + Send>(
 fn run_error(sc: &DamperScenario) -> impl Fn(RunError) -> Error + '_ {
     move |e: RunError| match e {
         RunError::Setup(e) => Error::Input(sc.diagnostic(&e).into()),
-        RunError::Sim(e) => Error::Damper(e),
+        RunError::Sim(error) => Error::Damper {
+            file: sc.path.display().to_string(),
+            error,
+        },
         RunError::Stopped => unreachable!("handled with the sink's own error"),
     }
 }

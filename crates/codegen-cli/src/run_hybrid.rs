@@ -13,16 +13,20 @@
 //!
 //! Rows go through a [`RowSink`] into a [`StreamFile`] (`<name>.tmp-<pid>`, or written
 //! directly to a fifo or device) while the run goes, and are committed with the other files
-//! by the one writer at the end; a run that fails leaves nothing.
+//! by the one writer at the end; a run that fails leaves nothing. What the summary and the
+//! plot need is kept row by row in memory independent of `t_end` (running peaks and sums,
+//! the online decay estimate, the plot's min/max decimation: [`crate::report::digest`]).
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use hybrid_core::decay::DecayTracker;
 use hybrid_core::hybrid::{Integrator, RunError, RunOptions, run};
 use indicatif::ProgressBar;
 
 use crate::Error;
 use crate::budget::Estimate;
+use crate::report::digest::Decimator;
 use crate::report::hybrid::{
     AttachmentReport, Columns, ExcitationReport, GeneratorReport, HybridEnergy, HybridSummary,
     MechanismReport, RepartitionReport,
@@ -30,7 +34,7 @@ use crate::report::hybrid::{
 use crate::report::plot::plot_displacements_svg;
 use crate::report::rows::{CsvRows, RowSink};
 use crate::report::summary::json_bytes;
-use crate::report::{OutputFile, ReportError, StreamFile, commit};
+use crate::report::{OutputFile, ReportError, StreamFile, commit, csv_error};
 use crate::scenario::HybridScenario;
 use crate::scenario::OverrideRecord;
 use crate::scenario::hybrid::Built;
@@ -42,10 +46,17 @@ fn progress_bar(show: bool) -> ProgressBar {
     crate::progress::bar_or_hidden(show, 1000, "simulate [{bar:40}] {percent:>3}% ETA {eta}")
 }
 
-/// Per-output-row figures the summary needs (not the rows themselves).
+/// What the summary and the plot need of the output rows, in memory independent of the
+/// number of rows (the rows themselves are streamed to the CSV).
 struct Tracks {
-    /// `(t, w)` of every attachment.
-    w: Vec<Vec<(f64, f64)>>,
+    /// `(t, w)` of every attachment, decimated for the plot.
+    w: Vec<Decimator<(f64, f64)>>,
+    /// Largest |w| of every attachment.
+    peak: Vec<f64>,
+    /// Largest |w| of every attachment from `final_from` on.
+    final_amplitude: Vec<f64>,
+    /// The start of the last tenth of the run (s).
+    final_from: f64,
     /// Sum of squared generator joint speeds and beam point speeds, per attachment.
     speeds: Vec<(f64, f64)>,
     max_condition: Vec<f64>,
@@ -54,11 +65,12 @@ struct Tracks {
 }
 
 /// A finished hybrid run as kept in memory: its summary and the displacement of every
-/// attached beam point at the output steps.
+/// attached beam point, decimated for the plot (memory independent of `t_end`).
 pub struct HybridRun<'a> {
     /// `summary.json`.
     pub summary: HybridSummary<'a>,
-    /// `(t, w)` of every attachment, at the output steps.
+    /// `(t, w)` of every attachment at the output steps, min/max decimated to at most
+    /// [`crate::report::digest::MAX_PLOT_POINTS`] points ([`Decimator`]).
     pub displacements: Vec<Vec<(f64, f64)>>,
 }
 
@@ -91,15 +103,20 @@ pub fn simulate(
     // the other files at the end (or removed when the run fails): memory stays flat.
     let csv_path = out.join("time_history.csv");
     let stream = StreamFile::create(&csv_path).map_err(ReportError::from)?;
-    let mut csv = CsvRows::new(stream, columns.header()).map_err(ReportError::from)?;
+    let mut csv = CsvRows::new(stream, columns.header()).map_err(|e| csv_error(&csv_path, e))?;
     let run = evaluate(
         sc,
         &built,
         Some((&mut columns, &mut csv)),
         overrides,
         progress,
-    )?;
-    let stream = csv.into_inner().map_err(ReportError::from)?;
+    )
+    // The only CSV error of `evaluate` is its row sink's: this file (a full disk).
+    .map_err(|e| match e {
+        Error::Report(ReportError::Csv(e)) => csv_error(&csv_path, e).into(),
+        e => e,
+    })?;
+    let stream = csv.into_inner().map_err(|e| csv_error(&csv_path, e))?;
     let summary = &run.summary;
     let na = model.attachments.len();
     let mut files = vec![OutputFile {
@@ -166,8 +183,20 @@ pub fn evaluate<'a>(
         })?;
     let initial = built.state.clone();
     let na = model.attachments.len();
+    // The steps and rows `run` makes (its own rounding), for the plot's decimation and the
+    // last tenth of the run.
+    let dt = integrator.step_size();
+    let steps = if dt > 0.0 {
+        ((sc.integrator.t_end - initial.t) / dt).round().max(0.0)
+    } else {
+        0.0
+    };
+    let expected_rows = (steps / sc.every.max(1) as f64).floor() as u64 + 2;
     let mut tracks = Tracks {
-        w: vec![vec![]; na],
+        w: (0..na).map(|_| Decimator::new(expected_rows)).collect(),
+        peak: vec![0.0; na],
+        final_amplitude: vec![0.0; na],
+        final_from: 0.9 * (initial.t + steps * dt),
         speeds: vec![(0.0, 0.0); na],
         max_condition: vec![0.0; model.mechanisms.len()],
         max_residual: vec![0.0; model.mechanisms.len()],
@@ -186,7 +215,10 @@ pub fn evaluate<'a>(
     } else {
         None
     };
-    let mut eta: Vec<(f64, f64)> = vec![];
+    // The decay of the first mode, estimated online from the modal filter's output (or the
+    // first attachment's displacement): the same estimate as of the whole series.
+    let mut decay = DecayTracker::default();
+    let mut decay_samples: u64 = 0;
     let mut z = vec![0.0; model.beam_dofs()];
     let mut e0 = None;
     let mut output_rows: u64 = 0;
@@ -208,11 +240,21 @@ pub fn evaluate<'a>(
                 for (m, free) in state.mechanisms.iter().zip(free) {
                     z.extend(free.iter().map(|&c| m.q[c]));
                 }
-                eta.push((state.t, f.apply(&z)));
+                decay.push(state.t, f.apply(&z));
+                decay_samples += 1;
             }
             for (k, a) in model.attachments.iter().enumerate() {
                 let wd = a.beam.value(&state.v);
-                tracks.w[k].push((state.t, a.beam.value(&state.q)));
+                let w = a.beam.value(&state.q);
+                if k == 0 && filter.is_none() {
+                    decay.push(state.t, w);
+                    decay_samples += 1;
+                }
+                tracks.w[k].push((state.t, w));
+                tracks.peak[k] = tracks.peak[k].max(w.abs());
+                if state.t >= tracks.final_from {
+                    tracks.final_amplitude[k] = tracks.final_amplitude[k].max(w.abs());
+                }
                 if let Some(f) = model
                     .forces
                     .iter()
@@ -290,18 +332,13 @@ pub fn evaluate<'a>(
         .iter()
         .enumerate()
         .map(|(k, a)| {
-            let w = &tracks.w[k];
             let (s_q, s_w) = tracks.speeds[k];
             AttachmentReport {
                 name: a.name.clone(),
                 kind: a.kind.as_str(),
                 x: a.beam.x,
-                peak_displacement: w.iter().map(|p| p.1.abs()).fold(0.0, f64::max),
-                final_amplitude: w
-                    .iter()
-                    .filter(|p| p.0 >= 0.9 * t_end)
-                    .map(|p| p.1.abs())
-                    .fold(0.0, f64::max),
+                peak_displacement: tracks.peak[k],
+                final_amplitude: tracks.final_amplitude[k],
                 amplification_rms: (s_w > 0.0).then(|| (s_q / s_w).sqrt()),
             }
         })
@@ -333,15 +370,7 @@ pub fn evaluate<'a>(
             work: *w,
         })
         .collect();
-    let signal = if filter.is_some() {
-        Some(&eta)
-    } else {
-        tracks.w.first()
-    };
-    let (t, y): (Vec<f64>, Vec<f64>) = signal
-        .map(|w| w.iter().copied().unzip())
-        .unwrap_or_default();
-    let decay = (free && !y.is_empty()).then(|| hybrid_core::decay::estimate(&t, &y));
+    let decay = (free && decay_samples > 0).then(|| decay.estimate());
     let damping_ratio = decay.as_ref().and_then(|d| d.zeta());
     let summary = HybridSummary {
         scenario: file.clone(),
@@ -411,7 +440,7 @@ pub fn evaluate<'a>(
 
     Ok(HybridRun {
         summary,
-        displacements: tracks.w,
+        displacements: tracks.w.iter().map(Decimator::points).collect(),
     })
 }
 

@@ -148,16 +148,14 @@ impl Diagnostics {
     /// Sorts by file, then line, then column (missing positions last), keeping the order of
     /// equal positions: deterministic output whatever order the checks ran in.
     pub fn sort(&mut self) {
-        self.0.sort_by(|a, b| {
-            let key = |d: &Diagnostic| {
-                (
-                    d.file.clone(),
-                    d.line.unwrap_or(usize::MAX),
-                    d.column.unwrap_or(usize::MAX),
-                )
-            };
-            key(a).cmp(&key(b))
-        });
+        fn key(d: &Diagnostic) -> (&str, usize, usize) {
+            (
+                &d.file,
+                d.line.unwrap_or(usize::MAX),
+                d.column.unwrap_or(usize::MAX),
+            )
+        }
+        self.0.sort_by(|a, b| key(a).cmp(&key(b)));
     }
 
     /// `Ok(value)` when there is no problem, otherwise `Err(self)`.
@@ -170,13 +168,24 @@ impl Diagnostics {
     }
 }
 
+/// Most problems [`Diagnostics`] displays; the others are counted on one last line, so an
+/// error output stays short whatever the input (a 10^6-element array of bad values).
+pub const MAX_SHOWN: usize = 20;
+
 impl fmt::Display for Diagnostics {
+    /// One line per problem, the first [`MAX_SHOWN`] of them, then `... and N more
+    /// problems` when there are more.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        for (k, d) in self.0.iter().enumerate() {
+        for (k, d) in self.0.iter().take(MAX_SHOWN).enumerate() {
             if k > 0 {
                 f.write_str("\n")?;
             }
             write!(f, "{d}")?;
+        }
+        let more = self.0.len().saturating_sub(MAX_SHOWN);
+        if more > 0 {
+            let s = if more == 1 { "" } else { "s" };
+            write!(f, "\n... and {more} more problem{s}")?;
         }
         Ok(())
     }
@@ -214,10 +223,20 @@ impl IntoIterator for Diagnostics {
     }
 }
 
+/// Bytes between two character-count checkpoints of a [`LineIndex`].
+const CHECKPOINT: usize = 256;
+
 /// Line starts of a text: turns byte offsets (parser spans) into 1-based line and column.
+///
+/// Both are found in O(log n) (a binary search of the line starts; the column from a
+/// character count kept every [`CHECKPOINT`] bytes), so locating every value of a long line
+/// (a 10^6-element array) stays linear in the text.
 #[derive(Clone, Debug)]
 pub struct LineIndex {
     starts: Vec<usize>,
+    /// `(byte, characters before it)`: the first character boundary at or after every
+    /// multiple of [`CHECKPOINT`].
+    checkpoints: Vec<(usize, usize)>,
     text: String,
 }
 
@@ -226,29 +245,50 @@ impl LineIndex {
     pub fn new(text: &str) -> LineIndex {
         let mut starts = vec![0];
         starts.extend(text.match_indices('\n').map(|(i, _)| i + 1));
+        let mut checkpoints = Vec::with_capacity(text.len() / CHECKPOINT + 1);
+        checkpoints.push((0, 0));
+        let mut next = CHECKPOINT;
+        for (count, (i, _)) in text.char_indices().enumerate() {
+            while i >= next {
+                checkpoints.push((i, count));
+                next += CHECKPOINT;
+            }
+        }
         LineIndex {
             starts,
+            checkpoints,
             text: text.to_string(),
         }
     }
 
     /// 1-based line of byte `offset` (clamped to the text).
     pub fn line(&self, offset: usize) -> usize {
-        self.locate(offset).0
+        let offset = offset.min(self.text.len());
+        self.starts.partition_point(|&s| s <= offset)
     }
 
     /// 1-based line and column (in characters) of byte `offset` (clamped to the text; an
     /// offset inside a multi-byte character counts from that character).
     pub fn locate(&self, offset: usize) -> (usize, usize) {
         let offset = offset.min(self.text.len());
-        let line = self.starts.partition_point(|&s| s <= offset);
+        let line = self.line(offset);
         let start = self.starts[line - 1];
         let mut end = offset;
         while !self.text.is_char_boundary(end) {
             end -= 1;
         }
-        let column = self.text[start..end].chars().count() + 1;
+        let column = self.chars_before(end) - self.chars_before(start) + 1;
         (line, column)
+    }
+
+    /// Characters before byte `offset` (a character boundary).
+    fn chars_before(&self, offset: usize) -> usize {
+        let mut k = (offset / CHECKPOINT).min(self.checkpoints.len() - 1);
+        while self.checkpoints[k].0 > offset {
+            k -= 1;
+        }
+        let (byte, count) = self.checkpoints[k];
+        count + self.text[byte..offset].chars().count()
     }
 }
 
@@ -282,6 +322,22 @@ mod tests {
     }
 
     #[test]
+    fn a_long_list_is_summarised() {
+        let d = |k: usize| Diagnostic::new(Kind::InvalidValue, "m.toml", format!("bad {k}"));
+        let all = Diagnostics((0..1000).map(d).collect());
+        let text = all.to_string();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), MAX_SHOWN + 1);
+        assert_eq!(lines[0], "m.toml: bad 0");
+        assert_eq!(lines[MAX_SHOWN - 1], "m.toml: bad 19");
+        assert_eq!(lines[MAX_SHOWN], "... and 980 more problems");
+        let one_more = Diagnostics((0..=MAX_SHOWN).map(d).collect());
+        assert!(one_more.to_string().ends_with("\n... and 1 more problem"));
+        let exact = Diagnostics((0..MAX_SHOWN).map(d).collect());
+        assert_eq!(exact.to_string().lines().count(), MAX_SHOWN);
+    }
+
+    #[test]
     fn line_index_locates_offsets() {
         let text = "a = 1\nbé = 2\n\nc";
         let ix = LineIndex::new(text);
@@ -296,6 +352,32 @@ mod tests {
         assert_eq!(ix.locate(usize::MAX), (4, 2));
         assert_eq!(ix.line(13), 2);
         assert_eq!(ix.line(14), 3);
+    }
+
+    /// Columns on long lines with multi-byte characters, across the checkpoints, equal a
+    /// plain character count.
+    #[test]
+    fn columns_across_checkpoints_equal_a_character_count() {
+        let text: String = (0..3000)
+            .map(|k| match k % 7 {
+                0 => 'é',
+                3 => '🦀',
+                5 if k % 500 == 5 => '\n',
+                _ => 'a',
+            })
+            .collect();
+        let ix = LineIndex::new(&text);
+        for offset in (0..=text.len()).step_by(3) {
+            let mut end = offset;
+            while !text.is_char_boundary(end) {
+                end -= 1;
+            }
+            let start = text[..end].rfind('\n').map_or(0, |i| i + 1);
+            let line = text[..end].matches('\n').count() + 1;
+            let column = text[start..end].chars().count() + 1;
+            assert_eq!(ix.locate(offset), (line, column), "offset {offset}");
+        }
+        assert_eq!(LineIndex::new("").locate(5), (1, 1));
     }
 
     #[test]

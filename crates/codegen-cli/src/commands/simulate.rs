@@ -25,9 +25,9 @@
 //! `constraint_residual_norm`, `cond_jv`, units in brackets), `<stem>_summary.json` and
 //! `<stem>.svg` (the coordinates against time, at most 20,000 rows plotted) (backend, settings,
 //! energy drift, largest constraint residual, partition changes, steps, wall time, status).
-//! When such a run stops on a singular configuration the samples up to that point are
-//! still written, the summary says `"status": "stopped"` with the error, and the command
-//! fails with that error.
+//! When such a run stops (a singular configuration, a step size too small, the step limit)
+//! nothing is written, as for every kind: the command fails with that error, naming the
+//! scenario file and the time reached.
 //!
 //! The CSV time histories are streamed row by row to temporary files next to their final
 //! names while the runs go ([`crate::report::stream`]); the damper run keeps only a digest
@@ -51,7 +51,7 @@ use crate::report::summary::{
     ChangeSummary, DamperSummary, DriftSummary, FinalState, IntegratorSummary, MechanismSettings,
     MechanismSummary, PartitionSummary, Requested, json_bytes,
 };
-use crate::report::{OutputFile, ReportError, StreamFile, WriteError, commit};
+use crate::report::{OutputFile, OutputLock, ReportError, StreamFile, commit};
 use crate::run::{self, DamperOutcome, DamperRun, MechanismOutcome};
 use crate::scenario::damper::Comparison;
 use crate::scenario::{
@@ -95,6 +95,8 @@ pub fn run(args: Args) -> Result<(), Error> {
         .unwrap_or_else(|| PathBuf::from("out").join(stem.clone().unwrap_or_else(|| "run".into())));
     let progress = !args.quiet;
     check_out_dir(&out)?;
+    // One run at a time into a directory; the files a killed run left are removed here.
+    let _lock = OutputLock::acquire(&out).map_err(ReportError::from)?;
     // Problems found later (checks against the model) name the `--set` they come from.
     let remap = |e: Error| match e {
         Error::Input(d) => Error::Input(loaded.remap(d)),
@@ -223,18 +225,7 @@ fn damper(
 
 /// A CSV row that could not be written: the file named when it is an I/O error.
 fn csv_error(path: &Path, e: ::csv::Error) -> Error {
-    if e.is_io_error() {
-        if let ::csv::ErrorKind::Io(error) = e.into_kind() {
-            return ReportError::from(WriteError {
-                what: "write",
-                path: path.to_path_buf(),
-                error,
-            })
-            .into();
-        }
-        unreachable!("an I/O error's kind is Io");
-    }
-    ReportError::from(e).into()
+    crate::report::csv_error(path, e).into()
 }
 
 /// The in-memory output files of a finished damper run (summary, plot; the time histories
@@ -331,7 +322,7 @@ fn mechanism(
         .map(|b| b.joint.kind == mbs_symbolic::model::JointKind::Revolute)
         .collect();
     let mut plotted = Thinned::default();
-    let outcome = run::mechanism(sc, &model, progress, &mut |names, row| {
+    let mut outcome = run::mechanism(sc, &model, progress, &mut |names, row| {
         plotted.push(row.t, &row.q);
         if csv_failed.is_some() {
             return;
@@ -347,6 +338,28 @@ fn mechanism(
             csv_failed = Some(e);
         }
     })?;
+    // A run that stopped commits nothing: the streamed CSV's temporary file is removed
+    // when its stream is dropped here.
+    if let Err(error) = std::mem::replace(&mut outcome.result, Ok(())) {
+        let t = outcome
+            .last_row
+            .as_ref()
+            .map_or(outcome.settings.t_start, |r| r.t);
+        return Err(match error {
+            hybrid_core::closed_loop::SimError::TooManySteps { .. } if was_capped => {
+                Error::TooLong(format!(
+                    "{}: simulation stopped at t = {t} (nothing written): {error}, above the estimate ({estimate}); pass --allow-long to lift the limit of {:.0e} steps",
+                    sc.file,
+                    budget::MAX_STEPS
+                ))
+            }
+            error => Error::Stopped {
+                file: sc.file.clone(),
+                t,
+                error,
+            },
+        });
+    }
     if let Some(e) = csv_failed {
         return Err(csv_error(&csv_path, e));
     }
@@ -406,24 +419,7 @@ fn mechanism(
         outcome.changes.len(),
         stats.max_residual
     );
-    let t = outcome
-        .last_row
-        .as_ref()
-        .map_or(outcome.settings.t_start, |r| r.t);
-    outcome.result.map_err(|error| match error {
-        hybrid_core::closed_loop::SimError::TooManySteps { .. } if was_capped => {
-            Error::TooLong(format!(
-                "{}: simulation stopped (samples up to t = {t} written): {error}, above the estimate ({estimate}); pass --allow-long to lift the limit of {:.0e} steps",
-                sc.file,
-                budget::MAX_STEPS
-            ))
-        }
-        error => Error::Stopped {
-            file: sc.file.clone(),
-            t,
-            error,
-        },
-    })
+    Ok(())
 }
 
 /// Most rows a mechanism plot keeps.

@@ -1,4 +1,4 @@
-//! What a damper run keeps of its samples while they are streamed to the CSV: the first
+//! What a run keeps of its samples while they are streamed to the CSV: the first
 //! sample, the peak amplitude, the equivalent damping ratio computed on the fly, and the
 //! plot's points decimated to at most [`MAX_PLOT_POINTS`] — memory independent of `t_end`.
 //!
@@ -11,6 +11,8 @@
 //! as its lowest and highest tip displacement in time order, with the first and the last
 //! sample (min/max decimation: the envelope of the decay is drawn exactly, no oscillation
 //! is aliased away). 20,000 points are about 20 per pixel column of the 1000-pixel plot.
+//! The hybrid kind decimates its plotted beam point displacements with the same
+//! [`Decimator`].
 
 use hybrid_core::decay::{DecayEstimate, DecayTracker};
 use hybrid_core::study::Sample;
@@ -18,18 +20,50 @@ use hybrid_core::study::Sample;
 /// Largest number of points of one plotted series.
 pub const MAX_PLOT_POINTS: u64 = 20_000;
 
-/// Min/max decimation of a series whose length is known in advance.
-#[derive(Clone, Debug)]
-struct Decimator {
-    bucket: u64,
-    in_bucket: u64,
-    low: Option<Sample>,
-    high: Option<Sample>,
-    points: Vec<Sample>,
+/// A point of a plotted series: its time and the value the decimation keeps the lowest
+/// and highest of.
+pub trait PlotPoint: Copy {
+    /// Time (s).
+    fn t(&self) -> f64;
+    /// The plotted value.
+    fn y(&self) -> f64;
 }
 
-impl Decimator {
-    fn new(expected: u64) -> Decimator {
+impl PlotPoint for Sample {
+    fn t(&self) -> f64 {
+        self.t
+    }
+    fn y(&self) -> f64 {
+        self.tip_displacement
+    }
+}
+
+impl PlotPoint for (f64, f64) {
+    fn t(&self) -> f64 {
+        self.0
+    }
+    fn y(&self) -> f64 {
+        self.1
+    }
+}
+
+/// Min/max decimation of a series whose length is known in advance (see the module
+/// documentation): at most [`MAX_PLOT_POINTS`] points, the first and the last included.
+#[derive(Clone, Debug)]
+pub struct Decimator<P> {
+    bucket: u64,
+    in_bucket: u64,
+    low: Option<P>,
+    high: Option<P>,
+    first: Option<P>,
+    last: Option<P>,
+    points: Vec<P>,
+}
+
+impl<P: PlotPoint> Decimator<P> {
+    /// A decimator for a series of `expected` points (more or fewer are fine: the plot then
+    /// has a few points more or fewer).
+    pub fn new(expected: u64) -> Decimator<P> {
         let bucket = if expected <= MAX_PLOT_POINTS {
             1
         } else {
@@ -40,21 +74,26 @@ impl Decimator {
             in_bucket: 0,
             low: None,
             high: None,
+            first: None,
+            last: None,
             points: Vec::with_capacity(expected.min(MAX_PLOT_POINTS) as usize),
         }
     }
 
-    fn push(&mut self, s: &Sample) {
+    /// Takes the next point.
+    pub fn push(&mut self, p: P) {
+        self.first.get_or_insert(p);
+        self.last = Some(p);
         if self.bucket == 1 {
-            self.points.push(*s);
+            self.points.push(p);
             return;
         }
-        let y = s.tip_displacement;
-        if self.low.is_none_or(|l| y < l.tip_displacement) {
-            self.low = Some(*s);
+        let y = p.y();
+        if self.low.is_none_or(|l| y < l.y()) {
+            self.low = Some(p);
         }
-        if self.high.is_none_or(|h| y > h.tip_displacement) {
-            self.high = Some(*s);
+        if self.high.is_none_or(|h| y > h.y()) {
+            self.high = Some(p);
         }
         self.in_bucket += 1;
         if self.in_bucket == self.bucket {
@@ -64,15 +103,40 @@ impl Decimator {
 
     fn flush(&mut self) {
         match (self.low.take(), self.high.take()) {
-            (Some(l), Some(h)) if l.t == h.t => self.points.push(l),
+            (Some(l), Some(h)) if l.t() == h.t() => self.points.push(l),
             (Some(l), Some(h)) => {
-                let (a, b) = if l.t < h.t { (l, h) } else { (h, l) };
+                let (a, b) = if l.t() < h.t() { (l, h) } else { (h, l) };
                 self.points.push(a);
                 self.points.push(b);
             }
             _ => {}
         }
         self.in_bucket = 0;
+    }
+
+    /// The points to plot (at most [`MAX_PLOT_POINTS`], the first and last included).
+    pub fn points(&self) -> Vec<P> {
+        let mut p = self.clone();
+        p.flush();
+        let mut points = p.points;
+        if p.bucket > 1 {
+            if let Some(first) = self.first {
+                if points.first().is_none_or(|p| p.t() > first.t()) {
+                    points.insert(0, first);
+                }
+            }
+            if let Some(last) = self.last {
+                if points.last().is_none_or(|p| p.t() < last.t()) {
+                    points.push(last);
+                }
+            }
+        }
+        points
+    }
+
+    /// Points retained so far (bounded by [`MAX_PLOT_POINTS`] + 2).
+    pub fn retained(&self) -> usize {
+        self.points.len() + 2
     }
 }
 
@@ -84,7 +148,7 @@ pub struct SampleDigest {
     last: Option<Sample>,
     peak: f64,
     decay: DecayTracker,
-    plot: Decimator,
+    plot: Decimator<Sample>,
 }
 
 impl SampleDigest {
@@ -107,7 +171,7 @@ impl SampleDigest {
         self.last = Some(*s);
         self.peak = self.peak.max(s.tip_displacement.abs());
         self.decay.push(s.t, s.signal);
-        self.plot.push(s);
+        self.plot.push(*s);
         self.count += 1;
     }
 
@@ -144,27 +208,12 @@ impl SampleDigest {
 
     /// The plot's points (at most [`MAX_PLOT_POINTS`], the first and last samples included).
     pub fn plot_points(&self) -> Vec<Sample> {
-        let mut p = self.plot.clone();
-        p.flush();
-        let mut points = p.points;
-        if p.bucket > 1 {
-            if let Some(first) = self.first {
-                if points.first().is_none_or(|p| p.t > first.t) {
-                    points.insert(0, first);
-                }
-            }
-            if let Some(last) = self.last {
-                if points.last().is_none_or(|p| p.t < last.t) {
-                    points.push(last);
-                }
-            }
-        }
-        points
+        self.plot.points()
     }
 
     /// Points retained for the plot so far (bounded by [`MAX_PLOT_POINTS`] + 2).
     pub fn retained(&self) -> usize {
-        self.plot.points.len() + 2
+        self.plot.retained()
     }
 }
 

@@ -1,17 +1,19 @@
 //! Output files of a run: CSV time histories ([`mod@csv`], the `csv` crate) streamed row by
 //! row ([`stream`]), typed JSON summaries ([`summary`]) and the SVG plot ([`plot`],
 //! plotters) of what the run kept in bounded memory ([`digest`]), all committed together by
-//! the one atomic writer ([`writer`]).
+//! the one atomic writer ([`writer`]), in an output directory locked for the run ([`lock`]).
 
 pub mod csv;
 pub mod digest;
 pub mod hybrid;
+pub mod lock;
 pub mod plot;
 pub mod rows;
 pub mod stream;
 pub mod summary;
 pub mod writer;
 
+pub use lock::{LockError, OutputLock};
 pub use stream::StreamFile;
 pub use writer::{OutputFile, WriteError, commit, commit_files};
 
@@ -30,4 +32,23 @@ pub enum ReportError {
     /// A file could not be written.
     #[error(transparent)]
     Write(#[from] WriteError),
+    /// The output directory is in use by another run, or cannot be locked.
+    #[error(transparent)]
+    Lock(#[from] LockError),
+}
+
+/// A CSV that could not be written to `path`: an I/O error (a full disk) names the file.
+pub fn csv_error(path: &std::path::Path, e: ::csv::Error) -> ReportError {
+    if !e.is_io_error() {
+        return ReportError::Csv(e);
+    }
+    let error = match e.into_kind() {
+        ::csv::ErrorKind::Io(error) => error,
+        kind => std::io::Error::other(format!("{kind:?}")),
+    };
+    ReportError::Write(WriteError {
+        what: "write",
+        path: path.to_path_buf(),
+        error,
+    })
 }

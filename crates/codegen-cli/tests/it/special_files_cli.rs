@@ -326,15 +326,18 @@ fn sigterm_during_a_streaming_damper_run_leaves_nothing_behind() {
         .unwrap();
     // Wait until the stream has started (its temporary file exists), then stop the run.
     let started = std::time::Instant::now();
-    while !out.exists() || names(&out).is_empty() {
+    while !out.exists() || !names(&out).iter().any(|n| n.contains(".tmp-")) {
         assert!(
             started.elapsed().as_secs() < 30,
             "the run never started streaming"
         );
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
+    // Only temporary files and the directory's lock (`report::lock`).
     assert!(
-        names(&out).iter().all(|n| n.contains(".tmp-")),
+        names(&out)
+            .iter()
+            .all(|n| n.contains(".tmp-") || n == ".damper.lock"),
         "{:?}",
         names(&out)
     );
