@@ -25,3 +25,4 @@ mod simulate_mechanism_cli;
 mod special_files_cli;
 mod step_alloc;
 mod sweep_cli;
+mod output_dir_cli;

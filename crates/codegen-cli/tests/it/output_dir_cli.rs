@@ -3,7 +3,7 @@
 //! refused), concurrent runs never leave a mixed set, the temporary files of a killed run are
 //! removed by the next run, and write errors name their file.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
