@@ -244,7 +244,7 @@ impl Quantity {
 
     /// Whether the estimate is above the limit (a NaN estimate is).
     pub fn over(&self) -> bool {
-        !(self.value <= self.limit)
+        self.value.is_nan() || self.value > self.limit
     }
 
     fn show(&self, v: f64) -> String {
