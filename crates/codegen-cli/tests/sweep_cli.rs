@@ -447,6 +447,17 @@ fn oversized_sweeps_are_refused_in_one_line_before_any_work() {
         e.contains("65536 x 65536 x 65536 x 65536 = 1.84e19 points"),
         "{e}"
     );
+    // Many axes: the line names their number, not every factor.
+    let many: Vec<String> = (0..70).map(|_| "generator.kt=1:2:2".to_string()).collect();
+    let mut args: Vec<&str> = vec![];
+    for m in &many {
+        args.extend(["--set", m.as_str()]);
+    }
+    let e = sweep("no-such.toml", &args);
+    assert!(
+        e.contains("the product of 70 axes = 1.18e21 points") && e.len() < 300,
+        "{e}"
+    );
     let huge = ["--set", "generator.kt=0:1:18446744073709551615"];
     let e = sweep("no-such.toml", &huge);
     assert!(e.contains("1.84e19 grid points"), "{e}");

@@ -271,13 +271,15 @@ impl Shape {
             .try_fold(1usize, |p, &c| p.checked_mul(c))
             .ok_or_else(|| {
                 let product: f64 = counts.iter().map(|&c| c as f64).product();
+                // The factors, or only their number when there are many (a short line).
+                let factors = if counts.len() <= budget::LISTED {
+                    let c: Vec<String> = counts.iter().map(usize::to_string).collect();
+                    c.join(" x ")
+                } else {
+                    format!("the product of {} axes", counts.len())
+                };
                 format!(
-                    "--set: the grid has {} = {product:.2e} points, more than a machine word counts ({})",
-                    counts
-                        .iter()
-                        .map(usize::to_string)
-                        .collect::<Vec<_>>()
-                        .join(" x "),
+                    "--set: the grid has {factors} = {product:.2e} points, more than a machine word counts ({})",
                     usize::MAX
                 )
             })?;
