@@ -27,13 +27,38 @@
 //! slider-crank). The estimate cannot see a motion much faster than the output grid (a
 //! huge initial velocity); such a run is stopped by its step limit, `max_steps`, which
 //! without `--allow-long` is at most [`MAX_STEPS`] ([`capped_max_steps`]).
+//!
+//! # The other commands
+//!
+//! Every command estimates its work and memory before it starts ([`Quantity`],
+//! [`refuse_above`]) and refuses above these limits unless `--allow-long`, with the estimate
+//! and the way out in one line. The limits are each about an hour of one core's work or
+//! 1 GiB of memory, well above anything the bundled examples need:
+//!
+//! | command | estimate | limit |
+//! | --- | --- | --- |
+//! | `frf` | memory of the linear response, [`FRF_BYTES_PER_FREQUENCY`] a frequency | 1 GiB (about 260,000 frequencies) |
+//! | `frf --nonlinear M` | time steps `M * max_periods * steps_per_period` (the most it can run) | [`MAX_STEPS`] |
+//! | `linearize` | memory and work of the eigen-solve: `m` Krylov vectors of `n` states (`m = n` dense), `8 (4 m^2 + m n)` bytes, `10 m^3` flops per variant | 1 GiB, [`MAX_FLOPS`] |
+//! | `sweep` | grid points of the shard (product of the axes, overflow-checked) | [`MAX_SWEEP_POINTS`] |
+//! | `sweep` | memory of the grid, [`SWEEP_BYTES_PER_POINT`] a point | 1 GiB |
+//! | `sweep --time-domain` | steps of one point (the `simulate` estimate) | [`MAX_STEPS`] |
+//! | `sweep --time-domain` | steps of all the shard's points | [`MAX_SWEEP_STEPS`] |
+//! | `merge` | bytes of the part files; grid points | 1 GiB; [`MAX_MERGE_POINTS`] |
+//! | `generate` | source size `400 ((n + n_c)^2 + 3 p n)` bytes (`n` coordinates, `n_c` constraint rows, `p` points; 354 to 408 measured on chains of 200 to 1000 bodies), memory about 4 times that | [`MAX_SOURCE_BYTES`] |
+//!
+//! Some bounds hold even with `--allow-long`: a grid whose point count does not fit in a
+//! machine word, or whose values cannot be allocated, is refused; `sweep --threads T` is
+//! capped to the machine's available parallelism; `merge` reads regular files only and
+//! needs exactly one part per shard; an error listing many items names the first few and
+//! the count ([`summarise`]).
 
 use std::fmt;
 
 use hybrid_core::closed_loop::Method;
 
 use crate::Error;
-use crate::scenario::{DamperScenario, MechanismScenario};
+use crate::scenario::{DamperScenario, MechanismScenario, Scenario};
 
 /// Largest estimated number of time steps of a run without `--allow-long`.
 pub const MAX_STEPS: f64 = 2e7;
@@ -41,6 +66,34 @@ pub const MAX_STEPS: f64 = 2e7;
 pub const MAX_ROWS: f64 = 2e6;
 /// Largest estimated CSV text of a run without `--allow-long` (bytes).
 pub const MAX_BYTES: f64 = 1024.0 * 1024.0 * 1024.0;
+
+/// Largest estimated memory of a command without `--allow-long` (bytes).
+pub const MAX_MEMORY: f64 = 1024.0 * 1024.0 * 1024.0;
+/// Largest number of grid points of a sweep (of its shard) without `--allow-long`: about
+/// an hour of one core at 10-40 ms a linearised point (measured on the bundled scenarios).
+pub const MAX_SWEEP_POINTS: f64 = 1e5;
+/// Largest number of time steps of all the points of a sweep (of its shard) without
+/// `--allow-long`: about an hour of one core at 3.6e5 steps/s.
+pub const MAX_SWEEP_STEPS: f64 = 1e9;
+/// Memory of one sweep point while the sweep runs: its grid index, its result (about 25
+/// named figures) and its rows in the CSV and JSON held until the commit (bytes).
+pub const SWEEP_BYTES_PER_POINT: f64 = 4096.0;
+/// Largest grid of a merge without `--allow-long` (points): ten times a sweep's, since a
+/// merge only joins the shards' results.
+pub const MAX_MERGE_POINTS: f64 = 1e6;
+/// Memory of one frequency of `frf` (its values, CSV and JSON rows, the plot's path),
+/// measured 4.0 kB a frequency at 20,000 frequencies (bytes).
+pub const FRF_BYTES_PER_FREQUENCY: f64 = 4096.0;
+/// Largest floating-point work of an eigen-solve of `linearize` (all variants) without
+/// `--allow-long`: a few minutes of one core.
+pub const MAX_FLOPS: f64 = 1e12;
+/// Largest estimated generated source of `generate` without `--allow-long` (bytes): a
+/// model of about 290 coordinates (a few seconds, a few hundred MB of memory).
+pub const MAX_SOURCE_BYTES: f64 = 32.0 * 1024.0 * 1024.0;
+/// Bytes of generated source per entry of `(n + n_c)^2 + 3 p n` (see [`generated_source_bytes`]).
+const SOURCE_BYTES_PER_ENTRY: f64 = 400.0;
+/// Items an error message lists before summarising the rest as a count.
+pub const LISTED: usize = 5;
 
 /// Bytes of one CSV cell (a number printed in full precision and its comma).
 const CELL_BYTES: f64 = 25.0;
@@ -52,6 +105,17 @@ pub fn dopri_typical_step(span: f64, output_step: f64, rtol: f64, max_step: Opti
     (output_step * (rtol / 1e-7).powf(0.2))
         .min(max_step.unwrap_or(f64::INFINITY))
         .min(span)
+}
+
+/// The time steps of one time-domain run of a damper or hybrid scenario (all its runs: a
+/// damper's comparisons too), as `simulate` estimates them; `None` for a mechanism
+/// scenario (adaptive: not known before the run).
+pub fn steps_per_run(sc: &Scenario) -> Option<f64> {
+    match sc {
+        Scenario::Damper(d) => Estimate::damper(d).steps,
+        Scenario::Hybrid(h) => Some((h.integrator.t_end / h.integrator.dt).round()),
+        Scenario::Mechanism(_) => None,
+    }
 }
 
 /// The step limit a run gets: the scenario's `max_steps`, at most [`MAX_STEPS`] unless
@@ -143,9 +207,161 @@ impl Estimate {
     }
 }
 
+/// One estimated quantity of a command's work and its limit without `--allow-long`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Quantity {
+    /// What is counted, plural (`grid points`, `time steps`); for bytes, what they are
+    /// (`memory`, `generated source`).
+    pub what: &'static str,
+    /// The estimate.
+    pub value: f64,
+    /// The limit.
+    pub limit: f64,
+    /// Whether the value is a number of bytes (shown in MiB / GiB).
+    pub bytes: bool,
+}
+
+impl Quantity {
+    /// A count of `what`.
+    pub fn count(what: &'static str, value: f64, limit: f64) -> Quantity {
+        Quantity {
+            what,
+            value,
+            limit,
+            bytes: false,
+        }
+    }
+
+    /// A number of bytes of `what`.
+    pub fn bytes(what: &'static str, value: f64, limit: f64) -> Quantity {
+        Quantity {
+            what,
+            value,
+            limit,
+            bytes: true,
+        }
+    }
+
+    /// Whether the estimate is above the limit (a NaN estimate is).
+    pub fn over(&self) -> bool {
+        self.value.is_nan() || self.value > self.limit
+    }
+
+    fn show(&self, v: f64) -> String {
+        if !self.bytes {
+            return format!("{v:.2e} {}", self.what);
+        }
+        const MIB: f64 = 1024.0 * 1024.0;
+        let gib = v / (1024.0 * MIB);
+        if gib >= 1e4 {
+            format!("{gib:.2e} GiB of {}", self.what)
+        } else if gib >= 1.0 {
+            format!("{gib:.1} GiB of {}", self.what)
+        } else {
+            format!("{:.1} MiB of {}", v / MIB, self.what)
+        }
+    }
+}
+
+/// Refuses work estimated above any of its limits unless `allow_long`: one line naming
+/// `subject`, the estimates above their limits and the limits, `remedy` (what to change)
+/// and `--allow-long`.
+pub fn refuse_above(
+    subject: &str,
+    work: &[Quantity],
+    remedy: &str,
+    allow_long: bool,
+) -> Result<(), Error> {
+    let over: Vec<&Quantity> = work.iter().filter(|q| q.over()).collect();
+    if allow_long || over.is_empty() {
+        return Ok(());
+    }
+    let estimates: Vec<String> = over.iter().map(|q| q.show(q.value)).collect();
+    let limits: Vec<String> = over.iter().map(|q| q.show(q.limit)).collect();
+    Err(Error::TooLong(format!(
+        "{subject}: estimated at {}, above the limit ({}); {remedy}, or pass --allow-long to run it anyway",
+        estimates.join(", "),
+        limits.join(", ")
+    )))
+}
+
+/// A list for an error line: the first [`LISTED`] items and the count of the others.
+pub fn summarise<T: fmt::Display>(items: &[T]) -> String {
+    let shown: Vec<String> = items.iter().take(LISTED).map(T::to_string).collect();
+    match items.len().saturating_sub(LISTED) {
+        0 => shown.join(", "),
+        rest => format!("{} and {rest} more", shown.join(", ")),
+    }
+}
+
+/// The estimated generated source of a model with `dof` coordinates, `constraint_rows`
+/// constraint rows and `points` named points: `400 ((n + n_c)^2 + 3 p n)` bytes
+/// (module documentation).
+pub fn generated_source_bytes(dof: usize, constraint_rows: usize, points: usize) -> f64 {
+    let (n, c, p) = (dof as f64, constraint_rows as f64, points as f64);
+    SOURCE_BYTES_PER_ENTRY * ((n + c) * (n + c) + 3.0 * p * n)
+}
+
+/// The estimated memory (bytes) and work (flops) of one eigen-solve of `k` modes of a
+/// system of `states` states: `m = states` dense, else `min(states, 2 k + 20)` Krylov
+/// vectors; `8 (4 m^2 + m n)` bytes and `10 m^3` flops (module documentation).
+pub fn eigen_work(states: usize, k: usize, dense: bool) -> (f64, f64) {
+    let n = states as f64;
+    let m = if dense {
+        n
+    } else {
+        n.min(2.0 * k as f64 + 20.0)
+    };
+    (8.0 * (4.0 * m * m + m * n), 10.0 * m * m * m)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn quantities_above_their_limit_are_refused_in_one_line_with_the_estimate() {
+        let ok = [
+            Quantity::count("grid points", 10.0, 1e5),
+            Quantity::bytes("memory", 1e6, MAX_MEMORY),
+        ];
+        assert!(refuse_above("sweep", &ok, "use fewer points", false).is_ok());
+        let bad = [
+            Quantity::count("grid points", 1e9, 1e5),
+            Quantity::bytes("memory", 4.0 * MAX_MEMORY, MAX_MEMORY),
+            Quantity::count("time steps", 1.0, MAX_STEPS),
+        ];
+        let e = refuse_above("sweep", &bad, "use fewer points", false)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "sweep: estimated at 1.00e9 grid points, 4.0 GiB of memory, above the limit (1.00e5 grid points, 1.0 GiB of memory); use fewer points, or pass --allow-long to run it anyway"
+        );
+        assert!(refuse_above("sweep", &bad, "x", true).is_ok());
+        let nan = [Quantity::count("time steps", f64::NAN, 1.0)];
+        assert!(refuse_above("frf", &nan, "x", false).is_err());
+    }
+
+    #[test]
+    fn long_lists_are_summarised() {
+        assert_eq!(summarise(&[1, 2, 3]), "1, 2, 3");
+        let many: Vec<usize> = (0..1_000_000).collect();
+        assert_eq!(summarise(&many), "0, 1, 2, 3, 4 and 999995 more");
+    }
+
+    #[test]
+    fn generated_source_estimate_matches_the_measured_chains() {
+        // Measured: 14.2 MB for a 200-body chain, 408 MB for a 1000-body chain.
+        let at = |n| generated_source_bytes(n, 0, 0);
+        assert!((at(200) / 14.16e6 - 1.0).abs() < 0.15, "{}", at(200));
+        assert!((at(1000) / 408e6 - 1.0).abs() < 0.15, "{}", at(1000));
+        assert!(at(200) < MAX_SOURCE_BYTES && at(1000) > MAX_SOURCE_BYTES);
+        let (bytes, flops) = eigen_work(12_000, 5, true);
+        assert!(bytes > MAX_MEMORY && flops > MAX_FLOPS);
+        let (bytes, flops) = eigen_work(12_000, 5, false);
+        assert!(bytes < 1e7 && flops < 1e6);
+    }
 
     #[test]
     fn dopri_typical_step_follows_tolerance_output_step_and_max_step() {

@@ -21,13 +21,17 @@
 //!   energy account.
 //!
 //! Every figure is a pure function of the scenario, the overrides and the options: the same
-//! point gives the same figures bit for bit on any thread.
+//! point gives the same figures bit for bit on any thread. A figure the run does not give is
+//! absent; a figure that comes out non-finite (an overflow, a division by zero) is an error
+//! of the point naming it, never a value. A time-domain run above the `simulate` step limit
+//! (`crate::budget`) is an error of the point unless `--allow-long`.
 
 use std::path::Path;
 
 use hybrid_core::hybrid::EigenMethod;
 
 use crate::Error;
+use crate::budget::{self, Quantity};
 use crate::report::summary::DamperSummary;
 use crate::scenario::{self, Loaded, Override, Scenario};
 
@@ -39,7 +43,7 @@ pub struct Figure {
     /// Unit (`-` for a ratio).
     pub unit: &'static str,
     /// Value; `None` when the run does not give it (e.g. a damping ratio from fewer than
-    /// three peaks) or it is not finite.
+    /// three peaks). Always finite in a result of [`evaluate`].
     pub value: Option<f64>,
 }
 
@@ -48,7 +52,7 @@ impl Figure {
         Figure {
             name: name.into(),
             unit,
-            value: value.into().filter(|v| v.is_finite()),
+            value: value.into(),
         }
     }
 
@@ -63,6 +67,8 @@ impl Figure {
 pub struct PointOptions {
     /// Run the scenario in the time domain and report its summary figures.
     pub time_domain: bool,
+    /// Run a time-domain point even above the `simulate` step limit.
+    pub allow_long: bool,
 }
 
 /// Evaluates one point: `text` (the scenario file `path`, the base of its relative paths)
@@ -83,9 +89,34 @@ pub fn evaluate(
     };
     linearised(path, &loaded, &mut figures).map_err(|e| one_line(&remap(e)))?;
     if options.time_domain {
+        if let Some(steps) = budget::steps_per_run(&loaded.scenario) {
+            budget::refuse_above(
+                &path.display().to_string(),
+                &[Quantity::count("time steps", steps, budget::MAX_STEPS)],
+                "shorten t_end",
+                options.allow_long,
+            )
+            .map_err(|e| one_line(&e))?;
+        }
         time_domain(path, &loaded, &mut figures).map_err(|e| one_line(&remap(e)))?;
     }
+    finite(&figures)?;
     Ok(figures)
+}
+
+/// Refuses figures of which one is not finite, naming it (the point's error).
+fn finite(figures: &[Figure]) -> Result<(), String> {
+    match figures
+        .iter()
+        .find(|f| f.value.is_some_and(|v| !v.is_finite()))
+    {
+        Some(f) => Err(format!(
+            "figure {} is not finite ({})",
+            f.name,
+            f.value.unwrap_or_default()
+        )),
+        None => Ok(()),
+    }
 }
 
 /// The linearised figures of a loaded scenario (see the module documentation).
@@ -225,5 +256,24 @@ fn time_domain(path: &Path, loaded: &Loaded, figures: &mut Vec<Figure>) -> Resul
         Scenario::Mechanism(_) => Err(Error::Usage(
             "sweeps evaluate `kind = \"damper\"` and `kind = \"hybrid\"` scenarios (a rigid mechanism has no sweep figures yet)".into(),
         )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_non_finite_figure_is_an_error_naming_it_and_an_absent_one_is_not() {
+        let ok = [
+            Figure::new("linear.f1", "Hz", 5.9),
+            Figure::new("zeta_with_generator", "-", None),
+        ];
+        assert_eq!(finite(&ok), Ok(()));
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            let figures = [ok[0].clone(), Figure::new("energy.initial", "J", bad)];
+            let e = finite(&figures).unwrap_err();
+            assert!(e.contains("figure energy.initial is not finite"), "{e}");
+        }
     }
 }

@@ -34,6 +34,11 @@
 //! periods, settled, distortion, time step, error), `frf.json` (settings and every value) and
 //! `frf.svg` (|H| on a log axis: the linear responses as lines, the nonlinear one as
 //! markers). Phases follow `response = |H| F sin(omega t + phi_e + phase)`.
+//!
+//! **Limits** (`crate::budget`), checked before the scenario is loaded: the memory of the
+//! `--points` (and `--nonlinear`) frequencies, 4 kB each, at most 1 GiB, and the time steps
+//! the nonlinear runs can take, `M * max_periods * steps_per_period`, at most 2e7; above
+//! them the command is refused unless `--allow-long`.
 
 use std::path::{Path, PathBuf};
 
@@ -48,6 +53,7 @@ use plotters::prelude::*;
 use serde::Serialize;
 
 use crate::Error;
+use crate::budget::{self, Quantity};
 use crate::report::summary::json_bytes;
 use crate::report::{OutputFile, ReportError, commit_files};
 use crate::scenario::tangents::{Linearizable, tangents_for};
@@ -103,6 +109,11 @@ pub struct Args {
     /// No progress bar for the nonlinear runs even on a terminal.
     #[arg(long)]
     pub quiet: bool,
+    /// Run even when the estimated memory (1 GiB: about 260,000 frequencies) or the time
+    /// steps of the nonlinear runs (`M * max_periods * steps_per_period`, 2e7) are above the
+    /// limits (`codegen_cli::budget`).
+    #[arg(long)]
+    pub allow_long: bool,
 }
 
 /// The response and the force, resolved against the model.
@@ -415,6 +426,25 @@ pub fn run(args: Args) -> Result<(), Error> {
     if args.steps_per_period < 8 {
         return Err(usage("--steps-per-period: at least 8"));
     }
+    let frequencies = args.points as f64 + args.nonlinear.unwrap_or(0) as f64;
+    let mut work = vec![Quantity::bytes(
+        "memory",
+        frequencies * budget::FRF_BYTES_PER_FREQUENCY,
+        budget::MAX_MEMORY,
+    )];
+    if let Some(m) = args.nonlinear {
+        work.push(Quantity::count(
+            "time steps",
+            m as f64 * args.max_periods as f64 * args.steps_per_period as f64,
+            budget::MAX_STEPS,
+        ));
+    }
+    budget::refuse_above(
+        &file,
+        &work,
+        "use fewer --points or --nonlinear frequencies, or a smaller --max-periods or --steps-per-period",
+        args.allow_long,
+    )?;
     let loaded = scenario::load_with(&args.scenario, &args.set)?;
     let sc = loaded.scenario.clone();
     let stem = args

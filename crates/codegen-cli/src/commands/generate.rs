@@ -13,6 +13,12 @@
 //! ...
 //! all                      ...
 //! ```
+//!
+//! **Limit** (`crate::budget`): the generated source grows with the square of the model
+//! (`400 ((n + n_c)^2 + 3 p n)` bytes for `n` coordinates, `n_c` constraint rows and `p`
+//! points; about four times that in memory while generating); a model estimated above
+//! 32 MiB of source (about 290 coordinates) is refused after loading, before generating,
+//! unless `--allow-long`.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -22,6 +28,7 @@ use mbs_symbolic::expr::OpCount;
 use mbs_symbolic::model;
 
 use crate::Error;
+use crate::budget::{self, Quantity};
 
 /// Arguments of `damper generate`.
 #[derive(clap::Args, Debug)]
@@ -38,6 +45,10 @@ pub struct Args {
     /// Name of the generated struct (default: the model name in UpperCamelCase).
     #[arg(long, value_name = "NAME")]
     pub struct_name: Option<String>,
+    /// Generate even when the estimated source is above the limit (32 MiB, about 290
+    /// coordinates; `codegen_cli::budget`).
+    #[arg(long)]
+    pub allow_long: bool,
 }
 
 /// Longest function name shown in the `--stats` table; longer ones (point names can be
@@ -114,6 +125,22 @@ pub fn run(args: Args) -> Result<(), Error> {
     check_output(&args.output)?;
     // Model errors already name the file, the line and the entity.
     let model = model::load(&args.model)?;
+    let source =
+        budget::generated_source_bytes(model.dof(), model.constraint_rows(), model.points.len());
+    budget::refuse_above(
+        &args.model.display().to_string(),
+        &[Quantity::bytes(
+            "generated source",
+            source,
+            budget::MAX_SOURCE_BYTES,
+        )],
+        &format!(
+            "the model has {} coordinates and {} constraint rows; split it",
+            model.dof(),
+            model.constraint_rows()
+        ),
+        args.allow_long,
+    )?;
     let opts = EmitOptions {
         struct_name: args.struct_name.clone(),
         ..EmitOptions::default()

@@ -5,6 +5,12 @@
 //! motion), with the generators connected, disconnected, and for the bare beam; the
 //! generators' velocity amplification at the equilibrium. A table on standard output, or the
 //! whole report as JSON with `--json`.
+//!
+//! **Limits** (`crate::budget`): before the eigen-solves, their memory and work are
+//! estimated from the number of states (`2 (beam DOFs + mechanism coordinates) +
+//! generators`, an upper bound), `--modes` and the method (dense: every state; Arnoldi:
+//! `2 K + 20` Krylov vectors), for the three variants; above 1 GiB or 1e12 flops the command
+//! is refused unless `--allow-long`.
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -12,9 +18,11 @@ use std::path::PathBuf;
 use hybrid_core::hybrid::{EigenMethod, ModeKind};
 
 use crate::Error;
-use crate::linear::{LinearReport, ModeReport, analyse};
+use crate::budget::{self, Quantity};
+use crate::linear::{LinearReport, ModeReport, analyse_model};
 use crate::report::ReportError;
 use crate::report::summary::json_bytes;
+use crate::scenario::tangents::{Linearizable, tangents_for};
 use crate::scenario::{self, Override};
 
 /// Arguments of `damper linearize`.
@@ -34,6 +42,10 @@ pub struct Args {
     /// Override a field of the scenario file: `--set PATH=VALUE` (repeatable).
     #[arg(long = "set", value_name = "PATH=VALUE")]
     pub set: Vec<Override>,
+    /// Run even when the eigen-solves' estimated memory (1 GiB) or work (1e12 flops) are
+    /// above the limits (`codegen_cli::budget`).
+    #[arg(long)]
+    pub allow_long: bool,
 }
 
 fn parse_method(s: &str) -> Result<EigenMethod, String> {
@@ -54,17 +66,54 @@ pub fn run(args: Args) -> Result<(), Error> {
     }
     let loaded = scenario::load_with(&args.scenario, &args.set)?;
     let file = args.scenario.display().to_string();
-    let mut report =
-        analyse(&file, &loaded.scenario, args.modes, args.method).map_err(|e| match e {
-            Error::Input(d) => Error::Input(loaded.remap(d)),
-            e => e,
-        })?;
+    let remap = |e: Error| match e {
+        Error::Input(d) => Error::Input(loaded.remap(d)),
+        e => e,
+    };
+    let input = tangents_for(&loaded.scenario).map_err(remap)?;
+    check_work(&file, &input, &args)?;
+    let mut report = analyse_model(&file, &input, args.modes, args.method).map_err(remap)?;
     report.overrides = loaded.applied.records();
     if args.json {
         let bytes = json_bytes(&report).map_err(ReportError::Json)?;
         return crate::print(&String::from_utf8_lossy(&bytes));
     }
     crate::print(&table(&report))
+}
+
+/// Refuses eigen-solves estimated above the limits unless `--allow-long` (module
+/// documentation).
+fn check_work(file: &str, input: &Linearizable, args: &Args) -> Result<(), Error> {
+    let model = &input.model;
+    let beam = model.beam.as_ref().map_or(0, |b| b.dofs().reduced_len());
+    let coordinates: usize = input.tangents.iter().map(|t| t.dof()).sum();
+    let generators = model
+        .forces
+        .iter()
+        .filter(|f| f.generator().is_some())
+        .count();
+    let states = (beam + coordinates)
+        .saturating_mul(2)
+        .saturating_add(generators);
+    let dense = match args.method {
+        EigenMethod::Auto => states <= 600,
+        EigenMethod::Dense => true,
+        EigenMethod::ShiftInvert => false,
+    };
+    let (bytes, flops) = budget::eigen_work(states, args.modes, dense);
+    budget::refuse_above(
+        file,
+        &[
+            Quantity::bytes("memory", bytes, budget::MAX_MEMORY),
+            Quantity::count("flops", 3.0 * flops, budget::MAX_FLOPS),
+        ],
+        &format!(
+            "{states} states, {} modes, {} eigen-solver: ask fewer --modes, use --method shift-invert or a coarser beam",
+            args.modes,
+            if dense { "dense" } else { "Arnoldi" }
+        ),
+        args.allow_long,
+    )
 }
 
 fn mode_rows(out: &mut String, title: &str, modes: &[ModeReport]) {

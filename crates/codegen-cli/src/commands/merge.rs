@@ -5,13 +5,24 @@
 //! The parts must be of one sweep (same scenario text hash, same `--set` specs, same
 //! options, same N) and every shard 0..N must be there exactly once; anything else is one
 //! line naming the problem, and nothing is written.
+//!
+//! Every part is checked before anything is written: it is a regular file (checked before
+//! it is opened: a fifo is never read), within the size limit, a complete part file whose
+//! checksum matches its content (an edited, deleted or truncated figure is refused, naming
+//! the file), every figure a known unit and a finite number, every point in its shard and
+//! the shard complete; the grid's size is counted from the specs (overflow-checked) and
+//! must be the recorded one. The size of the parts and of the grid are bounded
+//! (`crate::budget`: 1 GiB, 1e6 points) unless `--allow-long`. A list of missing shards
+//! names the first few and the count.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use crate::Error;
+use crate::budget::{self, Quantity};
 use crate::report::{ReportError, commit_files};
 
-use super::sweep::{Grid, Part, PointResult, outputs, part_name};
+use super::sweep::{Grid, Part, PointResult, Shape, outputs, part_name, shard_points};
 
 /// Arguments of `damper merge`.
 #[derive(clap::Args, Debug)]
@@ -22,6 +33,10 @@ pub struct Args {
     /// Output directory (default: the directory given as the only input).
     #[arg(short = 'o', long = "out")]
     pub out: Option<PathBuf>,
+    /// Merge even when the part files (1 GiB in all) or the grid (1e6 points) are above the
+    /// limits (`codegen_cli::budget`).
+    #[arg(long)]
+    pub allow_long: bool,
 }
 
 /// The part files in a directory (`sweep.part-*-of-*.json`), sorted by name.
@@ -46,11 +61,39 @@ fn parts_in(dir: &Path) -> Result<Vec<PathBuf>, Error> {
     Ok(parts)
 }
 
+/// The size of a part file, checked to be a regular file before it is opened (a fifo or a
+/// device would block or never end).
+fn part_size(path: &Path) -> Result<u64, Error> {
+    let meta = std::fs::metadata(path)
+        .map_err(|e| Error::Usage(format!("cannot read {}: {e}", path.display())))?;
+    if !meta.is_file() {
+        return Err(Error::Usage(format!(
+            "{}: not a regular file (merge reads sweep part files only)",
+            path.display()
+        )));
+    }
+    Ok(meta.len())
+}
+
 fn read_part(path: &Path) -> Result<Part, Error> {
     let bytes = std::fs::read(path)
         .map_err(|e| Error::Usage(format!("cannot read {}: {e}", path.display())))?;
-    serde_json::from_slice(&bytes)
-        .map_err(|e| Error::Usage(format!("{}: not a sweep part file: {e}", path.display())))
+    let part: Part = serde_json::from_slice(&bytes).map_err(|e| {
+        Error::Usage(format!(
+            "{}: not a complete sweep part file: {e}",
+            path.display()
+        ))
+    })?;
+    // The figures first (the more precise message), then the checksum.
+    part.results()
+        .map_err(|e| Error::Usage(format!("{}: {e}", path.display())))?;
+    if part.checksum() != part.checksum {
+        return Err(Error::Usage(format!(
+            "{}: the content does not match its checksum (the part was edited or damaged after it was written): run its shard again",
+            path.display()
+        )));
+    }
+    Ok(part)
 }
 
 /// Runs `damper merge`.
@@ -73,21 +116,42 @@ pub fn run(args: Args) -> Result<(), Error> {
             ));
         }
     };
+    let mut bytes = 0.0;
+    for f in &files {
+        bytes += part_size(f)? as f64;
+    }
+    budget::refuse_above(
+        "merge",
+        &[Quantity::bytes("part files", bytes, budget::MAX_BYTES)],
+        "merge fewer, smaller parts",
+        args.allow_long,
+    )?;
     let parts: Vec<(PathBuf, Part)> = files
         .into_iter()
         .map(|f| read_part(&f).map(|p| (f, p)))
         .collect::<Result<_, _>>()?;
-    let results = check(&parts)?;
-    let first = &parts[0].1;
-    let grid = Grid::parse(&first.sweep.sets).map_err(Error::Usage)?;
-    if grid.len() != first.sweep.grid_size {
+    let (first_path, first) = (&parts[0].0, &parts[0].1);
+    let shape = Shape::of(&first.sweep.sets)
+        .map_err(|e| Error::Usage(format!("{}: {e}", first_path.display())))?;
+    if shape.points != first.sweep.grid_size {
         return Err(Error::Usage(format!(
             "{}: grid size {} does not match its specs ({} points)",
-            parts[0].0.display(),
+            first_path.display(),
             first.sweep.grid_size,
-            grid.len()
+            shape.points
         )));
     }
+    budget::refuse_above(
+        "merge",
+        &[
+            Quantity::count("grid points", shape.points as f64, budget::MAX_MERGE_POINTS),
+            Quantity::bytes("memory", shape.memory(shape.points), budget::MAX_MEMORY),
+        ],
+        "merge a smaller sweep",
+        args.allow_long,
+    )?;
+    let results = check(&parts)?;
+    let grid = Grid::parse(&first.sweep.sets).map_err(Error::Usage)?;
     let files = outputs(&out, &first.sweep, &grid, &results)?;
     commit_files(&files).map_err(ReportError::from)?;
     let failed = results.iter().filter(|r| r.error.is_some()).count();
@@ -108,7 +172,7 @@ pub fn run(args: Args) -> Result<(), Error> {
 fn check(parts: &[(PathBuf, Part)]) -> Result<Vec<PointResult>, Error> {
     let (first_path, first) = &parts[0];
     let n = first.shards;
-    let mut seen: Vec<Option<&Path>> = vec![None; n];
+    let mut seen: BTreeMap<usize, &Path> = BTreeMap::new();
     let mut results = vec![];
     for (path, p) in parts {
         let differ = |what: &str| {
@@ -137,7 +201,7 @@ fn check(parts: &[(PathBuf, Part)]) -> Result<Vec<PointResult>, Error> {
                 p.shard
             )));
         }
-        if let Some(other) = seen[p.shard] {
+        if let Some(other) = seen.insert(p.shard, path) {
             return Err(Error::Usage(format!(
                 "shard {} of {n} given twice ({} and {})",
                 p.shard,
@@ -145,7 +209,6 @@ fn check(parts: &[(PathBuf, Part)]) -> Result<Vec<PointResult>, Error> {
                 path.display()
             )));
         }
-        seen[p.shard] = Some(path);
         if p.rows
             .iter()
             .any(|r| r.index % n != p.shard || r.index >= p.sweep.grid_size)
@@ -156,19 +219,38 @@ fn check(parts: &[(PathBuf, Part)]) -> Result<Vec<PointResult>, Error> {
                 p.shard
             )));
         }
+        let expected = shard_points(p.sweep.grid_size, p.shard, n);
+        if p.rows.len() != expected {
+            return Err(Error::Usage(format!(
+                "{}: holds {} of the {expected} point(s) of shard {} of {n}",
+                path.display(),
+                p.rows.len(),
+                p.shard
+            )));
+        }
         let rows = p
             .results()
             .map_err(|e| Error::Usage(format!("{}: {e}", path.display())))?;
         results.extend(rows);
     }
-    let missing: Vec<String> = (0..n)
-        .filter(|&i| seen[i].is_none())
-        .map(|i| part_name(i, n))
-        .collect();
-    if !missing.is_empty() {
+    // At most `seen.len()` shards are present, so the first few missing ones are found
+    // within that many more (never a walk over N).
+    let absent = n - seen.len();
+    if absent > 0 {
+        let first: Vec<String> = (0..n)
+            .filter(|i| !seen.contains_key(i))
+            .take(budget::LISTED)
+            .map(|i| part_name(i, n))
+            .collect();
+        let more = absent - first.len();
+        let tail = if more > 0 {
+            format!(" and {more} more")
+        } else {
+            String::new()
+        };
         return Err(Error::Usage(format!(
-            "missing shard(s) of {n}: {}",
-            missing.join(", ")
+            "missing shard(s) of {n}: {}{tail}",
+            first.join(", ")
         )));
     }
     Ok(results)

@@ -17,6 +17,12 @@
 //! written; `damper merge` ([`super::merge`]) joins the N parts into exactly the files of
 //! the unsharded run, byte for byte.
 //!
+//! **Limits** (`crate::budget`): before any point runs, the grid's size is counted without
+//! building it (overflow-checked: a grid of more points than a machine word holds is
+//! refused), and the points of the shard, their memory and with `--time-domain` the steps of
+//! one point and of all of them are estimated; above the limits the sweep is refused unless
+//! `--allow-long`. `--threads` is capped to the machine's available parallelism.
+//!
 //! Numbers are written in one form everywhere: the shortest representation that reads back
 //! to the same `f64` (`crate::report::csv` cells; `serde_json` in the JSON).
 
@@ -29,6 +35,7 @@ use serde::{Deserialize, Serialize};
 use toml_edit::Value;
 
 use crate::Error;
+use crate::budget::{self, Quantity};
 use crate::report::csv::cell;
 use crate::report::{OutputFile, ReportError, commit_files};
 use crate::scenario::overrides::{json_value, parse_value, value_text};
@@ -50,7 +57,8 @@ pub struct Args {
     /// Evaluate only the points with index % N == I and write `sweep.part-I-of-N.json`.
     #[arg(long, value_name = "I/N")]
     pub shard: Option<String>,
-    /// Worker threads (default: all cores).
+    /// Worker threads (default: all cores; more than the machine's available parallelism
+    /// are capped to it).
     #[arg(long)]
     pub threads: Option<usize>,
     /// Also evaluate each point by a time-domain run of the scenario (its summary figures);
@@ -63,6 +71,10 @@ pub struct Args {
     /// No progress bar even on a terminal.
     #[arg(long)]
     pub quiet: bool,
+    /// Run even when the estimated grid points (1e5 a shard), memory (1 GiB) or time steps
+    /// (2e7 a point, 1e9 in all) are above the limits (`codegen_cli::budget`).
+    #[arg(long)]
+    pub allow_long: bool,
 }
 
 /// One swept field: its PATH and its values.
@@ -77,33 +89,99 @@ pub struct Axis {
 impl Axis {
     /// `PATH=VALUES`.
     pub fn parse(spec: &str) -> Result<Axis, String> {
-        let (path, values) = spec
-            .split_once('=')
-            .ok_or_else(|| format!("--set {spec}: expected PATH=VALUES"))?;
-        let path = path.trim();
-        scenario::overrides::parse_path(path).map_err(|e| format!("--set {spec}: {e}"))?;
-        let values = parse_values(values.trim()).map_err(|e| format!("--set {spec}: {e}"))?;
+        let (path, values) = split_spec(spec)?;
+        let values = parse_values(values).map_err(|e| format!("--set {spec}: {e}"))?;
         Ok(Axis {
             path: path.to_string(),
             values,
         })
     }
+
+    /// The number of values of `PATH=VALUES`, without building them.
+    pub fn count(spec: &str) -> Result<usize, String> {
+        let (_, values) = split_spec(spec)?;
+        count_values(values).map_err(|e| format!("--set {spec}: {e}"))
+    }
+}
+
+/// `PATH=VALUES` split, PATH checked.
+fn split_spec(spec: &str) -> Result<(&str, &str), String> {
+    let (path, values) = spec
+        .split_once('=')
+        .ok_or_else(|| format!("--set {spec}: expected PATH=VALUES"))?;
+    let path = path.trim();
+    scenario::overrides::parse_path(path).map_err(|e| format!("--set {spec}: {e}"))?;
+    Ok((path, values.trim()))
 }
 
 /// VALUES: `a:b:n` or a comma list of TOML values.
 pub fn parse_values(text: &str) -> Result<Vec<Value>, String> {
     if let Some(range) = parse_range(text)? {
-        return Ok(range);
+        return range.values(text);
     }
+    let items = list_items(text)?;
+    Ok(items.iter().map(|i| parse_value(i.trim())).collect())
+}
+
+/// The number of values of VALUES (`a:b:n`: n), without building them.
+pub fn count_values(text: &str) -> Result<usize, String> {
+    match parse_range(text)? {
+        Some(range) => Ok(range.n),
+        None => Ok(list_items(text)?.len()),
+    }
+}
+
+/// The items of a comma list.
+fn list_items(text: &str) -> Result<Vec<&str>, String> {
     let items = split_top_level(text);
     if items.iter().any(|i| i.trim().is_empty()) {
         return Err(format!("empty value in the list `{text}`"));
     }
-    Ok(items.iter().map(|i| parse_value(i.trim())).collect())
+    Ok(items)
+}
+
+/// `a:b:n`, checked, not yet expanded.
+struct Range {
+    a: Value,
+    b: Value,
+    fa: f64,
+    fb: f64,
+    n: usize,
+}
+
+impl Range {
+    /// The `n` values (memory reserved first: a range too large for it is an error, not an
+    /// abort).
+    fn values(&self, text: &str) -> Result<Vec<Value>, String> {
+        let n = self.n;
+        let mut out: Vec<Value> = Vec::new();
+        out.try_reserve_exact(n)
+            .map_err(|_| format!("`{text}`: {n} values do not fit in memory"))?;
+        if let (Value::Integer(ia), Value::Integer(ib), Ok(steps)) =
+            (&self.a, &self.b, i64::try_from(n - 1))
+        {
+            let (ia, ib) = (*ia.value(), *ib.value());
+            if let Some(d) = ib.checked_sub(ia).filter(|d| d % steps == 0) {
+                let step = d / steps;
+                out.extend((0..=steps).map(|k| Value::from(ia + step * k)));
+                return Ok(out);
+            }
+        }
+        let (fa, fb) = (self.fa, self.fb);
+        out.extend((0..n).map(|k| {
+            let x = if k + 1 == n {
+                fb
+            } else {
+                fa + (fb - fa) * k as f64 / (n - 1) as f64
+            };
+            Value::from(x)
+        }));
+        Ok(out)
+    }
 }
 
 /// `a:b:n` when the text is three numbers separated by colons.
-fn parse_range(text: &str) -> Result<Option<Vec<Value>>, String> {
+fn parse_range(text: &str) -> Result<Option<Range>, String> {
     let parts: Vec<&str> = text.split(':').map(str::trim).collect();
     let [a, b, n] = parts[..] else {
         return Ok(None);
@@ -117,37 +195,19 @@ fn parse_range(text: &str) -> Result<Option<Vec<Value>>, String> {
     let (Some(fa), Some(fb)) = (number(&a), number(&b)) else {
         return Ok(None);
     };
-    let n: usize = n
-        .parse()
-        .map_err(|_| format!("`{text}`: n in a:b:n must be a whole number of points"))?;
+    let n: usize = n.parse().map_err(|_| {
+        format!(
+            "`{text}`: n in a:b:n must be a whole number of points (at most {})",
+            usize::MAX
+        )
+    })?;
     if n < 2 {
         return Err(format!("`{text}`: a:b:n needs n >= 2 points"));
     }
     if !(fa.is_finite() && fb.is_finite()) {
         return Err(format!("`{text}`: a and b must be finite"));
     }
-    let steps = (n - 1) as i64;
-    if let (Value::Integer(ia), Value::Integer(ib)) = (&a, &b) {
-        let (ia, ib) = (*ia.value(), *ib.value());
-        if let Some(d) = ib.checked_sub(ia).filter(|d| d % steps == 0) {
-            let step = d / steps;
-            return Ok(Some(
-                (0..=steps).map(|k| Value::from(ia + step * k)).collect(),
-            ));
-        }
-    }
-    Ok(Some(
-        (0..n)
-            .map(|k| {
-                let x = if k + 1 == n {
-                    fb
-                } else {
-                    fa + (fb - fa) * k as f64 / (n - 1) as f64
-                };
-                Value::from(x)
-            })
-            .collect(),
-    ))
+    Ok(Some(Range { a, b, fa, fb, n }))
 }
 
 /// Splits at the commas outside brackets, braces and quotes.
@@ -189,9 +249,60 @@ pub struct Grid {
     pub axes: Vec<Axis>,
 }
 
+/// The size of a grid, counted without building it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Shape {
+    /// The number of values of each axis.
+    pub counts: Vec<usize>,
+    /// Their product: the number of points.
+    pub points: usize,
+}
+
+impl Shape {
+    /// The shape of the `--set` specs; a grid of more points than a machine word holds is
+    /// refused (with or without `--allow-long`: it cannot be indexed).
+    pub fn of(specs: &[String]) -> Result<Shape, String> {
+        let counts = specs
+            .iter()
+            .map(|s| Axis::count(s))
+            .collect::<Result<Vec<_>, _>>()?;
+        let points = counts
+            .iter()
+            .try_fold(1usize, |p, &c| p.checked_mul(c))
+            .ok_or_else(|| {
+                let product: f64 = counts.iter().map(|&c| c as f64).product();
+                // The factors, or only their number when there are many (a short line).
+                let factors = if counts.len() <= budget::LISTED {
+                    let c: Vec<String> = counts.iter().map(usize::to_string).collect();
+                    c.join(" x ")
+                } else {
+                    format!("the product of {} axes", counts.len())
+                };
+                format!(
+                    "--set: the grid has {factors} = {product:.2e} points, more than a machine word counts ({})",
+                    usize::MAX
+                )
+            })?;
+        Ok(Shape { counts, points })
+    }
+
+    /// The points of shard `i` of `n` ([`shard_points`]).
+    pub fn shard_points(&self, i: usize, n: usize) -> usize {
+        shard_points(self.points, i, n)
+    }
+
+    /// The estimated memory of a sweep of `points` of this grid (bytes): every value of
+    /// every axis and the points' results ([`budget::SWEEP_BYTES_PER_POINT`]).
+    pub fn memory(&self, points: usize) -> f64 {
+        let values: f64 = self.counts.iter().map(|&c| c as f64).sum();
+        values * std::mem::size_of::<Value>() as f64 + points as f64 * budget::SWEEP_BYTES_PER_POINT
+    }
+}
+
 impl Grid {
-    /// The grid of `--set` specs.
+    /// The grid of `--set` specs (its size checked first: [`Shape::of`]).
     pub fn parse(specs: &[String]) -> Result<Grid, String> {
+        Shape::of(specs)?;
         let axes = specs
             .iter()
             .map(|s| Axis::parse(s))
@@ -199,7 +310,7 @@ impl Grid {
         Ok(Grid { axes })
     }
 
-    /// Number of points.
+    /// Number of points (never overflows: checked by [`Grid::parse`]).
     pub fn len(&self) -> usize {
         self.axes.iter().map(|a| a.values.len()).product()
     }
@@ -233,6 +344,15 @@ impl Grid {
             .zip(self.point(index))
             .map(|(a, v)| Override::new(&a.path, v.clone(), &value_text(v)).expect("PATH checked"))
             .collect()
+    }
+}
+
+/// The number of the `points` grid indices in shard `i` of `n` (`index % n == i`, `n > 0`).
+pub fn shard_points(points: usize, i: usize, n: usize) -> usize {
+    if points > i {
+        (points - i - 1) / n + 1
+    } else {
+        0
     }
 }
 
@@ -291,7 +411,7 @@ pub fn fnv1a_hex(bytes: &[u8]) -> String {
 /// Runs `damper sweep`.
 pub fn run(args: Args) -> Result<(), Error> {
     let started = Instant::now();
-    let grid = Grid::parse(&args.set).map_err(Error::Usage)?;
+    let shape = Shape::of(&args.set).map_err(Error::Usage)?;
     let shard = args
         .shard
         .as_deref()
@@ -308,13 +428,54 @@ pub fn run(args: Args) -> Result<(), Error> {
     if args.threads == Some(0) {
         return Err(Error::Usage("--threads must be at least 1".into()));
     }
+    let file = args.scenario.display().to_string();
+    let (shard_i, shards) = shard.unwrap_or((0, 1));
+    let points = shape.shard_points(shard_i, shards);
+    budget::refuse_above(
+        &format!("sweep of {file}"),
+        &[
+            Quantity::count("grid points", points as f64, budget::MAX_SWEEP_POINTS),
+            Quantity::bytes("memory", shape.memory(points), budget::MAX_MEMORY),
+        ],
+        "use fewer values per --set or split the sweep with --shard I/N",
+        args.allow_long,
+    )?;
+    let threads = threads(args.threads);
     if std::fs::metadata(&args.out).is_ok_and(|m| !m.is_dir()) {
         return Err(Error::Usage(format!(
             "output directory {} is not a directory",
             args.out.display()
         )));
     }
+    let grid = Grid::parse(&args.set).map_err(Error::Usage)?;
     let text = scenario::read(&args.scenario)?;
+    let t_end = args.t_end.map(|t| {
+        Override::new("integrator.t_end", Value::from(t), &cell(Some(t))).expect("a valid PATH")
+    });
+    if args.time_domain && points > 0 {
+        // The first point stands for the others; a point whose own time settings are above
+        // the limit records that as its error (`sweep_point`).
+        let mut overrides = grid.overrides(0);
+        overrides.extend(t_end.clone());
+        if let Some(steps) = scenario::parse_with(&text, &args.scenario, &overrides)
+            .ok()
+            .and_then(|loaded| budget::steps_per_run(&loaded.scenario))
+        {
+            budget::refuse_above(
+                &format!("sweep of {file}"),
+                &[
+                    Quantity::count("time steps a point", steps, budget::MAX_STEPS),
+                    Quantity::count(
+                        "time steps in all",
+                        steps * points as f64,
+                        budget::MAX_SWEEP_STEPS,
+                    ),
+                ],
+                "shorten --t-end or use fewer points",
+                args.allow_long,
+            )?;
+        }
+    }
     let spec = SweepSpec {
         scenario: args.scenario.display().to_string(),
         scenario_hash: fnv1a_hex(text.as_bytes()),
@@ -323,19 +484,19 @@ pub fn run(args: Args) -> Result<(), Error> {
         time_domain: args.time_domain,
         grid_size: grid.len(),
     };
-    let (shard_i, shards) = shard.unwrap_or((0, 1));
-    let indices: Vec<usize> = (0..grid.len()).filter(|i| i % shards == shard_i).collect();
+    let mut indices: Vec<usize> = Vec::new();
+    indices
+        .try_reserve_exact(points)
+        .map_err(|_| Error::Usage(format!("sweep: {points} points do not fit in memory")))?;
+    indices.extend((shard_i..grid.len()).step_by(shards));
     let options = PointOptions {
         time_domain: args.time_domain,
+        allow_long: args.allow_long,
     };
     let bar = progress_bar(!args.quiet, indices.len());
     let evaluate = |index: usize| {
         let mut overrides = grid.overrides(index);
-        if let Some(t) = args.t_end {
-            let o = Override::new("integrator.t_end", Value::from(t), &cell(Some(t)))
-                .expect("a valid PATH");
-            overrides.push(o);
-        }
+        overrides.extend(t_end.clone());
         let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
             sweep_point::evaluate(&args.scenario, &text, &overrides, &options)
         }))
@@ -355,7 +516,7 @@ pub fn run(args: Args) -> Result<(), Error> {
         }
     };
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads.unwrap_or(0))
+        .num_threads(threads)
         .build()
         .map_err(|e| Error::Usage(format!("cannot start the worker threads: {e}")))?;
     // Collected in index order (never in completion order).
@@ -380,6 +541,22 @@ pub fn run(args: Args) -> Result<(), Error> {
         written.join(", ")
     );
     Ok(())
+}
+
+/// The worker threads of `--threads`: at most the machine's available parallelism (a note
+/// says so when capped); 0, rayon's default (every core), without it.
+fn threads(asked: Option<usize>) -> usize {
+    let machine = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
+    match asked {
+        Some(t) if t > machine => {
+            eprintln!(
+                "note: --threads {t} capped to {machine}, the machine's available parallelism"
+            );
+            machine
+        }
+        Some(t) => t,
+        None => 0,
+    }
 }
 
 fn progress_bar(show: bool, len: usize) -> ProgressBar {
@@ -421,7 +598,9 @@ pub struct PartRow {
     pub error: Option<String>,
 }
 
-/// `sweep.part-I-of-N.json`: the rows of shard I of N and what identifies the sweep.
+/// `sweep.part-I-of-N.json`: the rows of shard I of N, what identifies the sweep, and the
+/// checksum of both (so that `damper merge` refuses a part edited or cut after it was
+/// written).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Part {
     /// The sweep.
@@ -432,6 +611,8 @@ pub struct Part {
     pub shards: usize,
     /// The rows computed, in index order.
     pub rows: Vec<PartRow>,
+    /// FNV-1a of the compact JSON of `[sweep, shard, shards, rows]` ([`Part::checksum`]).
+    pub checksum: String,
 }
 
 /// Units known to figures (a part file names them as text).
@@ -439,7 +620,7 @@ const UNITS: [&str; 6] = ["-", "Hz", "m", "rad/m", "J", "A"];
 
 impl Part {
     fn new(spec: &SweepSpec, shard: usize, shards: usize, results: &[PointResult]) -> Part {
-        Part {
+        let mut part = Part {
             sweep: spec.clone(),
             shard,
             shards,
@@ -459,27 +640,55 @@ impl Part {
                     error: r.error.clone(),
                 })
                 .collect(),
-        }
+            checksum: String::new(),
+        };
+        part.checksum = part.checksum();
+        part
     }
 
-    /// The rows back as results (values read back exactly).
+    /// The checksum of the part's content: FNV-1a of the compact JSON of `[sweep, shard,
+    /// shards, rows]`.
+    pub fn checksum(&self) -> String {
+        let content = (&self.sweep, self.shard, self.shards, &self.rows);
+        fnv1a_hex(&serde_json::to_vec(&content).unwrap_or_default())
+    }
+
+    /// The rows back as results (values read back exactly), every figure checked: a
+    /// known unit, a finite value or none, each name once in a point, and a failed point
+    /// without figures.
     pub fn results(&self) -> Result<Vec<PointResult>, String> {
         self.rows
             .iter()
             .map(|r| {
+                let point = r.index;
+                if r.error.is_some() && !r.figures.is_empty() {
+                    return Err(format!("point {point} has both figures and an error"));
+                }
+                let mut names = std::collections::BTreeSet::new();
                 let figures = r
                     .figures
                     .iter()
                     .map(|f| {
-                        let unit = UNITS
-                            .iter()
-                            .find(|u| **u == f.unit)
-                            .ok_or_else(|| format!("unknown unit `{}`", f.unit))?;
+                        let name = diagnostic::truncate(&f.name, 60);
+                        if !names.insert(f.name.as_str()) {
+                            return Err(format!("point {point}: figure {name} given twice"));
+                        }
+                        let unit = UNITS.iter().find(|u| **u == f.unit).ok_or_else(|| {
+                            format!(
+                                "point {point}: unknown unit `{}` of figure {name}",
+                                diagnostic::truncate(&f.unit, 20)
+                            )
+                        })?;
                         let value = match &f.value {
-                            Some(v) => Some(
-                                v.parse::<f64>()
-                                    .map_err(|_| format!("bad value `{v}` of {}", f.name))?,
-                            ),
+                            Some(v) => {
+                                Some(v.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(
+                                    || {
+                                        format!(
+                                            "point {point}: figure {name} is not a finite number"
+                                        )
+                                    },
+                                )?)
+                            }
                             None => None,
                         };
                         Ok(Figure {

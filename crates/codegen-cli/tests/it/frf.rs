@@ -372,3 +372,56 @@ fn frf_command_rejects_what_it_cannot_do_in_one_line() {
     );
     assert!(!dir.exists(), "nothing written on an error");
 }
+
+#[test]
+fn frf_work_above_the_limits_is_refused_before_loading_and_allow_long_lifts_it() {
+    let dir = std::env::temp_dir().join(format!("frf_limits_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = dir.to_str().unwrap();
+    let args = |scenario: &'static str, extra: &[&'static str]| {
+        let mut v = vec![
+            "frf", scenario, "--output", "1.0", "--from", "4", "--to", "8", "--quiet", "-o", out,
+        ];
+        v.extend_from_slice(extra);
+        v
+    };
+    // Refused before the scenario is read (it does not exist).
+    let missing = "scenarios/no-such.toml";
+    assert_bad_input(
+        &args(missing, &["--points", "1000000000"]),
+        &["GiB of memory", "--points", "--allow-long"],
+    );
+    assert_bad_input(
+        &args(
+            missing,
+            &["--nonlinear", "3", "--steps-per-period", "100000"],
+        ),
+        &["3.00e8 time steps", "--allow-long"],
+    );
+    assert_bad_input(
+        &args(missing, &["--nonlinear", "3", "--max-periods", "1000000"]),
+        &["6.00e8 time steps", "--allow-long"],
+    );
+    // Just above the limit (1 x 100001 x 200 steps at most): refused; with --allow-long it
+    // runs, and settles long before its last period.
+    let above = [
+        "--points",
+        "5",
+        "--nonlinear",
+        "1",
+        "--max-periods",
+        "100001",
+    ];
+    assert_bad_input(
+        &args("scenarios/forced_damper.toml", &above),
+        &["2.00e7 time steps"],
+    );
+    assert!(!dir.exists(), "nothing written on a refusal");
+    let mut long = args("scenarios/forced_damper.toml", &above);
+    long.push("--allow-long");
+    let (code, stdout, stderr) = damper(&long);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("1 settled"), "{stdout}");
+    assert!(dir.join("frf_nonlinear.csv").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -214,3 +214,49 @@ fn unwritable_output_is_an_error_and_leaves_no_file() {
     assert_eq!(code, 2);
     assert!(err.contains("--output"), "{err}");
 }
+
+/// A planar chain of `n` bodies (revolute joints about z).
+fn chain(dir: &Path, n: usize) -> PathBuf {
+    let mut text = String::from("name = \"chain\"\ngravity = [0.0, -9.81, 0.0]\n");
+    for i in 0..n {
+        let (parent, x) = match i {
+            0 => ("ground".to_string(), 0.0),
+            _ => (format!("b{}", i - 1), 0.1),
+        };
+        text += &format!(
+            "\n[[bodies]]\nname = \"b{i}\"\nparent = \"{parent}\"\njoint = \"R3\"\nanchor = [{x}, 0, 0]\ncoordinate = \"q{i}\"\nmass = 0.1\ncom = [0.05, 0, 0]\ninertia = {{ xx = 0, yy = 1e-4, zz = 1e-4 }}\n"
+        );
+    }
+    let path = dir.join(format!("chain{n}.toml"));
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn a_model_above_the_size_limit_is_refused_unless_allow_long() {
+    let dir = scratch("limit");
+    let out = dir.join("chain.rs");
+    let out_s = out.to_str().unwrap();
+    // 10^4 bodies: an estimated 37 GiB of source (it ran out of memory after a minute).
+    let big = chain(&dir, 10_000);
+    assert_bad_input(
+        &["generate", big.to_str().unwrap(), "-o", out_s],
+        &[
+            "GiB of generated source",
+            "10000 coordinates",
+            "--allow-long",
+        ],
+    );
+    // 290 bodies: just above the limit (32 MiB); --allow-long generates it.
+    let moderate = chain(&dir, 290);
+    let args = ["generate", moderate.to_str().unwrap(), "-o", out_s];
+    assert_bad_input(&args, &["MiB of generated source", "--allow-long"]);
+    assert!(!out.exists(), "nothing written on a refusal");
+    let mut long = args.to_vec();
+    long.push("--allow-long");
+    let (code, _, err) = damper(&long);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("290 coordinates"), "{err}");
+    assert!(std::fs::metadata(&out).unwrap().len() > 1_000_000);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -104,6 +104,42 @@ fn bad_linearize_input_is_one_line() {
     );
 }
 
+#[test]
+fn eigen_solves_above_the_limits_are_refused_unless_allow_long() {
+    let fine = [
+        "linearize",
+        "scenarios/damper.toml",
+        "--set",
+        "beam.segment[0].elements=3000",
+    ];
+    let with = |extra: &[&'static str]| {
+        let mut v = fine.to_vec();
+        v.extend_from_slice(extra);
+        v
+    };
+    // A dense solve of about 12,000 states: gigabytes.
+    assert_bad_input(
+        &with(&["--method", "dense"]),
+        &["GiB of memory", "dense", "--allow-long"],
+    );
+    // Every mode by Arnoldi: the Krylov space is the whole space.
+    assert_bad_input(
+        &with(&["--method", "shift-invert", "--modes", "1000000000"]),
+        &["GiB of memory", "Arnoldi", "--allow-long"],
+    );
+    // A few modes of the same beam, and every mode of the small one, are within the limits.
+    let (code, _, err) = damper(&with(&["--modes", "2"]));
+    assert_eq!(code, 0, "{err}");
+    let (code, out, err) = damper(&[
+        "linearize",
+        "scenarios/damper.toml",
+        "--modes",
+        "1000000000",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("modes of the bare beam"), "{out}");
+}
+
 /// The exact tangents of every bundled damper and hybrid scenario, about its equilibrium
 /// (as bundled, and preloaded by in-plane gravity on the double bar and the absorber's
 /// arm), equal central differences of the independent dense KKT accelerations

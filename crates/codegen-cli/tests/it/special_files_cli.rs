@@ -420,3 +420,64 @@ fn a_streamed_csv_follows_a_symlink_and_keeps_it() {
     assert!(names(&out).iter().all(|n| !n.contains(".tmp-")));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A fifo among the parts of a merge (named as a part in its directory, or given on the
+/// command line) is refused from its metadata, never opened (opening it would block).
+#[test]
+fn merge_refuses_a_fifo_among_its_parts_without_opening_it() {
+    let dir = temp_dir("merge-fifo");
+    let parts = dir.join("parts");
+    let (code, _, err) = damper(&[
+        "sweep",
+        "scenarios/damper.toml",
+        "--quiet",
+        "--set",
+        "generator.load_resistance=1,10",
+        "--shard",
+        "0/2",
+        "-o",
+        parts.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let fifo = parts.join("sweep.part-1-of-2.json");
+    let Some(()) = mkfifo(&fifo) else { return };
+    let out = dir.join("out");
+    let part0 = parts.join("sweep.part-0-of-2.json");
+    for args in [
+        vec![parts.to_str().unwrap(), "-o", out.to_str().unwrap()],
+        vec![
+            part0.to_str().unwrap(),
+            fifo.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ],
+    ] {
+        // A regression would block on the fifo: the child is killed after a minute.
+        let mut child = Command::new(env!("CARGO_BIN_EXE_damper"))
+            .arg("merge")
+            .args(&args)
+            .current_dir(root())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let started = std::time::Instant::now();
+        while child.try_wait().unwrap().is_none() {
+            if started.elapsed().as_secs() > 60 {
+                let _ = child.kill();
+                panic!("merge blocked on the fifo");
+            }
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let output = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(
+            err.contains("not a regular file") && err.contains(fifo.to_str().unwrap()),
+            "{err}"
+        );
+        assert!(!out.exists(), "nothing written");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

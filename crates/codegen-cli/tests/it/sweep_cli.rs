@@ -399,3 +399,262 @@ fn assert_same_outputs(a: &std::path::Path, b: &std::path::Path, what: &str) {
         assert_eq!(read(a), read(b), "{f}: {what}");
     }
 }
+
+#[test]
+fn oversized_sweeps_are_refused_in_one_line_before_any_work() {
+    let dir = scratch("limits");
+    let out = dir.join("out");
+    let out_s = out.to_str().unwrap().to_string();
+    let sweep = |scenario: &'static str, extra: &[&str]| {
+        let mut a = vec!["sweep", scenario, "--quiet", "-o", &out_s];
+        a.extend_from_slice(extra);
+        assert_bad_input(&a, &[]).trim_end().to_string()
+    };
+    // Refused before the scenario is read (the file does not exist): no work at all.
+    let e = sweep("no-such.toml", &["--set", "generator.kt=1:1e9:1000000000"]);
+    assert!(
+        e.contains("1.00e9 grid points") && e.contains("--allow-long"),
+        "{e}"
+    );
+    let e = sweep(
+        "no-such.toml",
+        &[
+            "--set",
+            "generator.kt=1:2:10000",
+            "--set",
+            "generator.ke=1:2:10000",
+        ],
+    );
+    assert!(
+        e.contains("1.00e8 grid points") && e.contains("--shard"),
+        "{e}"
+    );
+    // 2^64 points: no wrap to an empty grid.
+    let e = sweep(
+        "no-such.toml",
+        &[
+            "--set",
+            "generator.kt=1:2:65536",
+            "--set",
+            "generator.ke=1:2:65536",
+            "--set",
+            "generator.inductance=1:2:65536",
+            "--set",
+            "generator.load_resistance=1:2:65536",
+        ],
+    );
+    assert!(
+        e.contains("65536 x 65536 x 65536 x 65536 = 1.84e19 points"),
+        "{e}"
+    );
+    // Many axes: the line names their number, not every factor.
+    let many: Vec<String> = (0..70).map(|_| "generator.kt=1:2:2".to_string()).collect();
+    let mut args: Vec<&str> = vec![];
+    for m in &many {
+        args.extend(["--set", m.as_str()]);
+    }
+    let e = sweep("no-such.toml", &args);
+    assert!(
+        e.contains("the product of 70 axes = 1.18e21 points") && e.len() < 300,
+        "{e}"
+    );
+    let huge = ["--set", "generator.kt=0:1:18446744073709551615"];
+    let e = sweep("no-such.toml", &huge);
+    assert!(e.contains("1.84e19 grid points"), "{e}");
+    // With --allow-long, the values that cannot be allocated are an error, not a panic.
+    let e = sweep("no-such.toml", &[huge[0], huge[1], "--allow-long"]);
+    assert!(e.contains("do not fit in memory"), "{e}");
+    // The time-domain run of a point is bounded as `simulate` bounds it.
+    let e = sweep(
+        "scenarios/damper.toml",
+        &[
+            "--set",
+            "generator.load_resistance=1,10",
+            "--time-domain",
+            "--t-end",
+            "3000",
+        ],
+    );
+    assert!(
+        e.contains("9.00e7 time steps a point") && e.contains("--allow-long"),
+        "{e}"
+    );
+    let e = assert_bad_input(
+        &[
+            "simulate",
+            "scenarios/damper.toml",
+            "--set",
+            "integrator.t_end=3000",
+            "-o",
+            &out_s,
+        ],
+        &["9.00e7 steps"],
+    );
+    assert!(e.contains("--allow-long"));
+    assert!(!out.exists(), "nothing written");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_point_above_the_step_limit_records_it_and_threads_are_capped_to_the_machine() {
+    let dir = scratch("point-limit");
+    let out = dir.join("out");
+    let (code, stdout, err) = damper(&[
+        "sweep",
+        "scenarios/damper.toml",
+        "--quiet",
+        "--time-domain",
+        "--set",
+        "integrator.t_end=0.05,3000",
+        "--threads",
+        "100000",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(stdout.is_empty(), "{stdout}");
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    assert!(
+        err.contains(&format!("--threads 100000 capped to {cores}")),
+        "{err}"
+    );
+    let csv = std::fs::read_to_string(out.join("sweep.csv")).unwrap();
+    let mut rows = csv::Reader::from_reader(csv.as_bytes());
+    let rows: Vec<csv::StringRecord> = rows.records().map(Result::unwrap).collect();
+    let error = |r: &csv::StringRecord| r.get(r.len() - 1).unwrap().to_string();
+    assert_eq!(error(&rows[0]), "");
+    assert!(
+        error(&rows[1]).contains("9.00e7 time steps") && error(&rows[1]).contains("--allow-long"),
+        "{}",
+        error(&rows[1])
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The two parts (`--shard 0/2`, `1/2`) of a linearised sweep of three points in `dir`.
+fn two_parts(dir: &Path, set: &str) -> [PathBuf; 2] {
+    for shard in ["0/2", "1/2"] {
+        let (code, _, err) = damper(&[
+            "sweep",
+            "scenarios/damper.toml",
+            "--quiet",
+            "--set",
+            set,
+            "--shard",
+            shard,
+            "-o",
+            dir.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{err}");
+    }
+    [0, 1].map(|i| dir.join(format!("sweep.part-{i}-of-2.json")))
+}
+
+#[test]
+fn merge_refuses_edited_deleted_non_finite_truncated_and_foreign_parts() {
+    use codegen_cli::commands::sweep::Part;
+    let dir = scratch("tamper");
+    let good = two_parts(&dir.join("good"), "generator.load_resistance=1,10,100");
+    let other = two_parts(&dir.join("other"), "generator.load_resistance=1,10,1000");
+    let merged = dir.join("merged");
+    let merged_s = merged.to_str().unwrap().to_string();
+    let text = std::fs::read_to_string(&good[0]).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let edit = |f: &dyn Fn(&mut serde_json::Value)| {
+        let mut j = json.clone();
+        f(&mut j);
+        serde_json::to_string_pretty(&j).unwrap()
+    };
+    let set_value = |v: &'static str| {
+        edit(&move |j| j["rows"][0]["figures"][0]["value"] = serde_json::json!(v))
+    };
+    let mut huge: Part = serde_json::from_str(&text).unwrap();
+    huge.shards = usize::MAX;
+    huge.checksum = huge.checksum();
+    let cases: Vec<(&str, String, &[&str])> = vec![
+        ("edited", set_value("6.5"), &["checksum", "edited"]),
+        (
+            "deleted",
+            edit(&|j| {
+                j["rows"][0]["figures"].as_array_mut().unwrap().remove(1);
+            }),
+            &["checksum"],
+        ),
+        (
+            "absent",
+            edit(&|j| j["rows"][0]["figures"][0]["value"] = serde_json::Value::Null),
+            &["checksum"],
+        ),
+        (
+            "nan",
+            set_value("NaN"),
+            &["point 0: figure linear.f1 is not a finite number"],
+        ),
+        (
+            "inf",
+            set_value("-inf"),
+            &["point 0: figure linear.f1 is not a finite number"],
+        ),
+        (
+            "truncated",
+            text[..text.len() / 2].to_string(),
+            &["not a complete sweep part file"],
+        ),
+        (
+            "shards",
+            serde_json::to_string_pretty(&huge).unwrap(),
+            &["18446744073709551615"],
+        ),
+    ];
+    for (name, part0, needles) in cases {
+        let case = dir.join(name);
+        std::fs::create_dir_all(&case).unwrap();
+        let p0 = case.join("sweep.part-0-of-2.json");
+        std::fs::write(&p0, part0).unwrap();
+        std::fs::copy(&good[1], case.join("sweep.part-1-of-2.json")).unwrap();
+        let e = assert_bad_input(&["merge", case.to_str().unwrap(), "-o", &merged_s], needles);
+        assert!(
+            e.contains(p0.to_str().unwrap()),
+            "{name}: names the part: {e}"
+        );
+        assert!(!merged.exists(), "{name}: nothing written");
+    }
+    // A part of another sweep.
+    let (g0, o1) = (good[0].to_str().unwrap(), other[1].to_str().unwrap());
+    assert_bad_input(
+        &["merge", g0, o1, "-o", &merged_s],
+        &["parts of different sweeps", "--set specs"],
+    );
+    // The untouched parts merge.
+    let (code, _, err) = damper(&["merge", g0, good[1].to_str().unwrap(), "-o", &merged_s]);
+    assert_eq!(code, 0, "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn merge_of_one_part_of_a_million_shards_is_a_short_line() {
+    let dir = scratch("million");
+    let (code, _, err) = damper(&[
+        "sweep",
+        "scenarios/damper.toml",
+        "--quiet",
+        "--set",
+        "generator.load_resistance=1,10",
+        "--shard",
+        "0/1000000",
+        "-o",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let out = dir.join("out");
+    let e = assert_bad_input(
+        &["merge", dir.to_str().unwrap(), "-o", out.to_str().unwrap()],
+        &[
+            "missing shard(s) of 1000000: sweep.part-1-of-1000000.json",
+            "and 999994 more",
+        ],
+    );
+    assert!(e.len() < 400, "{} bytes: {e}", e.len());
+    assert!(!out.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
