@@ -11,36 +11,57 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use codegen_cli::commands::{eval, frf, generate, linearize, merge, modes, simulate, sweep};
 
-/// Design and verification of electromagnetic vibration dampers with a mechanism near its
-/// singular position.
+/// Design and verification of electromagnetic vibration dampers (beam + mechanism + generator)
+///
+/// A mechanism near its singular position drives a DC generator from a vibrating beam. Every
+/// command is described in README.md (section "Commands"); `damper COMMAND --help` gives its
+/// arguments and options.
 #[derive(Parser, Debug)]
-#[command(name = "damper", version, about)]
+#[command(name = "damper", version)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
 }
 
+// The first line of each command's documentation is its one-line summary in `damper --help`
+// and in README.md's command table (`crates/codegen-cli/tests/readme_cli.rs` compares them).
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Emit the Rust module of a mechanism model (the equations as generated code).
+    /// Emit the Rust module of a mechanism model (its equations as generated code)
+    ///
+    /// Writes a struct with the model's run-time parameters and the methods that evaluate
+    /// M, F, Q, h, J, A and the named points into caller-owned arrays (completely or not at
+    /// all, only when the content changes).
     Generate(generate::Args),
-    /// Evaluate M, F, Q, h, J, A and point kinematics of a mechanism model at one state and
-    /// print them as JSON.
+    /// Evaluate M, F, Q, h, J, A and point kinematics of a model at one state (JSON)
+    ///
+    /// With the DAG interpreter (default), the numeric reference or the code generated at
+    /// build time.
     Eval(eval::Args),
-    /// Natural frequencies of a finite-element beam, with analytic values where known.
+    /// Natural frequencies of a finite-element beam, with analytic values where known
     Modes(modes::Args),
-    /// Static equilibrium and linearised modes of a damper or hybrid scenario: frequencies,
-    /// damping ratios, mode shapes, with and without the generator and for the bare beam.
+    /// Static equilibrium and linearised modes of a damper or hybrid scenario
+    ///
+    /// Frequencies, damping ratios and mode shapes with the generator, disconnected and for
+    /// the bare beam, and each generator's amplification dq/dw at the equilibrium.
     Linearize(linearize::Args),
-    /// Run a scenario: the damper (beam + mechanism + generator) or a closed-loop mechanism.
+    /// Run a scenario: a damper, a hybrid system or a closed-loop mechanism
+    ///
+    /// `kind = "damper"` (beam + double bar + generator, with its comparison runs),
+    /// `kind = "hybrid"` (a beam and any mechanisms, attachments, forces and excitations) or
+    /// `kind = "mechanism"` (a rigid closed-loop mechanism); every output file or none.
     Simulate(simulate::Args),
-    /// Evaluate a scenario over a grid of `--set PATH=VALUES` (parallel; `--shard I/N` for
-    /// cluster job arrays).
+    /// Evaluate a scenario over a grid of `--set PATH=VALUES` (parallel, shardable)
+    ///
+    /// Linearised figures at every point, time-domain figures with `--time-domain`;
+    /// `--shard I/N` for cluster job arrays, joined by `damper merge`.
     Sweep(sweep::Args),
-    /// Join the parts of a sharded sweep into the files of the unsharded run.
+    /// Join the parts of a sharded sweep into the files of the unsharded run
     Merge(merge::Args),
-    /// Frequency response of a damper or hybrid scenario: the linear receptance with and
-    /// without the generator, and the nonlinear steady state from time-domain runs.
+    /// Frequency response of a damper or hybrid scenario, linear and nonlinear
+    ///
+    /// The linear receptance with and without the generator, and with `--nonlinear` the
+    /// steady state of the full system from time-domain runs.
     Frf(frf::Args),
 }
 

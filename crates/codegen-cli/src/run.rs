@@ -115,7 +115,8 @@ pub fn damper(
     );
     let progress = progress && std::io::stderr().is_terminal();
     let resolved = model_registry::system_for(model, None)?;
-    if resolved.compiled.is_none() {
+    // A stale model (an edited bundled one) was announced by the registry.
+    if resolved.compiled.is_none() && resolved.stale.is_none() {
         eprintln!(
             "note: {} is not compiled in (hash {}); using the DAG interpreter (slower). Put it under models/ and rebuild to compile it in.",
             sc.model_path.display(),

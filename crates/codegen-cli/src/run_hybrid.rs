@@ -4,7 +4,8 @@
 //! `damper simulate scenario.toml -o DIR` writes into DIR (all together, or nothing):
 //!
 //! - `time_history.csv`: the columns of [`crate::report::hybrid`] (mechanism coordinates,
-//!   rates and cond(J_d), beam point displacements and velocities, amplification ratios,
+//!   rates and cond(J_d), beam point displacements and velocities, amplifications dq/dw
+//!   (and speed ratios where they differ from them),
 //!   generator currents, powers and harvested energies, excitation values and work, the
 //!   energy account, constraint residuals), a row every `[output] every` steps;
 //! - `summary.json` ([`HybridSummary`]);
@@ -29,7 +30,7 @@ use crate::budget::Estimate;
 use crate::report::digest::Decimator;
 use crate::report::hybrid::{
     AttachmentReport, Columns, ExcitationReport, GeneratorReport, HybridEnergy, HybridSummary,
-    MechanismReport, RepartitionReport,
+    MechanismReport, RepartitionReport, amplifications,
 };
 use crate::report::plot::plot_displacements_svg;
 use crate::report::rows::{CsvRows, RowSink};
@@ -89,7 +90,7 @@ pub fn simulate(
     let file = sc.path.display().to_string();
     let built = sc.build()?;
     let model = &built.model;
-    let mut columns = Columns::new(model, &built.revolute);
+    let mut columns = Columns::new(model, &built.revolute, &built.state);
     let steps = (sc.integrator.t_end / sc.integrator.dt).round();
     let rows = (steps / sc.every as f64).floor() + 2.0;
     let series = model.attachments.len() as f64 * 16.0;
@@ -222,6 +223,7 @@ pub fn evaluate<'a>(
     let mut z = vec![0.0; model.beam_dofs()];
     let mut e0 = None;
     let mut output_rows: u64 = 0;
+    let mut amplification = Vec::with_capacity(na);
     let bar = progress_bar(progress);
     let outcome = run(
         model,
@@ -231,8 +233,9 @@ pub fn evaluate<'a>(
             t_end: sc.integrator.t_end,
             every: sc.every,
         },
-        &mut |state, stored, _| {
+        &mut |state, stored, integrator| {
             let e0 = *e0.get_or_insert(stored.total());
+            amplifications(model, state, integrator, &mut amplification);
             if let Some((f, free)) = &filter {
                 // z as the linearisation orders it (its partition, whatever the run's).
                 z.clear();
@@ -274,7 +277,9 @@ pub fn evaluate<'a>(
             }
             output_rows += 1;
             match &mut rows {
-                Some((columns, sink)) => sink.write_row(columns.row(model, state, stored, e0)),
+                Some((columns, sink)) => {
+                    sink.write_row(columns.row(model, state, stored, e0, &amplification))
+                }
                 None => Ok(()),
             }
         },
@@ -339,7 +344,7 @@ pub fn evaluate<'a>(
                 x: a.beam.x,
                 peak_displacement: tracks.peak[k],
                 final_amplitude: tracks.final_amplitude[k],
-                amplification_rms: (s_w > 0.0).then(|| (s_q / s_w).sqrt()),
+                speed_ratio_rms: (s_w > 0.0).then(|| (s_q / s_w).sqrt()),
             }
         })
         .collect();

@@ -72,11 +72,12 @@ pub fn derive_all(model: &Model) -> (Symbolic, ConstraintExprs, Vec<PointExprs>)
 ///
 /// The Jacobian is built by columns from shared lever arms (O(N) per point, see
 /// [`Symbolic::point_jacobian`]), its bias from the forward recursion's acceleration
-/// remainders with or without the base acceleration (eq. 3) or as the derivative of `J q'`
-/// along the motion (eq. 50); for a short path the derivative of `p` per coordinate
-/// (eq. 49, O(N^2)) with its bias can be cheaper. Of these formulations the one with the
-/// fewest operations counted twice — alone (the point's own method) and together with the
-/// dynamics (the fused entry point) — is kept.
+/// remainders without the base acceleration (eq. 3) or as the derivative of `J q'` along
+/// the motion (eq. 50); for a short path the derivative of `p` per coordinate (eq. 49,
+/// O(N^2)) with its bias can be cheaper. Of these formulations the one with the fewest
+/// operations counted twice — alone (the point's own method) and together with the
+/// dynamics (the fused entry point) — is kept. Every one of them makes each term of the
+/// bias a product with a joint rate, so the bias is exactly zero at `q' = 0`.
 pub fn points(model: &Model, sym: &mut Symbolic) -> Vec<PointExprs> {
     let context: Vec<Id> = sym.mf_roots().into_iter().chain(sym.q.clone()).collect();
     points_in_context(model, sym, &context)
@@ -92,12 +93,10 @@ pub fn points_in_context(model: &Model, sym: &mut Symbolic, context: &[Id]) -> V
             let r = [0, 1, 2].map(|c| sym.dag.scalar(&pt.position[c], &model.parameters));
             let p = sym.point_position(pt.body, r);
             let j = sym.point_jacobian(pt.body, r);
-            let g = [0, 1, 2].map(|c| sym.dag.scalar(&model.gravity[c], &model.parameters));
             let (jd, ad) = jacobian_and_bias(sym, &p);
             let jd: [Vec<Id>; 3] = jd.try_into().unwrap_or_else(|_| unreachable!());
             let candidates = [
-                (j.clone(), sym.point_bias(pt.body, r, None)),
-                (j.clone(), sym.point_bias(pt.body, r, Some(g))),
+                (j.clone(), sym.point_bias(pt.body, r)),
                 (j.clone(), velocity_bias(sym, &j)),
                 (jd, [ad[0], ad[1], ad[2]]),
             ];
@@ -248,15 +247,12 @@ pub fn constraints(model: &Model, sym: &mut Symbolic) -> ConstraintExprs {
     }
     let h = out.h.clone();
     let derived = jacobian_and_bias(sym, &h);
-    let g = [0, 1, 2].map(|c| sym.dag.scalar(&model.gravity[c], &model.parameters));
     let mut candidates = vec![derived.clone()];
     if sources
         .iter()
         .any(|s| matches!(s, RowSource::Points { .. }))
     {
-        for gravity in [None, Some(g)] {
-            candidates.push(lever_rows(model, sym, &sources, &derived, gravity));
-        }
+        candidates.push(lever_rows(model, sym, &sources, &derived));
     }
     let context: Vec<Id> = sym.mf_roots().into_iter().chain(sym.q.clone()).collect();
     let cost = |(j, a): &(Vec<Vec<Id>>, Vec<Id>), sym: &Symbolic| {
@@ -270,22 +266,18 @@ pub fn constraints(model: &Model, sym: &mut Symbolic) -> ConstraintExprs {
 }
 
 /// `J` and `A` of the constraint rows with the point rows from the points' lever-arm
-/// Jacobians and forward-recursion biases (`gravity`: which acceleration remainders, see
-/// [`Symbolic::point_bias`]); angle rows keep their rows from `derived`.
+/// Jacobians and forward-recursion biases ([`Symbolic::point_bias`]); angle rows keep their
+/// rows from `derived`.
 fn lever_rows(
     model: &Model,
     sym: &mut Symbolic,
     sources: &[RowSource],
     derived: &(Vec<Vec<Id>>, Vec<Id>),
-    gravity: Option<V3>,
 ) -> (Vec<Vec<Id>>, Vec<Id>) {
     let kin = |sym: &mut Symbolic, k: usize| {
         let pt = &model.points[k];
         let r = [0, 1, 2].map(|c| sym.dag.scalar(&pt.position[c], &model.parameters));
-        (
-            sym.point_jacobian(pt.body, r),
-            sym.point_bias(pt.body, r, gravity),
-        )
+        (sym.point_jacobian(pt.body, r), sym.point_bias(pt.body, r))
     };
     let mut rows = Vec::with_capacity(sources.len());
     let mut bias = Vec::with_capacity(sources.len());

@@ -10,10 +10,22 @@
 //! ([`mbs_symbolic::runtime::InterpretedSystem`]): the same symbolic equations, evaluated
 //! without generated code.
 //!
+//! **A stale model** is a file that takes the place of a compiled-in model — the very file
+//! under `models/` the code was generated from, or a copy elsewhere with the same file
+//! name — but whose content hash is no longer the compiled one (it was edited after the
+//! build). [`system_for`] still falls back to the interpreter for it, and announces it once
+//! per process on stderr ([`Stale`]: which file, why, how to rebuild), so that an edit is
+//! never silently run slower than the user expects.
+//!
 //! Nothing outside this crate names a generated model's Rust type: callers get a
 //! [`Box<dyn System>`](System) and check its shape at run time (so a model the product
 //! cannot use where it is used gives a model-level message, never a compile error), or
 //! visit the fixed-size type generically through [`Visitor`] (benchmarks, allocation tests).
+
+use std::collections::BTreeSet;
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use mbs_symbolic::model::Model;
 use mbs_symbolic::runtime::{
@@ -113,6 +125,88 @@ pub fn find_by_name(name: &str) -> Option<&'static Compiled> {
     COMPILED.iter().find(|c| c.name == name)
 }
 
+/// The folder the compiled-in models were generated from: the workspace's `models/` at
+/// build time.
+pub fn models_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models")
+}
+
+/// How to rebuild so that the files under `models/` are compiled in again.
+pub const REBUILD: &str = "cargo build --release -p codegen-cli";
+
+/// A model file that takes the place of a compiled-in model but is not byte-identical to
+/// it (see the crate documentation): it runs with the interpreter.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Stale {
+    /// The model file, as given.
+    pub file: String,
+    /// Its content hash.
+    pub hash: String,
+    /// The compiled-in model it takes the place of.
+    pub compiled: &'static Compiled,
+    /// Whether it is the very file under `models/` the compiled code was generated from
+    /// (edited since the build); otherwise a copy elsewhere with the same file name.
+    pub edited_in_place: bool,
+}
+
+impl Stale {
+    /// The stale model `model` is, if any: its file name is a compiled-in model's (or its
+    /// path that model's file under `models/`) and its content hash is not that model's —
+    /// nor any other compiled-in model's, which would run as generated code.
+    pub fn of(model: &Model) -> Option<Stale> {
+        if find_by_hash(&model.source.hash).is_some() {
+            return None;
+        }
+        let path = Path::new(&model.source.path);
+        let name = path.file_name()?.to_str()?;
+        let compiled = COMPILED.iter().find(|c| c.file == name)?;
+        let canonical = |p: &Path| std::fs::canonicalize(p).ok();
+        let edited_in_place = canonical(path)
+            .is_some_and(|p| canonical(&models_dir().join(compiled.file)).is_some_and(|m| m == p));
+        Some(Stale {
+            file: model.source.path.clone(),
+            hash: model.source.hash.clone(),
+            compiled,
+            edited_in_place,
+        })
+    }
+}
+
+impl fmt::Display for Stale {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let c = self.compiled;
+        if self.edited_in_place {
+            write!(
+                f,
+                "note: model {} changed since this build compiled it (content hash {}, compiled {}): running it with the DAG interpreter (slower); rebuild to compile it in: {REBUILD}",
+                self.file, self.hash, c.hash
+            )
+        } else {
+            write!(
+                f,
+                "note: model {} is not the compiled-in models/{} (content hash {}, compiled {}): running it with the DAG interpreter (slower); to compile it in, put it under models/ and rebuild: {REBUILD}",
+                self.file, c.file, self.hash, c.hash
+            )
+        }
+    }
+}
+
+/// Writes `stale` on stderr unless the same file with the same content was announced
+/// before in this process (a run resolves a model several times: comparison runs,
+/// linearisations, sweep points); returns whether it was written.
+fn announce_once(stale: &Stale) -> bool {
+    static ANNOUNCED: Mutex<BTreeSet<(String, String)>> = Mutex::new(BTreeSet::new());
+    let key = (stale.file.clone(), stale.hash.clone());
+    let first = ANNOUNCED
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+        .insert(key);
+    if first {
+        eprintln!("{stale}");
+    }
+    first
+}
+
 /// Why [`system_for`] could not provide the backend asked for.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum RegistryError {
@@ -144,12 +238,15 @@ pub struct Resolved {
     pub system: Box<dyn System>,
     /// The compiled-in model used, when the backend is generated code.
     pub compiled: Option<&'static Compiled>,
+    /// When the interpreter stands in for a stale model (see [`Stale`]): which, and why.
+    pub stale: Option<Stale>,
 }
 
 /// THE function that matches a model to an implementation of its equations.
 ///
 /// - `backend = None`: generated code when the model file is compiled in (same content
-///   hash), otherwise the documented fallback, the DAG interpreter;
+///   hash), otherwise the documented fallback, the DAG interpreter — announced once per
+///   process on stderr when the model is [`Stale`];
 /// - `Some(Backend::Generated)`: generated code, or [`RegistryError::NotCompiled`];
 /// - `Some(Backend::Interpreted)` / `Some(Backend::Numeric)`: that backend.
 ///
@@ -173,21 +270,34 @@ pub fn system_for(model: &Model, backend: Option<Backend>) -> Result<Resolved, R
             Ok(Resolved {
                 system,
                 compiled: Some(c),
+                stale: None,
             })
         }
         (Some(Backend::Generated), None) => Err(RegistryError::NotCompiled {
             file: file(),
             compiled: COMPILED.iter().map(|c| c.file.to_string()).collect(),
         }),
-        (None | Some(Backend::Interpreted), None) | (Some(Backend::Interpreted), Some(_)) => {
+        (None, None) => {
+            // The fallback: announced when the user may expect the compiled code.
+            let stale = Stale::of(model);
+            if let Some(s) = &stale {
+                announce_once(s);
+            }
             Ok(Resolved {
                 system: Box::new(InterpretedSystem::new(model)),
                 compiled: None,
+                stale,
             })
         }
+        (Some(Backend::Interpreted), _) => Ok(Resolved {
+            system: Box::new(InterpretedSystem::new(model)),
+            compiled: None,
+            stale: None,
+        }),
         (Some(Backend::Numeric), _) => Ok(Resolved {
             system: Box::new(NumericSystem::new(model)),
             compiled: None,
+            stale: None,
         }),
     }
 }
@@ -195,10 +305,6 @@ pub fn system_for(model: &Model, backend: Option<Backend>) -> Result<Resolved, R
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn models_dir() -> std::path::PathBuf {
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models")
-    }
 
     #[test]
     fn every_bundled_model_is_compiled_in_and_matched_by_hash() {
@@ -222,6 +328,105 @@ mod tests {
         }
         assert!(skipped().is_empty(), "{:?}", skipped());
         assert_eq!(find_by_hash("0000000000000000"), None);
+    }
+
+    /// `A = J' q'` and every point bias of the generated code are bitwise `0.0` at `q' = 0`
+    /// (every term is a product with a joint rate; `mbs-symbolic`'s `tests/bias_at_rest.rs`
+    /// checks the interpreter and the numeric reference on random spatial trees), with
+    /// gravity on, at a few configurations of every compiled-in model.
+    #[test]
+    fn generated_bias_is_exactly_zero_at_rest() {
+        for c in compiled() {
+            let sys = c.system();
+            let n = sys.dof();
+            let mut ws = sys.workspace();
+            let zero = vec![0.0; n];
+            for s in 0..4 {
+                let q: Vec<f64> = (0..n)
+                    .map(|k| 0.3 + 0.7 * s as f64 - 0.45 * k as f64)
+                    .collect();
+                let mut biases = vec![];
+                sys.evaluate(&q, &zero, 0.0, &mut ws);
+                biases.extend(ws.a.iter().copied());
+                for k in 0..sys.point_names().len() {
+                    assert!(sys.point_kinematics(k, &q, &zero, &mut ws));
+                    biases.extend(ws.point_a.iter().copied());
+                    assert!(sys.evaluate_with_point(k, &q, &zero, 0.0, &mut ws));
+                    biases.extend(ws.point_a.iter().chain(&ws.a).copied());
+                }
+                for v in biases {
+                    assert_eq!(
+                        v.to_bits(),
+                        0,
+                        "{}: J'q' = {v:e} at q' = 0, q = {q:?}",
+                        c.file
+                    );
+                }
+            }
+        }
+    }
+
+    /// A stale model is one that takes a compiled-in model's place (its file under
+    /// `models/`, or a copy with its file name) with other content; a model of another
+    /// name, or an unedited copy, is not.
+    #[test]
+    fn stale_models_are_recognised_by_name_or_path_and_content() {
+        let original = models_dir().join("double_bar.toml");
+        let text = std::fs::read_to_string(&original).unwrap();
+        let load = |path: &std::path::Path| mbs_symbolic::model::load(path).unwrap();
+        let dir = std::env::temp_dir().join(format!("registry-stale-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        // An unedited copy runs the generated code: not stale.
+        let copy = dir.join("double_bar.toml");
+        std::fs::write(&copy, &text).unwrap();
+        assert_eq!(Stale::of(&load(&copy)), None);
+        // Edited, same name: stale, a copy elsewhere.
+        std::fs::write(&copy, text.clone() + "\n# edited\n").unwrap();
+        let edited = load(&copy);
+        let stale = Stale::of(&edited).expect("an edited copy named double_bar.toml is stale");
+        assert_eq!(stale.compiled.name, "double_bar");
+        assert!(!stale.edited_in_place);
+        let message = stale.to_string();
+        for part in [
+            copy.to_str().unwrap(),
+            "not the compiled-in models/double_bar.toml",
+            &edited.source.hash,
+            stale.compiled.hash,
+            "DAG interpreter",
+            REBUILD,
+        ] {
+            assert!(message.contains(part), "{part:?} not in {message}");
+        }
+        let r = system_for(&edited, None).unwrap();
+        assert_eq!(r.system.backend(), Backend::Interpreted);
+        assert_eq!(r.stale, Some(stale.clone()));
+        // Announced once per file and content, whatever the number of look-ups.
+        assert!(!announce_once(&stale));
+        // Asking for the interpreter is not a fallback: nothing to announce.
+        assert_eq!(
+            system_for(&edited, Some(Backend::Interpreted))
+                .unwrap()
+                .stale,
+            None
+        );
+        // Another name: not stale (nothing compiled in it could stand for).
+        let other = dir.join("my_bar.toml");
+        std::fs::write(&other, text.clone() + "\n# edited\n").unwrap();
+        assert_eq!(Stale::of(&load(&other)), None);
+        std::fs::remove_dir_all(&dir).unwrap();
+        // The file under models/ itself, with content the build did not see: edited in
+        // place, and the message says to rebuild.
+        let mut in_place = load(&original);
+        in_place.source.hash = "0123456789abcdef".into();
+        let stale = Stale::of(&in_place).expect("models/double_bar.toml with a new hash");
+        assert!(stale.edited_in_place);
+        let message = stale.to_string();
+        assert!(
+            message.contains("changed since this build compiled it")
+                && message.contains("0123456789abcdef")
+                && message.contains(REBUILD),
+            "{message}"
+        );
     }
 
     #[test]

@@ -33,8 +33,8 @@ pub enum Backend {
     Interp,
     /// The independent numeric recursive Newton–Euler reference.
     Numeric,
-    /// The Rust code generated at build time (bundled models only: double_bar, four_bar,
-    /// slider_crank, unedited).
+    /// The Rust code generated at build time (the models under models/ as this build
+    /// compiled them, unedited).
     Generated,
 }
 

@@ -8,8 +8,14 @@
 //!   `M.cond_jd [-]` (2-norm condition number of its dependent Jacobian) and
 //!   `M.constraint_residual [m]` (|h| after the position solve);
 //! - per attachment `A`: `A.w [m]`, `A.w_dot [m/s]` (the beam point's displacement and
-//!   velocity) and, where a generator is on its mechanism, `A.amplification [rad/m]` (generator
-//!   joint speed / beam point speed; empty where the beam point is at rest);
+//!   velocity) and, where a generator is on its mechanism, `A.amplification [rad/m]`: the
+//!   kinematic influence `dq/dw` of the beam point's displacement on the generator joint
+//!   (free coordinates held; a column of `R`, eq. 18, from the constraint Jacobian at the
+//!   row's configuration — defined at rest, so written from `t = 0` on, and the same
+//!   definition as the damper kind's `amplification` and `damper linearize`'s). Where the
+//!   generator joint's speed is not that influence times the beam point's speed (its
+//!   mechanism has free coordinates or several attachments) also `A.speed_ratio [rad/m]`,
+//!   generator joint speed / beam point speed (empty where the beam point is at rest);
 //! - per force element `F`: `F.dissipated [J]`; a generator also `F.current [A]`,
 //!   `F.power [W]` (`(R_a + R_L) i^2`) and `F.harvested [J]` (the load's share `R_L / (R_a +
 //!   R_L)` of the dissipated energy);
@@ -21,7 +27,9 @@
 
 use std::collections::BTreeMap;
 
-use hybrid_core::hybrid::{ExcitationTarget, HybridModel, HybridState, Stored, balance_error};
+use hybrid_core::hybrid::{
+    ExcitationTarget, HybridModel, HybridState, Integrator, Stored, balance_error,
+};
 use serde::Serialize;
 
 use crate::scenario::OverrideRecord;
@@ -32,8 +40,9 @@ use crate::scenario::damper::IntegratorSpec;
 #[derive(Clone, Debug)]
 pub struct Columns {
     header: Vec<String>,
-    /// Per attachment: the generator force element on its mechanism, if any.
-    amplifier: Vec<Option<usize>>,
+    /// Per attachment: the generator force element on its mechanism, if any, and whether
+    /// the speed ratio has its own column.
+    amplifier: Vec<Option<(usize, bool)>>,
     cells: Vec<f64>,
 }
 
@@ -42,9 +51,9 @@ fn unit(revolute: bool, angle: &'static str, length: &'static str) -> &'static s
 }
 
 impl Columns {
-    /// The columns of `model`; `revolute[m][c]`: whether coordinate `c` of mechanism `m` is
-    /// an angle.
-    pub fn new(model: &HybridModel, revolute: &[Vec<bool>]) -> Columns {
+    /// The columns of `model` run from `initial`; `revolute[m][c]`: whether coordinate `c`
+    /// of mechanism `m` is an angle.
+    pub fn new(model: &HybridModel, revolute: &[Vec<bool>], initial: &HybridState) -> Columns {
         let mut h = vec!["t [s]".to_string()];
         for (m, rev) in model.mechanisms.iter().zip(revolute) {
             let names = m.system.coordinate_names();
@@ -65,11 +74,24 @@ impl Columns {
                 .forces
                 .iter()
                 .position(|f| f.mechanism == a.mechanism && f.generator().is_some());
-            if let Some(g) = g {
+            let g = g.map(|g| {
                 let f = &model.forces[g];
                 let u = unit(revolute[f.mechanism][f.joint], "rad/m", "m/m");
                 h.push(format!("{}.amplification [{u}]", a.name));
-            }
+                // q_g' = sum_k (dq_g/dw_k) w_k' + (terms of the free coordinates): the speed
+                // ratio is the influence itself unless there are other terms.
+                let attached = model
+                    .attachments
+                    .iter()
+                    .filter(|b| b.mechanism == a.mechanism)
+                    .count();
+                let own_motion = !initial.mechanisms[a.mechanism].free.is_empty();
+                let speed_ratio = attached > 1 || own_motion;
+                if speed_ratio {
+                    h.push(format!("{}.speed_ratio [{u}]", a.name));
+                }
+                (g, speed_ratio)
+            });
             amplifier.push(g);
         }
         for f in &model.forces {
@@ -118,13 +140,15 @@ impl Columns {
         &self.header
     }
 
-    /// The row of `state` with stored energies `stored` (`e0`: stored energy at the start).
+    /// The row of `state` with stored energies `stored` (`e0`: stored energy at the start)
+    /// and amplifications `amplification` (from [`amplifications`]).
     pub fn row(
         &mut self,
         model: &HybridModel,
         state: &HybridState,
         stored: &Stored,
         e0: f64,
+        amplification: &[f64],
     ) -> &[f64] {
         let c = &mut self.cells;
         c.clear();
@@ -135,14 +159,17 @@ impl Columns {
             c.push(ms.condition);
             c.push(ms.residual);
         }
-        for (a, g) in model.attachments.iter().zip(&self.amplifier) {
+        for (k, (a, g)) in model.attachments.iter().zip(&self.amplifier).enumerate() {
             let wd = a.beam.value(&state.v);
             c.push(a.beam.value(&state.q));
             c.push(wd);
-            if let Some(g) = g {
-                let f = &model.forces[*g];
-                let speed = state.mechanisms[f.mechanism].qd[f.joint];
-                c.push(if wd != 0.0 { speed / wd } else { f64::NAN });
+            if let Some((g, speed_ratio)) = *g {
+                let f = &model.forces[g];
+                c.push(amplification[k]);
+                if speed_ratio {
+                    let speed = state.mechanisms[f.mechanism].qd[f.joint];
+                    c.push(if wd != 0.0 { speed / wd } else { f64::NAN });
+                }
             }
         }
         for (k, f) in model.forces.iter().enumerate() {
@@ -176,6 +203,31 @@ impl Columns {
         c.push(balance_error(e0, stored, &state.account));
         debug_assert_eq!(c.len(), self.header.len());
         &self.cells
+    }
+}
+
+/// Per attachment, the amplification of the generator on its mechanism at `state` into
+/// `out`: the kinematic influence `dq/dw` of the beam point's displacement on the
+/// generator joint, free coordinates held (eq. 18, [`Integrator::amplification`]); NaN
+/// without a generator (or at a singular `J_d`). A run computes it at every output row
+/// whether or not the rows are written, so that writing them cannot change the run.
+pub fn amplifications(
+    model: &HybridModel,
+    state: &HybridState,
+    integrator: &mut Integrator,
+    out: &mut Vec<f64>,
+) {
+    out.clear();
+    for (k, a) in model.attachments.iter().enumerate() {
+        let g = model
+            .forces
+            .iter()
+            .find(|f| f.mechanism == a.mechanism && f.generator().is_some());
+        out.push(g.map_or(f64::NAN, |f| {
+            integrator
+                .amplification(model, state, f.mechanism, k, f.joint)
+                .unwrap_or(f64::NAN)
+        }));
     }
 }
 
@@ -280,9 +332,10 @@ pub struct AttachmentReport {
     /// amplitude of a forced run.
     pub final_amplitude: f64,
     /// `sqrt(sum qd_g^2 / sum w_dot^2)` over the output rows: the RMS ratio of the generator
-    /// joint speed to the beam point speed (where a generator is on the mechanism).
+    /// joint speed to the beam point speed (where a generator is on the mechanism; a speed
+    /// ratio, not the kinematic amplification `dq/dw` of the time history).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub amplification_rms: Option<f64>,
+    pub speed_ratio_rms: Option<f64>,
 }
 
 /// One generator of a hybrid run.

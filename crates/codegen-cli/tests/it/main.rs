@@ -6,6 +6,7 @@
 static GLOBAL: damper_e2e::alloc_counter::CountingAllocator =
     damper_e2e::alloc_counter::CountingAllocator;
 
+mod amplification_cli;
 mod bad_values_cli;
 mod common;
 mod damper_physics;
@@ -20,9 +21,11 @@ mod linearize_cli;
 mod modes_cli;
 mod output_dir_cli;
 mod preset;
+mod readme_cli;
 mod scenario_loader;
 mod simulate_cli;
 mod simulate_mechanism_cli;
 mod special_files_cli;
+mod stale_model_cli;
 mod step_alloc;
 mod sweep_cli;

@@ -197,33 +197,20 @@ pub(super) fn point_jacobian(
 
 /// Bias `A = J' q'` (eq. 50) of the same point: its acceleration with `q'' = 0`, from the
 /// forward recursion's remainders (eq. 3) in the body frame,
-/// `A = T^i (a_Oi + al_i x r + w_i x (w_i x r))`. With `with_gravity` the origin remainder
-/// that includes the base acceleration `-g` is used and `g` added back in the ground frame
-/// (whichever of the two the dynamics already computes is the cheaper one).
-pub(super) fn point_bias(
-    d: &mut Dag,
-    kin: &[BodyKinematics],
-    body: Option<usize>,
-    r: V3,
-    gravity: Option<V3>,
-) -> V3 {
+/// `A = T^i (a_Oi + al_i x r + w_i x (w_i x r))`, with the origin remainder `a_Oi` that
+/// excludes the base acceleration. Every term is then a product with a joint rate, so `A`
+/// is exactly `0.0` at `q' = 0`. (The remainder that includes the base acceleration `-g`,
+/// with `g` added back in the ground frame, is equal in exact arithmetic but leaves a
+/// rounding residue proportional to `|g|` at rest: it is not offered.)
+pub(super) fn point_bias(d: &mut Dag, kin: &[BodyKinematics], body: Option<usize>, r: V3) -> V3 {
     let Some(i) = body else {
         return vec3::zero(d);
     };
     let k = &kin[i];
-    let a_o = if gravity.is_some() {
-        k.accel
-    } else {
-        k.accel_no_gravity
-    };
     let axr = vec3::cross(d, k.alpha, r);
     let wxr = vec3::cross(d, k.omega, r);
     let wwxr = vec3::cross(d, k.omega, wxr);
-    let t = vec3::add(d, a_o, axr);
+    let t = vec3::add(d, k.accel_no_gravity, axr);
     let a_body = vec3::add(d, t, wwxr);
-    let a = vec3::mat_vec(d, &k.ground_rot, a_body);
-    match gravity {
-        Some(g) => vec3::add(d, a, g),
-        None => a,
-    }
+    vec3::mat_vec(d, &k.ground_rot, a_body)
 }

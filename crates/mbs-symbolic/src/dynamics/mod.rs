@@ -200,10 +200,10 @@ impl Symbolic {
     }
 
     /// Bias `A = J' q'` (eq. 50) of that point from the forward recursion's acceleration
-    /// remainders; `gravity` = `Some(g)` uses the remainders that include the base
-    /// acceleration `-g` and adds `g` back, `None` those without.
-    pub fn point_bias(&mut self, body: Option<usize>, r: V3, gravity: Option<V3>) -> V3 {
-        kinematics::point_bias(&mut self.dag, &self.bodies, body, r, gravity)
+    /// remainders without the base acceleration: every term is a product with a joint rate,
+    /// so the bias is exactly zero at `q' = 0`.
+    pub fn point_bias(&mut self, body: Option<usize>, r: V3) -> V3 {
+        kinematics::point_bias(&mut self.dag, &self.bodies, body, r)
     }
 }
 

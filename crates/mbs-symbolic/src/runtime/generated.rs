@@ -2,7 +2,7 @@
 //! compiled in) behind the dynamic [`System`] interface.
 
 use super::mechanism::{Evaluation, Mechanism, PointKinematics};
-use super::system::{Backend, Names, ParamError, System, Workspace};
+use super::system::{Backend, Names, ParamError, System, Workspace, store_bias};
 
 /// Generated code as a [`System`]: the fixed-size outputs are copied into the workspace
 /// buffers. Allocation-free.
@@ -46,14 +46,14 @@ fn store_evaluation<const N: usize, const NC: usize>(e: &Evaluation<N, NC>, ws: 
     ws.f.as_mut_slice().copy_from_slice(&e.f);
     ws.q.as_mut_slice().copy_from_slice(&e.q);
     ws.h.as_mut_slice().copy_from_slice(&e.h);
-    ws.a.as_mut_slice().copy_from_slice(&e.a);
+    store_bias(&e.a, ws.a.as_mut_slice());
     copy_rows(&e.j, ws.j.as_mut_slice());
 }
 
 /// A point's position, bias and Jacobian into the workspace.
 fn store_point<const N: usize>(pk: &PointKinematics<N>, ws: &mut Workspace) {
     ws.point_p.as_mut_slice().copy_from_slice(&pk.p);
-    ws.point_a.as_mut_slice().copy_from_slice(&pk.a);
+    store_bias(&pk.a, ws.point_a.as_mut_slice());
     copy_rows(&pk.j, ws.point_j.as_mut_slice());
 }
 

@@ -6,7 +6,7 @@ use crate::constraints;
 use crate::expr::{EvalInput, Id, Tape};
 use crate::model::Model;
 
-use super::system::{Backend, Names, ParamError, System, Workspace};
+use super::system::{Backend, Names, ParamError, System, Workspace, bias_entry, store_bias};
 
 /// The symbolic equations of a model evaluated by the DAG interpreter: complete — `M`, `F`,
 /// `Q`, `h`, `J`, `A` (one tape), `h`, `J` (the position-level tape), `V`, and the
@@ -156,9 +156,7 @@ impl System for InterpretedSystem {
             let base = n * n + 2 * n;
             Self::copy_positions(n, rows, &out[base..], ws);
             let a0 = base + rows * (n + 1);
-            for r in 0..rows {
-                ws.a[r] = out[a0 + r];
-            }
+            store_bias(&out[a0..a0 + rows], ws.a.as_mut_slice());
         });
     }
 
@@ -186,7 +184,7 @@ impl System for InterpretedSystem {
                 for c in 0..n {
                     ws.point_j[(r, c)] = out[3 + r * n + c];
                 }
-                ws.point_a[r] = out[3 + 3 * n + r];
+                ws.point_a[r] = bias_entry(out[3 + 3 * n + r]);
             }
         });
         true

@@ -4,7 +4,7 @@
 use crate::model::Model;
 use crate::numeric::NumericModel;
 
-use super::system::{Backend, Names, ParamError, System, Workspace};
+use super::system::{Backend, Names, ParamError, System, Workspace, store_bias};
 
 /// The numeric recursive reference as a [`System`]. It allocates its results (a reference,
 /// not a hot path).
@@ -63,7 +63,10 @@ impl System for NumericSystem {
         ws.f.copy_from(&self.numeric.f_vector(q, qd));
         ws.q.copy_from(&self.numeric.q_vector(q, qd, t));
         self.evaluate_positions(q, ws);
-        ws.a.copy_from(&self.numeric.constraint_bias(q, qd));
+        store_bias(
+            self.numeric.constraint_bias(q, qd).as_slice(),
+            ws.a.as_mut_slice(),
+        );
     }
 
     fn evaluate_positions(&self, q: &[f64], ws: &mut Workspace) {
@@ -81,7 +84,10 @@ impl System for NumericSystem {
         }
         ws.point_p = self.numeric.point_position(k, q);
         ws.point_j.copy_from(&self.numeric.point_jacobian(k, q));
-        ws.point_a = self.numeric.point_bias(k, q, qd);
+        store_bias(
+            self.numeric.point_bias(k, q, qd).as_slice(),
+            ws.point_a.as_mut_slice(),
+        );
         true
     }
 

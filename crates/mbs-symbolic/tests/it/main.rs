@@ -1,6 +1,7 @@
 //! The one integration-test binary of `mbs-symbolic` (STYLE.md rule 7): one module per
 //! area, built and linked once.
 
+mod bias_at_rest;
 mod common;
 mod emit_snapshot;
 mod model_validation;

@@ -13,7 +13,13 @@
 //! `evaluate` 44 -> 35, the 2-link chain's 31 -> 22). That form moves the subtree masses and
 //! first moments (`m1 + m2`, `m c + M d`) into `hoisted_values`, work done once per
 //! parameter change and not per call: those three rows were raised then (double bar 8 -> 12,
-//! four-bar 13 -> 16, slider-crank 9 -> 12). A count above its pin fails; a count below it is reported (lower the pin deliberately
+//! four-bar 13 -> 16, slider-crank 9 -> 12). The point biases lost the formulation that
+//! reused the dynamics' origin accelerations including the base acceleration `-g` and added
+//! `g` back in the ground frame: equal in exact arithmetic, it left a rounding residue at
+//! `q' = 0` (`tests/bias_at_rest.rs`), so the chains' `evaluate_with_points` were raised
+//! (planar_chain(16) 1343 -> 1458, spatial_chain(32) 13304 -> 13522, up to 9 %) and their
+//! standalone `point_tip` lowered. A count above its pin fails; a count below it is
+//! reported (lower the pin deliberately
 //! when the improvement is meant to stay). The table of counts is printed
 //! (`cargo test -p mbs-symbolic --release --test op_counts -- --nocapture`).
 
@@ -109,8 +115,8 @@ const PINS: &[(&str, &str, usize)] = &[
     ("planar_chain(8)", "constraint_bias", 0),
     ("planar_chain(8)", "potential_energy", 50),
     ("planar_chain(8)", "evaluate", 348),
-    ("planar_chain(8)", "point_tip", 167),
-    ("planar_chain(8)", "evaluate_with_points", 435),
+    ("planar_chain(8)", "point_tip", 160),
+    ("planar_chain(8)", "evaluate_with_points", 475),
     ("planar_chain(16)", "M+F", 1168),
     ("planar_chain(16)", "mass_matrix", 868),
     ("planar_chain(16)", "f_vector", 330),
@@ -120,8 +126,8 @@ const PINS: &[(&str, &str, usize)] = &[
     ("planar_chain(16)", "constraint_bias", 0),
     ("planar_chain(16)", "potential_energy", 106),
     ("planar_chain(16)", "evaluate", 1168),
-    ("planar_chain(16)", "point_tip", 343),
-    ("planar_chain(16)", "evaluate_with_points", 1343),
+    ("planar_chain(16)", "point_tip", 339),
+    ("planar_chain(16)", "evaluate_with_points", 1458),
     ("spatial_chain(2)", "M+F", 115),
     ("spatial_chain(2)", "mass_matrix", 28),
     ("spatial_chain(2)", "f_vector", 89),
@@ -142,8 +148,8 @@ const PINS: &[(&str, &str, usize)] = &[
     ("spatial_chain(4)", "constraint_bias", 0),
     ("spatial_chain(4)", "potential_energy", 26),
     ("spatial_chain(4)", "evaluate", 426),
-    ("spatial_chain(4)", "point_tip", 195),
-    ("spatial_chain(4)", "evaluate_with_points", 530),
+    ("spatial_chain(4)", "point_tip", 190),
+    ("spatial_chain(4)", "evaluate_with_points", 538),
     ("spatial_chain(8)", "M+F", 1395),
     ("spatial_chain(8)", "mass_matrix", 620),
     ("spatial_chain(8)", "f_vector", 787),
@@ -153,8 +159,8 @@ const PINS: &[(&str, &str, usize)] = &[
     ("spatial_chain(8)", "constraint_bias", 0),
     ("spatial_chain(8)", "potential_energy", 88),
     ("spatial_chain(8)", "evaluate", 1395),
-    ("spatial_chain(8)", "point_tip", 503),
-    ("spatial_chain(8)", "evaluate_with_points", 1632),
+    ("spatial_chain(8)", "point_tip", 498),
+    ("spatial_chain(8)", "evaluate_with_points", 1670),
     ("spatial_chain(16)", "M+F", 4028),
     ("spatial_chain(16)", "mass_matrix", 2281),
     ("spatial_chain(16)", "f_vector", 1773),
@@ -164,8 +170,8 @@ const PINS: &[(&str, &str, usize)] = &[
     ("spatial_chain(16)", "constraint_bias", 0),
     ("spatial_chain(16)", "potential_energy", 212),
     ("spatial_chain(16)", "evaluate", 4028),
-    ("spatial_chain(16)", "point_tip", 1117),
-    ("spatial_chain(16)", "evaluate_with_points", 4529),
+    ("spatial_chain(16)", "point_tip", 1112),
+    ("spatial_chain(16)", "evaluate_with_points", 4627),
     ("spatial_chain(32)", "M+F", 12275),
     ("spatial_chain(32)", "mass_matrix", 8584),
     ("spatial_chain(32)", "f_vector", 3745),
@@ -175,8 +181,8 @@ const PINS: &[(&str, &str, usize)] = &[
     ("spatial_chain(32)", "constraint_bias", 0),
     ("spatial_chain(32)", "potential_energy", 460),
     ("spatial_chain(32)", "evaluate", 12275),
-    ("spatial_chain(32)", "point_tip", 2345),
-    ("spatial_chain(32)", "evaluate_with_points", 13304),
+    ("spatial_chain(32)", "point_tip", 2340),
+    ("spatial_chain(32)", "evaluate_with_points", 13522),
 ];
 
 fn models() -> Vec<(String, Model)> {
