@@ -238,3 +238,38 @@ fn harmonic_response_solves_the_dense_dynamic_stiffness_to_rounding() {
         assert!(backward < 1e-15, "{backward:e}");
     }
 }
+
+/// Issue 23 item 1, the hang's regression input: the paper's damper with a generator
+/// inductance of 1e301..1e308 H (`--set generator.inductance=1e308`) made nalgebra's
+/// uncapped Schur iteration run forever inside `modes`. Now both eigen-solvers return: an
+/// error naming the matrix or the decomposition, or modes with finite eigenvalues whose
+/// electrical one is `-R/L` (to rounding, where it is representable).
+#[test]
+fn a_huge_generator_inductance_returns_instead_of_hanging() {
+    use hybrid_core::hybrid::LinearError;
+    for inductance in [1e301, 1e305, 1e308] {
+        let (model, _) = paper_damper(20, true, true, inductance);
+        let lin = linearize(&model, &[]);
+        for method in [EigenMethod::Dense, EigenMethod::ShiftInvert] {
+            let found = modes(&lin, 3, method);
+            println!("L = {inductance:e}, {method:?}: {found:?}");
+            match found {
+                Ok(found) => {
+                    for m in &found {
+                        assert!(m.lambda().norm().is_finite(), "{m:?}");
+                    }
+                }
+                Err(e) => {
+                    assert!(
+                        matches!(
+                            e,
+                            LinearError::NonFinite { .. } | LinearError::NoEigenConvergence { .. }
+                        ),
+                        "{e}"
+                    );
+                    assert!(!e.to_string().contains('\n'));
+                }
+            }
+        }
+    }
+}

@@ -117,6 +117,33 @@ pub enum LinearError {
     /// The reduced stiffness (or the shifted pencil) cannot be factorised.
     #[error("{0}")]
     Singular(String),
+    /// A matrix handed to an eigenvalue decomposition has a non-finite entry (refused before
+    /// the decomposition, whose iteration would not converge on it).
+    #[error(
+        "the {matrix} has a non-finite entry {value} at ({row}, {column}): the linearised system is out of floating-point range (check the parameters' magnitudes)"
+    )]
+    NonFinite {
+        /// Which matrix.
+        matrix: &'static str,
+        /// Row of the first non-finite entry.
+        row: usize,
+        /// Column of the first non-finite entry.
+        column: usize,
+        /// The entry.
+        value: f64,
+    },
+    /// An iterative eigenvalue computation reached its iteration cap.
+    #[error(
+        "the {what} did not converge within {iterations} iterations (size {size}): the linearised system is too ill-scaled for its eigenvalues to be computed"
+    )]
+    NoEigenConvergence {
+        /// Which computation.
+        what: &'static str,
+        /// The cap reached.
+        iterations: usize,
+        /// Size of the matrix.
+        size: usize,
+    },
 }
 
 /// The static equilibrium of a hybrid system.
