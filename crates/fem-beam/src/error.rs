@@ -439,6 +439,16 @@ pub enum BeamError {
         /// Largest residual of a wanted mode at the end.
         residual: f64,
     },
+    /// A dense symmetric eigen-decomposition reached its iteration cap.
+    #[error(
+        "the dense symmetric eigen-decomposition (size {size}) did not converge within {iterations} QR sweeps"
+    )]
+    EigenNotConverged {
+        /// The cap reached.
+        iterations: usize,
+        /// Size of the matrix.
+        size: usize,
+    },
     /// A banded kernel failed.
     #[error(transparent)]
     Linalg(#[from] LinalgError),
