@@ -187,7 +187,7 @@ pub fn evaluate<'a>(
         None
     };
     let mut eta: Vec<(f64, f64)> = vec![];
-    let mut z = vec![0.0; model.beam_dofs()];
+    let (mut z, mut zd) = (vec![0.0; model.beam_dofs()], vec![0.0; model.beam_dofs()]);
     let mut e0 = None;
     let mut output_rows: u64 = 0;
     let bar = progress_bar(progress);
@@ -202,13 +202,16 @@ pub fn evaluate<'a>(
         &mut |state, stored, _| {
             let e0 = *e0.get_or_insert(stored.total());
             if let Some((f, free)) = &filter {
-                // z as the linearisation orders it (its partition, whatever the run's).
+                // z, z' as the linearisation orders them (its partition, whatever the run's).
                 z.clear();
                 z.extend_from_slice(&state.q);
+                zd.clear();
+                zd.extend_from_slice(&state.v);
                 for (m, free) in state.mechanisms.iter().zip(free) {
                     z.extend(free.iter().map(|&c| m.q[c]));
+                    zd.extend(free.iter().map(|&c| m.qd[c]));
                 }
-                eta.push((state.t, f.apply(&z)));
+                eta.push((state.t, f.apply_state(&z, &zd, &state.currents)));
             }
             for (k, a) in model.attachments.iter().enumerate() {
                 let wd = a.beam.value(&state.v);

@@ -416,7 +416,9 @@ impl Sample {
             total_energy: stored.total(),
             dissipated_structure: acc.dissipated_structure,
             energy_balance_error: balance_error(e0, stored, acc),
-            signal: probe.filter.map_or(tip_displacement, |f| f.apply(&s.q)),
+            signal: probe
+                .filter
+                .map_or(tip_displacement, |f| f.apply_state(&s.q, &s.v, &s.currents)),
             ..Sample::default()
         };
         if let (Some(m), Some(force)) = (s.mechanisms.first(), model.forces.first()) {
