@@ -90,6 +90,7 @@ pub const DENSE_LEFT_LIMIT: usize = 1500;
 
 /// A mode shape that cannot make a modal filter.
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum ModalFilterError {
     /// `phi` and the mass matrix have different sizes.
     #[error("mode shape of length {shape} for a mass matrix of size {mass}")]
@@ -110,6 +111,24 @@ pub enum ModalFilterError {
     /// defective eigenvalue or a failed left eigenvector).
     #[error("the mode's projection on its left eigenvector is {0} (zero or not finite)")]
     Projection(f64),
+}
+
+/// Why the first mode of a hybrid system gives no modal filter.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum FirstModeError {
+    /// A run-time parameter of a tangent model was refused.
+    #[error("tangent model: {0}")]
+    Parameter(#[from] mbs_symbolic::runtime::ParamError),
+    /// The system cannot be linearised or its modes computed.
+    #[error("{0}")]
+    Linear(#[from] crate::hybrid::LinearError),
+    /// The linearised system has no mode (no state).
+    #[error("the linearised system has no mode")]
+    NoMode,
+    /// The first mode makes no filter.
+    #[error("{0}")]
+    Filter(#[from] ModalFilterError),
 }
 
 impl ModalFilter {
@@ -294,13 +313,12 @@ impl ModalFilter {
         model: &crate::hybrid::HybridModel,
         tangents: &[&mbs_symbolic::runtime::TangentSystem],
         point: &crate::hybrid::BeamPoint,
-    ) -> Result<(ModalFilter, Vec<Vec<usize>>), String> {
+    ) -> Result<(ModalFilter, Vec<Vec<usize>>), FirstModeError> {
         use crate::hybrid::{EigenMethod, EquilibriumOptions, Linearization, modes};
-        let lin = Linearization::new(model, tangents, EquilibriumOptions::default())
-            .map_err(|e| e.to_string())?;
-        let found = modes(&lin, 1, EigenMethod::Auto).map_err(|e| e.to_string())?;
-        let first = found.first().ok_or("no mode")?;
-        let filter = ModalFilter::of_mode(&lin, first, point).map_err(|e| e.to_string())?;
+        let lin = Linearization::new(model, tangents, EquilibriumOptions::default())?;
+        let found = modes(&lin, 1, EigenMethod::Auto)?;
+        let first = found.first().ok_or(FirstModeError::NoMode)?;
+        let filter = ModalFilter::of_mode(&lin, first, point)?;
         Ok((filter, lin.equilibrium.free))
     }
 

@@ -386,6 +386,7 @@ impl DerivedQuantity {
 
 /// A generator value the model cannot use.
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum GeneratorError {
     /// A field not finite or out of its physical range ([`GeneratorField::range`]).
     #[error(

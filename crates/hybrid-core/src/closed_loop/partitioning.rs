@@ -167,13 +167,12 @@ pub(super) fn examine_rank<S: System + ?Sized>(
                 best_condition: f64::INFINITY,
             }));
         }
-        let report = redundancy_report(&ws.j, &choice, sys.constraint_names());
         if !ps.allow_redundant {
+            let report = redundancy_report(&ws.j, &choice, sys.constraint_names());
             return Err(SimError::Redundant(report));
         }
-        if settings.log {
-            eprintln!("{report}: dropping the redundant rows");
-        }
+        // Not printed (a library prints nothing): the caller reads the dropped rows from
+        // `Simulator::dropped_rows`.
         active = choice.independent_rows(rows);
         dropped = choice
             .redundant_rows
@@ -251,9 +250,7 @@ impl<S: System + ?Sized> Simulator<'_, S> {
             cond_before: self.cond,
             cond_after,
         };
-        if self.settings.log {
-            eprintln!("{change}");
-        }
+        // The caller's observer is the log (the `damper` binary prints it on stderr).
         observer(Event::PartitionChanged(&change));
         self.changes.push(change);
         self.partition = p;

@@ -92,6 +92,7 @@ impl Default for EquilibriumOptions {
 
 /// Why a hybrid system could not be linearised.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum LinearError {
     /// A mechanism cannot be assembled or is singular on the way to the equilibrium.
     #[error("static equilibrium: {0}")]
