@@ -115,9 +115,31 @@ pub enum LinearError {
         /// What does not match.
         what: String,
     },
-    /// The reduced stiffness (or the shifted pencil) cannot be factorised.
-    #[error("{0}")]
-    Singular(String),
+    /// The beam part `C + s B + s^2 A` of the shifted pencil has a zero pivot.
+    #[error(
+        "the beam's dynamic stiffness C + s B + s^2 A at s = {}{:+}i is singular (pivot {pivot}): a beam without supports (rigid-body motion) or a shift on an eigenvalue",
+        shift[0],
+        shift[1]
+    )]
+    SingularBeam {
+        /// The shift `s` (real and imaginary parts, 1/s).
+        shift: [f64; 2],
+        /// The elimination index of the zero pivot.
+        pivot: usize,
+    },
+    /// The reduced dynamic stiffness (the Woodbury border of the mechanisms) at the shift
+    /// has a zero pivot.
+    #[error(
+        "the reduced dynamic stiffness at s = {}{:+}i is singular (pivot {pivot}): a mechanism coordinate without stiffness (a free crank, a mechanism at its singular position) or a shift on an eigenvalue",
+        shift[0],
+        shift[1]
+    )]
+    SingularReduced {
+        /// The shift `s` (real and imaginary parts, 1/s).
+        shift: [f64; 2],
+        /// The index of the zero pivot in the small bordered system.
+        pivot: usize,
+    },
     /// A matrix handed to an eigenvalue decomposition has a non-finite entry (refused before
     /// the decomposition, whose iteration would not converge on it).
     #[error(
