@@ -220,7 +220,7 @@ pub fn evaluate<'a>(
     // first attachment's displacement): the same estimate as of the whole series.
     let mut decay = DecayTracker::default();
     let mut decay_samples: u64 = 0;
-    let mut z = vec![0.0; model.beam_dofs()];
+    let (mut z, mut zd) = (vec![0.0; model.beam_dofs()], vec![0.0; model.beam_dofs()]);
     let mut e0 = None;
     let mut output_rows: u64 = 0;
     let mut amplification = Vec::with_capacity(na);
@@ -237,13 +237,16 @@ pub fn evaluate<'a>(
             let e0 = *e0.get_or_insert(stored.total());
             amplifications(model, state, integrator, &mut amplification);
             if let Some((f, free)) = &filter {
-                // z as the linearisation orders it (its partition, whatever the run's).
+                // z, z' as the linearisation orders them (its partition, whatever the run's).
                 z.clear();
                 z.extend_from_slice(&state.q);
+                zd.clear();
+                zd.extend_from_slice(&state.v);
                 for (m, free) in state.mechanisms.iter().zip(free) {
                     z.extend(free.iter().map(|&c| m.q[c]));
+                    zd.extend(free.iter().map(|&c| m.qd[c]));
                 }
-                decay.push(state.t, f.apply(&z));
+                decay.push(state.t, f.apply_state(&z, &zd, &state.currents));
                 decay_samples += 1;
             }
             for (k, a) in model.attachments.iter().enumerate() {

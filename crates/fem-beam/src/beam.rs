@@ -131,6 +131,62 @@ pub const MAX_ELEMENTS: usize = 10_000_000;
 /// both are exact to ~1e-15 L, so 1e-9 L only forgives rounding, never a wrong node.
 const NODE_TOLERANCE: f64 = 1e-9;
 
+/// The physical range `(field, min, max, unit)` of every numeric segment field, checked by
+/// [`Beam::new_in_physical_range`] (the entry of scenario files): values outside are typing
+/// or unit mistakes that would leave finite but hopeless matrices (issue 23:
+/// `youngs_modulus = 1e305` overflowed the damping matrix, `density = 1e300` ran with a
+/// beam that does not move). Generous on purpose:
+///
+/// - `length` 1 um (MEMS) to 10 km;
+/// - `youngs_modulus` 1 kPa (soft foams, gels) to 10 TPa (diamond and graphene: ~1 TPa);
+/// - `density` 1 kg/m^3 (aerogels) to 1e6 kg/m^3 (osmium: 2.26e4, so room for lumped
+///   added masses smeared over a segment);
+/// - `width`, `height` 0.1 um to 1 km, and so `area` 1e-14 to 1e6 m^2 and `second_moment`
+///   1e-28 to 1e12 m^4 (`b h^3 / 12` over those sides, rounded outwards).
+///
+/// [`Beam::new`] itself accepts idealised values (a nearly rigid test beam).
+pub const PHYSICAL_RANGES: [(&str, f64, f64, &str); 7] = [
+    ("length", 1e-6, 1e4, "m"),
+    ("youngs_modulus", 1e3, 1e13, "Pa"),
+    ("density", 1.0, 1e6, "kg/m^3"),
+    ("width", 1e-7, 1e3, "m"),
+    ("height", 1e-7, 1e3, "m"),
+    ("area", 1e-14, 1e6, "m^2"),
+    ("second_moment", 1e-28, 1e12, "m^4"),
+];
+
+/// Every finite segment value outside its [`PHYSICAL_RANGES`] entry, in segment and field
+/// order (non-finite and non-positive values are left to [`Beam::validate`]).
+pub fn physical_range_problems(spec: &BeamSpec) -> Vec<InputError> {
+    let mut out = vec![];
+    for (s, seg) in spec.segments.iter().enumerate() {
+        let values = [
+            Some(seg.length),
+            Some(seg.youngs_modulus),
+            Some(seg.density),
+            seg.width,
+            seg.height,
+            seg.area,
+            seg.second_moment,
+        ];
+        for (value, &(field, min, max, unit)) in values.iter().zip(&PHYSICAL_RANGES) {
+            if let Some(v) = *value {
+                if v.is_finite() && v > 0.0 && !(min..=max).contains(&v) {
+                    out.push(InputError::OutsidePhysicalRange {
+                        entity: Entity::Segment(s),
+                        field,
+                        value: v,
+                        min,
+                        max,
+                        unit,
+                    });
+                }
+            }
+        }
+    }
+    out
+}
+
 fn check_positive(
     errors: &mut Vec<InputError>,
     entity: Entity,
@@ -284,6 +340,27 @@ impl Beam {
                 errors.iter().map(|e| e.to_diagnostic("", None)).collect(),
             ))
         })
+    }
+
+    /// [`Beam::new`] with every segment value also within its physical range
+    /// ([`PHYSICAL_RANGES`]): the entry for user input (scenario files, `--set`).
+    pub fn new_in_physical_range(spec: &BeamSpec) -> Result<Self, BeamError> {
+        let mut problems = physical_range_problems(spec);
+        match Self::validate(spec) {
+            Ok(beam) if problems.is_empty() => return Ok(beam),
+            Ok(_) => {}
+            Err(errors) => {
+                // A segment already blamed for a range is not blamed again for what that
+                // value does to its matrices.
+                let blamed: Vec<_> = problems.iter().map(|e| e.entity()).collect();
+                problems.extend(errors.into_iter().filter(|e| {
+                    !(matches!(e, InputError::OutOfRange { .. }) && blamed.contains(&e.entity()))
+                }));
+            }
+        }
+        Err(BeamError::Input(Diagnostics(
+            problems.iter().map(|e| e.to_diagnostic("", None)).collect(),
+        )))
     }
 
     /// Validates and meshes a description, returning every problem found as the typed

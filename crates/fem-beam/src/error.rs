@@ -30,6 +30,18 @@ pub enum LinalgError {
         /// Value of the pivot.
         pivot: f64,
     },
+    /// A matrix handed to a factorisation has an entry that is not a finite number (its
+    /// inputs overflowed, e.g. material values far outside their physical ranges): refused
+    /// before the elimination, naming the first such entry.
+    #[error("entry ({row}, {column}) of the matrix is {value} (not a finite number)")]
+    NotFinite {
+        /// Row of the entry (0-based, original numbering).
+        row: usize,
+        /// Column of the entry (0-based, `column <= row`).
+        column: usize,
+        /// The entry.
+        value: f64,
+    },
     /// Two operands do not have the same size and half-bandwidth, or a dense matrix is not
     /// square.
     #[error(
@@ -189,6 +201,22 @@ pub enum InputError {
         /// The repeated mode number.
         mode: usize,
     },
+    /// A finite value outside the physical range of its field
+    /// ([`crate::PHYSICAL_RANGES`]): a typing or unit mistake.
+    OutsidePhysicalRange {
+        /// Where.
+        entity: Entity,
+        /// TOML field name.
+        field: &'static str,
+        /// The value given.
+        value: f64,
+        /// Smallest accepted value.
+        min: f64,
+        /// Largest accepted value.
+        max: f64,
+        /// SI unit of the field.
+        unit: &'static str,
+    },
     /// The values of a segment are each valid but together put its element matrices (38),
     /// (39) or its element frequencies out of floating-point range: an entry overflows to
     /// infinity, or a diagonal entry underflows to zero or a subnormal number (e.g.
@@ -221,6 +249,7 @@ impl InputError {
             | InputError::Negative { entity, field, .. }
             | InputError::NotFinite { entity, field, .. }
             | InputError::Choice { entity, field, .. }
+            | InputError::OutsidePhysicalRange { entity, field, .. }
             | InputError::OutOfRange { entity, field, .. } => (Some(*entity), Some(field)),
             InputError::NoElements { segment } | InputError::TooManyElements { segment, .. } => {
                 (Some(Entity::Segment(*segment)), Some("elements"))
@@ -251,6 +280,7 @@ impl InputError {
             | InputError::NotAtNode { .. }
             | InputError::RatioCount { .. }
             | InputError::ModeZero { .. }
+            | InputError::OutsidePhysicalRange { .. }
             | InputError::OutOfRange { .. } => Kind::InvalidValue,
         }
     }
@@ -300,6 +330,16 @@ impl InputError {
             InputError::SameMode { mode } => {
                 format!("ratios target mode {mode} twice; give two different modes")
             }
+            InputError::OutsidePhysicalRange {
+                field,
+                value,
+                min,
+                max,
+                unit,
+                ..
+            } => format!(
+                "{field} = {value:e} is outside its physical range [{min:e}, {max:e}] {unit}"
+            ),
             InputError::OutOfRange {
                 field, value, what, ..
             } => format!(
@@ -398,6 +438,16 @@ pub enum BeamError {
         iterations: usize,
         /// Largest residual of a wanted mode at the end.
         residual: f64,
+    },
+    /// A dense symmetric eigen-decomposition reached its iteration cap.
+    #[error(
+        "the dense symmetric eigen-decomposition (size {size}) did not converge within {iterations} QR sweeps"
+    )]
+    EigenNotConverged {
+        /// The cap reached.
+        iterations: usize,
+        /// Size of the matrix.
+        size: usize,
     },
     /// A banded kernel failed.
     #[error(transparent)]

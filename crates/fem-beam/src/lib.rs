@@ -105,7 +105,10 @@ mod source;
 mod spec;
 
 pub use banded::{BandedFactor, BandedSym};
-pub use beam::{Beam, Damping, DistributedLoad, Element, MAX_ELEMENTS, NodalLoad, Segment};
+pub use beam::{
+    Beam, Damping, DistributedLoad, Element, MAX_ELEMENTS, NodalLoad, PHYSICAL_RANGES, Segment,
+    physical_range_problems,
+};
 pub use dofs::DofMap;
 pub use error::{BeamError, Entity, InputError, LinalgError};
 pub use modal::{DENSE_LIMIT, ModalMethod, Modes};

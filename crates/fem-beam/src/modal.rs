@@ -228,6 +228,28 @@ pub(crate) fn lowest_modes(
 /// Dense: eigenpairs of `L^-1 A L^-T` with `S = C + s A = L L^T`; returns the `m` smallest
 /// shifted eigenvalues `nu = omega^2 + s` above the `n_rigid` rigid ones, and their
 /// unit-modal-mass vectors.
+///
+/// The symmetric eigen-decomposition of a dense matrix by nalgebra's implicit QR, with at
+/// most `30 max(10, n)` sweeps (LAPACK `dsteqr`'s cap; `SymmetricEigen::new` has none and
+/// never converges on a NaN), after refusing a non-finite entry. The sweeps and their
+/// deflation test are those of `SymmetricEigen::new`.
+fn symmetric_eigen(m: DMatrix<f64>) -> Result<SymmetricEigen<f64, nalgebra::Dyn>, BeamError> {
+    let n = m.nrows();
+    if let Some(i) = m.iter().position(|v| !v.is_finite()) {
+        return Err(LinalgError::NotFinite {
+            row: i % n,
+            column: i / n,
+            value: m[i],
+        }
+        .into());
+    }
+    let cap = 30 * n.max(10);
+    SymmetricEigen::try_new(m, f64::EPSILON, cap).ok_or(BeamError::EigenNotConverged {
+        iterations: cap,
+        size: n,
+    })
+}
+
 fn dense_elastic(
     mass: &BandedSym,
     s: &BandedSym,
@@ -251,7 +273,7 @@ fn dense_elastic(
     let w = l.solve_lower_triangular(&a).ok_or(not_pd)?;
     let b = l.solve_lower_triangular(&w.transpose()).ok_or(not_pd)?;
     let b = (&b + b.transpose()) * 0.5;
-    let eig = SymmetricEigen::new(b);
+    let eig = symmetric_eigen(b)?;
     let mut order: Vec<usize> = (0..n).collect();
     // Largest mu = 1 / nu first.
     order.sort_by(|&i, &j| eig.eigenvalues[j].total_cmp(&eig.eigenvalues[i]));
@@ -410,7 +432,7 @@ fn subspace_elastic(
         let w = l.solve_lower_triangular(&kr).ok_or(not_pd)?;
         let g = l.solve_lower_triangular(&w.transpose()).ok_or(not_pd)?;
         let g = (&g + g.transpose()) * 0.5;
-        let eig = SymmetricEigen::new(g);
+        let eig = symmetric_eigen(g)?;
         let mut order: Vec<usize> = (0..p).collect();
         order.sort_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]));
         let q = l

@@ -100,33 +100,19 @@ impl GeneratorSpec {
     }
 
     /// Every problem with the values, in field order (empty when the generator is usable):
-    /// first each field on its own (finite, positive or non-negative), then — when every
+    /// first each field on its own (finite and within its physical range,
+    /// [`GeneratorField::range`]), then — when every
     /// field is in range — the total resistance, and then the derived quantities the
     /// equations use ([`DerivedQuantity`]): each must be finite, and the three coefficients
     /// that enter the coupled equations must stay within [`MAX_COEFFICIENT`]. A derived
     /// quantity whose formula holds a field already blamed for an earlier one is skipped.
     pub fn problems(&self) -> Vec<GeneratorError> {
-        let checks = [
-            (GeneratorField::Kt, self.kt, false),
-            (GeneratorField::Ke, self.ke, false),
-            (
-                GeneratorField::ArmatureResistance,
-                self.armature_resistance,
-                true,
-            ),
-            (GeneratorField::LoadResistance, self.load_resistance, true),
-            (GeneratorField::Inductance, self.inductance, true),
-            (GeneratorField::GearRatio, self.gear_ratio, false),
-            (GeneratorField::RotorInertia, self.rotor_inertia, true),
-        ];
         let mut out = vec![];
-        for (field, value, zero_ok) in checks {
-            if !value.is_finite() || value < 0.0 || (!zero_ok && value == 0.0) {
-                out.push(GeneratorError::Invalid {
-                    field,
-                    value,
-                    zero_ok,
-                });
+        for field in GeneratorField::ALL {
+            let value = field.value(self);
+            let (min, max) = field.range();
+            if !(value.is_finite() && min <= value && value <= max) {
+                out.push(GeneratorError::Invalid { field, value });
             }
         }
         if !out.is_empty() {
@@ -194,6 +180,56 @@ pub enum GeneratorField {
 }
 
 impl GeneratorField {
+    /// Every field, in the order of a generator description.
+    pub const ALL: [GeneratorField; 7] = [
+        GeneratorField::Kt,
+        GeneratorField::Ke,
+        GeneratorField::ArmatureResistance,
+        GeneratorField::LoadResistance,
+        GeneratorField::Inductance,
+        GeneratorField::GearRatio,
+        GeneratorField::RotorInertia,
+    ];
+
+    /// The physical range `[min, max]` of the field (SI, [`GeneratorField::unit`]): every
+    /// real machine lies well inside, and a value outside is a typing or unit mistake whose
+    /// matrices would be finite but hopeless (issue 23: `inductance = 1e308` left the
+    /// linearised system out of floating-point range).
+    ///
+    /// - `kt`, `ke` in `[1e-6, 1e4]`: coreless micromotors have about `1e-3` N m/A, the
+    ///   largest direct-drive torque motors about `1e2`; `k_t = k_e` in SI units.
+    /// - `armature_resistance` in `[0, 1e6]` ohm: milliohms for large machines, kilohms for
+    ///   the finest windings (0: superconducting, or the resistance lumped into the load).
+    /// - `load_resistance` in `[0, 1e9]` ohm: short circuit to an electrometer-grade input;
+    ///   an open circuit is `connected = false`.
+    /// - `inductance` in `[0, 1e3]` H: armature inductances are microhenries to about a
+    ///   henry; 1e3 H is a time constant of minutes with an ohm of resistance.
+    /// - `gear_ratio` in `[1e-3, 1e4]`: multi-stage reducers reach a few thousand, step-up
+    ///   gears (ratio below 1) a few hundredths.
+    /// - `rotor_inertia` in `[0, 1e4]` kg m^2: a megawatt generator's rotor is about `1e3`.
+    pub fn range(self) -> (f64, f64) {
+        match self {
+            GeneratorField::Kt | GeneratorField::Ke => (1e-6, 1e4),
+            GeneratorField::ArmatureResistance => (0.0, 1e6),
+            GeneratorField::LoadResistance => (0.0, 1e9),
+            GeneratorField::Inductance => (0.0, 1e3),
+            GeneratorField::GearRatio => (1e-3, 1e4),
+            GeneratorField::RotorInertia => (0.0, 1e4),
+        }
+    }
+
+    /// The field's SI unit (empty for the gear ratio).
+    pub fn unit(self) -> &'static str {
+        match self {
+            GeneratorField::Kt => " N m/A",
+            GeneratorField::Ke => " V s/rad",
+            GeneratorField::ArmatureResistance | GeneratorField::LoadResistance => " ohm",
+            GeneratorField::Inductance => " H",
+            GeneratorField::GearRatio => "",
+            GeneratorField::RotorInertia => " kg m^2",
+        }
+    }
+
     /// The field's name as written in a generator description.
     pub fn name(self) -> &'static str {
         match self {
@@ -350,20 +386,21 @@ impl DerivedQuantity {
 
 /// A generator value the model cannot use.
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum GeneratorError {
-    /// A field out of its range.
+    /// A field not finite or out of its physical range ([`GeneratorField::range`]).
     #[error(
-        "generator.{} must be a finite {} number (got {value})",
+        "generator.{} = {value:e} is outside its physical range [{:e}, {:e}]{}",
         field.name(),
-        if *zero_ok { "non-negative" } else { "positive" }
+        field.range().0,
+        field.range().1,
+        field.unit()
     )]
     Invalid {
         /// The field.
         field: GeneratorField,
         /// Its value.
         value: f64,
-        /// Whether 0 is allowed.
-        zero_ok: bool,
     },
     /// `R_a + R_L` is zero.
     #[error("generator: armature_resistance + load_resistance must be positive")]
@@ -485,9 +522,12 @@ mod tests {
     }
 
     #[test]
-    fn huge_kt_is_implausible_damping_blaming_kt() {
+    fn huge_in_range_fields_make_an_implausible_damping_blaming_kt() {
+        // Every field in range, the product c_g = 1e8 * 1e4 * 1e4 / 5 = 2e15 is not.
         let g = GeneratorSpec {
-            kt: 1e300,
+            kt: 1e4,
+            ke: 1e4,
+            gear_ratio: 1e4,
             ..paper()
         };
         let p = g.problems();
@@ -495,71 +535,141 @@ mod tests {
         assert!(matches!(p[0], GeneratorError::Implausible { .. }), "{p:?}");
         assert_eq!(p[0].field(), Some(GeneratorField::Kt));
         let msg = p[0].to_string();
-        assert!(msg.contains("= 1.175e299 N m s/rad"), "{msg}");
+        assert!(msg.contains("= 2.000e15 N m s/rad"), "{msg}");
         assert!(msg.contains("at most 1e12"), "{msg}");
-        // Both kt and ke at 1e300: the product itself overflows.
-        let g = GeneratorSpec {
-            kt: 1e300,
-            ke: 1e300,
-            ..paper()
-        };
-        assert!(matches!(g.problems()[0], GeneratorError::NotFinite { .. }));
     }
 
+    /// Issue 23 item 1: every field has a physical range, and a finite value outside it
+    /// (a typing or unit mistake) is refused naming the field and the range; the bounds
+    /// themselves are accepted.
     #[test]
-    fn huge_gear_ratio_is_reported_once_without_nan() {
+    fn every_field_outside_its_range_is_refused_naming_field_and_range() {
+        let table: [(GeneratorField, f64, &str); 9] = [
+            (
+                GeneratorField::Kt,
+                1e300,
+                "generator.kt = 1e300 is outside its physical range [1e-6, 1e4] N m/A",
+            ),
+            (
+                GeneratorField::Ke,
+                5e-324,
+                "generator.ke = 5e-324 is outside its physical range [1e-6, 1e4] V s/rad",
+            ),
+            (
+                GeneratorField::ArmatureResistance,
+                -1.0,
+                "generator.armature_resistance = -1e0 is outside its physical range [0e0, 1e6] ohm",
+            ),
+            (
+                GeneratorField::LoadResistance,
+                1e12,
+                "generator.load_resistance = 1e12 is outside its physical range [0e0, 1e9] ohm",
+            ),
+            (
+                GeneratorField::Inductance,
+                1e308,
+                "generator.inductance = 1e308 is outside its physical range [0e0, 1e3] H",
+            ),
+            (
+                GeneratorField::Inductance,
+                f64::INFINITY,
+                "generator.inductance = inf is outside its physical range [0e0, 1e3] H",
+            ),
+            (
+                GeneratorField::GearRatio,
+                1e200,
+                "generator.gear_ratio = 1e200 is outside its physical range [1e-3, 1e4]",
+            ),
+            (
+                GeneratorField::GearRatio,
+                0.0,
+                "generator.gear_ratio = 0e0 is outside its physical range [1e-3, 1e4]",
+            ),
+            (
+                GeneratorField::RotorInertia,
+                1e5,
+                "generator.rotor_inertia = 1e5 is outside its physical range [0e0, 1e4] kg m^2",
+            ),
+        ];
+        for (field, value, message) in table {
+            let mut g = paper();
+            set(&mut g, field, value);
+            let p = g.problems();
+            assert_eq!(p.len(), 1, "{field:?} = {value}: {p:?}");
+            assert_eq!(p[0].field(), Some(field));
+            assert_eq!(p[0].to_string(), message);
+        }
+        for field in GeneratorField::ALL {
+            let (min, max) = field.range();
+            for value in [min, max] {
+                let mut g = paper();
+                set(&mut g, field, value);
+                assert!(
+                    !g.problems()
+                        .iter()
+                        .any(|e| matches!(e, GeneratorError::Invalid { .. })),
+                    "{field:?} = {value}"
+                );
+            }
+        }
+        // Two fields out of range: both named, in field order.
         let g = GeneratorSpec {
-            gear_ratio: 1e200,
-            rotor_inertia: 0.0,
+            kt: -1.0,
+            inductance: 1e308,
             ..paper()
         };
-        let p = g.problems();
-        assert_eq!(p.len(), 1, "{p:?}");
-        assert_eq!(p[0].field(), Some(GeneratorField::GearRatio));
+        let fields: Vec<_> = g.problems().iter().map(|e| e.field()).collect();
         assert_eq!(
-            p[0].to_string(),
-            "generator: gear_ratio^2 = inf is not finite"
+            fields,
+            vec![Some(GeneratorField::Kt), Some(GeneratorField::Inductance)]
         );
     }
 
+    fn set(g: &mut GeneratorSpec, field: GeneratorField, value: f64) {
+        let slot = match field {
+            GeneratorField::Kt => &mut g.kt,
+            GeneratorField::Ke => &mut g.ke,
+            GeneratorField::ArmatureResistance => &mut g.armature_resistance,
+            GeneratorField::LoadResistance => &mut g.load_resistance,
+            GeneratorField::Inductance => &mut g.inductance,
+            GeneratorField::GearRatio => &mut g.gear_ratio,
+            GeneratorField::RotorInertia => &mut g.rotor_inertia,
+        };
+        *slot = value;
+    }
+
     #[test]
-    fn the_limit_is_inclusive_and_independent_quantities_are_all_reported() {
+    fn the_limit_is_inclusive_and_a_subnormal_resistance_is_blamed_once() {
         // c_g exactly at the limit passes; just above it does not.
         let at = GeneratorSpec {
-            kt: MAX_COEFFICIENT,
-            ke: 1.0,
+            kt: 1e4,
+            ke: 1e4,
             armature_resistance: 1.0,
             load_resistance: 0.0,
-            gear_ratio: 1.0,
+            gear_ratio: 1e2,
             ..paper()
         };
         assert_eq!(DerivedQuantity::Damping.value(&at), MAX_COEFFICIENT);
         assert_eq!(at.problems(), vec![]);
         let above = GeneratorSpec {
-            kt: MAX_COEFFICIENT * 1.001,
+            kt: 1e4 * 1.001,
             ..at.clone()
         };
         assert_eq!(above.problems().len(), 1);
-        // A huge rotor inertia and a huge inductance over a small resistance: the
-        // inertia is implausible, the time constant overflows; both are named.
+        // In-range fields over a subnormal resistance: the damping (2e305) is implausible and
+        // blames the resistance, so the current per speed and the time constant (which
+        // overflow) are not reported again.
         let g = GeneratorSpec {
-            rotor_inertia: 1e300,
-            inductance: 1e300,
-            armature_resistance: 1e-10,
+            inductance: 1e3,
+            armature_resistance: 5e-324,
             load_resistance: 0.0,
-            kt: 1e-20,
-            ke: 1e-20,
+            kt: 1e-6,
+            ke: 1e-6,
+            gear_ratio: 1e-3,
             ..paper()
         };
         let p: Vec<_> = g.problems().iter().map(|e| e.to_string()).collect();
-        assert_eq!(p.len(), 2, "{p:?}");
-        assert!(
-            p[0].contains("gear_ratio^2 * rotor_inertia = 2.500e301 kg m^2"),
-            "{p:?}"
-        );
-        assert!(
-            p[1].contains("inductance / (armature_resistance + load_resistance) = inf"),
-            "{p:?}"
-        );
+        assert_eq!(p.len(), 1, "{p:?}");
+        assert!(p[0].contains("kt * ke * gear_ratio^2"), "{p:?}");
     }
 }

@@ -302,7 +302,9 @@ impl Sample {
             total_energy: stored.total(),
             dissipated_structure: acc.dissipated_structure,
             energy_balance_error: balance_error(e0, stored, acc),
-            signal: probe.filter.map_or(tip_displacement, |f| f.apply(&s.q)),
+            signal: probe
+                .filter
+                .map_or(tip_displacement, |f| f.apply_state(&s.q, &s.v, &s.currents)),
             ..Sample::default()
         };
         if let (Some(m), Some(force)) = (s.mechanisms.first(), model.forces.first()) {
@@ -515,7 +517,7 @@ pub struct Prepared<M> {
     /// The modal filter of the first linearised mode ([`first_mode_filter`]) through which
     /// the run's damping is read, or why there is none (then the beam point's displacement
     /// is read).
-    pub filter: Result<crate::decay::ModalFilter, String>,
+    pub filter: Result<crate::decay::ModalFilter, crate::decay::FirstModeError>,
 }
 
 /// Builds the model, integrator and initial state of a setup, and the modal filter of its
@@ -588,10 +590,10 @@ pub fn first_mode_filter(
     model: &Model,
     hybrid: &HybridModel,
     point: &crate::hybrid::BeamPoint,
-) -> Result<crate::decay::ModalFilter, String> {
+) -> Result<crate::decay::ModalFilter, crate::decay::FirstModeError> {
     let mut tangent = mbs_symbolic::runtime::TangentSystem::new(model);
     for (name, value) in &setup.parameters {
-        tangent.set_param(name, *value).map_err(|e| e.to_string())?;
+        tangent.set_param(name, *value)?;
     }
     crate::decay::ModalFilter::first_mode(hybrid, &[&tangent], point).map(|(f, _)| f)
 }

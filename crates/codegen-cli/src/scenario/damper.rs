@@ -320,7 +320,7 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<DamperScenario> {
     let output = doc.section::<OutputSpec>("output", false);
     let at = |doc: &Doc<'_>, section: &str, key: &str| doc.span(&[section, key]);
 
-    let beam = beam.and_then(|b| match Beam::new(b.get_ref()) {
+    let beam = beam.and_then(|b| match Beam::new_in_physical_range(b.get_ref()) {
         Ok(beam) => Some((b.into_inner(), beam)),
         Err(e) => {
             let msg = e.to_string().replace('\n', "; ");

@@ -436,7 +436,7 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<HybridScenario> {
     let beam_spec = doc.section::<BeamSpec>("beam", false);
     let beam_span = doc.span(&["beam"]);
     let beam = match beam_spec {
-        Some(b) => match Beam::new(b.get_ref()) {
+        Some(b) => match Beam::new_in_physical_range(b.get_ref()) {
             Ok(beam) => Some((b.into_inner(), beam)),
             Err(e) => {
                 let msg = e.to_string().replace('\n', "; ");

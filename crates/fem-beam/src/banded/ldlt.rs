@@ -10,6 +10,7 @@ impl BandedSym {
     /// The LDL^T factorisation (allocates the factor; see
     /// [`factorize_into`](Self::factorize_into) to reuse one).
     pub fn factorize(&self) -> Result<BandedFactor, LinalgError> {
+        self.check_finite()?;
         let mut f = BandedFactor {
             n: self.n,
             kd: self.kd,
@@ -18,6 +19,25 @@ impl BandedSym {
         };
         self.factorize_into(&mut f)?;
         Ok(f)
+    }
+
+    /// [`LinalgError::NotFinite`] at the first (row-major) band entry that is not a finite
+    /// number.
+    pub fn check_finite(&self) -> Result<(), LinalgError> {
+        let (n, kd) = (self.n, self.kd);
+        for i in 0..n {
+            for j in i.saturating_sub(kd)..=i {
+                let value = self.data[slot(kd, i, j)];
+                if !value.is_finite() {
+                    return Err(LinalgError::NotFinite {
+                        row: i,
+                        column: j,
+                        value,
+                    });
+                }
+            }
+        }
+        Ok(())
     }
 
     /// The symmetric permutation `B = P A P^T`, `B[perm[i], perm[j]] = A[i, j]`, or `None`
@@ -63,6 +83,9 @@ impl BandedSym {
         if groups.iter().sum::<usize>() != self.n {
             return Err(mismatch);
         }
+        // A non-finite entry is its own error (a NaN in a slot outside the nodes' coupling
+        // used to read as "does not fit the band", a shape mismatch of equal shapes).
+        self.check_finite()?;
         // perm[old] = new: group g (start s, size m) moves to start n - s - m.
         let mut perm = vec![0; self.n];
         let mut start = 0;
@@ -290,6 +313,34 @@ mod tests {
             // Well-conditioned 9x9 matrix: both solutions agree to a few ulps.
             assert!((x[i] - xd[i]).abs() < 1e-14, "{i}: {} vs {}", x[i], xd[i]);
         }
+    }
+
+    /// Issue 23: a NaN where the beam couples no DOFs (`inf * 0` from an overflowed
+    /// coefficient) was reported as "shape mismatch: expected size 40 / half-bandwidth 3,
+    /// got 40 / 3"; both factorisations now name the entry.
+    #[test]
+    fn a_non_finite_entry_is_named_not_a_shape_mismatch() {
+        let mut a = sample(8, 3);
+        a.set(5, 2, f64::NAN);
+        for r in [
+            a.factorize().map(|_| ()),
+            a.factorize_reversed(&[2; 4]).map(|_| ()),
+        ] {
+            assert_eq!(
+                r.unwrap_err().to_string(),
+                "entry (5, 2) of the matrix is NaN (not a finite number)"
+            );
+        }
+        a.set(5, 2, 0.0);
+        a.set(0, 0, f64::INFINITY);
+        assert!(matches!(
+            a.factorize(),
+            Err(LinalgError::NotFinite {
+                row: 0,
+                column: 0,
+                ..
+            })
+        ));
     }
 
     #[test]

@@ -881,3 +881,85 @@ fn bundled_cantilever_is_the_damper_beam() {
     );
     assert_eq!(analytic::classify(&beam), Some(BoundaryCase::Cantilever));
 }
+
+/// Issue 23 item 1: every segment field has a physical range; a finite value outside it is
+/// refused by the user-input entry naming the segment, the field and the range, and the
+/// bounds themselves are accepted. `Beam::new` keeps accepting idealised values.
+#[test]
+fn segment_values_outside_their_physical_range_are_refused_naming_field_and_range() {
+    type Edit = fn(&mut fem_beam::SegmentSpec, f64);
+    let fields: [(&str, Edit); 5] = [
+        ("length", |s, v| s.length = v),
+        ("youngs_modulus", |s, v| s.youngs_modulus = v),
+        ("density", |s, v| s.density = v),
+        ("width", |s, v| s.width = Some(v)),
+        ("height", |s, v| s.height = Some(v)),
+    ];
+    let table: [(&str, f64, &str); 7] = [
+        (
+            "youngs_modulus",
+            1e305,
+            "segment 0: youngs_modulus = 1e305 is outside its physical range [1e3, 1e13] Pa",
+        ),
+        (
+            "youngs_modulus",
+            10.0,
+            "segment 0: youngs_modulus = 1e1 is outside its physical range [1e3, 1e13] Pa",
+        ),
+        (
+            "density",
+            1e300,
+            "segment 0: density = 1e300 is outside its physical range [1e0, 1e6] kg/m^3",
+        ),
+        (
+            "density",
+            5e-324,
+            "segment 0: density = 5e-324 is outside its physical range [1e0, 1e6] kg/m^3",
+        ),
+        (
+            "length",
+            1e5,
+            "segment 0: length = 1e5 is outside its physical range [1e-6, 1e4] m",
+        ),
+        (
+            "width",
+            1e-9,
+            "segment 0: width = 1e-9 is outside its physical range [1e-7, 1e3] m",
+        ),
+        (
+            "height",
+            2e3,
+            "segment 0: height = 2e3 is outside its physical range [1e-7, 1e3] m",
+        ),
+    ];
+    for (field, value, message) in table {
+        let mut s = cantilever(4);
+        let edit = fields.iter().find(|(f, _)| *f == field).unwrap().1;
+        edit(&mut s.segments[0], value);
+        let err = Beam::new_in_physical_range(&s).unwrap_err().to_string();
+        // One problem (a segment blamed for a range is not blamed again for its matrices).
+        assert!(
+            err.ends_with(message) && !err.contains("; "),
+            "{field} = {value}: {err}"
+        );
+        assert!(matches!(
+            fem_beam::physical_range_problems(&s)[..],
+            [fem_beam::InputError::OutsidePhysicalRange { .. }]
+        ));
+    }
+    for &(field, min, max, _) in &fem_beam::PHYSICAL_RANGES[..5] {
+        for value in [min, max] {
+            let mut s = cantilever(4);
+            let edit = fields.iter().find(|(f, _)| *f == field).unwrap().1;
+            edit(&mut s.segments[0], value);
+            assert!(
+                fem_beam::physical_range_problems(&s).is_empty(),
+                "{field} = {value}"
+            );
+        }
+    }
+    // The idealised (very stiff) beam of a test is still a beam for the library.
+    let mut s = cantilever(4);
+    s.segments[0].youngs_modulus = 1e17;
+    assert!(Beam::new(&s).is_ok());
+}

@@ -352,7 +352,12 @@ pub fn assemble_velocities<S: System + ?Sized>(
     }
     if !free.is_empty() {
         let jf = DMatrix::from_fn(rows, free.len(), |r, c| ws.j[(r, free[c])]);
-        let svd = jf.svd(true, true);
+        let svd = super::partitioning::capped_svd(jf, true, true).ok_or_else(|| {
+            AssemblyError::Input(
+                "velocity solve: the constraint Jacobian is not finite or its SVD did not converge"
+                    .to_string(),
+            )
+        })?;
         let smax = svd.singular_values.iter().fold(0.0f64, |m, s| m.max(*s));
         let x = svd
             .solve(&rhs, 1e-10 * smax.max(f64::MIN_POSITIVE))

@@ -30,12 +30,33 @@ use super::simulator::Simulator;
 use super::trajectory::{Event, PartitionChange};
 use mbs_symbolic::runtime::{System, Workspace};
 
-/// Smallest and largest singular values of `j` (0, 0 for an empty or non-finite matrix).
+/// The SVD of `m` with an iteration cap, `None` for a non-finite matrix or when the cap is
+/// reached: nalgebra's `svd` iterates without a cap (and never converges on a NaN). At most
+/// `30 max(10, min(r, c))` implicit QR sweeps (LAPACK's per-value budget); the sweeps and
+/// their deflation test (`5 eps`) are those of `svd`, so a converging matrix gives the same
+/// decomposition.
+pub(super) fn capped_svd(
+    m: DMatrix<f64>,
+    u: bool,
+    v: bool,
+) -> Option<nalgebra::SVD<f64, nalgebra::Dyn, nalgebra::Dyn>> {
+    if m.iter().any(|x| !x.is_finite()) {
+        return None;
+    }
+    let cap = 30 * m.nrows().min(m.ncols()).max(10);
+    nalgebra::SVD::try_new(m, u, v, 5.0 * f64::EPSILON, cap)
+}
+
+/// Smallest and largest singular values of `j` (0, 0 for an empty or non-finite matrix, or
+/// one whose SVD does not converge within its cap).
 pub(super) fn singular_range(j: &DMatrix<f64>) -> (f64, f64) {
-    if j.nrows() == 0 || j.ncols() == 0 || j.iter().any(|x| !x.is_finite()) {
+    if j.nrows() == 0 || j.ncols() == 0 {
         return (0.0, 0.0);
     }
-    let s = j.clone().svd(false, false).singular_values;
+    let Some(svd) = capped_svd(j.clone(), false, false) else {
+        return (0.0, 0.0);
+    };
+    let s = svd.singular_values;
     let lo = s.iter().fold(f64::INFINITY, |m, x| m.min(*x));
     let hi = s.iter().fold(0.0f64, |m, x| m.max(*x));
     (lo, hi)
@@ -64,8 +85,10 @@ fn redundancy_report(
             let combination = if kept.is_empty() || scale == 0.0 {
                 vec![]
             } else {
-                let svd = jk.transpose().svd(true, true);
-                match svd.solve(&target, 1e-12) {
+                match capped_svd(jk.transpose(), true, true)
+                    .ok_or("no SVD")
+                    .and_then(|svd| svd.solve(&target, 1e-12))
+                {
                     Ok(c) => kept
                         .iter()
                         .zip(c.iter())
@@ -144,13 +167,12 @@ pub(super) fn examine_rank<S: System + ?Sized>(
                 best_condition: f64::INFINITY,
             }));
         }
-        let report = redundancy_report(&ws.j, &choice, sys.constraint_names());
         if !ps.allow_redundant {
+            let report = redundancy_report(&ws.j, &choice, sys.constraint_names());
             return Err(SimError::Redundant(report));
         }
-        if settings.log {
-            eprintln!("{report}: dropping the redundant rows");
-        }
+        // Not printed (a library prints nothing): the caller reads the dropped rows from
+        // `Simulator::dropped_rows`.
         active = choice.independent_rows(rows);
         dropped = choice
             .redundant_rows
@@ -228,9 +250,7 @@ impl<S: System + ?Sized> Simulator<'_, S> {
             cond_before: self.cond,
             cond_after,
         };
-        if self.settings.log {
-            eprintln!("{change}");
-        }
+        // The caller's observer is the log (the `damper` binary prints it on stderr).
         observer(Event::PartitionChanged(&change));
         self.changes.push(change);
         self.partition = p;

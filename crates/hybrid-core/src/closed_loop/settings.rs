@@ -81,7 +81,11 @@ pub struct Settings {
     pub projection_tol: f64,
     /// Step limit (default 10 000 000).
     pub max_steps: usize,
-    /// Print partition changes on standard error as they happen.
+    /// Unused: the library prints nothing. Partition changes reach the run's observer as
+    /// [`super::Event::PartitionChanged`] as they happen, and the redundant rows dropped at
+    /// the start are [`super::Simulator::dropped_rows`]; a caller that wants them on
+    /// standard error prints them there (the `damper` binary does). Kept so that existing
+    /// settings still build.
     pub log: bool,
 }
 

@@ -238,9 +238,9 @@ pub fn modes(lin: &Linearization, k: usize, method: EigenMethod) -> Result<Vec<M
         EigenMethod::ShiftInvert => false,
     };
     let thetas = if dense {
-        dense_thetas(&op)
+        dense_thetas(&op)?
     } else {
-        arnoldi_thetas(&op, k)
+        arnoldi_thetas(&op, k)?
     };
     let sigma = op.sigma();
     let mut lambdas: Vec<C64> = thetas
@@ -281,7 +281,7 @@ fn low_frequency(lin: &Linearization, pencil: &Pencil) -> f64 {
 }
 
 /// Every eigenvalue of the dense operator.
-fn dense_thetas(op: &Operator<'_>) -> Vec<C64> {
+fn dense_thetas(op: &Operator<'_>) -> Result<Vec<C64>, LinearError> {
     let n = op.states();
     let mut b = DMatrix::zeros(n, n);
     let mut e = vec![0.0; n];
@@ -292,19 +292,56 @@ fn dense_thetas(op: &Operator<'_>) -> Vec<C64> {
         e[c] = 0.0;
         b.column_mut(c).copy_from_slice(&out);
     }
+    check_finite(&b, "shift-inverted state matrix")?;
     balance(&mut b);
-    b.complex_eigenvalues().iter().copied().collect()
+    schur_eigenvalues(b, "real Schur form of the shift-inverted state matrix")
+}
+
+/// The first non-finite entry of `a`, as an error naming `matrix`.
+fn check_finite(a: &DMatrix<f64>, matrix: &'static str) -> Result<(), LinearError> {
+    match a.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(i) => Err(LinearError::NonFinite {
+            matrix,
+            row: i % a.nrows(),
+            column: i / a.nrows(),
+            value: a[i],
+        }),
+    }
+}
+
+/// Every eigenvalue of the finite square matrix `a` from its real Schur form (Francis'
+/// implicit double-shift QR), with at most `30 max(10, n)` QR sweeps in all (LAPACK
+/// `dhseqr`'s cap, `ITMAX`): a matrix on which the iteration does not converge (nalgebra's
+/// `complex_eigenvalues` has no cap) is an error naming `what`, not a hang. The sweeps and
+/// their deflation test (`eps`) are those of `complex_eigenvalues`, so a converging
+/// matrix gives the same eigenvalues.
+fn schur_eigenvalues(a: DMatrix<f64>, what: &'static str) -> Result<Vec<C64>, LinearError> {
+    let n = a.nrows();
+    let cap = 30 * n.max(10);
+    nalgebra::Schur::try_new(a, f64::EPSILON, cap)
+        .map(|s| s.complex_eigenvalues().iter().copied().collect())
+        .ok_or(LinearError::NoEigenConvergence {
+            what,
+            iterations: cap,
+            size: n,
+        })
 }
 
 /// Balances `a` in place by a diagonal similarity with powers of two (Parlett and Reinsch
 /// 1969, as LAPACK's `gebal` without permutations): rows and columns of comparable norms, so
 /// that the Schur form's rounding is relative to each eigenvalue's own scale rather than to
-/// the largest entry.
+/// the largest entry. `a` must be finite; the sweeps stop after 100 (each sweep that changes
+/// a scale reduces the row plus column norm by 5 %, so a finite matrix converges well
+/// before; the balance is an accuracy aid and an unfinished one is still a similarity).
 fn balance(a: &mut DMatrix<f64>) {
     let n = a.nrows();
     let radix = 2.0f64;
     let mut converged = false;
-    while !converged {
+    for _ in 0..100 {
+        if converged {
+            break;
+        }
         converged = true;
         for i in 0..n {
             let (mut c, mut r) = (0.0, 0.0);
@@ -314,7 +351,7 @@ fn balance(a: &mut DMatrix<f64>) {
                     r += a[(i, j)].abs();
                 }
             }
-            if c == 0.0 || r == 0.0 {
+            if c == 0.0 || r == 0.0 || !(c + r).is_finite() {
                 continue;
             }
             let s = c + r;
@@ -342,16 +379,24 @@ fn balance(a: &mut DMatrix<f64>) {
 }
 
 /// Ritz values of Arnoldi's method on the operator, the Krylov space grown until the `k`
-/// wanted ones (largest `|theta|`, one per pair) have converged.
-fn arnoldi_thetas(op: &Operator<'_>, k: usize) -> Vec<C64> {
+/// wanted ones (largest `|theta|`, one per pair) have converged (the space doubles each
+/// time, so at most `log2(n)` rounds before it is the whole space).
+fn arnoldi_thetas(op: &Operator<'_>, k: usize) -> Result<Vec<C64>, LinearError> {
     let n = op.states();
     let mut m = (2 * k + 20).max(30).min(n);
     loop {
         let (h, beta_last) = arnoldi(op, m);
         let mm = h.nrows();
-        let thetas: Vec<C64> = h.complex_eigenvalues().iter().copied().collect();
+        check_finite(
+            &h,
+            "Arnoldi Hessenberg matrix of the shift-inverted state matrix",
+        )?;
+        let thetas = schur_eigenvalues(
+            h.clone(),
+            "real Schur form of the Arnoldi Hessenberg matrix",
+        )?;
         if mm >= n || beta_last == 0.0 {
-            return thetas;
+            return Ok(thetas);
         }
         // Residual estimate of each Ritz pair: beta |e_m^T s| / |theta| (s a unit eigenvector
         // of H), relative to theta.
@@ -364,7 +409,7 @@ fn arnoldi_thetas(op: &Operator<'_>, k: usize) -> Vec<C64> {
             beta_last * s[mm - 1].norm() <= 1e-14 * t.norm()
         });
         if converged {
-            return thetas;
+            return Ok(thetas);
         }
         m = (2 * m).min(n);
     }

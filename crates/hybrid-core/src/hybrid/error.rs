@@ -2,6 +2,7 @@
 
 /// Why a hybrid run stopped. Every message is one line naming the time and the mechanism.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum HybridError {
     /// A mechanism reached (or came too close to) a singular position.
     #[error(
@@ -82,9 +83,10 @@ pub enum HybridError {
         /// What is wrong.
         what: String,
     },
-    /// A beam matrix could not be factorised.
+    /// A beam matrix could not be factorised (the kernel's typed cause: the pivot or the
+    /// non-finite entry, with its index).
     #[error("beam matrix factorisation failed: {0}")]
-    Factorization(String),
+    Factorization(fem_beam::LinalgError),
 }
 
 fn reach_note(reach: Option<f64>) -> String {

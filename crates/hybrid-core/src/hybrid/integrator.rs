@@ -212,13 +212,13 @@ impl Integrator {
         let nb = model.attachments.len();
         let factor = match &model.beam {
             Some(beam) => {
-                let fail = |e: &dyn std::fmt::Display| HybridError::Factorization(e.to_string());
+                let fail = HybridError::Factorization;
                 let mut k: BandedSym = beam.mass().clone();
                 k.scaled_add((1.0 + alpha) * gamma * h, beam.damping())
-                    .map_err(|e| fail(&e))?;
+                    .map_err(fail)?;
                 k.scaled_add((1.0 + alpha) * beta * h * h, beam.stiffness())
-                    .map_err(|e| fail(&e))?;
-                Some(beam.factorize(&k).map_err(|e| fail(&e))?)
+                    .map_err(fail)?;
+                Some(beam.factorize(&k).map_err(fail)?)
             }
             None => None,
         };

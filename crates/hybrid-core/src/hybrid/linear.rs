@@ -92,6 +92,7 @@ impl Default for EquilibriumOptions {
 
 /// Why a hybrid system could not be linearised.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum LinearError {
     /// A mechanism cannot be assembled or is singular on the way to the equilibrium.
     #[error("static equilibrium: {0}")]
@@ -114,9 +115,58 @@ pub enum LinearError {
         /// What does not match.
         what: String,
     },
-    /// The reduced stiffness (or the shifted pencil) cannot be factorised.
-    #[error("{0}")]
-    Singular(String),
+    /// The beam part `C + s B + s^2 A` of the shifted pencil has a zero pivot.
+    #[error(
+        "the beam's dynamic stiffness C + s B + s^2 A at s = {}{:+}i is singular (pivot {pivot}): a beam without supports (rigid-body motion) or a shift on an eigenvalue",
+        shift[0],
+        shift[1]
+    )]
+    SingularBeam {
+        /// The shift `s` (real and imaginary parts, 1/s).
+        shift: [f64; 2],
+        /// The elimination index of the zero pivot.
+        pivot: usize,
+    },
+    /// The reduced dynamic stiffness (the Woodbury border of the mechanisms) at the shift
+    /// has a zero pivot.
+    #[error(
+        "the reduced dynamic stiffness at s = {}{:+}i is singular (pivot {pivot}): a mechanism coordinate without stiffness (a free crank, a mechanism at its singular position) or a shift on an eigenvalue",
+        shift[0],
+        shift[1]
+    )]
+    SingularReduced {
+        /// The shift `s` (real and imaginary parts, 1/s).
+        shift: [f64; 2],
+        /// The index of the zero pivot in the small bordered system.
+        pivot: usize,
+    },
+    /// A matrix handed to an eigenvalue decomposition has a non-finite entry (refused before
+    /// the decomposition, whose iteration would not converge on it).
+    #[error(
+        "the {matrix} has a non-finite entry {value} at ({row}, {column}): the linearised system is out of floating-point range (check the parameters' magnitudes)"
+    )]
+    NonFinite {
+        /// Which matrix.
+        matrix: &'static str,
+        /// Row of the first non-finite entry.
+        row: usize,
+        /// Column of the first non-finite entry.
+        column: usize,
+        /// The entry.
+        value: f64,
+    },
+    /// An iterative eigenvalue computation reached its iteration cap.
+    #[error(
+        "the {what} did not converge within {iterations} iterations (size {size}): the linearised system is too ill-scaled for its eigenvalues to be computed"
+    )]
+    NoEigenConvergence {
+        /// Which computation.
+        what: &'static str,
+        /// The cap reached.
+        iterations: usize,
+        /// Size of the matrix.
+        size: usize,
+    },
 }
 
 /// The static equilibrium of a hybrid system.

@@ -465,8 +465,16 @@ impl HybridModel {
                     format!("mechanism \"{}\" has no joint number {}", m.name, f.joint),
                 ));
             }
+            if let ForceKind::Generator(g) = &f.kind {
+                if let Err(e) = g.validate() {
+                    return Err(ModelError::Value {
+                        entity,
+                        what: e.to_string(),
+                    });
+                }
+            }
             let ok = match &f.kind {
-                ForceKind::Generator(g) => g.validate().is_ok(),
+                ForceKind::Generator(_) => true,
                 ForceKind::Damper { c } => c.is_finite() && *c >= 0.0,
                 ForceKind::Spring { k, q0 } => k.is_finite() && *k >= 0.0 && q0.is_finite(),
             };

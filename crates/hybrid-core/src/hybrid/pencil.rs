@@ -164,10 +164,9 @@ impl Pencil {
                     &[(one, c), (sigma, b), (sigma * sigma, a)],
                     lin.elimination_order(),
                 )
-                .map_err(|k| {
-                    LinearError::Singular(format!(
-                        "the beam's dynamic stiffness C + s B + s^2 A at s = {sigma} is singular (pivot {k}): a beam without supports (rigid-body motion) or a shift on an eigenvalue"
-                    ))
+                .map_err(|pivot| LinearError::SingularBeam {
+                    shift: [sigma.re, sigma.im],
+                    pivot,
                 })?,
             ),
             None => None,
@@ -213,14 +212,15 @@ impl Pencil {
         }
         let scale = border.iter().fold(1e-300f64, |m, v| m.max(v.norm()));
         let lu = border.lu();
-        let tiny = (0..ns).any(|k| {
+        let tiny = (0..ns).find(|&k| {
             let p = lu.u()[(k, k)].norm();
             p.is_nan() || p <= 1e-14 * scale
         });
-        if tiny {
-            return Err(LinearError::Singular(format!(
-                "the reduced dynamic stiffness at s = {sigma} is singular: a mechanism coordinate without stiffness (a free crank, a mechanism at its singular position) or a shift on an eigenvalue"
-            )));
+        if let Some(pivot) = tiny {
+            return Err(LinearError::SingularReduced {
+                shift: [sigma.re, sigma.im],
+                pivot,
+            });
         }
         Ok(Pencil {
             sigma,

@@ -746,3 +746,88 @@ fn generated_and_interpreted_models_give_the_same_trajectories() {
         2000,
     );
 }
+
+// ---------------------------------------------------------------------------------------
+// The modal filter of a complex mode
+
+/// Issue 23 item 7: the absorber's two close, non-proportionally damped modes (the beam's
+/// first mode split by the tuned arm, damped by the generator on the arm and 0.2 % Rayleigh
+/// damping on the beam). Read through the exact modal coordinate of the first linearised
+/// mode (`ModalFilter::of_mode`, the left-eigenvector projection of the state), the free
+/// decay at small amplitude (0.1 mm at the tip) gives the linearised damping ratio within
+/// 1e-5 relative (the issue asks 1e-4), with and without inductance; 2.3e-6 measured.
+/// (The real part of the complex mode shape, the filter before, read the bundled
+/// scenario's 4.127 % as 4.142 %: 3.7e-3.) Error budget: Newmark's `(omega h)^2 / 4 =
+/// 3.4e-6` on the damping ratio at `omega = 37 rad/s`, `h = 1e-4`; the geometric
+/// nonlinearity at theta ~ 1e-3 and the estimator's peak interpolation below 1e-6.
+#[test]
+fn the_exact_modal_filter_reads_the_linearised_damping_of_a_complex_mode() {
+    use hybrid_core::decay::{ModalFilter, estimate};
+    use hybrid_core::hybrid::{EigenMethod, EquilibriumOptions, Linearization, modes};
+    for inductance in [0.0, 2e-3] {
+        let beam = cantilever(1.0, 20, true);
+        let n = beam.dof_count();
+        let (w1, phi) = first_mode(&beam);
+        let tip = tip_dof(&beam);
+        let k_t = w1 * w1 * ARM.i_pivot();
+        let q0: Vec<f64> = phi.iter().map(|p| 1e-4 * p / phi[tip]).collect();
+        let mut model = absorber_model(beam, ARM.system(Backend::Compiled), &q0, 0.0, k_t);
+        let theta = model.mechanisms[0]
+            .system
+            .coordinate_index("theta")
+            .unwrap();
+        model.forces.push(JointForce {
+            name: "generator".into(),
+            mechanism: 0,
+            joint: theta,
+            kind: ForceKind::Generator(generator(inductance)),
+        });
+        // The exact tangent model of the same mechanism, with the same parameters.
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/absorber.toml");
+        let file = mbs_symbolic::model::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        let mut tangent = mbs_symbolic::runtime::TangentSystem::new(&file);
+        for (name, v) in [
+            ("m_c", ARM.m_c),
+            ("m_a", ARM.m_a),
+            ("m_t", ARM.m_t),
+            ("l_a", ARM.l_a),
+        ] {
+            tangent.set_param(name, v).unwrap();
+        }
+        let lin = Linearization::new(&model, &[&tangent], EquilibriumOptions::default()).unwrap();
+        let found = modes(&lin, 2, EigenMethod::Auto).unwrap();
+        let (first, second) = (&found[0], &found[1]);
+        // Two close modes: the filter has something to separate.
+        assert!(second.natural_frequency_hz < 1.5 * first.natural_frequency_hz);
+        let point = model.attachments[0].beam.clone();
+        let filter = ModalFilter::of_mode(&lin, first, &point).unwrap();
+        let free = lin.equilibrium.free.clone();
+        let mut state = initial_state(&model, q0, vec![0.0; n]).unwrap();
+        let (mut t, mut y) = (vec![], vec![]);
+        let (mut z, mut zd) = (vec![], vec![]);
+        let dt = 1e-4;
+        run(&model, &mut state, dt, 60_000, |s, _| {
+            z.clear();
+            z.extend_from_slice(&s.q);
+            zd.clear();
+            zd.extend_from_slice(&s.v);
+            for (m, free) in s.mechanisms.iter().zip(&free) {
+                z.extend(free.iter().map(|&c| m.q[c]));
+                zd.extend(free.iter().map(|&c| m.qd[c]));
+            }
+            t.push(s.t);
+            y.push(filter.apply_state(&z, &zd, &s.currents));
+        });
+        let measured = estimate(&t, &y);
+        let zeta = measured.zeta().expect("an oscillatory decay");
+        let error = (zeta - first.damping_ratio).abs() / first.damping_ratio;
+        eprintln!(
+            "L = {inductance}: zeta time domain {zeta:.7}, linearised {:.7} (second mode {:.7} at {:.4} Hz vs {:.4} Hz): relative {error:.2e}",
+            first.damping_ratio,
+            second.damping_ratio,
+            second.natural_frequency_hz,
+            first.natural_frequency_hz
+        );
+        assert!(error < 1e-5, "relative error {error:e}");
+    }
+}

@@ -238,3 +238,46 @@ fn harmonic_response_solves_the_dense_dynamic_stiffness_to_rounding() {
         assert!(backward < 1e-15, "{backward:e}");
     }
 }
+
+/// Issue 23 item 1, the hang's regression input: the paper's damper with a generator
+/// inductance of 1e301..1e308 H (`--set generator.inductance=1e308`) made nalgebra's
+/// uncapped Schur iteration run forever inside `modes`. Such a generator is now refused by
+/// its range (`GeneratorSpec::validate`, used by `HybridModel::new` and the scenario
+/// loader); the eigen-solver is given the
+/// linearisation with the inductance set directly. Both eigen-solvers return: an error
+/// naming the matrix or the decomposition, or modes with finite eigenvalues.
+#[test]
+fn a_huge_generator_inductance_returns_instead_of_hanging() {
+    use hybrid_core::hybrid::LinearError;
+    let err = generator(1e308, true).validate().unwrap_err().to_string();
+    assert!(
+        err.contains("generator.inductance = 1e308 is outside"),
+        "{err}"
+    );
+    for inductance in [1e301, 1e305, 1e308] {
+        let (model, _) = paper_damper(20, true, true, 2e-3);
+        let mut lin = linearize(&model, &[]);
+        lin.electrical[0].inductance = inductance;
+        for method in [EigenMethod::Dense, EigenMethod::ShiftInvert] {
+            let found = modes(&lin, 3, method);
+            println!("L = {inductance:e}, {method:?}: {found:?}");
+            match found {
+                Ok(found) => {
+                    for m in &found {
+                        assert!(m.lambda().norm().is_finite(), "{m:?}");
+                    }
+                }
+                Err(e) => {
+                    assert!(
+                        matches!(
+                            e,
+                            LinearError::NonFinite { .. } | LinearError::NoEigenConvergence { .. }
+                        ),
+                        "{e}"
+                    );
+                    assert!(!e.to_string().contains('\n'));
+                }
+            }
+        }
+    }
+}
