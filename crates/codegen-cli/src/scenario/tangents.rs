@@ -3,6 +3,9 @@
 //! parameters as the mechanism's system): what linearising it
 //! ([`hybrid_core::hybrid::Linearization::new`]) and running it in the time domain need.
 
+use std::collections::BTreeMap;
+use std::sync::{Mutex, OnceLock};
+
 use mbs_symbolic::model::{JointKind, Model};
 use mbs_symbolic::runtime::TangentSystem;
 
@@ -95,10 +98,49 @@ pub fn hybrid_tangents(sc: &HybridScenario, built: &Built) -> Result<Vec<Tangent
         .collect()
 }
 
+/// The tangent models derived so far in this process, by the content hash of their model
+/// file, with how many times each was derived: a sweep derives each model's symbolic
+/// tangents once, not once per grid point (and not again for the time-domain run's modal
+/// filter). One entry per distinct model content; the same content always derives the same
+/// tangents, so reuse changes no result.
+fn cache() -> &'static Mutex<BTreeMap<String, (Option<TangentSystem>, usize)>> {
+    static DERIVED: OnceLock<Mutex<BTreeMap<String, (Option<TangentSystem>, usize)>>> =
+        OnceLock::new();
+    DERIVED.get_or_init(Default::default)
+}
+
+fn derived(model: &Model) -> TangentSystem {
+    let key = &model.source.hash;
+    // A poisoned lock only means another thread panicked while holding it; the map is
+    // still a valid set of derived tangents.
+    let lock = || cache().lock().unwrap_or_else(|e| e.into_inner());
+    if let Some((Some(t), _)) = lock().get(key) {
+        return t.clone();
+    }
+    // Derived outside the lock (parallel sweep workers of different models do not wait on
+    // each other); two workers deriving the same model at once derive the same tangents.
+    let t = TangentSystem::new(model);
+    let mut map = lock();
+    let entry = map.entry(key.clone()).or_insert((None, 0));
+    entry.1 += 1;
+    entry.0.get_or_insert_with(|| t.clone());
+    t
+}
+
+/// How many times this process derived the symbolic tangents of the model file with
+/// content hash `hash` (0 when never): at most once per model in a sequential run.
+pub fn tangent_derivations(hash: &str) -> usize {
+    cache()
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .get(hash)
+        .map_or(0, |e| e.1)
+}
+
 /// The tangent model of `model` with run-time parameters `params` (already checked by the
 /// loader against the same model).
 fn tangent(model: &Model, params: &[(String, f64)]) -> Result<TangentSystem, Error> {
-    let mut t = TangentSystem::new(model);
+    let mut t = derived(model);
     for (name, value) in params {
         t.set_param(name, *value)
             .map_err(|e| Error::Usage(format!("{}: parameter {name}: {e}", model.source.path)))?;
@@ -124,5 +166,55 @@ impl Linearizable {
     /// mechanisms, e.g. [`disconnected`]) about its static equilibrium.
     pub fn linearize(&self, model: &HybridModel) -> Result<Linearization, LinearError> {
         Linearization::new(model, &self.tangent_refs(), EquilibriumOptions::default())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::{self, Override};
+    use std::path::Path;
+
+    /// Linearising the same scenario at several parameter values (a sweep's points) derives
+    /// the model's tangents once; the reused tangents carry each point's parameters.
+    #[test]
+    fn a_model_s_tangents_are_derived_once() {
+        let path = Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../scenarios/two_dampers.toml"
+        ));
+        let at = |deg: f64| {
+            let o = Override::new(
+                "mechanism[0].placement.half_angle_deg",
+                toml_edit::Value::from(deg),
+                &format!("{deg}"),
+            )
+            .unwrap();
+            let loaded = scenario::load_with(path, &[o]).unwrap();
+            let lz = tangents_for(&loaded.scenario).unwrap();
+            let lin = lz.linearize(&lz.model).unwrap();
+            let hash = loaded_hash(&loaded.scenario);
+            (lin, hash)
+        };
+        let (_, hash) = at(10.0);
+        let before = tangent_derivations(&hash);
+        assert!(before >= 1);
+        let (a, _) = at(12.0);
+        let (b, _) = at(15.0);
+        assert_eq!(tangent_derivations(&hash), before, "derived again");
+        // Different operating points: the reused tangents are evaluated at each.
+        assert_ne!(a.equilibrium.mech_q[0], b.equilibrium.mech_q[0]);
+    }
+
+    fn loaded_hash(sc: &scenario::Scenario) -> String {
+        match sc {
+            scenario::Scenario::Hybrid(h) => {
+                mbs_symbolic::model::load(&h.mechanisms[0].model)
+                    .unwrap()
+                    .source
+                    .hash
+            }
+            _ => unreachable!("two_dampers.toml is a hybrid scenario"),
+        }
     }
 }
