@@ -390,9 +390,10 @@ impl DerivedQuantity {
 pub enum GeneratorError {
     /// A field not finite or out of its physical range ([`GeneratorField::range`]).
     #[error(
-        "generator.{} = {value:e} is outside its physical range [{:e}, {:e}]{}",
+        "generator.{} = {} is outside its physical range [{}, {:e}]{}",
         field.name(),
-        field.range().0,
+        bound(*value),
+        bound(field.range().0),
         field.range().1,
         field.unit()
     )]
@@ -431,6 +432,15 @@ pub enum GeneratorError {
         /// The field most likely responsible ([`DerivedQuantity::dominant_field`]).
         field: GeneratorField,
     },
+}
+
+/// A number as written in range messages: `0`, or scientific notation (`1e-6`, `inf`).
+fn bound(x: f64) -> String {
+    if x == 0.0 {
+        "0".to_string()
+    } else {
+        format!("{x:e}")
+    }
 }
 
 impl GeneratorError {
@@ -558,22 +568,22 @@ mod tests {
             (
                 GeneratorField::ArmatureResistance,
                 -1.0,
-                "generator.armature_resistance = -1e0 is outside its physical range [0e0, 1e6] ohm",
+                "generator.armature_resistance = -1e0 is outside its physical range [0, 1e6] ohm",
             ),
             (
                 GeneratorField::LoadResistance,
                 1e12,
-                "generator.load_resistance = 1e12 is outside its physical range [0e0, 1e9] ohm",
+                "generator.load_resistance = 1e12 is outside its physical range [0, 1e9] ohm",
             ),
             (
                 GeneratorField::Inductance,
                 1e308,
-                "generator.inductance = 1e308 is outside its physical range [0e0, 1e3] H",
+                "generator.inductance = 1e308 is outside its physical range [0, 1e3] H",
             ),
             (
                 GeneratorField::Inductance,
                 f64::INFINITY,
-                "generator.inductance = inf is outside its physical range [0e0, 1e3] H",
+                "generator.inductance = inf is outside its physical range [0, 1e3] H",
             ),
             (
                 GeneratorField::GearRatio,
@@ -583,12 +593,12 @@ mod tests {
             (
                 GeneratorField::GearRatio,
                 0.0,
-                "generator.gear_ratio = 0e0 is outside its physical range [1e-3, 1e4]",
+                "generator.gear_ratio = 0 is outside its physical range [1e-3, 1e4]",
             ),
             (
                 GeneratorField::RotorInertia,
                 1e5,
-                "generator.rotor_inertia = 1e5 is outside its physical range [0e0, 1e4] kg m^2",
+                "generator.rotor_inertia = 1e5 is outside its physical range [0, 1e4] kg m^2",
             ),
         ];
         for (field, value, message) in table {

@@ -354,12 +354,12 @@ fn out_of_range_generator_and_beam_values_are_refused_naming_field_and_range() {
         (
             "scenarios/damper.toml",
             "generator.inductance=1e308",
-            "generator.inductance = 1e308 is outside its physical range [0e0, 1e3] H",
+            "generator.inductance = 1e308 is outside its physical range [0, 1e3] H",
         ),
         (
             "scenarios/damper.toml",
             "generator.inductance=1e301",
-            "generator.inductance = 1e301 is outside its physical range [0e0, 1e3] H",
+            "generator.inductance = 1e301 is outside its physical range [0, 1e3] H",
         ),
         (
             "scenarios/damper.toml",
@@ -369,12 +369,12 @@ fn out_of_range_generator_and_beam_values_are_refused_naming_field_and_range() {
         (
             "scenarios/damper.toml",
             "generator.rotor_inertia=1e9",
-            "generator.rotor_inertia = 1e9 is outside its physical range [0e0, 1e4] kg m^2",
+            "generator.rotor_inertia = 1e9 is outside its physical range [0, 1e4] kg m^2",
         ),
         (
             "scenarios/damper.toml",
             "generator.load_resistance=1e30",
-            "generator.load_resistance = 1e30 is outside its physical range [0e0, 1e9] ohm",
+            "generator.load_resistance = 1e30 is outside its physical range [0, 1e9] ohm",
         ),
         (
             "scenarios/damper.toml",
