@@ -103,9 +103,10 @@ pub fn hybrid_tangents(sc: &HybridScenario, built: &Built) -> Result<Vec<Tangent
 /// tangents once, not once per grid point (and not again for the time-domain run's modal
 /// filter). One entry per distinct model content; the same content always derives the same
 /// tangents, so reuse changes no result.
-fn cache() -> &'static Mutex<BTreeMap<String, (Option<TangentSystem>, usize)>> {
-    static DERIVED: OnceLock<Mutex<BTreeMap<String, (Option<TangentSystem>, usize)>>> =
-        OnceLock::new();
+type Derived = BTreeMap<String, (Option<TangentSystem>, usize)>;
+
+fn cache() -> &'static Mutex<Derived> {
+    static DERIVED: OnceLock<Mutex<Derived>> = OnceLock::new();
     DERIVED.get_or_init(Default::default)
 }
 
