@@ -81,8 +81,8 @@ fn linearised_first_mode_equals_the_filtered_free_decay_at_small_amplitude() {
 }
 
 /// Hybrid scenarios: the free decay read through the first mode's modal filter (the absorber's
-/// two close modes and the slider-crank's) gives the linearised first-mode damping within
-/// 1 % at the bundled 1 mm amplitude.
+/// two close modes and the slider-crank's) gives the linearised first-mode damping: the
+/// absorber within 1e-4, the others within 1 % at the bundled 1 mm amplitude.
 #[test]
 fn hybrid_free_decays_read_through_the_first_mode_give_its_linearised_damping() {
     let dir = std::env::temp_dir().join(format!("damper-lin-td-h-{}", std::process::id()));
@@ -109,7 +109,14 @@ fn hybrid_free_decays_read_through_the_first_mode_give_its_linearised_damping() 
             "{name}: zeta linear {zeta:.6} time domain {zt:.6} ({:.1e})",
             (zt - zeta).abs() / zeta
         );
-        assert!((zt - zeta).abs() <= 0.01 * zeta);
+        // The absorber's summary reads its complex first mode exactly (the left-eigenvector
+        // projection; issue 23): 1e-4. The others at their bundled 1 mm amplitude: 1 %.
+        let tol = if name == "pendulum_absorber" {
+            1e-4
+        } else {
+            0.01
+        };
+        assert!((zt - zeta).abs() <= tol * zeta, "{name}: {zt} vs {zeta}");
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
