@@ -65,6 +65,55 @@ enum Command {
     Frf(frf::Args),
 }
 
+/// The longest error line printed (characters): past it the remaining problems are counted,
+/// not shown.
+const MAX_LINE: usize = 1000;
+
+/// `text`'s lines joined with "; " into one line of at most about [`MAX_LINE`] characters:
+/// the first problems in full (the first one cut at [`MAX_LINE`] characters), then "... and
+/// N more problems" counting the rest (a trailing "... and N more problems" line of the
+/// list itself included).
+fn one_line(text: &str) -> String {
+    let lines: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
+    let more_of = |l: &str| -> Option<usize> {
+        l.strip_prefix("... and ")?
+            .split_whitespace()
+            .next()?
+            .parse()
+            .ok()
+    };
+    let mut out = String::new();
+    let mut shown = 0;
+    for l in &lines {
+        if more_of(l).is_some() {
+            break;
+        }
+        if shown > 0 && out.len() + 2 + l.len() > MAX_LINE {
+            break;
+        }
+        if shown > 0 {
+            out.push_str("; ");
+        }
+        if l.len() > MAX_LINE {
+            let cut = (0..=MAX_LINE)
+                .rev()
+                .find(|&k| l.is_char_boundary(k))
+                .unwrap_or(0);
+            out.push_str(&l[..cut]);
+            out.push_str(" ...");
+        } else {
+            out.push_str(l);
+        }
+        shown += 1;
+    }
+    let rest: usize = lines[shown..].iter().map(|l| more_of(l).unwrap_or(1)).sum();
+    if rest > 0 {
+        let s = if rest == 1 { "" } else { "s" };
+        out.push_str(&format!("; ... and {rest} more problem{s}"));
+    }
+    out
+}
+
 /// Exit status when standard output was closed by the reader (128 + SIGPIPE).
 const BROKEN_PIPE: u8 = 141;
 
@@ -111,9 +160,34 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if broken_pipe(&e) => ExitCode::from(BROKEN_PIPE),
         Err(e) => {
-            // One line naming what is wrong (the chain of causes joined with ": ").
-            eprintln!("error: {}", format!("{e:#}").replace('\n', "; "));
+            // One short line naming what is wrong (the chain of causes joined with ": ",
+            // the problems of a file with "; ", a long list summarised).
+            eprintln!("error: {}", one_line(&format!("{e:#}")));
             ExitCode::from(2)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{MAX_LINE, one_line};
+
+    #[test]
+    fn an_error_is_one_short_line() {
+        assert_eq!(one_line("a: b"), "a: b");
+        assert_eq!(one_line("f:1: x\nf:2: y"), "f:1: x; f:2: y");
+        let many: Vec<String> = (0..20)
+            .map(|k| format!("f:{k}: {}", "z".repeat(200)))
+            .collect();
+        let text = many.join("\n") + "\n... and 980 more problems";
+        let line = one_line(&text);
+        assert!(line.len() <= MAX_LINE + 60, "{}", line.len());
+        assert!(line.starts_with("f:0: "));
+        assert!(!line.contains('\n'));
+        // 20 listed, 4 fit: 16 not shown + 980 counted by the list.
+        assert!(line.ends_with("; ... and 996 more problems"), "{line}");
+        let long = "é".repeat(2 * MAX_LINE);
+        let line = one_line(&long);
+        assert!(line.ends_with(" ...") && line.len() <= MAX_LINE + 4);
     }
 }

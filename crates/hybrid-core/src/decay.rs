@@ -230,11 +230,31 @@ impl ModalFilter {
             DVector::from_vec(z)
         };
         let cplx = |m: &DMatrix<f64>| m.map(|v| C64::new(v, 0.0));
-        let (k, c, m) = (
-            dense(Matrix::Stiffness),
-            dense(Matrix::Damping),
-            dense(Matrix::Mass),
-        );
+        // Dense matrices (d^2 memory) only where the dense left eigenvector is computed;
+        // above the limit the products go through the operator, O(n) each.
+        let small = d <= DENSE_LEFT_LIMIT;
+        let (k, c, m) = if small {
+            (
+                dense(Matrix::Stiffness),
+                dense(Matrix::Damping),
+                dense(Matrix::Mass),
+            )
+        } else {
+            let none = || DMatrix::<f64>::zeros(0, 0);
+            (none(), none(), none())
+        };
+        // X^T v for a dense transpose, or X v through the operator above the limit (where
+        // psi = phi stands for a symmetric system's left eigenvector).
+        let apply_t = |which: Matrix, dense: &DMatrix<f64>, v: &DVector<C64>| -> DVector<C64> {
+            if small {
+                return cplx(&dense.transpose()) * v;
+            }
+            let (re, im): (Vec<f64>, Vec<f64>) = v.iter().map(|z| (z.re, z.im)).unzip();
+            let (mut yr, mut yi) = (vec![0.0; d], vec![0.0; d]);
+            lin.mul(which, &re, &mut yr);
+            lin.mul(which, &im, &mut yi);
+            DVector::from_iterator(d, yr.into_iter().zip(yi).map(|(a, b)| C64::new(a, b)))
+        };
         /// One generator of the first-order form: force index, `R`, `L`, `u = P^T b`,
         /// `w = P^T g`.
         struct Gen {
@@ -256,7 +276,7 @@ impl ModalFilter {
             })
             .collect();
         let phiv = DVector::from_vec(phi.clone());
-        let psi = if d <= DENSE_LEFT_LIMIT {
+        let psi = if small {
             let mu = l * (1.0 + 1e-10) + C64::new(if l.norm() == 0.0 { 1e-10 } else { 0.0 }, 0.0);
             let mut s = cplx(&k) + cplx(&c) * mu + cplx(&m) * (mu * mu);
             for g in &gens {
@@ -280,8 +300,8 @@ impl ModalFilter {
         };
         // Numerator weights: a_z = K^T psi, a_v = -lambda M^T psi, a_i,e = lambda (u_e .
         // psi) L_e / (R_e + lambda L_e); denominator with Y = (phi, lambda phi, e).
-        let az = cplx(&k.transpose()) * &psi;
-        let av = cplx(&m.transpose()) * &psi * (-l);
+        let az = apply_t(Matrix::Stiffness, &k, &psi);
+        let av = apply_t(Matrix::Mass, &m, &psi) * (-l);
         let mut denominator = az.dot(&phiv) + av.dot(&phiv) * l;
         let mut currents = vec![];
         for g in &gens {

@@ -55,7 +55,7 @@ use serde::Serialize;
 use crate::Error;
 use crate::budget::{self, Quantity};
 use crate::report::summary::json_bytes;
-use crate::report::{OutputFile, ReportError, commit_files};
+use crate::report::{OutputFile, OutputLock, ReportError, commit_files};
 use crate::scenario::tangents::{Linearizable, tangents_for};
 use crate::scenario::{self, Scenario};
 
@@ -406,11 +406,17 @@ fn receptance(
 /// Runs `damper frf`.
 pub fn run(args: Args) -> Result<(), Error> {
     let file = args.scenario.display().to_string();
-    let ok_range =
-        args.from.is_finite() && args.to.is_finite() && args.from > 0.0 && args.to > args.from;
+    // Frequencies a structure can have: 1e-9 Hz (a period of 30 years) to 1e12 Hz; the
+    // bounds keep the geometric spacing and the logarithmic axis finite.
+    let (lo, hi) = (1e-9, 1e12);
+    let ok_range = args.from.is_finite()
+        && args.to.is_finite()
+        && args.from >= lo
+        && args.to <= hi
+        && args.to > args.from;
     if !ok_range {
         return Err(usage(format!(
-            "--from {} --to {}: give 0 < from < to (Hz)",
+            "--from {} --to {}: give {lo:e} <= from < to <= {hi:e} (Hz)",
             args.from, args.to
         )));
     }
@@ -466,6 +472,8 @@ pub fn run(args: Args) -> Result<(), Error> {
             "{file}: `damper frf` needs a `damper` or `hybrid` scenario (a beam to respond)"
         )));
     }
+    // One run at a time into a directory; the files a killed run left are removed here.
+    let _lock = OutputLock::acquire(&out).map_err(ReportError::from)?;
     let lz = tangents_for(&sc)?;
     let io = resolve(&args, &lz)?;
     if args.nonlinear.is_some() && io.scenario_excitation.is_none() && args.force.is_none() {

@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 
 use crate::Error;
 use crate::budget::{self, Quantity};
-use crate::report::{ReportError, commit_files};
+use crate::report::{OutputLock, ReportError, commit_files};
 
 use super::sweep::{Grid, Part, PointResult, Shape, outputs, part_name, shard_points};
 
@@ -116,6 +116,8 @@ pub fn run(args: Args) -> Result<(), Error> {
             ));
         }
     };
+    // One merge (or unsharded sweep) at a time into a directory.
+    let _lock = OutputLock::acquire(&out).map_err(ReportError::from)?;
     let mut bytes = 0.0;
     for f in &files {
         bytes += part_size(f)? as f64;

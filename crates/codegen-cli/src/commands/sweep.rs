@@ -37,7 +37,7 @@ use toml_edit::Value;
 use crate::Error;
 use crate::budget::{self, Quantity};
 use crate::report::csv::cell;
-use crate::report::{OutputFile, ReportError, commit_files};
+use crate::report::{OutputFile, OutputLock, ReportError, commit_files};
 use crate::scenario::overrides::{json_value, parse_value, value_text};
 use crate::scenario::{self, Override};
 use crate::sweep_point::{self, Figure, PointOptions};
@@ -447,6 +447,12 @@ pub fn run(args: Args) -> Result<(), Error> {
             args.out.display()
         )));
     }
+    // One unsharded sweep at a time into a directory (the shards of one sweep write
+    // distinct part files into a shared directory at once, by design: not locked).
+    let _lock = match shard {
+        None => Some(OutputLock::acquire(&args.out).map_err(ReportError::from)?),
+        Some(_) => None,
+    };
     let grid = Grid::parse(&args.set).map_err(Error::Usage)?;
     let text = scenario::read(&args.scenario)?;
     let t_end = args.t_end.map(|t| {

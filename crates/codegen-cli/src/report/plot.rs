@@ -175,6 +175,13 @@ pub fn plot_series_svg(
     })
 }
 
+/// Whether `lo..hi` can be drawn on a logarithmic axis: both normal positive numbers, `lo <
+/// hi`, at most 60 decades apart (plotters' logarithmic key points never end on subnormal
+/// or overflowing bounds, and more decades are unreadable anyway).
+fn log_range(lo: f64, hi: f64) -> bool {
+    lo >= f64::MIN_POSITIVE && hi > lo && hi < f64::MAX / 2.0 && (hi / lo).log10() <= 60.0
+}
+
 /// SVG plot of the damping ratio of each cycle (%) against the cycle's amplitude (mm, log
 /// scale), one marked line per labelled run (`(amplitude (m), zeta)` points).
 pub fn plot_damping_vs_amplitude_svg(
@@ -186,9 +193,9 @@ pub fn plot_damping_vs_amplitude_svg(
         let all = || series.iter().flat_map(|(_, s)| s.iter());
         let a_lo = all().map(|p| p.0 * 1e3).fold(f64::INFINITY, f64::min);
         let a_hi = all().map(|p| p.0 * 1e3).fold(f64::NEG_INFINITY, f64::max);
-        let (a_lo, a_hi) = if a_lo.is_finite() && a_lo > 0.0 && a_hi > a_lo {
+        let (a_lo, a_hi) = if log_range(a_lo, a_hi) {
             (a_lo / 1.2, a_hi * 1.2)
-        } else if a_lo.is_finite() && a_lo > 0.0 {
+        } else if (f64::MIN_POSITIVE..f64::MAX / 2.0).contains(&a_lo) {
             (a_lo / 2.0, a_lo * 2.0)
         } else {
             (1e-3, 1.0)
@@ -289,7 +296,7 @@ pub fn plot_xy_svg(
                 }
             }};
         }
-        if log_x && x0 > 0.0 && x1 > x0 {
+        if log_x && log_range(x0, x1) {
             chart_on!((x0 / 1.1..x1 * 1.1).log_scale());
         } else {
             let (x0, x1) = pad(x0, x1);
@@ -297,4 +304,20 @@ pub fn plot_xy_svg(
         }
         Ok(())
     })
+}
+
+#[cfg(test)]
+mod log_range_tests {
+    use super::log_range;
+
+    #[test]
+    fn subnormal_or_too_wide_ranges_are_not_logarithmic() {
+        assert!(log_range(1e-3, 10.0));
+        assert!(!log_range(5e-324, 1.0), "subnormal bound");
+        assert!(!log_range(1e-300, 1e10), "310 decades");
+        assert!(!log_range(1.0, 1.0));
+        assert!(!log_range(0.0, 1.0));
+        assert!(!log_range(1.0, f64::MAX));
+        assert!(!log_range(f64::NAN, 1.0));
+    }
 }

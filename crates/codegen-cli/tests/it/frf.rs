@@ -425,3 +425,27 @@ fn frf_work_above_the_limits_is_refused_before_loading_and_allow_long_lifts_it()
     assert!(dir.join("frf_nonlinear.csv").exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Mutation-campaign regression: a band from a subnormal frequency overflowed the geometric
+/// spacing ("harmonic response at inf rad/s"); the band is bounded and the refusal says so.
+#[test]
+fn frequencies_outside_the_physical_band_are_refused() {
+    for (from, to) in [("5e-324", "20"), ("1e-300", "1e300"), ("1", "1e13")] {
+        assert_bad_input(
+            &[
+                "frf",
+                "scenarios/damper.toml",
+                "--output",
+                "1.0",
+                "--from",
+                from,
+                "--to",
+                to,
+                "--log",
+                "--points",
+                "10",
+            ],
+            &["--from", "(Hz)"],
+        );
+    }
+}

@@ -293,3 +293,52 @@ fn a_run_after_a_sigkill_cleans_up_and_is_not_refused() {
     );
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// `sweep` (unsharded), `frf` and `merge` hold their output directory like `simulate`: into
+/// a directory another run holds, each is refused on one line and writes nothing; a sharded
+/// sweep (whose shards share a directory by design) is not refused.
+#[test]
+fn sweep_frf_and_merge_into_a_locked_directory_are_refused() {
+    let out = temp_path("locked-others");
+    let o = out.to_str().unwrap();
+    let lock = OutputLock::acquire(&out).unwrap();
+    let refused = |args: &[&str]| {
+        let before = listing(&out);
+        let (code, stdout, err) = damper(args);
+        assert_eq!(code, 2, "{args:?}: {stdout} {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(err.contains("in use by another run"), "{args:?}: {err}");
+        assert_eq!(listing(&out), before, "{args:?} wrote nothing");
+    };
+    let sweep = [
+        "sweep",
+        "scenarios/damper.toml",
+        "--set",
+        "mechanism.half_angle_deg=10,12",
+        "-o",
+        o,
+        "--quiet",
+    ];
+    refused(&sweep);
+    refused(&[
+        "frf",
+        "scenarios/damper.toml",
+        "--output",
+        "1.0",
+        "--from",
+        "4",
+        "--to",
+        "8",
+        "--points",
+        "10",
+        "-o",
+        o,
+        "--quiet",
+    ]);
+    let sharded: Vec<&str> = sweep.iter().copied().chain(["--shard", "0/2"]).collect();
+    let (code, _, err) = damper(&sharded);
+    assert_eq!(code, 0, "a shard is not refused: {err}");
+    refused(&["merge", o]);
+    drop(lock);
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -365,3 +365,26 @@ fn singular_run_fails_cleanly_and_writes_nothing() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Mutation-campaign regression: the modal filter of a fine mesh (40,000 reduced
+/// coordinates) built three dense d x d matrices (320 GB at 100,000 elements: the run
+/// aborted); above the dense limit the filter goes through the O(n) operator.
+#[test]
+fn the_modal_filter_of_a_fine_mesh_is_not_dense() {
+    let out = std::env::temp_dir().join(format!("damper-fine-mesh-{}", std::process::id()));
+    let (code, _, err) = common::damper(&[
+        "simulate",
+        "scenarios/pendulum_absorber.toml",
+        "-o",
+        out.to_str().unwrap(),
+        "--quiet",
+        "--set",
+        "integrator.t_end=0.001",
+        "--set",
+        "beam.segment[0].elements=20000",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    assert!(summary.contains("modal filter"), "the filter was built");
+    let _ = std::fs::remove_dir_all(&out);
+}

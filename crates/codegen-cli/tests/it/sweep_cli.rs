@@ -658,3 +658,25 @@ fn merge_of_one_part_of_a_million_shards_is_a_short_line() {
     assert!(!out.exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Mutation-campaign regression: a swept resistance from a subnormal value (`5e-324`) to 1
+/// once hung in the plot's logarithmic axis (plotters' key points never end on subnormal
+/// bounds); the sweep now finishes, the axis linear.
+#[test]
+fn a_subnormal_axis_value_does_not_hang_the_plot() {
+    let out = std::env::temp_dir().join(format!("damper-sweep-subnormal-{}", std::process::id()));
+    let (code, _, err) = damper(&[
+        "sweep",
+        "scenarios/two_dampers.toml",
+        "--set",
+        "force[0].load_resistance=5e-324,1",
+        "-o",
+        out.to_str().unwrap(),
+        "--quiet",
+        "--threads",
+        "1",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.join("sweep_damping.svg").is_file());
+    let _ = std::fs::remove_dir_all(&out);
+}
