@@ -17,7 +17,7 @@
 //! (see [`dopri_typical_step`])
 //!
 //! ```text
-//!   h = min(max_step, output_step * (rtol / 1e-7)^(1/5), span)
+//!   h = min(max_step, output_step * (rtol / 1e-7)^(1/5), span, 1 s)
 //! ```
 //!
 //! A fifth-order method's step grows like `rtol^(1/5)` times the time scale of the motion;
@@ -98,13 +98,19 @@ pub const LISTED: usize = 5;
 /// Bytes of one CSV cell (a number printed in full precision and its comma).
 const CELL_BYTES: f64 = 25.0;
 
+/// The longest typical step assumed of an adaptive run (s): the mechanisms of this tool move
+/// on time scales of milliseconds to seconds, so an output step of hours (or `1e30`) says
+/// nothing about the steps the integrator will take.
+pub const MAX_TYPICAL_STEP: f64 = 1.0;
+
 /// The typical step of Dormand–Prince 5(4) for a run of length `span` with this output step,
 /// relative tolerance and optional largest step: `min(max_step, output_step * (rtol /
-/// 1e-7)^(1/5), span)` (module documentation).
+/// 1e-7)^(1/5), span, MAX_TYPICAL_STEP)` (module documentation).
 pub fn dopri_typical_step(span: f64, output_step: f64, rtol: f64, max_step: Option<f64>) -> f64 {
     (output_step * (rtol / 1e-7).powf(0.2))
         .min(max_step.unwrap_or(f64::INFINITY))
         .min(span)
+        .min(MAX_TYPICAL_STEP)
 }
 
 /// The time steps of one time-domain run of a damper or hybrid scenario (all its runs: a
@@ -372,6 +378,9 @@ mod tests {
         assert!((5.0 / h).ceil() == 1991.0, "{}", 5.0 / h);
         assert_eq!(dopri_typical_step(5.0, 0.01, 1e-7, Some(1e-3)), 1e-3);
         assert_eq!(dopri_typical_step(0.001, 0.01, 1e-7, None), 0.001);
+        // An output step far above the mechanism's time scales (mutation campaign: 1e30
+        // with t_end = 9.2e18 ran to the step cap) is not taken as the step size.
+        assert_eq!(dopri_typical_step(9.2e18, 1e30, 1e-7, None), MAX_TYPICAL_STEP);
         assert_eq!(capped_max_steps(usize::MAX, false), 20_000_000);
         assert_eq!(capped_max_steps(usize::MAX, true), usize::MAX);
         assert_eq!(capped_max_steps(1000, false), 1000);
