@@ -380,7 +380,10 @@ mod tests {
         assert_eq!(dopri_typical_step(0.001, 0.01, 1e-7, None), 0.001);
         // An output step far above the mechanism's time scales (mutation campaign: 1e30
         // with t_end = 9.2e18 ran to the step cap) is not taken as the step size.
-        assert_eq!(dopri_typical_step(9.2e18, 1e30, 1e-7, None), MAX_TYPICAL_STEP);
+        assert_eq!(
+            dopri_typical_step(9.2e18, 1e30, 1e-7, None),
+            MAX_TYPICAL_STEP
+        );
         assert_eq!(capped_max_steps(usize::MAX, false), 20_000_000);
         assert_eq!(capped_max_steps(usize::MAX, true), usize::MAX);
         assert_eq!(capped_max_steps(1000, false), 1000);

@@ -10,7 +10,12 @@
 //!   energy account, constraint residuals), a row every `[output] every` steps;
 //! - `summary.json` ([`HybridSummary`]);
 //! - `beam_displacement.svg`: the displacement of every attached beam point (only when there
-//!   are attachments).
+//!   are attachments), and of the first one in every comparison run;
+//! - per `[output] compare` entry, `time_history_<key>.csv` of that comparison run (the
+//!   system with every generator disconnected, or the bare beam read at the attachments'
+//!   beam points as probes) and its block in the summary's `comparisons`;
+//! - `damping_vs_amplitude.svg` (free decay with comparisons): the damping ratio of each
+//!   cycle against its amplitude, one series per run.
 //!
 //! Rows go through a [`RowSink`] into a [`StreamFile`] (`<name>.tmp-<pid>`, or written
 //! directly to a fifo or device) while the run goes, and are committed with the other files
@@ -22,22 +27,23 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use hybrid_core::decay::DecayTracker;
-use hybrid_core::hybrid::{Integrator, RunError, RunOptions, run};
+use hybrid_core::hybrid::{BeamPoint, Integrator, RunError, RunOptions, initial_state, run};
 use indicatif::ProgressBar;
 
 use crate::Error;
 use crate::budget::Estimate;
 use crate::report::digest::Decimator;
 use crate::report::hybrid::{
-    AttachmentReport, Columns, ExcitationReport, GeneratorReport, HybridEnergy, HybridSummary,
-    MechanismReport, RepartitionReport, amplifications,
+    AttachmentReport, Columns, ComparisonReport, ExcitationReport, GeneratorReport, HybridEnergy,
+    HybridSummary, MechanismReport, RepartitionReport, amplifications,
 };
-use crate::report::plot::plot_displacements_svg;
+use crate::report::plot::{plot_damping_vs_amplitude_svg, plot_displacements_svg};
 use crate::report::rows::{CsvRows, RowSink};
 use crate::report::summary::json_bytes;
 use crate::report::{OutputFile, ReportError, StreamFile, commit, csv_error};
 use crate::scenario::HybridScenario;
 use crate::scenario::OverrideRecord;
+use crate::scenario::damper::Comparison;
 use crate::scenario::hybrid::Built;
 
 /// Bytes of one CSV cell in the work estimate.
@@ -91,8 +97,10 @@ pub fn simulate(
     let built = sc.build()?;
     let model = &built.model;
     let mut columns = Columns::new(model, &built.revolute, &built.state);
-    let steps = (sc.integrator.t_end / sc.integrator.dt).round();
-    let rows = (steps / sc.every as f64).floor() + 2.0;
+    // The run as described and each comparison run.
+    let runs = 1.0 + sc.compare.len() as f64;
+    let steps = (sc.integrator.t_end / sc.integrator.dt).round() * runs;
+    let rows = ((steps / runs / sc.every as f64).floor() + 2.0) * runs;
     let series = model.attachments.len() as f64 * 16.0;
     Estimate {
         steps: Some(steps),
@@ -105,9 +113,10 @@ pub fn simulate(
     let csv_path = out.join("time_history.csv");
     let stream = StreamFile::create(&csv_path).map_err(ReportError::from)?;
     let mut csv = CsvRows::new(stream, columns.header()).map_err(|e| csv_error(&csv_path, e))?;
-    let run = evaluate(
+    let mut run = evaluate(
         sc,
         &built,
+        &[],
         Some((&mut columns, &mut csv)),
         overrides,
         progress,
@@ -117,7 +126,79 @@ pub fn simulate(
         Error::Report(ReportError::Csv(e)) => csv_error(&csv_path, e).into(),
         e => e,
     })?;
-    let stream = csv.into_inner().map_err(|e| csv_error(&csv_path, e))?;
+    let mut streams = vec![csv.into_inner().map_err(|e| csv_error(&csv_path, e))?];
+    // The comparison runs, each with its own time history and summary block.
+    let mut compared = vec![];
+    for &c in &sc.compare {
+        let (variant, models, revolute, probes) = match c {
+            Comparison::GeneratorDisconnected => (
+                model.generators_disconnected(),
+                built.models.clone(),
+                built.revolute.clone(),
+                vec![],
+            ),
+            Comparison::BareBeam => {
+                // The loader refuses `bare_beam` without a beam.
+                let Some(bare) = model.bare_beam() else {
+                    continue;
+                };
+                let probes: Vec<(String, BeamPoint)> = model
+                    .attachments
+                    .iter()
+                    .map(|a| (a.name.clone(), a.beam.clone()))
+                    .collect();
+                (bare, vec![], vec![], probes)
+            }
+        };
+        let state = initial_state(&variant, built.state.q.clone(), built.state.v.clone()).map_err(
+            |error| Error::Hybrid {
+                file: file.clone(),
+                error,
+            },
+        )?;
+        let variant = Built {
+            model: variant,
+            state,
+            models,
+            revolute,
+        };
+        let mut columns =
+            Columns::new(&variant.model, &variant.revolute, &variant.state).with_probes(&probes);
+        let path = out.join(format!("time_history_{}.csv", c.key()));
+        let stream = StreamFile::create(&path).map_err(ReportError::from)?;
+        let mut csv = CsvRows::new(stream, columns.header()).map_err(|e| csv_error(&path, e))?;
+        let r = evaluate(
+            sc,
+            &variant,
+            &probes,
+            Some((&mut columns, &mut csv)),
+            vec![],
+            progress,
+        )
+        .map_err(|e| match e {
+            Error::Report(ReportError::Csv(e)) => csv_error(&path, e).into(),
+            e => e,
+        })?;
+        streams.push(csv.into_inner().map_err(|e| csv_error(&path, e))?);
+        compared.push((c, r));
+    }
+    let mut damping_series: Vec<(&str, Vec<(f64, f64)>)> = vec![];
+    let cycles = |d: &Option<hybrid_core::decay::DecayEstimate>| -> Vec<(f64, f64)> {
+        d.as_ref()
+            .map(|d| d.cycles().iter().map(|c| (c.amplitude, c.zeta)).collect())
+            .unwrap_or_default()
+    };
+    damping_series.push(("as described", cycles(&run.summary.decay)));
+    let mut comparison_lines: Vec<(String, Vec<(f64, f64)>)> = vec![];
+    for (c, r) in compared {
+        damping_series.push((c.legend(), cycles(&r.summary.decay)));
+        if let (Some(a), Some(w)) = (r.summary.attachments.first(), r.displacements.first()) {
+            comparison_lines.push((format!("{} ({})", a.name, c.legend()), w.clone()));
+        }
+        run.summary
+            .comparisons
+            .insert(c.key(), ComparisonReport::of(c.legend(), r.summary));
+    }
     let summary = &run.summary;
     let na = model.attachments.len();
     let mut files = vec![OutputFile {
@@ -130,6 +211,7 @@ pub fn simulate(
             .iter()
             .zip(&run.displacements)
             .map(|(a, w)| (a.name.as_str(), &w[..]))
+            .chain(comparison_lines.iter().map(|(l, w)| (l.as_str(), &w[..])))
             .collect();
         files.push(OutputFile {
             path: out.join("beam_displacement.svg"),
@@ -146,12 +228,34 @@ pub fn simulate(
             .map_err(ReportError::from)?,
         });
     }
-    commit(vec![stream], &files).map_err(ReportError::from)?;
-    let zeta = summary
-        .damping_ratio
-        .map_or("n/a".to_string(), |z| format!("{:.3} %", z * 100.0));
+    if summary.decay.is_some() && !summary.comparisons.is_empty() {
+        let series: Vec<(&str, &[(f64, f64)])> =
+            damping_series.iter().map(|(l, p)| (*l, &p[..])).collect();
+        files.push(OutputFile {
+            path: out.join("damping_vs_amplitude.svg"),
+            bytes: plot_damping_vs_amplitude_svg(
+                &format!(
+                    "Damping ratio per cycle vs amplitude: {}",
+                    sc.description
+                        .as_deref()
+                        .unwrap_or(&sc.path.display().to_string())
+                ),
+                &series,
+            )
+            .map_err(ReportError::from)?,
+        });
+    }
+    commit(streams, &files).map_err(ReportError::from)?;
+    let pct = |z: Option<f64>| z.map_or("n/a".to_string(), |z| format!("{:.3} %", z * 100.0));
+    let zeta = pct(summary.damping_ratio);
+    let others: String = sc
+        .compare
+        .iter()
+        .filter_map(|c| summary.comparisons.get(c.key()))
+        .map(|c| format!("; {}: zeta {}", c.label, pct(c.damping_ratio)))
+        .collect();
     crate::print(&format!(
-        "{file}: {} steps in {:.3} s ({} mechanism(s), {} attachment(s), {} repartition(s)); peak {}; zeta {zeta}; energy balance error {:.1e}; outputs in {}\n",
+        "{file}: {} steps in {:.3} s ({} mechanism(s), {} attachment(s), {} repartition(s)); peak {}; zeta {zeta}{others}; energy balance error {:.1e}; outputs in {}\n",
         summary.steps,
         summary.wall_seconds,
         model.mechanisms.len(),
@@ -167,10 +271,12 @@ pub fn simulate(
 
 /// Integrates a built hybrid scenario and makes its summary; every output row goes to
 /// `rows` when given (nothing is written otherwise). `overrides` are recorded in the
-/// summary.
+/// summary. `probes`: beam points read as the attachments are, without being attached (a
+/// comparison run's bare beam read where the attachments were), after the attachments.
 pub fn evaluate<'a>(
     sc: &'a HybridScenario,
     built: &Built,
+    probes: &[(String, BeamPoint)],
     mut rows: Option<Rows<'_>>,
     overrides: Vec<OverrideRecord>,
     progress: bool,
@@ -184,6 +290,14 @@ pub fn evaluate<'a>(
         })?;
     let initial = built.state.clone();
     let na = model.attachments.len();
+    // Every beam point read: the attachments', then the probes.
+    let points: Vec<&BeamPoint> = model
+        .attachments
+        .iter()
+        .map(|a| &a.beam)
+        .chain(probes.iter().map(|p| &p.1))
+        .collect();
+    let np = points.len();
     // The steps and rows `run` makes (its own rounding), for the plot's decimation and the
     // last tenth of the run.
     let dt = integrator.step_size();
@@ -194,9 +308,9 @@ pub fn evaluate<'a>(
     };
     let expected_rows = (steps / sc.every.max(1) as f64).floor() as u64 + 2;
     let mut tracks = Tracks {
-        w: (0..na).map(|_| Decimator::new(expected_rows)).collect(),
-        peak: vec![0.0; na],
-        final_amplitude: vec![0.0; na],
+        w: (0..np).map(|_| Decimator::new(expected_rows)).collect(),
+        peak: vec![0.0; np],
+        final_amplitude: vec![0.0; np],
         final_from: 0.9 * (initial.t + steps * dt),
         speeds: vec![(0.0, 0.0); na],
         max_condition: vec![0.0; model.mechanisms.len()],
@@ -211,8 +325,8 @@ pub fn evaluate<'a>(
             .beam
             .as_ref()
             .is_none_or(|(b, _)| b.loads.is_empty() && b.distributed_loads.is_empty());
-    let filter = if free && na > 0 {
-        first_mode_filter(sc, built)
+    let filter = if free && np > 0 {
+        first_mode_filter(sc, built, points[0])
     } else {
         None
     };
@@ -249,9 +363,8 @@ pub fn evaluate<'a>(
                 decay.push(state.t, f.apply_state(&z, &zd, &state.currents));
                 decay_samples += 1;
             }
-            for (k, a) in model.attachments.iter().enumerate() {
-                let wd = a.beam.value(&state.v);
-                let w = a.beam.value(&state.q);
+            for (k, p) in points.iter().enumerate() {
+                let w = p.value(&state.q);
                 if k == 0 && filter.is_none() {
                     decay.push(state.t, w);
                     decay_samples += 1;
@@ -261,6 +374,9 @@ pub fn evaluate<'a>(
                 if state.t >= tracks.final_from {
                     tracks.final_amplitude[k] = tracks.final_amplitude[k].max(w.abs());
                 }
+            }
+            for (k, a) in model.attachments.iter().enumerate() {
+                let wd = a.beam.value(&state.v);
                 if let Some(f) = model
                     .forces
                     .iter()
@@ -350,6 +466,19 @@ pub fn evaluate<'a>(
                 speed_ratio_rms: (s_w > 0.0).then(|| (s_q / s_w).sqrt()),
             }
         })
+        .chain(
+            probes
+                .iter()
+                .enumerate()
+                .map(|(j, (name, p))| AttachmentReport {
+                    name: name.clone(),
+                    kind: "probe",
+                    x: p.x,
+                    peak_displacement: tracks.peak[na + j],
+                    final_amplitude: tracks.final_amplitude[na + j],
+                    speed_ratio_rms: None,
+                }),
+        )
         .collect();
     let generators = model
         .forces
@@ -399,7 +528,7 @@ pub fn evaluate<'a>(
         peak_amplitude: attachments.first().map(|a| a.peak_displacement),
         damping_ratio,
         decay,
-        decay_signal: match (&filter, free && na > 0) {
+        decay_signal: match (&filter, free && np > 0) {
             (Some(_), _) => {
                 Some("modal filter of the first linearised mode, scaled to the first attachment")
             }
@@ -444,6 +573,7 @@ pub fn evaluate<'a>(
                 cond_after: r.condition.1,
             })
             .collect(),
+        comparisons: BTreeMap::new(),
     };
 
     Ok(HybridRun {
@@ -459,9 +589,9 @@ pub fn evaluate<'a>(
 fn first_mode_filter(
     sc: &HybridScenario,
     built: &Built,
+    point: &BeamPoint,
 ) -> Option<(hybrid_core::decay::ModalFilter, Vec<Vec<usize>>)> {
     let tangents = crate::scenario::tangents::hybrid_tangents(sc, built).ok()?;
     let refs: Vec<_> = tangents.iter().collect();
-    let point = &built.model.attachments.first()?.beam;
     hybrid_core::decay::ModalFilter::first_mode(&built.model, &refs, point).ok()
 }

@@ -218,7 +218,7 @@ fn time_domain(path: &Path, loaded: &Loaded, figures: &mut Vec<Figure>) -> Resul
         }
         Scenario::Hybrid(sc) => {
             let built = sc.build()?;
-            let run = crate::run_hybrid::evaluate(sc, &built, None, vec![], false)?;
+            let run = crate::run_hybrid::evaluate(sc, &built, &[], None, vec![], false)?;
             let s = &run.summary;
             figures.extend([
                 Figure::new("damping_ratio", "-", s.damping_ratio),

@@ -28,7 +28,7 @@
 use std::collections::BTreeMap;
 
 use hybrid_core::hybrid::{
-    ExcitationTarget, HybridModel, HybridState, Integrator, Stored, balance_error,
+    BeamPoint, ExcitationTarget, HybridModel, HybridState, Integrator, Stored, balance_error,
 };
 use serde::Serialize;
 
@@ -43,6 +43,8 @@ pub struct Columns {
     /// Per attachment: the generator force element on its mechanism, if any, and whether
     /// the speed ratio has its own column.
     amplifier: Vec<Option<(usize, bool)>>,
+    /// Beam points read but not attached (the last columns).
+    probes: Vec<BeamPoint>,
     cells: Vec<f64>,
 }
 
@@ -131,8 +133,21 @@ impl Columns {
         Columns {
             header: h,
             amplifier,
+            probes: vec![],
             cells,
         }
+    }
+
+    /// These columns and, last, `P.w [m]` and `P.w_dot [m/s]` of every probe `P`: a beam
+    /// point read but not attached (a comparison run's bare beam read where the
+    /// attachments were).
+    pub fn with_probes(mut self, probes: &[(String, BeamPoint)]) -> Columns {
+        for (name, point) in probes {
+            self.header.push(format!("{name}.w [m]"));
+            self.header.push(format!("{name}.w_dot [m/s]"));
+            self.probes.push(point.clone());
+        }
+        self
     }
 
     /// The header.
@@ -201,6 +216,10 @@ impl Columns {
         c.push(state.account.dissipated_structure);
         c.push(state.account.beam_load_work);
         c.push(balance_error(e0, stored, &state.account));
+        for p in &self.probes {
+            c.push(p.value(&state.q));
+            c.push(p.value(&state.v));
+        }
         debug_assert_eq!(c.len(), self.header.len());
         &self.cells
     }
@@ -288,6 +307,55 @@ pub struct HybridSummary<'a> {
     pub energy_balance_rel_error: f64,
     /// Changes of independent coordinates.
     pub repartitions: Vec<RepartitionReport>,
+    /// The comparison runs (`[output] compare`), by key.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub comparisons: BTreeMap<&'static str, ComparisonReport>,
+}
+
+/// One comparison run of a hybrid scenario (every generator disconnected, or the bare
+/// beam read at the attachments' beam points): the figures of its own summary.
+#[derive(Clone, Debug, Serialize)]
+pub struct ComparisonReport {
+    /// The legend of its plotted series.
+    pub label: &'static str,
+    /// Equivalent damping ratio of its first mode's free decay.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub damping_ratio: Option<f64>,
+    /// The decay of its first mode.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub decay: Option<hybrid_core::decay::DecayEstimate>,
+    /// What the decay is read from.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub decay_signal: Option<&'static str>,
+    /// Largest |displacement| of the first beam point (m).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub peak_amplitude: Option<f64>,
+    /// The beam points read (the attachments, or for the bare beam the points where they
+    /// were).
+    pub attachments: Vec<AttachmentReport>,
+    /// Its energy account.
+    pub energy: HybridEnergy,
+    /// Largest |energy balance error| / `energy.relative_to` at the output steps.
+    pub energy_balance_rel_error: f64,
+    /// CSV rows written.
+    pub output_rows: u64,
+}
+
+impl ComparisonReport {
+    /// The comparison block of a run's own summary.
+    pub fn of(label: &'static str, s: HybridSummary<'_>) -> ComparisonReport {
+        ComparisonReport {
+            label,
+            damping_ratio: s.damping_ratio,
+            decay: s.decay,
+            decay_signal: s.decay_signal,
+            peak_amplitude: s.peak_amplitude,
+            attachments: s.attachments,
+            energy: s.energy,
+            energy_balance_rel_error: s.energy_balance_rel_error,
+            output_rows: s.output_rows,
+        }
+    }
 }
 
 /// One mechanism of a hybrid run.

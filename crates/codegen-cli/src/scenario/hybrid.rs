@@ -50,6 +50,9 @@
 //! [integrator]               # as the damper kind: method newmark | hht (alpha), dt, t_end
 //! [output]
 //! every = 10                 # a CSV row every 10 steps
+//! compare = ["generator_disconnected", "bare_beam"]   # comparison runs (none by default):
+//!                            #   every generator's circuit open; the beam alone, read at
+//!                            #   the attachments' beam points (needs a [beam])
 //! ```
 //!
 //! Loading ([`from_doc`], through the one loader [`super::load`]) checks the file itself:
@@ -838,6 +841,15 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<HybridScenario> {
         for c in list.get_ref() {
             if compare.contains(c) {
                 let msg = format!("{:?} is listed twice", c.key());
+                doc.push(
+                    Kind::InvalidValue,
+                    Some(list.span()),
+                    Some("[output] compare"),
+                    msg,
+                );
+                ok = false;
+            } else if *c == Comparison::BareBeam && beam_span.is_none() {
+                let msg = "\"bare_beam\" needs a [beam]";
                 doc.push(
                     Kind::InvalidValue,
                     Some(list.span()),

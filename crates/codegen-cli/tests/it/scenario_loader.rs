@@ -328,3 +328,29 @@ fn a_scenario_with_a_million_element_array_is_refused() {
         );
     }
 }
+
+/// `compare = ["bare_beam"]` needs a beam; a comparison listed twice is refused too.
+#[test]
+fn hybrid_comparisons_are_checked() {
+    let text = "kind = \"hybrid\"\n[[mechanism]]\nname = \"p\"\nmodel = \"../models/pendulum.json\"\n[integrator]\ndt = 1e-3\nt_end = 0.1\n[output]\ncompare = [\"bare_beam\"]\n";
+    let err = codegen_cli::scenario::parse(text, std::path::Path::new("scenarios/x.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("scenarios/x.toml:9:") && err.contains("needs a [beam]"),
+        "{err}"
+    );
+    let two = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../scenarios/two_dampers.toml"
+    ))
+    .unwrap()
+    .replace(
+        "compare = [\"generator_disconnected\", \"bare_beam\"]",
+        "compare = [\"bare_beam\", \"bare_beam\"]",
+    );
+    let err = codegen_cli::scenario::parse(&two, std::path::Path::new("t.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("listed twice"), "{err}");
+}
