@@ -25,6 +25,7 @@ use hybrid_core::study::{
 };
 use indicatif::{MultiProgress, ProgressBar};
 use mbs_symbolic::model::Model;
+use mbs_symbolic::runtime::CoordinateUnit;
 
 use crate::Error;
 use crate::report::digest::SampleDigest;
@@ -327,6 +328,8 @@ fn stream(
 pub struct MechanismOutcome {
     /// The model's coordinate names.
     pub names: Vec<String>,
+    /// What each coordinate measures (from the backend's names).
+    pub units: Vec<CoordinateUnit>,
     /// The backend's name.
     pub backend: &'static str,
     /// The settings used (independent coordinates resolved).
@@ -373,6 +376,9 @@ fn progress_bar(requested: bool, settings: &Settings) -> Option<ProgressBar> {
     Some(pb)
 }
 
+/// What receives every output row of a mechanism run, with the coordinate names and units.
+pub type RowObserver<'a> = dyn FnMut(&[String], &[CoordinateUnit], &OutputRow) + 'a;
+
 /// Runs a closed-loop mechanism scenario whose model is `model`: resolves the names,
 /// assembles the initial state, integrates, and passes every output row to `observer`
 /// with the coordinate names (also the rows before a stop). Errors before the integration starts are returned; how
@@ -381,7 +387,7 @@ pub fn mechanism(
     sc: &MechanismScenario,
     model: &Model,
     progress: bool,
-    observer: &mut dyn FnMut(&[String], &OutputRow),
+    observer: &mut RowObserver<'_>,
 ) -> Result<MechanismOutcome, Error> {
     let (sys, backend_note) = system(model)?;
     eprintln!("{}: {backend_note}", sc.model.display());
@@ -405,12 +411,13 @@ pub fn mechanism(
             error,
         })?;
     let names = sys.coordinate_names().to_vec();
+    let units = sys.coordinate_units().to_vec();
     let bar = progress_bar(progress, &settings);
     let span = settings.t_end - settings.t_start;
     let mut last_row: Option<OutputRow> = None;
     let result = sim.run(&mut |event| match event {
         Event::Output(row) => {
-            observer(&names, row);
+            observer(&names, &units, row);
             last_row = Some(row.clone());
         }
         Event::PartitionChanged(change) => match &bar {
@@ -430,6 +437,7 @@ pub fn mechanism(
     }
     Ok(MechanismOutcome {
         names,
+        units,
         backend: sys.backend().as_str(),
         settings,
         stats: sim.stats().clone(),

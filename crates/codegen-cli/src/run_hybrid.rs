@@ -96,7 +96,7 @@ pub fn simulate(
     let file = sc.path.display().to_string();
     let built = sc.build()?;
     let model = &built.model;
-    let mut columns = Columns::new(model, &built.revolute, &built.state);
+    let mut columns = Columns::new(model, &built.state);
     // The run as described and each comparison run.
     let runs = 1.0 + sc.compare.len() as f64;
     let steps = (sc.integrator.t_end / sc.integrator.dt).round() * runs;
@@ -130,11 +130,10 @@ pub fn simulate(
     // The comparison runs, each with its own time history and summary block.
     let mut compared = vec![];
     for &c in &sc.compare {
-        let (variant, models, revolute, probes) = match c {
+        let (variant, models, probes) = match c {
             Comparison::GeneratorDisconnected => (
                 model.generators_disconnected(),
                 built.models.clone(),
-                built.revolute.clone(),
                 vec![],
             ),
             Comparison::BareBeam => {
@@ -147,7 +146,7 @@ pub fn simulate(
                     .iter()
                     .map(|a| (a.name.clone(), a.beam.clone()))
                     .collect();
-                (bare, vec![], vec![], probes)
+                (bare, vec![], probes)
             }
         };
         let state = initial_state(&variant, built.state.q.clone(), built.state.v.clone()).map_err(
@@ -160,10 +159,8 @@ pub fn simulate(
             model: variant,
             state,
             models,
-            revolute,
         };
-        let mut columns =
-            Columns::new(&variant.model, &variant.revolute, &variant.state).with_probes(&probes);
+        let mut columns = Columns::new(&variant.model, &variant.state).with_probes(&probes);
         let path = out.join(format!("time_history_{}.csv", c.key()));
         let stream = StreamFile::create(&path).map_err(ReportError::from)?;
         let mut csv = CsvRows::new(stream, columns.header()).map_err(|e| csv_error(&path, e))?;

@@ -295,14 +295,14 @@ fn resolve(args: &Args, lz: &Linearizable) -> Result<Io, Error> {
                     sys.coordinate_names().join(", ")
                 ))
             })?;
-            let rev = lz.revolute[i][j];
+            let unit = sys.coordinate_units()[j];
             (
                 ExcitationTarget::Joint {
                     mechanism: i,
                     joint: j,
                 },
                 format!("{mech}/{coord}"),
-                if rev { "rad" } else { "m" },
+                unit.symbol(),
             )
         }
     };
@@ -368,8 +368,9 @@ fn resolve(args: &Args, lz: &Linearizable) -> Result<Io, Error> {
     // The force's unit follows its target (a beam force, or a joint torque or force).
     let force_unit = match &excitation.target {
         ExcitationTarget::Beam(_) => "N",
-        ExcitationTarget::Joint { mechanism, joint } if lz.revolute[*mechanism][*joint] => "N m",
-        ExcitationTarget::Joint { .. } => "N",
+        ExcitationTarget::Joint { mechanism, joint } => {
+            lz.model.mechanisms[*mechanism].system.coordinate_units()[*joint].force()
+        }
     };
     Ok(Io {
         output,

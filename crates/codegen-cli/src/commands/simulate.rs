@@ -316,13 +316,8 @@ fn mechanism(
     let mut stream = Some(StreamFile::create(&csv_path).map_err(ReportError::from)?);
     let mut csv: Option<MechanismCsv<StreamFile>> = None;
     let mut csv_failed: Option<::csv::Error> = None;
-    let revolute: Vec<bool> = model
-        .bodies
-        .iter()
-        .map(|b| b.joint.kind == mbs_symbolic::model::JointKind::Revolute)
-        .collect();
     let mut plotted = Thinned::default();
-    let mut outcome = run::mechanism(sc, &model, progress, &mut |names, row| {
+    let mut outcome = run::mechanism(sc, &model, progress, &mut |names, units, row| {
         plotted.push(row.t, &row.q);
         if csv_failed.is_some() {
             return;
@@ -330,7 +325,7 @@ fn mechanism(
         let pushed = match (&mut csv, stream.take()) {
             (Some(w), _) => w.push(row),
             (None, Some(s)) => {
-                MechanismCsv::to_writer(names, &revolute, s).and_then(|w| csv.insert(w).push(row))
+                MechanismCsv::to_writer(names, units, s).and_then(|w| csv.insert(w).push(row))
             }
             (None, None) => Ok(()), // the header failed: reported below
         };
@@ -365,7 +360,7 @@ fn mechanism(
     }
     let csv = match (csv, stream) {
         (Some(w), _) => w,
-        (None, Some(s)) => MechanismCsv::to_writer(&outcome.names, &revolute, s)
+        (None, Some(s)) => MechanismCsv::to_writer(&outcome.names, &outcome.units, s)
             .map_err(|e| csv_error(&csv_path, e))?,
         (None, None) => unreachable!("the stream is in the CSV or still here"),
     };
@@ -382,8 +377,8 @@ fn mechanism(
     let labels: Vec<String> = outcome
         .names
         .iter()
-        .zip(&revolute)
-        .map(|(n, r)| format!("{n} [{}]", if *r { "rad" } else { "m" }))
+        .zip(&outcome.units)
+        .map(|(n, u)| format!("{n} [{}]", u.symbol()))
         .collect();
     let lines: Vec<Vec<(f64, f64)>> = (0..outcome.names.len())
         .map(|c| plotted.rows.iter().map(|(t, q)| (*t, q[c])).collect())

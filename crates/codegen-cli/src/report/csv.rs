@@ -6,6 +6,8 @@
 use std::fmt::Write as _;
 use std::io::Write;
 
+use mbs_symbolic::runtime::CoordinateUnit;
+
 use hybrid_core::closed_loop::OutputRow;
 use hybrid_core::study::Sample;
 
@@ -137,10 +139,9 @@ pub struct MechanismCsv<W: Write = Vec<u8>> {
 }
 
 impl MechanismCsv {
-    /// A CSV in memory with the header for these coordinate names (`revolute[c]`: whether
-    /// coordinate `c` is an angle).
-    pub fn new(names: &[String], revolute: &[bool]) -> Result<MechanismCsv, csv::Error> {
-        MechanismCsv::to_writer(names, revolute, Vec::new())
+    /// A CSV in memory with the header for these coordinate names and units.
+    pub fn new(names: &[String], units: &[CoordinateUnit]) -> Result<MechanismCsv, csv::Error> {
+        MechanismCsv::to_writer(names, units, Vec::new())
     }
 
     /// The CSV text.
@@ -150,38 +151,31 @@ impl MechanismCsv {
 }
 
 impl<W: Write> MechanismCsv<W> {
-    /// A CSV writing to `out`, starting with the header for these coordinate names
-    /// (`revolute[c]`: whether coordinate `c` is an angle).
+    /// A CSV writing to `out`, starting with the header for these coordinate names and
+    /// units.
     ///
     /// # Panics
     ///
-    /// When `names` and `revolute` have different lengths.
+    /// When `names` and `units` have different lengths.
     pub fn to_writer(
         names: &[String],
-        revolute: &[bool],
+        units: &[CoordinateUnit],
         out: W,
     ) -> Result<MechanismCsv<W>, csv::Error> {
-        assert_eq!(names.len(), revolute.len(), "one unit per coordinate");
+        assert_eq!(names.len(), units.len(), "one unit per coordinate");
         let mut w = csv::Writer::from_writer(out);
         let mut header = vec!["t [s]".to_string()];
-        let unit = |r: bool, angle: &str, length: &str| {
-            if r {
-                angle.to_string()
-            } else {
-                length.to_string()
-            }
-        };
         header.extend(
             names
                 .iter()
-                .zip(revolute)
-                .map(|(n, r)| format!("{n} [{}]", unit(*r, "rad", "m"))),
+                .zip(units)
+                .map(|(n, u)| format!("{n} [{}]", u.symbol())),
         );
         header.extend(
             names
                 .iter()
-                .zip(revolute)
-                .map(|(n, r)| format!("{n}_dot [{}]", unit(*r, "rad/s", "m/s"))),
+                .zip(units)
+                .map(|(n, u)| format!("{n}_dot [{}]", u.rate())),
         );
         header.extend(
             [

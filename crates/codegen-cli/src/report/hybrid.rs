@@ -48,22 +48,20 @@ pub struct Columns {
     cells: Vec<f64>,
 }
 
-fn unit(revolute: bool, angle: &'static str, length: &'static str) -> &'static str {
-    if revolute { angle } else { length }
-}
-
 impl Columns {
-    /// The columns of `model` run from `initial`; `revolute[m][c]`: whether coordinate `c`
-    /// of mechanism `m` is an angle.
-    pub fn new(model: &HybridModel, revolute: &[Vec<bool>], initial: &HybridState) -> Columns {
+    /// The columns of `model` run from `initial`; the units of each coordinate are its
+    /// backend's ([`mbs_symbolic::runtime::System::coordinate_units`]).
+    pub fn new(model: &HybridModel, initial: &HybridState) -> Columns {
+        let unit = |m: usize, c: usize| model.mechanisms[m].system.coordinate_units()[c];
         let mut h = vec!["t [s]".to_string()];
-        for (m, rev) in model.mechanisms.iter().zip(revolute) {
+        for m in &model.mechanisms {
             let names = m.system.coordinate_names();
-            for (c, r) in names.iter().zip(rev) {
-                h.push(format!("{}.{c} [{}]", m.name, unit(*r, "rad", "m")));
+            let units = m.system.coordinate_units();
+            for (c, u) in names.iter().zip(units) {
+                h.push(format!("{}.{c} [{}]", m.name, u.symbol()));
             }
-            for (c, r) in names.iter().zip(rev) {
-                h.push(format!("{}.{c}_dot [{}]", m.name, unit(*r, "rad/s", "m/s")));
+            for (c, u) in names.iter().zip(units) {
+                h.push(format!("{}.{c}_dot [{}]", m.name, u.rate()));
             }
             h.push(format!("{}.cond_jd [-]", m.name));
             h.push(format!("{}.constraint_residual [m]", m.name));
@@ -78,7 +76,7 @@ impl Columns {
                 .position(|f| f.mechanism == a.mechanism && f.generator().is_some());
             let g = g.map(|g| {
                 let f = &model.forces[g];
-                let u = unit(revolute[f.mechanism][f.joint], "rad/m", "m/m");
+                let u = unit(f.mechanism, f.joint).per_metre();
                 h.push(format!("{}.amplification [{u}]", a.name));
                 // q_g' = sum_k (dq_g/dw_k) w_k' + (terms of the free coordinates): the speed
                 // ratio is the influence itself unless there are other terms.
@@ -107,9 +105,7 @@ impl Columns {
         for e in &model.excitations {
             let u = match e.target {
                 ExcitationTarget::Beam(_) => "N",
-                ExcitationTarget::Joint { mechanism, joint } => {
-                    unit(revolute[mechanism][joint], "N m", "N")
-                }
+                ExcitationTarget::Joint { mechanism, joint } => unit(mechanism, joint).force(),
             };
             h.push(format!("{}.value [{u}]", e.name));
             h.push(format!("{}.work [J]", e.name));

@@ -75,7 +75,7 @@ use hybrid_core::hybrid::{
     HybridModel, HybridState, JointForce, Mount, MountedMechanism, Placement, initial_deflection,
     initial_state, place_two_bar,
 };
-use mbs_symbolic::model::{JointKind, Model};
+use mbs_symbolic::model::Model;
 use mbs_symbolic::runtime::{ParamError, System};
 use serde::Deserialize;
 use serde::de::DeserializeOwned;
@@ -214,8 +214,6 @@ pub struct Built {
     pub state: HybridState,
     /// The mechanism models, in the order of the mechanisms.
     pub models: Vec<Model>,
-    /// Whether each coordinate of each mechanism is an angle (revolute) or a length.
-    pub revolute: Vec<Vec<bool>>,
 }
 
 #[derive(Deserialize)]
@@ -1384,15 +1382,6 @@ impl HybridScenario {
         }
         // Everything resolved: the model.
         let models: Vec<Model> = models.into_iter().flatten().collect();
-        let revolute = models
-            .iter()
-            .map(|m| {
-                m.bodies
-                    .iter()
-                    .map(|b| b.joint.kind == JointKind::Revolute)
-                    .collect()
-            })
-            .collect();
         let mechanisms = self
             .mechanisms
             .iter()
@@ -1478,7 +1467,6 @@ impl HybridScenario {
             model,
             state,
             models,
-            revolute,
         })
     }
 }

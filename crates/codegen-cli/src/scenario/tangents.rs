@@ -6,7 +6,7 @@
 use std::collections::BTreeMap;
 use std::sync::{Mutex, OnceLock};
 
-use mbs_symbolic::model::{JointKind, Model};
+use mbs_symbolic::model::Model;
 use mbs_symbolic::runtime::TangentSystem;
 
 use hybrid_core::damper::Method;
@@ -23,8 +23,6 @@ pub struct Linearizable {
     pub model: HybridModel,
     /// One exact tangent model per mechanism (the scenario's run-time parameters set).
     pub tangents: Vec<TangentSystem>,
-    /// Per mechanism, whether each coordinate is an angle (revolute) or a length.
-    pub revolute: Vec<Vec<bool>>,
     /// The scenario's integration scheme.
     pub method: Method,
     /// The scenario's time step (s).
@@ -57,7 +55,6 @@ pub fn tangents_for(scenario: &Scenario) -> Result<Linearizable, Error> {
             Ok(Linearizable {
                 model: hybrid,
                 tangents: vec![tangent(&model, &params)?],
-                revolute: vec![revolute(&model)],
                 method: sc.setup.method,
                 dt: sc.setup.dt,
             })
@@ -68,7 +65,6 @@ pub fn tangents_for(scenario: &Scenario) -> Result<Linearizable, Error> {
             Ok(Linearizable {
                 model: built.model,
                 tangents,
-                revolute: built.revolute,
                 method: sc.method,
                 dt: sc.integrator.dt,
             })
@@ -147,14 +143,6 @@ fn tangent(model: &Model, params: &[(String, f64)]) -> Result<TangentSystem, Err
             .map_err(|e| Error::Usage(format!("{}: parameter {name}: {e}", model.source.path)))?;
     }
     Ok(t)
-}
-
-fn revolute(model: &Model) -> Vec<bool> {
-    model
-        .bodies
-        .iter()
-        .map(|b| b.joint.kind == JointKind::Revolute)
-        .collect()
 }
 
 impl Linearizable {

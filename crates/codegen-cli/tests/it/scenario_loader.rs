@@ -249,7 +249,7 @@ fn every_bundled_scenario_loads_and_runs_a_few_hundred_steps() {
                 let model = model::load(&sc.model).unwrap();
                 sc.settings.t_end = sc.settings.t_start + 0.3;
                 let mut rows = 0;
-                let o = codegen_cli::run::mechanism(&sc, &model, false, &mut |_, r| {
+                let o = codegen_cli::run::mechanism(&sc, &model, false, &mut |_, _, r| {
                     rows += 1;
                     assert!(r.q.iter().chain(&r.qd).all(|x| x.is_finite()), "{name}");
                 })

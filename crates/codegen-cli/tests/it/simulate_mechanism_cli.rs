@@ -288,3 +288,42 @@ fn bad_scenarios_are_reported_with_file_line_and_entity() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Column units come with the backend's names (`CoordinateUnit` from each joint type): the
+/// slider-crank's prismatic slider reads in metres, its revolute joints in radians, in the
+/// mechanism kind and in the hybrid kind alike.
+#[test]
+fn column_units_follow_the_joint_types() {
+    let dir = temp_dir("units");
+    let (code, _, err) = damper(&[
+        "simulate",
+        "scenarios/slider_crank.toml",
+        "-o",
+        dir.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let (header, _) = read_csv(&dir.join("slider_crank.csv"));
+    for h in ["q1 [rad]", "q3 [m]", "q1_dot [rad/s]", "q3_dot [m/s]"] {
+        assert!(header.iter().any(|c| c == h), "{h} in {header:?}");
+    }
+    let (code, _, err) = damper(&[
+        "simulate",
+        "scenarios/slider_crank_damper.toml",
+        "-o",
+        dir.join("h").to_str().unwrap(),
+        "--quiet",
+        "--set",
+        "integrator.t_end=0.01",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let (header, _) = read_csv(&dir.join("h").join("time_history.csv"));
+    for h in [
+        "slider_crank.q1 [rad]",
+        "slider_crank.s [m]",
+        "slider_crank.s_dot [m/s]",
+    ] {
+        assert!(header.iter().any(|c| c == h), "{h} in {header:?}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
