@@ -70,7 +70,8 @@ enum Command {
 const MAX_LINE: usize = 1000;
 
 /// `text`'s lines joined with "; " into one line of at most about [`MAX_LINE`] characters:
-/// the first problems in full (the first one cut at [`MAX_LINE`] characters), then "... and
+/// the first problems in full (the first one cut at [`MAX_LINE`] characters,
+/// [`diagnostic::truncate`]), then "... and
 /// N more problems" counting the rest (a trailing "... and N more problems" line of the
 /// list itself included).
 fn one_line(text: &str) -> String {
@@ -94,16 +95,7 @@ fn one_line(text: &str) -> String {
         if shown > 0 {
             out.push_str("; ");
         }
-        if l.len() > MAX_LINE {
-            let cut = (0..=MAX_LINE)
-                .rev()
-                .find(|&k| l.is_char_boundary(k))
-                .unwrap_or(0);
-            out.push_str(&l[..cut]);
-            out.push_str(" ...");
-        } else {
-            out.push_str(l);
-        }
+        out.push_str(&diagnostic::truncate(l, MAX_LINE));
         shown += 1;
     }
     let rest: usize = lines[shown..].iter().map(|l| more_of(l).unwrap_or(1)).sum();
@@ -188,6 +180,6 @@ mod tests {
         assert!(line.ends_with("; ... and 996 more problems"), "{line}");
         let long = "é".repeat(2 * MAX_LINE);
         let line = one_line(&long);
-        assert!(line.ends_with(" ...") && line.len() <= MAX_LINE + 4);
+        assert!(line.ends_with('…') && line.chars().count() == MAX_LINE + 1);
     }
 }
