@@ -132,6 +132,20 @@ impl Error {
     }
 }
 
+/// The model registry's backend for `model` ([`model_registry::system_for`]); a stale model
+/// (a compiled-in model's file edited since the build) is announced on stderr the first
+/// time this process meets it, before the interpreter stands in for the generated code.
+pub fn system_for(
+    model: &mbs_symbolic::model::Model,
+    backend: Option<mbs_symbolic::runtime::Backend>,
+) -> Result<model_registry::Resolved, model_registry::RegistryError> {
+    let resolved = model_registry::system_for(model, backend)?;
+    if let Some(stale) = resolved.stale.as_ref().filter(|s| s.first_notice()) {
+        eprintln!("{stale}");
+    }
+    Ok(resolved)
+}
+
 /// Writes `text` to standard output and flushes it; a closed pipe is [`Error::Stdout`]
 /// (never a panic, unlike `print!`).
 pub fn print(text: &str) -> Result<(), Error> {

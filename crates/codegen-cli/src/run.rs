@@ -115,7 +115,7 @@ pub fn damper(
         "run::damper: one sink per comparison run"
     );
     let progress = progress && std::io::stderr().is_terminal();
-    let resolved = model_registry::system_for(model, None)?;
+    let resolved = crate::system_for(model, None)?;
     // A stale model (an edited bundled one) was announced by the registry.
     if resolved.compiled.is_none() && resolved.stale.is_none() {
         eprintln!(
@@ -355,7 +355,7 @@ pub struct MechanismOutcome {
 /// else the documented fallback, the DAG interpreter.
 fn system(model: &Model) -> Result<(Box<dyn System>, String), Error> {
     let hash = model.source.hash.as_str();
-    let resolved = model_registry::system_for(model, None)?;
+    let resolved = crate::system_for(model, None)?;
     let note = match resolved.compiled {
         Some(c) => format!(
             "backend: generated code (compiled-in `{}`, hash {hash})",

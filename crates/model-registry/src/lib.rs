@@ -13,9 +13,10 @@
 //! **A stale model** is a file that takes the place of a compiled-in model — the very file
 //! under `models/` the code was generated from, or a copy elsewhere with the same file
 //! name — but whose content hash is no longer the compiled one (it was edited after the
-//! build). [`system_for`] still falls back to the interpreter for it, and announces it once
-//! per process on stderr ([`Stale`]: which file, why, how to rebuild), so that an edit is
-//! never silently run slower than the user expects.
+//! build). [`system_for`] still falls back to the interpreter for it and says so
+//! ([`Resolved::stale`]: which file, why, how to rebuild); the application announces it
+//! once per process ([`Stale::first_notice`]), so that an edit is never silently run
+//! slower than the user expects. The library prints nothing.
 //!
 //! Nothing outside this crate names a generated model's Rust type: callers get a
 //! [`Box<dyn System>`](System) and check its shape at run time (so a model the product
@@ -191,20 +192,17 @@ impl fmt::Display for Stale {
     }
 }
 
-/// Writes `stale` on stderr unless the same file with the same content was announced
-/// before in this process (a run resolves a model several times: comparison runs,
-/// linearisations, sweep points); returns whether it was written.
-fn announce_once(stale: &Stale) -> bool {
-    static ANNOUNCED: Mutex<BTreeSet<(String, String)>> = Mutex::new(BTreeSet::new());
-    let key = (stale.file.clone(), stale.hash.clone());
-    let first = ANNOUNCED
-        .lock()
-        .unwrap_or_else(std::sync::PoisonError::into_inner)
-        .insert(key);
-    if first {
-        eprintln!("{stale}");
+impl Stale {
+    /// Whether this is the first time this process meets this file with this content as a
+    /// stale model (a run resolves a model several times: comparison runs, linearisations,
+    /// sweep points): the application announces it then, once. The library prints nothing.
+    pub fn first_notice(&self) -> bool {
+        static NOTICED: Mutex<BTreeSet<(String, String)>> = Mutex::new(BTreeSet::new());
+        NOTICED
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .insert((self.file.clone(), self.hash.clone()))
     }
-    first
 }
 
 /// Why [`system_for`] could not provide the backend asked for.
@@ -245,8 +243,9 @@ pub struct Resolved {
 /// THE function that matches a model to an implementation of its equations.
 ///
 /// - `backend = None`: generated code when the model file is compiled in (same content
-///   hash), otherwise the documented fallback, the DAG interpreter — announced once per
-///   process on stderr when the model is [`Stale`];
+///   hash), otherwise the documented fallback, the DAG interpreter — with
+///   [`Resolved::stale`] when the model is [`Stale`] (the application announces it once,
+///   [`Stale::first_notice`]);
 /// - `Some(Backend::Generated)`: generated code, or [`RegistryError::NotCompiled`];
 /// - `Some(Backend::Interpreted)` / `Some(Backend::Numeric)`: that backend.
 ///
@@ -278,11 +277,8 @@ pub fn system_for(model: &Model, backend: Option<Backend>) -> Result<Resolved, R
             compiled: COMPILED.iter().map(|c| c.file.to_string()).collect(),
         }),
         (None, None) => {
-            // The fallback: announced when the user may expect the compiled code.
+            // The fallback: reported (`stale`) when the user may expect the compiled code.
             let stale = Stale::of(model);
-            if let Some(s) = &stale {
-                announce_once(s);
-            }
             Ok(Resolved {
                 system: Box::new(InterpretedSystem::new(model)),
                 compiled: None,
@@ -400,8 +396,10 @@ mod tests {
         let r = system_for(&edited, None).unwrap();
         assert_eq!(r.system.backend(), Backend::Interpreted);
         assert_eq!(r.stale, Some(stale.clone()));
-        // Announced once per file and content, whatever the number of look-ups.
-        assert!(!announce_once(&stale));
+        // Noticed once per file and content, whatever the number of look-ups.
+        assert!(stale.first_notice());
+        assert!(!stale.first_notice());
+        assert!(!r.stale.as_ref().unwrap().first_notice());
         // Asking for the interpreter is not a fallback: nothing to announce.
         assert_eq!(
             system_for(&edited, Some(Backend::Interpreted))

@@ -198,7 +198,7 @@ fn system(args: &Args, model: &Model, overrides: &[usize]) -> Result<Box<dyn Sys
             RtBackend::Generated
         }
     };
-    let resolved = model_registry::system_for(model, Some(backend)).map_err(|e| match e {
+    let resolved = crate::system_for(model, Some(backend)).map_err(|e| match e {
         model_registry::RegistryError::NotCompiled { .. } => anyhow::anyhow!(
             "model {} is not compiled into this binary (compiled in: {}); use --backend interp or numeric, or rebuild",
             args.model.display(),

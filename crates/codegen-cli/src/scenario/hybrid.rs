@@ -1069,7 +1069,7 @@ impl HybridScenario {
                     continue;
                 }
             };
-            let mut system = match model_registry::system_for(&model, None) {
+            let mut system = match crate::system_for(&model, None) {
                 Ok(r) => r.system,
                 Err(e) => {
                     diags.push(self.at(

@@ -38,7 +38,7 @@ pub fn tangents_for(scenario: &Scenario) -> Result<Linearizable, Error> {
         Scenario::Damper(sc) => {
             let model = mbs_symbolic::model::load(&sc.model_path)?;
             sc.check_parameters(&model)?;
-            let system = model_registry::system_for(&model, None)?.system;
+            let system = crate::system_for(&model, None)?.system;
             // The model only (not `study::prepare`): the equilibrium does not need the
             // initial state, which may be out of the mechanism's reach where the rest
             // position is not.
