@@ -1,125 +1,111 @@
-//! Benchmarks of the coupled damper simulation: the whole default scenario (5 s at
-//! dt = 1e-4, 50,000 steps) and the cost of one step at 20, 200 and 2,000 beam elements
-//! (which must grow linearly).
+//! Benchmarks of the paper's damper as the product runs it (the damper preset loaded by the
+//! one scenario loader, built and integrated by the one engine): the whole default scenario
+//! (5 s at dt = 1e-4, 50,000 steps, with its comparison runs' summaries) and the cost of 1000
+//! steps at 20, 200 and 2,000 beam elements (which must grow linearly), with one double bar
+//! and with three (at x = 0.5, 0.75 and 1 m).
 #![allow(missing_docs)] // criterion's macros generate undocumented items
 
 use std::hint::black_box;
 use std::path::PathBuf;
 
-use codegen_cli::scenario::DamperScenario as Scenario;
+use codegen_cli::scenario::{self, HybridScenario, Scenario};
 use criterion::{BatchSize, BenchmarkId, Criterion, criterion_group, criterion_main};
-use hybrid_core::damper::Integrator;
-use hybrid_core::damper::Method;
-use hybrid_core::hybrid::{Integrator as HybridIntegrator, initial_state};
-use hybrid_core::study::{build_model, hybrid_of, run_setup};
+use hybrid_core::hybrid::Integrator;
 
-fn scenario(elements: usize, t_end: f64) -> Scenario {
-    let path = PathBuf::from(concat!(
+fn path() -> PathBuf {
+    PathBuf::from(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../../scenarios/damper.toml"
-    ));
-    let text = std::fs::read_to_string(&path)
-        .unwrap()
-        .replace("elements = 20", &format!("elements = {elements}"))
-        .replace("t_end = 5.0", &format!("t_end = {t_end}"));
-    Scenario::from_str(&text, &path).unwrap()
+    ))
 }
 
-/// The paper's double bar from the model registry, as the product runs it.
-fn double_bar() -> Box<dyn mbs_symbolic::runtime::System> {
-    model_registry::find_by_name("double_bar")
-        .expect("models/double_bar.toml is compiled in")
-        .system()
+fn hybrid(text: &str) -> HybridScenario {
+    match scenario::parse(text, &path()).unwrap_or_else(|e| panic!("{e}")) {
+        Scenario::Hybrid(sc) => *sc,
+        _ => unreachable!("a damper scenario loads as the hybrid scenario it means"),
+    }
+}
+
+/// The bundled damper scenario with `elements` beam elements and `mechanisms` double bars
+/// (the bundled one at the tip; more at x = 0.5 and 0.75 m, the same damper).
+fn damper(elements: usize, mechanisms: usize) -> HybridScenario {
+    let mut text = std::fs::read_to_string(path())
+        .unwrap()
+        .replace("elements = 20", &format!("elements = {elements}"));
+    if mechanisms > 1 {
+        // The preset written out, with the extra dampers appended as hybrid tables.
+        let beam = text
+            .split("[mechanism]")
+            .next()
+            .unwrap()
+            .replace("kind = \"damper\"", "kind = \"hybrid\"");
+        let mut h = beam;
+        for (k, x) in [1.0, 0.5, 0.75].into_iter().take(mechanisms).enumerate() {
+            h.push_str(&format!(
+                r#"
+[[mechanism]]
+name = "damper{k}"
+model = "../models/double_bar.toml"
+placement = {{ attachment = "pin{k}", half_angle_deg = 10.0 }}
+max_condition = 1e4
+[[attachment]]
+name = "pin{k}"
+mechanism = "damper{k}"
+point = "tip"
+kind = "pin"
+x = {x}
+[[force]]
+name = "generator{k}"
+mechanism = "damper{k}"
+joint = "crank"
+kind = "generator"
+kt = 0.0235
+ke = 0.0235
+armature_resistance = 1.5
+load_resistance = 3.5
+inductance = 0.0
+gear_ratio = 5.0
+rotor_inertia = 1e-6
+"#
+            ));
+        }
+        h.push_str(
+            "[initial]\ndisplacement = 0.001\nx = 1.0\n[integrator]\ndt = 1e-4\nt_end = 5.0\n",
+        );
+        text = h;
+    }
+    hybrid(&text)
 }
 
 fn whole_run(c: &mut Criterion) {
     let mut g = c.benchmark_group("damper_run");
     g.sample_size(10);
-    let sc = scenario(20, 5.0);
+    let sc = damper(20, 1);
     g.bench_function("default_5s_dt1e-4", |b| {
         b.iter(|| {
-            black_box(
-                run_setup(
-                    &sc.setup,
-                    &double_bar_model(),
-                    double_bar(),
-                    true,
-                    &mut |_| {},
-                )
-                .unwrap()
-                .1
-                .state
-                .hybrid
-                .t,
-            )
+            let built = sc.build().unwrap();
+            let run =
+                codegen_cli::run_hybrid::evaluate(&sc, &built, &[], None, vec![], false).unwrap();
+            black_box(run.summary.steps)
         })
     });
     g.finish();
 }
 
 fn step_cost(c: &mut Criterion) {
-    let mut g = c.benchmark_group("step_1000");
-    for elements in [20usize, 200, 2000] {
-        let sc = scenario(elements, 5.0);
-        let (model, guess) =
-            build_model(&sc.setup, &double_bar_model(), double_bar(), true).unwrap();
-        let state = model.initial_state(1e-3, guess).unwrap();
-        let integ = Integrator::new(&model, sc.setup.method, 1e-4).unwrap();
-        g.bench_with_input(BenchmarkId::from_parameter(elements), &elements, |b, _| {
-            b.iter_batched(
-                || (integ.clone(), state.clone()),
-                |(mut integ, mut state)| {
-                    for _ in 0..1000 {
-                        integ.step(&model, &mut state).unwrap();
-                    }
-                    black_box(state.t)
-                },
-                BatchSize::LargeInput,
-            )
-        });
-    }
-    g.finish();
-}
-
-/// The paper's damper as a general hybrid system, and with two more double bars at
-/// x = 0.5 and 0.75 (three mechanisms): `(model, initial beam state)`.
-fn hybrid(elements: usize, mechanisms: usize) -> (hybrid_core::hybrid::HybridModel, Vec<f64>) {
-    let sc = scenario(elements, 5.0);
-    let (model, guess) = build_model(&sc.setup, &double_bar_model(), double_bar(), true).unwrap();
-    let (mut hm, q0) = hybrid_of(&sc.setup, &model, guess).unwrap();
-    for (k, x) in [0.5, 0.75].into_iter().take(mechanisms - 1).enumerate() {
-        let mut setup = sc.setup.clone();
-        setup.x = x;
-        let (m, g) = build_model(&setup, &double_bar_model(), double_bar(), true).unwrap();
-        let (extra, _) = hybrid_of(&setup, &m, g).unwrap();
-        let i = hm.mechanisms.len();
-        let mut mech = extra.mechanisms[0].clone();
-        mech.name = format!("damper{}", k + 2);
-        hm.mechanisms.push(mech);
-        let mut a = extra.attachments[0].clone();
-        a.mechanism = i;
-        hm.attachments.push(a);
-        let mut f = extra.forces[0].clone();
-        f.mechanism = i;
-        hm.forces.push(f);
-    }
-    (hm, q0)
-}
-
-fn hybrid_step_cost(c: &mut Criterion) {
     for mechanisms in [1usize, 3] {
-        let mut g = c.benchmark_group(format!("hybrid_step_1000/{mechanisms}_mechanisms"));
+        let mut g = c.benchmark_group(format!("step_1000/{mechanisms}_mechanisms"));
         for elements in [20usize, 200, 2000] {
-            let (model, q0) = hybrid(elements, mechanisms);
-            let n = q0.len();
-            let state = initial_state(&model, q0, vec![0.0; n]).unwrap();
-            let integ = HybridIntegrator::new(&model, Method::Newmark, 1e-4, &state).unwrap();
+            let sc = damper(elements, mechanisms);
+            let built = sc.build().unwrap();
+            let (model, state) = (&built.model, &built.state);
+            let integ = Integrator::new(model, sc.method, sc.integrator.dt, state).unwrap();
             g.bench_with_input(BenchmarkId::from_parameter(elements), &elements, |b, _| {
                 b.iter_batched(
                     || (integ.clone(), state.clone()),
                     |(mut integ, mut state)| {
                         for _ in 0..1000 {
-                            integ.step(&model, &mut state).unwrap();
+                            integ.step(model, &mut state).unwrap();
                         }
                         black_box(state.t)
                     },
@@ -131,11 +117,5 @@ fn hybrid_step_cost(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, whole_run, step_cost, hybrid_step_cost);
+criterion_group!(benches, whole_run, step_cost);
 criterion_main!(benches);
-
-/// The bundled double bar's model description (body names for the generator joint).
-fn double_bar_model() -> mbs_symbolic::model::Model {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../models/double_bar.toml");
-    mbs_symbolic::model::load(std::path::Path::new(path)).unwrap_or_else(|e| panic!("{e}"))
-}

@@ -1,7 +1,7 @@
 //! Work guards: before a run starts, its time steps, output rows and output size are
 //! estimated and a run above the documented limits is refused with the estimate and the
 //! flag that lifts the limits (`--allow-long`). Memory is not limited by these: time
-//! histories are streamed to disk and a damper run keeps a bounded digest of its samples
+//! histories are streamed to disk and a run keeps a bounded digest of its rows
 //! (`report::stream`, `report::digest`), so memory does not grow with `t_end`.
 //!
 //! | limit | value | a run of about |
@@ -10,8 +10,9 @@
 //! | output rows | 2e6 | 2e6 CSV lines of one run |
 //! | CSV text written | 1 GiB | |
 //!
-//! Estimates: damper `ceil(t_end / dt)` steps per run (two runs with the comparison), one
-//! row every `every` steps, a row of one cell per `Sample` field (25 bytes a cell);
+//! Estimates: damper and hybrid `round(t_end / dt)` steps per run (one run more per
+//! comparison), one row every `every` steps, a row of one cell per column (25 bytes a
+//! cell);
 //! mechanism rows `(t_end - t_start) / output_step + 1`, CSV text of `2 n + 6` cells a row,
 //! steps `span / step` for RK4, and for Dormand–Prince `span / h` with the typical step
 //! (see [`dopri_typical_step`])
@@ -58,7 +59,7 @@ use std::fmt;
 use hybrid_core::closed_loop::Method;
 
 use crate::Error;
-use crate::scenario::{DamperScenario, MechanismScenario, Scenario};
+use crate::scenario::{HybridScenario, MechanismScenario, Scenario};
 
 /// Largest estimated number of time steps of a run without `--allow-long`.
 pub const MAX_STEPS: f64 = 2e7;
@@ -113,13 +114,12 @@ pub fn dopri_typical_step(span: f64, output_step: f64, rtol: f64, max_step: Opti
         .min(MAX_TYPICAL_STEP)
 }
 
-/// The time steps of one time-domain run of a damper or hybrid scenario (all its runs: a
-/// damper's comparisons too), as `simulate` estimates them; `None` for a mechanism
-/// scenario (adaptive: not known before the run).
+/// The time steps of one time-domain run of a damper or hybrid scenario (all its runs: the
+/// comparisons too), as `simulate` estimates them; `None` for a mechanism scenario
+/// (adaptive: not known before the run).
 pub fn steps_per_run(sc: &Scenario) -> Option<f64> {
     match sc {
-        Scenario::Damper(d) => Estimate::damper(d).steps,
-        Scenario::Hybrid(h) => Some((h.integrator.t_end / h.integrator.dt).round()),
+        Scenario::Hybrid(h) => Estimate::hybrid(h, 0, 0).steps,
         Scenario::Mechanism(_) => None,
     }
 }
@@ -160,18 +160,17 @@ impl fmt::Display for Estimate {
 }
 
 impl Estimate {
-    /// A damper scenario: the run with the generator and every comparison run (counted as
-    /// full runs: the bare beam's is cheaper).
-    pub fn damper(sc: &DamperScenario) -> Estimate {
-        let runs = 1.0 + sc.spec.output.compare.len() as f64;
-        let steps = (sc.setup.t_end / sc.setup.dt).ceil();
-        let rows = runs * ((steps / sc.setup.every.max(1) as f64).floor() + 1.0);
-        let sample = std::mem::size_of::<hybrid_core::study::Sample>() as f64;
-        let cells = sample / 8.0;
+    /// A damper or hybrid scenario whose time history has `cells` columns and whose beam
+    /// has `series` attachments plotted: the run as described and every comparison run
+    /// (counted as full runs: the bare beam's is cheaper), a row every `every` steps.
+    pub fn hybrid(sc: &HybridScenario, cells: usize, series: usize) -> Estimate {
+        let runs = 1.0 + sc.compare.len() as f64;
+        let steps = (sc.integrator.t_end / sc.integrator.dt).round() * runs;
+        let rows = ((steps / runs / sc.every.max(1) as f64).floor() + 2.0) * runs;
         Estimate {
-            steps: Some(runs * steps),
+            steps: Some(steps),
             rows,
-            bytes: rows * cells * CELL_BYTES,
+            bytes: rows * (cells as f64 * CELL_BYTES + series as f64 * 16.0),
         }
     }
 

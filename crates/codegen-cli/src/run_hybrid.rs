@@ -41,13 +41,10 @@ use crate::report::plot::{plot_damping_vs_amplitude_svg, plot_displacements_svg}
 use crate::report::rows::{CsvRows, RowSink};
 use crate::report::summary::json_bytes;
 use crate::report::{OutputFile, ReportError, StreamFile, commit, csv_error};
+use crate::scenario::Comparison;
 use crate::scenario::HybridScenario;
 use crate::scenario::OverrideRecord;
-use crate::scenario::damper::Comparison;
 use crate::scenario::hybrid::Built;
-
-/// Bytes of one CSV cell in the work estimate.
-const CELL_BYTES: f64 = 25.0;
 
 fn progress_bar(show: bool) -> ProgressBar {
     crate::progress::bar_or_hidden(show, 1000, "simulate [{bar:40}] {percent:>3}% ETA {eta}")
@@ -98,16 +95,8 @@ pub fn simulate(
     let model = &built.model;
     let mut columns = Columns::new(model, &built.state);
     // The run as described and each comparison run.
-    let runs = 1.0 + sc.compare.len() as f64;
-    let steps = (sc.integrator.t_end / sc.integrator.dt).round() * runs;
-    let rows = ((steps / runs / sc.every as f64).floor() + 2.0) * runs;
-    let series = model.attachments.len() as f64 * 16.0;
-    Estimate {
-        steps: Some(steps),
-        rows,
-        bytes: rows * (columns.header().len() as f64 * CELL_BYTES + series),
-    }
-    .check(&file, allow_long)?;
+    Estimate::hybrid(sc, columns.header().len(), model.attachments.len())
+        .check(&file, allow_long)?;
     // The time history streams to `<name>.tmp-<pid>` as the run goes and is committed with
     // the other files at the end (or removed when the run fails): memory stays flat.
     let csv_path = out.join("time_history.csv");
@@ -130,35 +119,8 @@ pub fn simulate(
     // The comparison runs, each with its own time history and summary block.
     let mut compared = vec![];
     for &c in &sc.compare {
-        let (variant, models, probes) = match c {
-            Comparison::GeneratorDisconnected => (
-                model.generators_disconnected(),
-                built.models.clone(),
-                vec![],
-            ),
-            Comparison::BareBeam => {
-                // The loader refuses `bare_beam` without a beam.
-                let Some(bare) = model.bare_beam() else {
-                    continue;
-                };
-                let probes: Vec<(String, BeamPoint)> = model
-                    .attachments
-                    .iter()
-                    .map(|a| (a.name.clone(), a.beam.clone()))
-                    .collect();
-                (bare, vec![], probes)
-            }
-        };
-        let state = initial_state(&variant, built.state.q.clone(), built.state.v.clone()).map_err(
-            |error| Error::Hybrid {
-                file: file.clone(),
-                error,
-            },
-        )?;
-        let variant = Built {
-            model: variant,
-            state,
-            models,
+        let Some((variant, probes)) = comparison(&file, &built, c)? else {
+            continue;
         };
         let mut columns = Columns::new(&variant.model, &variant.state).with_probes(&probes);
         let path = out.join(format!("time_history_{}.csv", c.key()));
@@ -243,16 +205,32 @@ pub fn simulate(
         });
     }
     commit(streams, &files).map_err(ReportError::from)?;
-    let pct = |z: Option<f64>| z.map_or("n/a".to_string(), |z| format!("{:.3} %", z * 100.0));
-    let zeta = pct(summary.damping_ratio);
+    let pct = |d: &Option<hybrid_core::decay::DecayEstimate>| match d
+        .as_ref()
+        .map(|d| (d.zeta(), d.frequency_hz()))
+    {
+        Some((Some(z), Some(f))) => format!("{:.3} % at {f:.3} Hz", z * 100.0),
+        Some((Some(z), None)) => format!("{:.3} %", z * 100.0),
+        _ => "n/a".to_string(),
+    };
+    let zeta = pct(&summary.decay);
     let others: String = sc
         .compare
         .iter()
         .filter_map(|c| summary.comparisons.get(c.key()))
-        .map(|c| format!("; {}: zeta {}", c.label, pct(c.damping_ratio)))
+        .map(|c| format!("; {}: zeta {}", c.label, pct(&c.decay)))
         .collect();
+    // The backends of the mechanisms: generated code, or the interpreter of a model edited
+    // since the build.
+    let mut kinds: Vec<&str> = summary.mechanisms.iter().map(|m| m.backend).collect();
+    kinds.dedup();
+    let backends = if kinds.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", kinds.join(", "))
+    };
     crate::print(&format!(
-        "{file}: {} steps in {:.3} s ({} mechanism(s), {} attachment(s), {} repartition(s)); peak {}; zeta {zeta}{others}; energy balance error {:.1e}; outputs in {}\n",
+        "{file}: {} steps in {:.3} s ({} mechanism(s){backends}, {} attachment(s), {} repartition(s)); peak {}; zeta {zeta}{others}; energy balance error {:.1e}; outputs in {}\n",
         summary.steps,
         summary.wall_seconds,
         model.mechanisms.len(),
@@ -264,6 +242,51 @@ pub fn simulate(
         summary.energy_balance_rel_error,
         out.display()
     ))
+}
+
+/// Beam points read as the attachments are, by name, without being attached.
+pub type Probes = Vec<(String, BeamPoint)>;
+
+/// The system of a comparison run of a built scenario, from the same initial state, and the
+/// beam points it reads as probes (the bare beam's: where the attachments were); `None` for
+/// `bare_beam` without a beam (the loader refuses it).
+pub fn comparison(
+    file: &str,
+    built: &Built,
+    c: Comparison,
+) -> Result<Option<(Built, Probes)>, Error> {
+    let model = &built.model;
+    let (variant, models, probes) = match c {
+        Comparison::GeneratorDisconnected => (
+            model.generators_disconnected(),
+            built.models.clone(),
+            vec![],
+        ),
+        Comparison::BareBeam => {
+            let Some(bare) = model.bare_beam() else {
+                return Ok(None);
+            };
+            let probes: Vec<(String, BeamPoint)> = model
+                .attachments
+                .iter()
+                .map(|a| (a.name.clone(), a.beam.clone()))
+                .collect();
+            (bare, vec![], probes)
+        }
+    };
+    let state =
+        initial_state(&variant, built.state.q.clone(), built.state.v.clone()).map_err(|error| {
+            Error::Hybrid {
+                file: file.to_string(),
+                error,
+            }
+        })?;
+    let variant = Built {
+        model: variant,
+        state,
+        models,
+    };
+    Ok(Some((variant, probes)))
 }
 
 /// Integrates a built hybrid scenario and makes its summary; every output row goes to
@@ -492,6 +515,7 @@ pub fn evaluate<'a>(
                 harvested_in_load: harvested,
                 mean_load_power: if t_end > 0.0 { harvested / t_end } else { 0.0 },
                 peak_current: tracks.peak_current[k],
+                settings: g.clone(),
             })
         })
         .collect();
@@ -588,7 +612,7 @@ fn first_mode_filter(
     built: &Built,
     point: &BeamPoint,
 ) -> Option<(hybrid_core::decay::ModalFilter, Vec<Vec<usize>>)> {
-    let tangents = crate::scenario::tangents::hybrid_tangents(sc, built).ok()?;
+    let tangents = crate::scenario::tangents::hybrid_tangents(sc, &built.models).ok()?;
     let refs: Vec<_> = tangents.iter().collect();
     hybrid_core::decay::ModalFilter::first_mode(&built.model, &refs, point).ok()
 }

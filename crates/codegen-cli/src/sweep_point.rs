@@ -11,14 +11,11 @@
 //! writes (nothing is recomputed here), with the outputs kept in memory (no file is
 //! written):
 //!
-//! - `kind = "damper"`: the [`DamperSummary`] of the run with the generator and the
-//!   comparison run without it: equivalent damping ratios, the bare beam's first frequency,
-//!   peak tip displacement, initial amplification q1'/y' and cond(J^b), the energy account
-//!   (dissipated in the generator, harvested in the load, dissipated by the structure);
-//! - `kind = "hybrid"`: the [`crate::report::hybrid::HybridSummary`]: damping ratio of a free
-//!   decay, first beam frequency, peak amplitude, per attachment its peak and final
-//!   amplitude, per generator its dissipated and harvested energy and peak current, the
-//!   energy account.
+//! the [`crate::report::hybrid::HybridSummary`] of a damper or hybrid scenario: damping
+//! ratio of the free decay (and `damping_ratio_<comparison>` of every comparison run of
+//! `[output] compare`), first beam frequency, peak amplitude, per attachment its peak and
+//! final amplitude, per generator its dissipated and harvested energy and peak current, the
+//! energy account.
 //!
 //! Every figure is a pure function of the scenario, the overrides and the options: the same
 //! point gives the same figures bit for bit on any thread. A figure the run does not give is
@@ -32,7 +29,6 @@ use hybrid_core::hybrid::EigenMethod;
 
 use crate::Error;
 use crate::budget::{self, Quantity};
-use crate::report::summary::DamperSummary;
 use crate::scenario::{self, Loaded, Override, Scenario};
 
 /// A named figure of a sweep point.
@@ -174,54 +170,21 @@ fn linearised(path: &Path, loaded: &Loaded, figures: &mut Vec<Figure>) -> Result
 /// The figures of the time-domain run of a loaded scenario.
 fn time_domain(path: &Path, loaded: &Loaded, figures: &mut Vec<Figure>) -> Result<(), Error> {
     match &loaded.scenario {
-        Scenario::Damper(sc) => {
-            let model = mbs_symbolic::model::load(&sc.model_path)?;
-            sc.check_parameters(&model)?;
-            type Sink = Box<dyn FnMut(&hybrid_core::study::Sample) -> Result<(), Error> + Send>;
-            let mut sinks: Vec<Sink> = sc
-                .spec
-                .output
-                .compare
-                .iter()
-                .map(|_| Box::new(|_: &hybrid_core::study::Sample| Ok(())) as Sink)
-                .collect();
-            let mut refs: Vec<crate::run::SampleSink<'_>> =
-                sinks.iter_mut().map(|b| &mut **b as _).collect();
-            let outcome = crate::run::damper(sc, &model, false, &mut |_| Ok(()), &mut refs)?;
-            let s = DamperSummary::new(path, sc, &model, &outcome, vec![]);
-            let e = &s.energy;
-            figures.push(Figure::new("zeta_with_generator", "-", s.zeta_with_generator));
-            for (key, c) in &s.comparisons {
-                figures.push(Figure::new(format!("zeta_{key}"), "-", c.zeta));
-            }
-            figures.extend([
-                Figure::new("beam_first_frequency", "Hz", s.beam_first_frequency_hz),
-                Figure::new("peak_amplitude", "m", s.peak_amplitude),
-                Figure::new(
-                    "initial.amplification",
-                    "rad/m",
-                    s.initial.amplification_rad_per_m,
-                ),
-                Figure::new(
-                    "initial.jacobian_condition",
-                    "-",
-                    s.initial.jacobian_condition,
-                ),
-                Figure::new("energy.initial", "J", e.initial),
-                Figure::new("energy.dissipated_generator", "J", e.dissipated_generator),
-                Figure::new("energy.harvested_in_load", "J", e.harvested_in_load),
-                Figure::new("energy.dissipated_structure", "J", e.dissipated_structure),
-                Figure::new("energy.final_stored", "J", e.final_stored),
-                Figure::new("energy_balance_rel_error", "-", s.energy_balance_rel_error),
-            ]);
-            Ok(())
-        }
         Scenario::Hybrid(sc) => {
             let built = sc.build()?;
             let run = crate::run_hybrid::evaluate(sc, &built, &[], None, vec![], false)?;
             let s = &run.summary;
+            figures.push(Figure::new("damping_ratio", "-", s.damping_ratio));
+            let file = path.display().to_string();
+            for &c in &sc.compare {
+                if let Some((variant, probes)) = crate::run_hybrid::comparison(&file, &built, c)? {
+                    let r =
+                        crate::run_hybrid::evaluate(sc, &variant, &probes, None, vec![], false)?;
+                    let name = format!("damping_ratio_{}", c.key());
+                    figures.push(Figure::new(name, "-", r.summary.damping_ratio));
+                }
+            }
             figures.extend([
-                Figure::new("damping_ratio", "-", s.damping_ratio),
                 Figure::new("beam_first_frequency", "Hz", s.beam_first_frequency_hz),
                 Figure::new("peak_amplitude", "m", s.peak_amplitude),
             ]);
@@ -245,8 +208,21 @@ fn time_domain(path: &Path, loaded: &Loaded, figures: &mut Vec<Figure>) -> Resul
                 figures.push(Figure::new(name("peak_current"), "A", g.peak_current));
             }
             let e = &s.energy;
+            let generators = |f: fn(&crate::report::hybrid::GeneratorReport) -> f64| {
+                (!s.generators.is_empty()).then(|| s.generators.iter().map(f).sum::<f64>())
+            };
             figures.extend([
                 Figure::new("energy.initial", "J", e.initial),
+                Figure::new(
+                    "energy.dissipated_generators",
+                    "J",
+                    generators(|g| g.dissipated),
+                ),
+                Figure::new(
+                    "energy.harvested_in_load",
+                    "J",
+                    generators(|g| g.harvested_in_load),
+                ),
                 Figure::new("energy.dissipated_structure", "J", e.dissipated_structure),
                 Figure::new("energy.final_stored", "J", e.final_stored),
                 Figure::new("energy_balance_rel_error", "-", s.energy_balance_rel_error),

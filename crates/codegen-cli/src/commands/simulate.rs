@@ -1,23 +1,14 @@
 //! `damper simulate SCENARIO [-o DIR]`: the main job.
 //!
-//! A `kind = "damper"` scenario couples the beam and the generated double bar with its
-//! generator (hybrid-core), integrates it, runs the comparison runs of `[output] compare`
-//! (`generator_disconnected`: the mechanism and rotor inertia still attached;
-//! `bare_beam`: the beam alone) next to it, and writes into DIR:
-//!
-//! - `time_history.csv` (and `time_history_<comparison>.csv`, the bare beam's with its
-//!   columns only): time, tip displacement and velocity, crank and coupler angles and
-//!   rates, amplification q1'/y', generator current and power, energies, constraint
-//!   residual, cond(J^b) — units in every header;
-//! - `summary.json`: model hash, generator version, settings, peak amplitude, the decay
-//!   with the generator (`zeta_with_generator`, `frequency_with_generator_hz`,
-//!   `decay_with_generator` with the damping of every cycle), a `comparisons` block per
-//!   comparison run (label, zeta, frequency, decay, energies), energy account and
-//!   `energy_balance_rel_error`;
-//! - `tip_displacement.svg`: the tip displacement of every run (settings in the title, the
-//!   legend below the plot);
-//! - `damping_vs_amplitude.svg`: the damping ratio of each cycle against its amplitude, for
-//!   every run.
+//! A `kind = "damper"` scenario is a preset of the hybrid scenario (the loader rewrites it,
+//! [`crate::scenario::preset`]); it and every `kind = "hybrid"` scenario run through
+//! [`crate::run_hybrid`]: the system as described and the comparison runs of `[output]
+//! compare` (`generator_disconnected`: every generator's circuit open, the mechanism and
+//! rotor inertia still attached; `bare_beam`: the beam alone, read at the attachments'
+//! points), writing `time_history.csv` and `time_history_<comparison>.csv` (entity-prefixed
+//! columns, units in every header: [`crate::report::hybrid::Columns`]), `summary.json`
+//! ([`crate::report::hybrid::HybridSummary`], with a `comparisons` block per comparison
+//! run), `beam_displacement.svg` and `damping_vs_amplitude.svg`.
 //!
 //! A `kind = "mechanism"` scenario is a plain closed-loop mechanism (paper section 2.2,
 //! eqs. 14–25): it writes `<stem>.csv` (`t`, every coordinate, every velocity
@@ -30,9 +21,9 @@
 //! scenario file and the time reached.
 //!
 //! The CSV time histories are streamed row by row to temporary files next to their final
-//! names while the runs go ([`crate::report::stream`]); the damper run keeps only a digest
-//! of its samples (first sample, peak, damping ratio, plot points decimated to at most
-//! 20,000 a series: [`crate::report::digest`]), so memory does not grow with `t_end`. All
+//! names while the runs go ([`crate::report::stream`]); a run keeps only running figures
+//! and its plot points decimated to at most 20,000 a series ([`crate::report::digest`]),
+//! so memory does not grow with `t_end`. All
 //! files of a run are committed together by the one atomic writer, or none; a run that
 //! fails (or errors before the integration starts) leaves no file, no temporary file and
 //! no output directory it created.
@@ -41,27 +32,23 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use hybrid_core::closed_loop::Method;
-use hybrid_core::study::Sample;
 
 use crate::Error;
 use crate::budget::{self, Estimate};
-use crate::report::csv::{MechanismCsv, SampleLayout, SamplesCsv};
-use crate::report::plot::{plot_damping_vs_amplitude_svg, plot_series_svg, plot_svg};
+use crate::report::csv::MechanismCsv;
+use crate::report::plot::plot_series_svg;
 use crate::report::summary::{
-    ChangeSummary, DamperSummary, DriftSummary, FinalState, IntegratorSummary, MechanismSettings,
+    ChangeSummary, DriftSummary, FinalState, IntegratorSummary, MechanismSettings,
     MechanismSummary, PartitionSummary, Requested, json_bytes,
 };
 use crate::report::{OutputFile, OutputLock, ReportError, StreamFile, commit};
-use crate::run::{self, DamperOutcome, DamperRun, MechanismOutcome};
-use crate::scenario::damper::Comparison;
-use crate::scenario::{
-    self, DamperScenario, MechanismScenario, Override, OverrideRecord, Scenario,
-};
+use crate::run::{self, MechanismOutcome};
+use crate::scenario::{self, MechanismScenario, Override, OverrideRecord, Scenario};
 
 /// Arguments of `damper simulate`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Scenario file (`kind = "damper"` or `kind = "mechanism"`).
+    /// Scenario file (`kind = "damper"`, `"hybrid"` or `"mechanism"`).
     pub scenario: PathBuf,
     /// Output directory (default: `out/<scenario name>`).
     #[arg(short = 'o', long = "out")]
@@ -103,14 +90,6 @@ pub fn run(args: Args) -> Result<(), Error> {
         e => e,
     };
     match &loaded.scenario {
-        Scenario::Damper(sc) => damper(
-            &args.scenario,
-            &out,
-            sc,
-            progress,
-            args.allow_long,
-            overrides,
-        ),
         Scenario::Mechanism(sc) => {
             let stem = stem.unwrap_or_else(|| "mechanism".into());
             mechanism(
@@ -142,147 +121,9 @@ fn check_out_dir(out: &Path) -> Result<(), Error> {
     }
 }
 
-fn damper(
-    path: &Path,
-    out: &Path,
-    sc: &DamperScenario,
-    progress: bool,
-    allow_long: bool,
-    overrides: Vec<OverrideRecord>,
-) -> Result<(), Error> {
-    Estimate::damper(sc).check(&path.display().to_string(), allow_long)?;
-    let model = mbs_symbolic::model::load(&sc.model_path)?;
-    sc.check_parameters(&model)?;
-    // The time histories stream to their files as the runs go (a dropped stream, when a run
-    // fails, removes its temporary file); summary and plot follow from the digests.
-    let with_path = out.join("time_history.csv");
-    let mut with_csv = SamplesCsv::new(
-        StreamFile::create(&with_path).map_err(ReportError::from)?,
-        SampleLayout::Damper,
-    );
-    let compare = &sc.spec.output.compare;
-    let mut others = vec![];
-    for c in compare {
-        let path = out.join(format!("time_history_{}.csv", c.key()));
-        let layout = match c {
-            Comparison::GeneratorDisconnected => SampleLayout::Damper,
-            Comparison::BareBeam => SampleLayout::BareBeam,
-        };
-        let csv = SamplesCsv::new(
-            StreamFile::create(&path).map_err(ReportError::from)?,
-            layout,
-        );
-        others.push((path, csv));
-    }
-    let outcome = {
-        type Sink<'a> = Box<dyn FnMut(&Sample) -> Result<(), Error> + Send + 'a>;
-        let mut sinks: Vec<Sink<'_>> = others
-            .iter_mut()
-            .map(|(path, csv)| {
-                let path = &*path;
-                Box::new(move |s: &Sample| csv.push(s).map_err(|e| csv_error(path, e))) as Sink<'_>
-            })
-            .collect();
-        let mut refs: Vec<run::SampleSink<'_>> = sinks.iter_mut().map(|b| &mut **b as _).collect();
-        run::damper(
-            sc,
-            &model,
-            progress,
-            &mut |s| with_csv.push(s).map_err(|e| csv_error(&with_path, e)),
-            &mut refs,
-        )?
-    };
-    let mut streams = vec![
-        with_csv
-            .into_inner()
-            .map_err(|e| csv_error(&with_path, e))?,
-    ];
-    for (path, csv) in others {
-        streams.push(csv.into_inner().map_err(|e| csv_error(&path, e))?);
-    }
-    let files = damper_files(path, out, sc, &model, &outcome, overrides)?;
-    commit(streams, &files).map_err(ReportError::from)?;
-    let with = &outcome.with;
-    let mut runs = format!("with generator: {}", with.digest.decay().describe());
-    for (c, r) in &outcome.comparisons {
-        runs.push_str(&format!(
-            "; {}: {}",
-            c.legend(),
-            r.digest.decay().describe()
-        ));
-    }
-    crate::print(&format!(
-        "{}: {} steps in {:.3} s ({} mechanism); {runs}; peak {:.3} mm; energy balance error {:.1e}; outputs in {}\n",
-        path.display(),
-        with.state.steps,
-        with.wall.as_secs_f64(),
-        outcome.backend,
-        outcome.peak * 1e3,
-        with.energy_balance_rel_error,
-        out.display()
-    ))
-}
-
 /// A CSV row that could not be written: the file named when it is an I/O error.
 fn csv_error(path: &Path, e: ::csv::Error) -> Error {
     crate::report::csv_error(path, e).into()
-}
-
-/// The in-memory output files of a finished damper run (summary, plot; the time histories
-/// were streamed).
-fn damper_files(
-    path: &Path,
-    out: &Path,
-    sc: &DamperScenario,
-    model: &mbs_symbolic::model::Model,
-    o: &DamperOutcome,
-    overrides: Vec<OverrideRecord>,
-) -> Result<Vec<OutputFile>, ReportError> {
-    let summary = DamperSummary::new(path, sc, model, o, overrides);
-    let with = &o.with;
-    let mut files = vec![OutputFile {
-        path: out.join("summary.json"),
-        bytes: json_bytes(&summary)?,
-    }];
-    let runs: Vec<(&str, &DamperRun)> = std::iter::once(("with generator", with))
-        .chain(o.comparisons.iter().map(|(c, r)| (c.legend(), r)))
-        .collect();
-    let points: Vec<(&str, Vec<Sample>)> = runs
-        .iter()
-        .map(|(label, r)| (*label, r.digest.plot_points()))
-        .collect();
-    let series: Vec<(&str, &[Sample])> = points.iter().map(|(l, p)| (*l, &p[..])).collect();
-    let g = &sc.spec.generator;
-    let placement = match (sc.spec.mechanism.half_angle_deg, sc.spec.mechanism.pivot) {
-        (Some(a), _) => format!("half-angle {a} deg"),
-        (None, Some([x, y])) => format!("pivot ({x}, {y}) m"),
-        (None, None) => String::new(),
-    };
-    let settings = format!(
-        "{placement}, load resistance {} ohm, gear ratio {}",
-        g.load_resistance, g.gear_ratio
-    );
-    files.push(OutputFile {
-        path: out.join("tip_displacement.svg"),
-        bytes: plot_svg(&format!("Beam tip displacement ({settings})"), &series)?,
-    });
-    let decays: Vec<(&str, Vec<(f64, f64)>)> = runs
-        .iter()
-        .map(|(label, r)| {
-            let d = r.digest.decay();
-            let points = d.cycles().iter().map(|c| (c.amplitude, c.zeta)).collect();
-            (*label, points)
-        })
-        .collect();
-    let decays: Vec<(&str, &[(f64, f64)])> = decays.iter().map(|(l, p)| (*l, &p[..])).collect();
-    files.push(OutputFile {
-        path: out.join("damping_vs_amplitude.svg"),
-        bytes: plot_damping_vs_amplitude_svg(
-            &format!("Damping ratio per cycle vs tip amplitude ({settings})"),
-            &decays,
-        )?,
-    });
-    Ok(files)
 }
 
 fn mechanism(

@@ -920,7 +920,7 @@ fn plots(
     let (zw, zd, zt) = (
         pct("linear.zeta1"),
         pct("linear.zeta1_generator_disconnected"),
-        pct("zeta_with_generator"),
+        pct("damping_ratio"),
     );
     draw(
         "sweep_damping.svg",
@@ -950,7 +950,8 @@ fn plots(
     )?;
     let harvested = |r: &PointResult| {
         let h = value(r, "energy.harvested_in_load")?;
-        let d = value(r, "energy.dissipated_generator")? + value(r, "energy.dissipated_structure")?;
+        let d =
+            value(r, "energy.dissipated_generators")? + value(r, "energy.dissipated_structure")?;
         (d > 0.0).then(|| 100.0 * h / d)
     };
     draw(

@@ -17,8 +17,9 @@
 //!   mechanism has free coordinates or several attachments) also `A.speed_ratio [rad/m]`,
 //!   generator joint speed / beam point speed (empty where the beam point is at rest);
 //! - per force element `F`: `F.dissipated [J]`; a generator also `F.current [A]`,
-//!   `F.power [W]` (`(R_a + R_L) i^2`) and `F.harvested [J]` (the load's share `R_L / (R_a +
-//!   R_L)` of the dissipated energy);
+//!   `F.power [W]` (`(R_a + R_L) i^2`), `F.load_power [W]` (`R_L i^2`, the power harvested
+//!   in the load) and `F.harvested [J]` (the load's share `R_L / (R_a + R_L)` of the
+//!   dissipated energy);
 //! - per excitation `E`: `E.value [N|N m]` and `E.work [J]`;
 //! - the energy account: `beam_kinetic [J]`, `beam_potential [J]`, per mechanism
 //!   `M.kinetic [J]` and `M.potential [J]`, `magnetic [J]`, `stored [J]`,
@@ -34,7 +35,7 @@ use serde::Serialize;
 
 use crate::scenario::OverrideRecord;
 
-use crate::scenario::damper::IntegratorSpec;
+use crate::scenario::integrator::IntegratorSpec;
 
 /// The CSV layout of a hybrid run: header and the row of a state.
 #[derive(Clone, Debug)]
@@ -99,6 +100,7 @@ impl Columns {
             if f.generator().is_some() {
                 h.push(format!("{}.current [A]", f.name));
                 h.push(format!("{}.power [W]", f.name));
+                h.push(format!("{}.load_power [W]", f.name));
                 h.push(format!("{}.harvested [J]", f.name));
             }
         }
@@ -190,6 +192,7 @@ impl Columns {
                 let i = state.currents[k];
                 c.push(i);
                 c.push(g.resistance() * i * i);
+                c.push(g.load_resistance * i * i);
                 c.push(d * g.load_resistance / g.resistance());
             }
         }
@@ -417,6 +420,8 @@ pub struct GeneratorReport {
     pub mean_load_power: f64,
     /// Largest |current| at the output steps (A).
     pub peak_current: f64,
+    /// Its parameters as run (overrides applied; a comparison run's with the circuit open).
+    pub settings: hybrid_core::generator::GeneratorSpec,
 }
 
 /// One excitation of a hybrid run.

@@ -1,6 +1,5 @@
 //! The plots of a run (plotters, SVG backend, no system fonts needed): displacements
-//! against time — the damper's tip with and without the generator and the comparison runs,
-//! a hybrid run's beam points —, the damping ratio of each cycle against its amplitude, and
+//! against time — a run's beam points and those of its comparison runs —, the damping ratio of each cycle against its amplitude, and
 //! a mechanism's coordinates against time.
 //!
 //! Every plot has its main settings in the title and its legend in a band below the plot
@@ -8,8 +7,6 @@
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
-
-use hybrid_core::study::Sample;
 
 /// The plot could not be drawn (plotters' message).
 #[derive(Debug, thiserror::Error)]
@@ -79,22 +76,6 @@ fn with_legend(
         root.present().map_err(PlotError::of)?;
     }
     Ok(svg.into_bytes())
-}
-
-/// SVG plot of the tip displacement (mm) against time for each labelled series (the first
-/// on top).
-pub fn plot_svg(title: &str, series: &[(&str, &[Sample])]) -> Result<Vec<u8>, PlotError> {
-    let lines: Vec<(&str, Vec<(f64, f64)>)> = series
-        .iter()
-        .map(|(label, s)| {
-            (
-                *label,
-                s.iter().map(|x| (x.t, x.tip_displacement)).collect(),
-            )
-        })
-        .collect();
-    let lines: Vec<(&str, &[(f64, f64)])> = lines.iter().map(|(l, p)| (*l, &p[..])).collect();
-    plot_displacements_svg(title, "tip displacement [mm]", &lines)
 }
 
 /// SVG plot of displacements `(t (s), y (m))`, drawn in mm against time, one line per

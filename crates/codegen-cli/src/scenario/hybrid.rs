@@ -83,7 +83,8 @@ use toml::Spanned;
 use toml::de::{DeTable, DeValue, ValueDeserializer};
 
 use super::Doc;
-use super::damper::{Comparison, IntegratorSpec, check_integrator};
+use super::compare::Comparison;
+use super::integrator::{IntegratorSpec, check_integrator};
 
 /// One `[[mechanism]]`, checked against the file (names not yet against its model).
 #[derive(Clone, Debug, PartialEq)]
@@ -1042,6 +1043,64 @@ impl HybridScenario {
     /// attachments (points on ground, over-constraint, beam points), builds the hybrid model
     /// and its initial state. Every problem is reported at once.
     pub fn build(&self) -> Result<Built, Diagnostics> {
+        let (model, models) = self.build_model()?;
+        let n = model.beam_dofs();
+        let q0 = match (self.initial, &model.beam) {
+            (Some((d, x)), Some(b)) => {
+                let point = BeamPoint::on(b, x).filter(|p| !p.is_locked());
+                let Some(point) = point else {
+                    return Err(self
+                        .at(
+                            Kind::InvalidValue,
+                            self.initial_x_span.as_ref(),
+                            "[initial] x",
+                            "a support locks the beam there: no static shape of a load",
+                        )
+                        .into());
+                };
+                initial_deflection(b, &point, d).map_err(|e| {
+                    self.at(
+                        Kind::InvalidValue,
+                        self.initial_x_span.as_ref(),
+                        "[initial]",
+                        e.to_string(),
+                    )
+                })?
+            }
+            _ => vec![0.0; n],
+        };
+        let state = initial_state(&model, q0, vec![0.0; n]).map_err(|e| {
+            let span = match &e {
+                HybridError::Partition { mechanism, .. }
+                | HybridError::Singular { mechanism, .. }
+                | HybridError::NoAssembly { mechanism, .. } => self
+                    .mechanisms
+                    .iter()
+                    .find(|m| &m.name == mechanism)
+                    .map(|m| &m.span),
+                _ => None,
+            };
+            let d = Diagnostic::new(
+                Kind::InvalidValue,
+                self.path.display().to_string(),
+                format!("initial state: {e}"),
+            );
+            Diagnostics::from(match span {
+                Some(s) => d.at_offset(&self.index, s.start),
+                None => d,
+            })
+        })?;
+        Ok(Built {
+            model,
+            state,
+            models,
+        })
+    }
+
+    /// The hybrid system of the scenario and its mechanism models (in the order of the
+    /// mechanisms), without the initial state: what a linearisation about the rest position
+    /// needs (an initial displacement out of the mechanism's reach does not stop it).
+    pub fn build_model(&self) -> Result<(HybridModel, Vec<Model>), Diagnostics> {
         let mut diags: Vec<Diagnostic> = vec![];
         let beam = match &self.beam {
             Some((_, b)) => match BeamModel::new(b) {
@@ -1409,31 +1468,6 @@ impl HybridScenario {
                 beam,
             })
             .collect();
-        let n = beam.as_ref().map_or(0, BeamModel::dof_count);
-        let q0 = match (self.initial, &beam) {
-            (Some((d, x)), Some(b)) => {
-                let point = BeamPoint::on(b, x).filter(|p| !p.is_locked());
-                let Some(point) = point else {
-                    return Err(self
-                        .at(
-                            Kind::InvalidValue,
-                            self.initial_x_span.as_ref(),
-                            "[initial] x",
-                            "a support locks the beam there: no static shape of a load",
-                        )
-                        .into());
-                };
-                initial_deflection(b, &point, d).map_err(|e| {
-                    self.at(
-                        Kind::InvalidValue,
-                        self.initial_x_span.as_ref(),
-                        "[initial]",
-                        e.to_string(),
-                    )
-                })?
-            }
-            _ => vec![0.0; n],
-        };
         let model =
             HybridModel::new(beam, mechanisms, attachments, forces, excitations).map_err(|e| {
                 Diagnostics::from(Diagnostic::new(
@@ -1442,31 +1476,6 @@ impl HybridScenario {
                     e.to_string(),
                 ))
             })?;
-        let state = initial_state(&model, q0, vec![0.0; n]).map_err(|e| {
-            let span = match &e {
-                HybridError::Partition { mechanism, .. }
-                | HybridError::Singular { mechanism, .. }
-                | HybridError::NoAssembly { mechanism, .. } => self
-                    .mechanisms
-                    .iter()
-                    .find(|m| &m.name == mechanism)
-                    .map(|m| &m.span),
-                _ => None,
-            };
-            let d = Diagnostic::new(
-                Kind::InvalidValue,
-                self.path.display().to_string(),
-                format!("initial state: {e}"),
-            );
-            Diagnostics::from(match span {
-                Some(s) => d.at_offset(&self.index, s.start),
-                None => d,
-            })
-        })?;
-        Ok(Built {
-            model,
-            state,
-            models,
-        })
+        Ok((model, models))
     }
 }

@@ -1,8 +1,10 @@
 //! The one scenario loader: a TOML file whose `kind` tag (default `"damper"`) says what it
 //! describes.
 //!
-//! - `kind = "damper"` ([`damper`]): an elastic beam, a double bar pinned to one of its
-//!   points (eqs. 45–58) and the DC generator, with initial conditions and the integrator;
+//! - `kind = "damper"` ([`preset`]): an elastic beam, a double bar pinned to one of its
+//!   points (eqs. 45–58) and the DC generator, with initial conditions and the integrator —
+//!   a preset: its tables are rewritten into the hybrid tables they mean and read by the
+//!   hybrid reader, every problem still reported at the damper file's line;
 //! - `kind = "mechanism"` ([`mechanism`]): a rigid closed-loop mechanism integrated in
 //!   independent coordinates (eqs. 14–25);
 //! - `kind = "hybrid"` ([`hybrid`]): an optional beam, any mechanisms, attachments, force
@@ -17,8 +19,9 @@
 //! `--set PATH=VALUE` overrides ([`overrides`]) edit the text before it is parsed
 //! ([`load_with`], [`parse_with`]): one code path for every kind.
 
-pub mod damper;
+pub mod compare;
 pub mod hybrid;
+pub mod integrator;
 pub mod mechanism;
 pub mod overrides;
 pub mod preset;
@@ -32,7 +35,7 @@ use serde::de::DeserializeOwned;
 use toml::Spanned;
 use toml::de::{DeTable, DeValue, ValueDeserializer};
 
-pub use damper::DamperScenario;
+pub use compare::Comparison;
 pub use hybrid::HybridScenario;
 pub use mechanism::MechanismScenario;
 pub use overrides::{Applied, Override, OverrideRecord};
@@ -43,11 +46,10 @@ pub const KINDS: [&str; 3] = ["damper", "mechanism", "hybrid"];
 /// A loaded and checked scenario of either kind.
 #[derive(Clone, Debug)]
 pub enum Scenario {
-    /// `kind = "damper"`.
-    Damper(Box<DamperScenario>),
     /// `kind = "mechanism"`.
     Mechanism(Box<MechanismScenario>),
-    /// `kind = "hybrid"`.
+    /// `kind = "hybrid"`, and `kind = "damper"` read as the hybrid scenario it is a preset
+    /// of ([`preset`]).
     Hybrid(Box<HybridScenario>),
 }
 
@@ -118,7 +120,10 @@ pub fn parse_in(text: &str, file: &str, base: &Path) -> Result<Scenario, Diagnos
     let mut doc = Doc::parse(text, file, base)?;
     let kind = doc.kind();
     let scenario = match kind.as_deref() {
-        Some("damper") => damper::from_doc(&mut doc).map(|s| Scenario::Damper(Box::new(s))),
+        Some("damper") => {
+            preset::expand(&mut doc);
+            hybrid::from_doc(&mut doc).map(|s| Scenario::Hybrid(Box::new(s)))
+        }
         Some("mechanism") => {
             mechanism::from_doc(&mut doc).map(|s| Scenario::Mechanism(Box::new(s)))
         }
@@ -128,32 +133,6 @@ pub fn parse_in(text: &str, file: &str, base: &Path) -> Result<Scenario, Diagnos
     let diags = doc.finish();
     match scenario {
         Some(s) if diags.is_empty() => Ok(s),
-        _ => Err(diags),
-    }
-}
-
-/// A damper scenario (`kind` absent or `"damper"`) read as the hybrid scenario it is a
-/// preset of ([`preset`]): the same checks as any hybrid scenario, every problem at the
-/// damper file's line and column.
-pub fn parse_damper_as_hybrid(text: &str, path: &Path) -> Result<HybridScenario, Diagnostics> {
-    let base = path.parent().unwrap_or(Path::new("."));
-    let mut doc = Doc::parse(text, &path.display().to_string(), base)?;
-    let scenario = match doc.kind().as_deref() {
-        Some("damper") => {
-            preset::expand(&mut doc);
-            hybrid::from_doc(&mut doc)
-        }
-        _ => None,
-    };
-    let diags = doc.finish();
-    match scenario {
-        Some(s) if diags.is_empty() => Ok(s),
-        _ if diags.is_empty() => Err(Diagnostic::new(
-            Kind::Unsupported,
-            path.display().to_string(),
-            "not a damper scenario (`kind = \"damper\"`)",
-        )
-        .into()),
         _ => Err(diags),
     }
 }

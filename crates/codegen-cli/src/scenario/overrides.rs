@@ -204,10 +204,10 @@ impl Applied {
         if d.file != file {
             return d;
         }
-        let by = match d.line {
-            Some(line) => self.lines.iter().rposition(|r| r.contains(&line)),
-            // No line: a check of a whole section (`[beam]`) names the last override in it.
-            None => self.overrides.iter().rposition(|o| {
+        // A check of a whole section (`[beam]`, at its header or without a line) names the
+        // last override in it.
+        let in_section = || {
+            self.overrides.iter().rposition(|o| {
                 let Some(Step::Key(section)) = o.steps.first() else {
                     return false;
                 };
@@ -216,7 +216,15 @@ impl Applied {
                         .and_then(|e| e.strip_prefix(section.as_str()))
                         .is_some_and(|rest| rest.starts_with([']', '.', '[']))
                 })
-            }),
+            })
+        };
+        let by = match d.line {
+            Some(line) => self
+                .lines
+                .iter()
+                .rposition(|r| r.contains(&line))
+                .or_else(in_section),
+            None => in_section(),
         };
         match by {
             Some(k) => {

@@ -12,7 +12,6 @@ use mbs_symbolic::runtime::TangentSystem;
 use hybrid_core::damper::Method;
 use hybrid_core::hybrid::{EquilibriumOptions, HybridModel, LinearError, Linearization};
 
-use super::hybrid::Built;
 use super::{HybridScenario, Scenario};
 use crate::Error;
 
@@ -35,35 +34,13 @@ pub struct Linearizable {
 /// (no beam, nothing to linearise about a rest state here) is a usage error.
 pub fn tangents_for(scenario: &Scenario) -> Result<Linearizable, Error> {
     match scenario {
-        Scenario::Damper(sc) => {
-            let model = mbs_symbolic::model::load(&sc.model_path)?;
-            sc.check_parameters(&model)?;
-            let system = crate::system_for(&model, None)?.system;
-            // The model only (not `study::prepare`): the equilibrium does not need the
-            // initial state, which may be out of the mechanism's reach where the rest
-            // position is not.
-            let (coupled, guess) = hybrid_core::study::build_model(&sc.setup, &model, system, true)
-                .map_err(|e| Error::Input(sc.diagnostic(&e).into()))?;
-            let (hybrid, _) = hybrid_core::study::hybrid_of(&sc.setup, &coupled, guess)
-                .map_err(|e| Error::Input(sc.diagnostic(&e).into()))?;
-            let params: Vec<(String, f64)> = sc
-                .setup
-                .parameters
-                .iter()
-                .map(|(k, v)| (k.clone(), *v))
-                .collect();
-            Ok(Linearizable {
-                model: hybrid,
-                tangents: vec![tangent(&model, &params)?],
-                method: sc.setup.method,
-                dt: sc.setup.dt,
-            })
-        }
         Scenario::Hybrid(sc) => {
-            let built = sc.build()?;
-            let tangents = hybrid_tangents(sc, &built)?;
+            // The model only: the equilibrium does not need the initial state, which may be
+            // out of the mechanism's reach where the rest position is not.
+            let (model, models) = sc.build_model()?;
+            let tangents = hybrid_tangents(sc, &models)?;
             Ok(Linearizable {
-                model: built.model,
+                model,
                 tangents,
                 method: sc.method,
                 dt: sc.integrator.dt,
@@ -78,9 +55,8 @@ pub fn tangents_for(scenario: &Scenario) -> Result<Linearizable, Error> {
 
 /// One tangent model per mechanism of a built hybrid scenario, with the scenario's
 /// run-time parameters.
-pub fn hybrid_tangents(sc: &HybridScenario, built: &Built) -> Result<Vec<TangentSystem>, Error> {
-    built
-        .models
+pub fn hybrid_tangents(sc: &HybridScenario, models: &[Model]) -> Result<Vec<TangentSystem>, Error> {
+    models
         .iter()
         .zip(&sc.mechanisms)
         .map(|(m, entry)| {

@@ -127,7 +127,7 @@ fn damper_kind_amplification_at_rest_is_the_kinematic_influence_of_the_linearisa
     ]);
     assert_eq!(code, 0, "{err}");
     let (header, rows) = read_csv(&dir.join("time_history.csv"));
-    let amp = column(&header, "amplification [rad/m]");
+    let amp = column(&header, "pin.amplification [rad/m]");
     let first = rows[0][amp];
     let linear = linearised_amplification("scenarios/damper.toml");
     assert!(

@@ -86,7 +86,11 @@ fn damper_scenario_zero_mass_override_is_refused_naming_the_parameter() {
             "-o",
             out.to_str().unwrap(),
         ],
-        &["[mechanism] parameters", "mass must be positive", "m1 = 0"],
+        &[
+            "mechanism \"damper\": parameters",
+            "mass must be positive",
+            "m1 = 0",
+        ],
     );
     assert!(!out.exists());
     let _ = std::fs::remove_dir_all(&dir);
@@ -269,7 +273,11 @@ fn damper_scenario_overflowing_generator_is_refused_at_its_line() {
                 "-o",
                 out.to_str().unwrap(),
             ],
-            &[&format!("damper.toml:{line}:"), "[generator]", message],
+            &[
+                &format!("damper.toml:{line}:"),
+                "force \"generator\"",
+                message,
+            ],
         );
         assert!(!err.contains("cannot reach"), "{err}");
         assert!(!out.exists(), "no output directory for a refused scenario");

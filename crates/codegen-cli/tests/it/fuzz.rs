@@ -204,26 +204,6 @@ fn check_beam(text: &str) {
 fn check_scenario(text: &str, base: &Path) {
     match scenario::parse_in(text, "fuzz_scenario.toml", base) {
         Err(d) => names_file("scenario", &d.to_string(), "fuzz_scenario.toml"),
-        Ok(Scenario::Damper(mut sc)) => {
-            accepted(1);
-            let Ok(m) = model::load(&sc.model_path) else {
-                return;
-            };
-            if sc.check_parameters(&m).is_err() {
-                return;
-            }
-            // A few time steps only.
-            sc.setup.t_end = sc.setup.t_end.min(20.0 * sc.setup.dt);
-            sc.spec.output.compare = vec![];
-            let mut finite = |s: &hybrid_core::study::Sample| {
-                assert!(s.t.is_finite() && s.tip_displacement.is_finite(), "{s:?}");
-                Ok(())
-            };
-            if let Ok(o) = codegen_cli::run::damper(&sc, &m, false, &mut finite, &mut []) {
-                accepted(3);
-                assert!(o.peak.is_finite(), "peak {}", o.peak);
-            }
-        }
         Ok(Scenario::Hybrid(sc)) => {
             accepted(1);
             // Models, names and geometry are checked by `build`: a typed error naming the

@@ -53,7 +53,8 @@ fn simulate_damper_writes_history_summary_and_plot() {
         out.to_str().unwrap(),
     ]);
     assert_eq!(code, 0, "{stderr}");
-    assert!(stdout.contains("with generator: zeta"), "{stdout}");
+    assert!(stdout.contains("(generated), 1 attachment(s)"), "{stdout}");
+    assert!(stdout.contains("; zeta "), "{stdout}");
     assert!(
         stdout.contains("bare beam (no mechanism): zeta"),
         "{stdout}"
@@ -61,29 +62,31 @@ fn simulate_damper_writes_history_summary_and_plot() {
     assert_eq!(
         files_in(&out),
         [
+            "beam_displacement.svg",
             "damping_vs_amplitude.svg",
             "summary.json",
             "time_history.csv",
             "time_history_bare_beam.csv",
             "time_history_generator_disconnected.csv",
-            "tip_displacement.svg"
         ]
     );
     let csv = std::fs::read_to_string(out.join("time_history.csv")).unwrap();
     let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
     for col in [
         "t [s]",
-        "tip_displacement [m]",
-        "tip_velocity [m/s]",
-        "crank_angle [rad]",
-        "coupler_angle [rad]",
-        "crank_rate [rad/s]",
-        "coupler_rate [rad/s]",
-        "amplification [rad/m]",
-        "current [A]",
-        "generator_power [W]",
-        "total_energy [J]",
-        "constraint_residual [m]",
+        "pin.w [m]",
+        "pin.w_dot [m/s]",
+        "damper.q1 [rad]",
+        "damper.q2 [rad]",
+        "damper.q1_dot [rad/s]",
+        "damper.q2_dot [rad/s]",
+        "pin.amplification [rad/m]",
+        "generator.current [A]",
+        "generator.power [W]",
+        "generator.load_power [W]",
+        "stored [J]",
+        "damper.constraint_residual [m]",
+        "damper.cond_jd [-]",
     ] {
         assert!(header.contains(&col), "missing column {col}: {header:?}");
     }
@@ -94,51 +97,46 @@ fn simulate_damper_writes_history_summary_and_plot() {
     );
     let bare = std::fs::read_to_string(out.join("time_history_bare_beam.csv")).unwrap();
     let bare_header: Vec<&str> = bare.lines().next().unwrap().split(',').collect();
+    assert!(bare_header.contains(&"pin.w [m]"), "{bare_header:?}");
     assert!(
-        bare_header.contains(&"tip_displacement [m]"),
-        "{bare_header:?}"
-    );
-    assert!(
-        !bare_header.iter().any(|h| h.contains("crank")),
+        !bare_header.iter().any(|h| h.starts_with("damper.")),
         "no mechanism columns on the bare beam: {bare_header:?}"
     );
     assert_eq!(bare.lines().count(), 1 + 1 + 1500);
     let s: Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     let model = mbs_symbolic::model::load(&root().join("models/double_bar.toml")).unwrap();
-    assert_eq!(s["model_hash"], model.source.hash.as_str());
+    assert_eq!(s["mechanisms"][0]["model_hash"], model.source.hash.as_str());
     assert_eq!(
         s["generator_version"],
         mbs_symbolic::emit::GENERATOR_VERSION
     );
-    assert_eq!(s["mechanism_backend"], "generated");
+    assert_eq!(s["mechanisms"][0]["backend"], "generated");
     let c = &s["comparisons"];
     assert_eq!(
         c["generator_disconnected"]["label"],
         "generator disconnected (mechanism + rotor inertia attached)"
     );
     assert_eq!(c["bare_beam"]["label"], "bare beam (no mechanism)");
-    let zw = s["zeta_with_generator"].as_f64().unwrap();
-    let zo = c["generator_disconnected"]["zeta"].as_f64().unwrap();
+    let zw = s["damping_ratio"].as_f64().unwrap();
+    let zo = c["generator_disconnected"]["damping_ratio"]
+        .as_f64()
+        .unwrap();
     assert!(zw > 10.0 * zo && zo > 0.0, "{zw} {zo}");
-    assert_eq!(s["decay_with_generator"]["kind"], "oscillatory");
+    assert_eq!(s["decay"]["kind"], "oscillatory");
     assert!(
-        s["decay_with_generator"]["cycles"]
-            .as_array()
-            .unwrap()
-            .len()
-            >= 5,
+        s["decay"]["cycles"].as_array().unwrap().len() >= 5,
         "{}",
-        s["decay_with_generator"]
+        s["decay"]
     );
     // The bare beam, read through the modal filter of its first mode, decays with the
     // Rayleigh ratio of mode 1 (0.2 %) at the first frequency: Newmark's average
     // acceleration adds no numerical damping and shifts the period by (w h)^2 / 12 ~ 1e-6,
     // and the estimator's own error on ten cycles is ~1e-6 (hybrid-core's tests/decay.rs):
     // 1e-5 relative.
-    let zb = c["bare_beam"]["zeta"].as_f64().unwrap();
+    let zb = c["bare_beam"]["damping_ratio"].as_f64().unwrap();
     assert!((zb - 0.002).abs() < 1e-5 * 0.002, "bare beam zeta {zb}");
-    let fb = c["bare_beam"]["frequency_hz"].as_f64().unwrap();
+    let fb = c["bare_beam"]["decay"]["frequency_hz"].as_f64().unwrap();
     let f1 = s["beam_first_frequency_hz"].as_f64().unwrap();
     let fd = f1 * (1.0 - 0.002f64.powi(2)).sqrt();
     assert!(
@@ -147,21 +145,18 @@ fn simulate_damper_writes_history_summary_and_plot() {
     );
     // With the mechanism and rotor inertia attached (generator disconnected), the frequency
     // is lower than the bare beam's.
-    let fo = c["generator_disconnected"]["frequency_hz"]
+    let fo = c["generator_disconnected"]["decay"]["frequency_hz"]
         .as_f64()
         .unwrap();
     assert!(fo < fb, "{fo} vs {fb}");
     assert!(s["energy_balance_rel_error"].as_f64().unwrap() < 1e-5);
     assert!((s["peak_amplitude"].as_f64().unwrap() - 1e-3).abs() < 1e-9);
-    let svg = std::fs::read_to_string(out.join("tip_displacement.svg")).unwrap();
+    let svg = std::fs::read_to_string(out.join("beam_displacement.svg")).unwrap();
     assert!(svg.starts_with("<svg"));
     for label in [
-        "with generator",
-        "generator disconnected (mechanism + rotor inertia attached)",
-        "bare beam (no mechanism)",
-        "half-angle 10 deg",
-        "load resistance 3.5 ohm",
-        "gear ratio 5",
+        "pin",
+        "pin (generator disconnected (mechanism + rotor inertia attached))",
+        "pin (bare beam (no mechanism))",
     ] {
         assert!(svg.contains(label), "{label} not in the plot");
     }
@@ -194,10 +189,8 @@ fn the_older_comparison_key_is_a_synonym() {
     assert!(!out.join("time_history_bare_beam.csv").exists());
     let s: Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    assert_eq!(
-        s["settings"]["output"]["compare"],
-        serde_json::json!(["generator_disconnected"])
-    );
+    let compared: Vec<&String> = s["comparisons"].as_object().unwrap().keys().collect();
+    assert_eq!(compared, ["generator_disconnected"]);
     assert!(s["comparisons"]["generator_disconnected"].is_object());
     let (dir2, sc) = scenario_copy(
         "both-keys",
@@ -304,7 +297,7 @@ fn bad_scenarios_name_file_line_and_entity() {
             "-o",
             dir2.join("o").to_str().unwrap(),
         ],
-        &["scenario.toml:43", "[generator]", "load_resistance"],
+        &["scenario.toml:43", "force \"generator\"", "load_resistance"],
     );
     let (dir3, sc) = scenario_copy(
         "badangle",

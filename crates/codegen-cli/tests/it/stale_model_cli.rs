@@ -121,7 +121,7 @@ fn an_unedited_copy_runs_the_generated_code_without_a_notice() {
     ]);
     assert_eq!(code, 0, "{stderr}");
     assert!(notices(&stderr).is_empty(), "{stderr}");
-    assert!(stdout.contains("(generated mechanism)"), "{stdout}");
+    assert!(stdout.contains("1 mechanism(s) (generated)"), "{stdout}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -96,7 +96,7 @@ fn set_changes_the_result_and_is_recorded_in_the_summary() {
         "high",
         &["integrator.t_end=0.5", "generator.load_resistance=10"],
     );
-    let z = |s: &serde_json::Value| s["zeta_with_generator"].as_f64().unwrap();
+    let z = |s: &serde_json::Value| s["damping_ratio"].as_f64().unwrap();
     // A larger load resistance lowers the current, hence the electrical damping.
     assert!(z(&high) < 0.6 * z(&base), "{} vs {}", z(&high), z(&base));
     assert_eq!(
@@ -106,7 +106,7 @@ fn set_changes_the_result_and_is_recorded_in_the_summary() {
             {"path": "generator.load_resistance", "value": 10}
         ])
     );
-    assert_eq!(high["settings"]["generator"]["load_resistance"], 10.0);
+    assert_eq!(high["generators"][0]["settings"]["load_resistance"], 10.0);
     // A hybrid scenario: a field of the second mechanism.
     let out = dir.join("hybrid");
     let (code, _, err) = damper(&[
@@ -239,7 +239,7 @@ fn sweeps_record_failed_points_and_do_not_depend_on_threads_or_shards() {
     assert_eq!(&header[header.len() - 1], "error");
     let zeta_col = header
         .iter()
-        .position(|h| h == "zeta_with_generator [-]")
+        .position(|h| h == "damping_ratio [-]")
         .expect("time-domain figures after the linearised ones");
     assert!(header.iter().any(|h| h == "linear.zeta1 [-]"));
     let rows: Vec<csv::StringRecord> = rows.records().map(Result::unwrap).collect();
