@@ -41,6 +41,7 @@ use diagnostic::Diagnostics;
 
 /// What can go wrong in a command.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum Error {
     /// Problems in user files (a scenario, a mechanism model), every one with its position.
     #[error(transparent)]
@@ -120,6 +121,9 @@ pub enum Error {
     /// Invalid command-line input.
     #[error("{0}")]
     Usage(String),
+    /// Invalid `--set PATH=VALUES` or `--shard` options of a sweep.
+    #[error(transparent)]
+    Sweep(#[from] commands::sweep::SpecError),
     /// Writing to standard output failed (a closed pipe: `BrokenPipe`).
     #[error("cannot write to standard output: {0}")]
     Stdout(std::io::Error),

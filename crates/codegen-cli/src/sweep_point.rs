@@ -58,6 +58,29 @@ impl Figure {
     }
 }
 
+/// Why a point has no figures (recorded as its one-line message).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum PointError {
+    /// The scenario with the point's overrides is refused by the loader.
+    #[error(transparent)]
+    Input(#[from] diagnostic::Diagnostics),
+    /// The point's linearisation or run failed, or it is above the step limit.
+    #[error(transparent)]
+    Run(#[from] Box<Error>),
+    /// A figure came out non-finite.
+    #[error("figure {name} is not finite ({value})")]
+    NotFinite {
+        /// The figure.
+        name: String,
+        /// Its value.
+        value: f64,
+    },
+    /// The evaluation panicked (a bug: reported as the point's error, the sweep goes on).
+    #[error("the evaluation panicked")]
+    Panicked,
+}
+
 /// What a point evaluates.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PointOptions {
@@ -69,21 +92,22 @@ pub struct PointOptions {
 
 /// Evaluates one point: `text` (the scenario file `path`, the base of its relative paths)
 /// with `overrides` applied in order. An error (a value the loader rejects, a run that
-/// stops at the singular position, a divergence) is returned as its one-line message.
+/// stops at the singular position, a divergence) is a [`PointError`].
 pub fn evaluate(
     path: &Path,
     text: &str,
     overrides: &[Override],
     options: &PointOptions,
-) -> Result<Vec<Figure>, String> {
-    let one_line = |e: &dyn std::fmt::Display| e.to_string().replace('\n', "; ");
-    let loaded = scenario::parse_with(text, path, overrides).map_err(|d| one_line(&d))?;
+) -> Result<Vec<Figure>, PointError> {
+    let loaded = scenario::parse_with(text, path, overrides)?;
     let mut figures = vec![];
-    let remap = |e: Error| match e {
-        Error::Input(d) => Error::Input(loaded.remap(d)),
-        e => e,
+    let remap = |e: Error| {
+        Box::new(match e {
+            Error::Input(d) => Error::Input(loaded.remap(d)),
+            e => e,
+        })
     };
-    linearised(path, &loaded, &mut figures).map_err(|e| one_line(&remap(e)))?;
+    linearised(path, &loaded, &mut figures).map_err(remap)?;
     if options.time_domain {
         if let Some(steps) = budget::steps_per_run(&loaded.scenario) {
             budget::refuse_above(
@@ -92,25 +116,24 @@ pub fn evaluate(
                 "shorten t_end",
                 options.allow_long,
             )
-            .map_err(|e| one_line(&e))?;
+            .map_err(|e| Box::new(Error::from(e)))?;
         }
-        time_domain(path, &loaded, &mut figures).map_err(|e| one_line(&remap(e)))?;
+        time_domain(path, &loaded, &mut figures).map_err(remap)?;
     }
     finite(&figures)?;
     Ok(figures)
 }
 
 /// Refuses figures of which one is not finite, naming it (the point's error).
-fn finite(figures: &[Figure]) -> Result<(), String> {
+fn finite(figures: &[Figure]) -> Result<(), PointError> {
     match figures
         .iter()
         .find(|f| f.value.is_some_and(|v| !v.is_finite()))
     {
-        Some(f) => Err(format!(
-            "figure {} is not finite ({})",
-            f.name,
-            f.value.unwrap_or_default()
-        )),
+        Some(f) => Err(PointError::NotFinite {
+            name: f.name.clone(),
+            value: f.value.unwrap_or_default(),
+        }),
         None => Ok(()),
     }
 }
@@ -245,10 +268,10 @@ mod tests {
             Figure::new("linear.f1", "Hz", 5.9),
             Figure::new("zeta_with_generator", "-", None),
         ];
-        assert_eq!(finite(&ok), Ok(()));
+        assert!(finite(&ok).is_ok());
         for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
             let figures = [ok[0].clone(), Figure::new("energy.initial", "J", bad)];
-            let e = finite(&figures).unwrap_err();
+            let e = finite(&figures).unwrap_err().to_string();
             assert!(e.contains("figure energy.initial is not finite"), "{e}");
         }
     }

@@ -19,12 +19,23 @@
 
 use std::path::PathBuf;
 
-use anyhow::{Context, Result, bail};
 use mbs_symbolic::dynamics::Symbolic;
 use mbs_symbolic::expr::OpCount;
 use mbs_symbolic::model::{self, Model};
 use mbs_symbolic::runtime::{Backend as RtBackend, System};
 use serde_json::{Map, Value, json};
+
+use crate::Error;
+use crate::report::ReportError;
+
+type Result<T> = std::result::Result<T, Error>;
+
+/// Returns a usage error (the command line asks for something the model cannot give).
+macro_rules! bail {
+    ($($t:tt)*) => {
+        return Err(Error::Usage(format!($($t)*)))
+    };
+}
 
 /// Which implementation evaluates the equations.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -88,11 +99,11 @@ fn apply_params(model: &mut Model, overrides: &[String]) -> Result<Vec<usize>> {
             .parse()
             .ok()
             .filter(|v: &f64| v.is_finite())
-            .with_context(|| {
-                format!(
+            .ok_or_else(|| {
+                Error::Usage(format!(
                     "--param {shown}: {:?} is not a finite number",
                     diagnostic::truncate(value.trim(), 80)
-                )
+                ))
             })?;
         let Some(k) = model.param_index(name) else {
             let known: Vec<&str> = model.parameters.iter().map(|p| p.name.as_str()).collect();
@@ -199,7 +210,7 @@ fn system(args: &Args, model: &Model, overrides: &[usize]) -> Result<Box<dyn Sys
         }
     };
     let resolved = crate::system_for(model, Some(backend)).map_err(|e| match e {
-        model_registry::RegistryError::NotCompiled { .. } => anyhow::anyhow!(
+        model_registry::RegistryError::NotCompiled { .. } => Error::Usage(format!(
             "model {} is not compiled into this binary (compiled in: {}); use --backend interp or numeric, or rebuild",
             args.model.display(),
             model_registry::compiled()
@@ -207,20 +218,19 @@ fn system(args: &Args, model: &Model, overrides: &[usize]) -> Result<Box<dyn Sys
                 .map(|c| c.name)
                 .collect::<Vec<_>>()
                 .join(", ")
-        ),
-        other => anyhow::anyhow!("{other}"),
+        )),
+        other => Error::Registry(other),
     })?;
     Ok(resolved.system)
 }
 
 /// Runs `damper eval`.
 pub fn run(args: Args) -> Result<()> {
-    let mut model = model::load(&args.model).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mut model = model::load(&args.model)?;
     let overrides = apply_params(&mut model, &args.params)?;
     // The same physical checks as the model file gets (masses > 0, inertias physical,
     // lengths finite), at the overridden values.
-    model::check_parameter_values(&model, &model.default_params(), "--param")
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    model::check_parameter_values(&model, &model.default_params(), "--param")?;
     if !args.t.is_finite() {
         bail!("--t: the time must be a finite number");
     }
@@ -266,6 +276,7 @@ pub fn run(args: Args) -> Result<()> {
             "M+F": count_json(sym.op_count_mf()),
         },
     });
-    crate::print(&(serde_json::to_string_pretty(&json)? + "\n"))?;
+    let text = serde_json::to_string_pretty(&json).map_err(ReportError::from)?;
+    crate::print(&(text + "\n"))?;
     Ok(())
 }

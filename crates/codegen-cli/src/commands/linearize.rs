@@ -48,14 +48,17 @@ pub struct Args {
     pub allow_long: bool,
 }
 
-fn parse_method(s: &str) -> Result<EigenMethod, String> {
+/// A `--method` that is not one of the eigen-solvers.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown method {0:?}: expected auto, dense or shift-invert")]
+pub struct UnknownMethod(String);
+
+fn parse_method(s: &str) -> Result<EigenMethod, UnknownMethod> {
     match s {
         "auto" => Ok(EigenMethod::Auto),
         "dense" => Ok(EigenMethod::Dense),
         "shift-invert" => Ok(EigenMethod::ShiftInvert),
-        other => Err(format!(
-            "unknown method {other:?}: expected auto, dense or shift-invert"
-        )),
+        other => Err(UnknownMethod(other.to_string())),
     }
 }
 

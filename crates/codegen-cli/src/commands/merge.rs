@@ -153,7 +153,7 @@ pub fn run(args: Args) -> Result<(), Error> {
         args.allow_long,
     )?;
     let results = check(&parts)?;
-    let grid = Grid::parse(&first.sweep.sets).map_err(Error::Usage)?;
+    let grid = Grid::parse(&first.sweep.sets)?;
     let files = outputs(&out, &first.sweep, &grid, &results)?;
     commit_files(&files).map_err(ReportError::from)?;
     let failed = results.iter().filter(|r| r.error.is_some()).count();

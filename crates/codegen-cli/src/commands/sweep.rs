@@ -38,6 +38,7 @@ use crate::Error;
 use crate::budget::{self, Quantity};
 use crate::report::csv::cell;
 use crate::report::{OutputFile, OutputLock, ReportError, commit_files};
+use crate::scenario::overrides::PathError;
 use crate::scenario::overrides::{json_value, parse_value, value_text};
 use crate::scenario::{self, Override};
 use crate::sweep_point::{self, Figure, PointOptions};
@@ -77,6 +78,92 @@ pub struct Args {
     pub allow_long: bool,
 }
 
+/// Why VALUES (`a:b:n` or a comma list) cannot be read.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ValuesError {
+    /// An item of the comma list is empty.
+    #[error("empty value in the list `{text}`")]
+    EmptyItem {
+        /// VALUES.
+        text: String,
+    },
+    /// `n` of `a:b:n` is not a whole number.
+    #[error(
+        "`{text}`: n in a:b:n must be a whole number of points (at most {})",
+        usize::MAX
+    )]
+    Count {
+        /// VALUES.
+        text: String,
+    },
+    /// `n < 2`.
+    #[error("`{text}`: a:b:n needs n >= 2 points")]
+    TooFew {
+        /// VALUES.
+        text: String,
+    },
+    /// `a` or `b` is not finite.
+    #[error("`{text}`: a and b must be finite")]
+    NotFinite {
+        /// VALUES.
+        text: String,
+    },
+    /// The values do not fit in memory.
+    #[error("`{text}`: {n} values do not fit in memory")]
+    Memory {
+        /// VALUES.
+        text: String,
+        /// The number of values.
+        n: usize,
+    },
+}
+
+/// Why the `--set PATH=VALUES` or `--shard I/N` options of a sweep cannot be read.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SpecError {
+    /// No `=`.
+    #[error("--set {spec}: expected PATH=VALUES")]
+    NoValues {
+        /// The option's text.
+        spec: String,
+    },
+    /// A bad PATH.
+    #[error("--set {spec}: {source}")]
+    Path {
+        /// The option's text.
+        spec: String,
+        /// What is wrong with it.
+        source: PathError,
+    },
+    /// Bad VALUES.
+    #[error("--set {spec}: {source}")]
+    Values {
+        /// The option's text.
+        spec: String,
+        /// What is wrong with them.
+        source: ValuesError,
+    },
+    /// More points than a machine word counts.
+    #[error(
+        "--set: the grid has {factors} = {product:.2e} points, more than a machine word counts ({})",
+        usize::MAX
+    )]
+    Overflow {
+        /// The factors (or their number).
+        factors: String,
+        /// Their product.
+        product: f64,
+    },
+    /// `--shard` is not `I/N` with `0 <= I < N`.
+    #[error("--shard {text}: expected I/N with 0 <= I < N")]
+    Shard {
+        /// The option's value.
+        text: String,
+    },
+}
+
 /// One swept field: its PATH and its values.
 #[derive(Clone, Debug)]
 pub struct Axis {
@@ -88,9 +175,12 @@ pub struct Axis {
 
 impl Axis {
     /// `PATH=VALUES`.
-    pub fn parse(spec: &str) -> Result<Axis, String> {
+    pub fn parse(spec: &str) -> Result<Axis, SpecError> {
         let (path, values) = split_spec(spec)?;
-        let values = parse_values(values).map_err(|e| format!("--set {spec}: {e}"))?;
+        let values = parse_values(values).map_err(|source| SpecError::Values {
+            spec: spec.to_string(),
+            source,
+        })?;
         Ok(Axis {
             path: path.to_string(),
             values,
@@ -98,24 +188,30 @@ impl Axis {
     }
 
     /// The number of values of `PATH=VALUES`, without building them.
-    pub fn count(spec: &str) -> Result<usize, String> {
+    pub fn count(spec: &str) -> Result<usize, SpecError> {
         let (_, values) = split_spec(spec)?;
-        count_values(values).map_err(|e| format!("--set {spec}: {e}"))
+        count_values(values).map_err(|source| SpecError::Values {
+            spec: spec.to_string(),
+            source,
+        })
     }
 }
 
 /// `PATH=VALUES` split, PATH checked.
-fn split_spec(spec: &str) -> Result<(&str, &str), String> {
-    let (path, values) = spec
-        .split_once('=')
-        .ok_or_else(|| format!("--set {spec}: expected PATH=VALUES"))?;
+fn split_spec(spec: &str) -> Result<(&str, &str), SpecError> {
+    let (path, values) = spec.split_once('=').ok_or_else(|| SpecError::NoValues {
+        spec: spec.to_string(),
+    })?;
     let path = path.trim();
-    scenario::overrides::parse_path(path).map_err(|e| format!("--set {spec}: {e}"))?;
+    scenario::overrides::parse_path(path).map_err(|source| SpecError::Path {
+        spec: spec.to_string(),
+        source,
+    })?;
     Ok((path, values.trim()))
 }
 
 /// VALUES: `a:b:n` or a comma list of TOML values.
-pub fn parse_values(text: &str) -> Result<Vec<Value>, String> {
+pub fn parse_values(text: &str) -> Result<Vec<Value>, ValuesError> {
     if let Some(range) = parse_range(text)? {
         return range.values(text);
     }
@@ -124,7 +220,7 @@ pub fn parse_values(text: &str) -> Result<Vec<Value>, String> {
 }
 
 /// The number of values of VALUES (`a:b:n`: n), without building them.
-pub fn count_values(text: &str) -> Result<usize, String> {
+pub fn count_values(text: &str) -> Result<usize, ValuesError> {
     match parse_range(text)? {
         Some(range) => Ok(range.n),
         None => Ok(list_items(text)?.len()),
@@ -132,10 +228,12 @@ pub fn count_values(text: &str) -> Result<usize, String> {
 }
 
 /// The items of a comma list.
-fn list_items(text: &str) -> Result<Vec<&str>, String> {
+fn list_items(text: &str) -> Result<Vec<&str>, ValuesError> {
     let items = split_top_level(text);
     if items.iter().any(|i| i.trim().is_empty()) {
-        return Err(format!("empty value in the list `{text}`"));
+        return Err(ValuesError::EmptyItem {
+            text: text.to_string(),
+        });
     }
     Ok(items)
 }
@@ -152,11 +250,13 @@ struct Range {
 impl Range {
     /// The `n` values (memory reserved first: a range too large for it is an error, not an
     /// abort).
-    fn values(&self, text: &str) -> Result<Vec<Value>, String> {
+    fn values(&self, text: &str) -> Result<Vec<Value>, ValuesError> {
         let n = self.n;
         let mut out: Vec<Value> = Vec::new();
-        out.try_reserve_exact(n)
-            .map_err(|_| format!("`{text}`: {n} values do not fit in memory"))?;
+        out.try_reserve_exact(n).map_err(|_| ValuesError::Memory {
+            text: text.to_string(),
+            n,
+        })?;
         if let (Value::Integer(ia), Value::Integer(ib), Ok(steps)) =
             (&self.a, &self.b, i64::try_from(n - 1))
         {
@@ -181,7 +281,7 @@ impl Range {
 }
 
 /// `a:b:n` when the text is three numbers separated by colons.
-fn parse_range(text: &str) -> Result<Option<Range>, String> {
+fn parse_range(text: &str) -> Result<Option<Range>, ValuesError> {
     let parts: Vec<&str> = text.split(':').map(str::trim).collect();
     let [a, b, n] = parts[..] else {
         return Ok(None);
@@ -195,17 +295,13 @@ fn parse_range(text: &str) -> Result<Option<Range>, String> {
     let (Some(fa), Some(fb)) = (number(&a), number(&b)) else {
         return Ok(None);
     };
-    let n: usize = n.parse().map_err(|_| {
-        format!(
-            "`{text}`: n in a:b:n must be a whole number of points (at most {})",
-            usize::MAX
-        )
-    })?;
+    let text = || text.to_string();
+    let n: usize = n.parse().map_err(|_| ValuesError::Count { text: text() })?;
     if n < 2 {
-        return Err(format!("`{text}`: a:b:n needs n >= 2 points"));
+        return Err(ValuesError::TooFew { text: text() });
     }
     if !(fa.is_finite() && fb.is_finite()) {
-        return Err(format!("`{text}`: a and b must be finite"));
+        return Err(ValuesError::NotFinite { text: text() });
     }
     Ok(Some(Range { a, b, fa, fb, n }))
 }
@@ -261,7 +357,7 @@ pub struct Shape {
 impl Shape {
     /// The shape of the `--set` specs; a grid of more points than a machine word holds is
     /// refused (with or without `--allow-long`: it cannot be indexed).
-    pub fn of(specs: &[String]) -> Result<Shape, String> {
+    pub fn of(specs: &[String]) -> Result<Shape, SpecError> {
         let counts = specs
             .iter()
             .map(|s| Axis::count(s))
@@ -278,10 +374,7 @@ impl Shape {
                 } else {
                     format!("the product of {} axes", counts.len())
                 };
-                format!(
-                    "--set: the grid has {factors} = {product:.2e} points, more than a machine word counts ({})",
-                    usize::MAX
-                )
+                SpecError::Overflow { factors, product }
             })?;
         Ok(Shape { counts, points })
     }
@@ -301,7 +394,7 @@ impl Shape {
 
 impl Grid {
     /// The grid of `--set` specs (its size checked first: [`Shape::of`]).
-    pub fn parse(specs: &[String]) -> Result<Grid, String> {
+    pub fn parse(specs: &[String]) -> Result<Grid, SpecError> {
         Shape::of(specs)?;
         let axes = specs
             .iter()
@@ -357,8 +450,10 @@ pub fn shard_points(points: usize, i: usize, n: usize) -> usize {
 }
 
 /// `--shard I/N`.
-pub fn parse_shard(text: &str) -> Result<(usize, usize), String> {
-    let bad = || format!("--shard {text}: expected I/N with 0 <= I < N");
+pub fn parse_shard(text: &str) -> Result<(usize, usize), SpecError> {
+    let bad = || SpecError::Shard {
+        text: text.to_string(),
+    };
     let (i, n) = text.split_once('/').ok_or_else(bad)?;
     let (i, n): (usize, usize) = (
         i.trim().parse().map_err(|_| bad())?,
@@ -411,13 +506,8 @@ pub fn fnv1a_hex(bytes: &[u8]) -> String {
 /// Runs `damper sweep`.
 pub fn run(args: Args) -> Result<(), Error> {
     let started = Instant::now();
-    let shape = Shape::of(&args.set).map_err(Error::Usage)?;
-    let shard = args
-        .shard
-        .as_deref()
-        .map(parse_shard)
-        .transpose()
-        .map_err(Error::Usage)?;
+    let shape = Shape::of(&args.set)?;
+    let shard = args.shard.as_deref().map(parse_shard).transpose()?;
     if let Some(t) = args.t_end {
         if !(t.is_finite() && t > 0.0) {
             return Err(Error::Usage(format!(
@@ -453,7 +543,7 @@ pub fn run(args: Args) -> Result<(), Error> {
         None => Some(OutputLock::acquire(&args.out).map_err(ReportError::from)?),
         Some(_) => None,
     };
-    let grid = Grid::parse(&args.set).map_err(Error::Usage)?;
+    let grid = Grid::parse(&args.set)?;
     let text = scenario::read(&args.scenario)?;
     let t_end = args.t_end.map(|t| {
         Override::new("integrator.t_end", Value::from(t), &cell(Some(t))).expect("a valid PATH")
@@ -506,7 +596,7 @@ pub fn run(args: Args) -> Result<(), Error> {
         let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
             sweep_point::evaluate(&args.scenario, &text, &overrides, &options)
         }))
-        .unwrap_or_else(|_| Err("the evaluation panicked".into()));
+        .unwrap_or(Err(sweep_point::PointError::Panicked));
         bar.inc(1);
         match result {
             Ok(figures) => PointResult {
@@ -517,7 +607,7 @@ pub fn run(args: Args) -> Result<(), Error> {
             Err(e) => PointResult {
                 index,
                 figures: vec![],
-                error: Some(e),
+                error: Some(e.to_string().replace('\n', "; ")),
             },
         }
     };
@@ -593,6 +683,44 @@ pub struct PartFigure {
     pub value: Option<String>,
 }
 
+/// Why a row of a part file cannot be read back (the part was edited or is not one).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum PartRowError {
+    /// A failed point with figures.
+    #[error("point {point} has both figures and an error")]
+    FiguresAndError {
+        /// Grid index.
+        point: usize,
+    },
+    /// A figure named twice.
+    #[error("point {point}: figure {name} given twice")]
+    Twice {
+        /// Grid index.
+        point: usize,
+        /// The figure (truncated).
+        name: String,
+    },
+    /// A unit no figure has.
+    #[error("point {point}: unknown unit `{unit}` of figure {name}")]
+    Unit {
+        /// Grid index.
+        point: usize,
+        /// The figure (truncated).
+        name: String,
+        /// The unit (truncated).
+        unit: String,
+    },
+    /// A value that is not a finite number.
+    #[error("point {point}: figure {name} is not a finite number")]
+    NotFinite {
+        /// Grid index.
+        point: usize,
+        /// The figure (truncated).
+        name: String,
+    },
+}
+
 /// A point as stored in a part file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PartRow {
@@ -662,36 +790,39 @@ impl Part {
     /// The rows back as results (values read back exactly), every figure checked: a
     /// known unit, a finite value or none, each name once in a point, and a failed point
     /// without figures.
-    pub fn results(&self) -> Result<Vec<PointResult>, String> {
+    pub fn results(&self) -> Result<Vec<PointResult>, PartRowError> {
         self.rows
             .iter()
             .map(|r| {
                 let point = r.index;
                 if r.error.is_some() && !r.figures.is_empty() {
-                    return Err(format!("point {point} has both figures and an error"));
+                    return Err(PartRowError::FiguresAndError { point });
                 }
                 let mut names = std::collections::BTreeSet::new();
                 let figures = r
                     .figures
                     .iter()
                     .map(|f| {
-                        let name = diagnostic::truncate(&f.name, 60);
+                        let name = || diagnostic::truncate(&f.name, 60);
                         if !names.insert(f.name.as_str()) {
-                            return Err(format!("point {point}: figure {name} given twice"));
+                            return Err(PartRowError::Twice {
+                                point,
+                                name: name(),
+                            });
                         }
                         let unit = UNITS.iter().find(|u| **u == f.unit).ok_or_else(|| {
-                            format!(
-                                "point {point}: unknown unit `{}` of figure {name}",
-                                diagnostic::truncate(&f.unit, 20)
-                            )
+                            PartRowError::Unit {
+                                point,
+                                name: name(),
+                                unit: diagnostic::truncate(&f.unit, 20),
+                            }
                         })?;
                         let value = match &f.value {
                             Some(v) => {
                                 Some(v.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(
-                                    || {
-                                        format!(
-                                            "point {point}: figure {name} is not a finite number"
-                                        )
+                                    || PartRowError::NotFinite {
+                                        point,
+                                        name: name(),
                                     },
                                 )?)
                             }
@@ -703,7 +834,7 @@ impl Part {
                             value,
                         })
                     })
-                    .collect::<Result<_, String>>()?;
+                    .collect::<Result<_, PartRowError>>()?;
                 Ok(PointResult {
                     index: r.index,
                     figures,

@@ -36,6 +36,43 @@ pub enum Step {
     Index(usize),
 }
 
+/// Why a PATH or a `--set PATH=VALUE` option cannot be read.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum PathError {
+    /// The PATH is empty.
+    #[error("empty PATH")]
+    Empty,
+    /// A key is empty or has characters outside `A-Z a-z 0-9 _ -`.
+    #[error(
+        "bad PATH `{path}`: expected keys separated by dots, each followed by optional [index]"
+    )]
+    BadKey {
+        /// The PATH.
+        path: String,
+    },
+    /// An index is not `[N]`.
+    #[error("bad index in PATH `{path}` (expected `[N]`)")]
+    BadIndex {
+        /// The PATH.
+        path: String,
+    },
+    /// No `=` in the option.
+    #[error("--set {option}: expected PATH=VALUE")]
+    NoValue {
+        /// The option's text.
+        option: String,
+    },
+    /// The option's PATH is bad.
+    #[error("--set {option}: {source}")]
+    Option {
+        /// The option's text.
+        option: String,
+        /// What is wrong with its PATH.
+        source: Box<PathError>,
+    },
+}
+
 /// One `--set PATH=VALUE`, parsed.
 #[derive(Clone, Debug)]
 pub struct Override {
@@ -51,7 +88,7 @@ pub struct Override {
 
 impl Override {
     /// An override of `path` (as written) by `value`.
-    pub fn new(path: &str, value: Value, text: &str) -> Result<Override, String> {
+    pub fn new(path: &str, value: Value, text: &str) -> Result<Override, PathError> {
         Ok(Override {
             path: path.to_string(),
             steps: parse_path(path)?,
@@ -75,15 +112,19 @@ impl Override {
 }
 
 impl FromStr for Override {
-    type Err = String;
+    type Err = PathError;
 
     /// `PATH=VALUE` (split at the first `=`).
-    fn from_str(s: &str) -> Result<Override, String> {
-        let (path, text) = s
-            .split_once('=')
-            .ok_or_else(|| format!("--set {s}: expected PATH=VALUE"))?;
-        Override::new(path.trim(), parse_value(text.trim()), text.trim())
-            .map_err(|e| format!("--set {s}: {e}"))
+    fn from_str(s: &str) -> Result<Override, PathError> {
+        let (path, text) = s.split_once('=').ok_or_else(|| PathError::NoValue {
+            option: s.to_string(),
+        })?;
+        Override::new(path.trim(), parse_value(text.trim()), text.trim()).map_err(|e| {
+            PathError::Option {
+                option: s.to_string(),
+                source: Box::new(e),
+            }
+        })
     }
 }
 
@@ -109,18 +150,18 @@ pub fn parse_value(text: &str) -> Value {
 
 /// The steps of a PATH: bare keys (`A-Z a-z 0-9 _ -`) separated by dots, each followed by
 /// any number of `[i]`.
-pub fn parse_path(path: &str) -> Result<Vec<Step>, String> {
+pub fn parse_path(path: &str) -> Result<Vec<Step>, PathError> {
     let mut steps = vec![];
     if path.is_empty() {
-        return Err("empty PATH".into());
+        return Err(PathError::Empty);
     }
     for part in path.split('.') {
         let (name, mut rest) = part.split_at(part.find('[').unwrap_or(part.len()));
         let bare = |c: char| c.is_ascii_alphanumeric() || c == '_' || c == '-';
         if name.is_empty() || !name.chars().all(bare) {
-            return Err(format!(
-                "bad PATH `{path}`: expected keys separated by dots, each followed by optional [index]"
-            ));
+            return Err(PathError::BadKey {
+                path: path.to_string(),
+            });
         }
         steps.push(Step::Key(name.to_string()));
         while !rest.is_empty() {
@@ -133,7 +174,11 @@ pub fn parse_path(path: &str) -> Result<Vec<Step>, String> {
                     steps.push(Step::Index(i));
                     rest = r;
                 }
-                None => return Err(format!("bad index in PATH `{path}` (expected `[N]`)")),
+                None => {
+                    return Err(PathError::BadIndex {
+                        path: path.to_string(),
+                    });
+                }
             }
         }
     }

@@ -58,31 +58,29 @@ impl Dag {
 
     /// Builds the s-expression `src` through the folding constructors ([`Dag::add`], ...),
     /// so the result is the simplified node. The error names the offending token.
-    pub fn parse_sexpr(&mut self, src: &str) -> Result<Id, String> {
+    pub fn parse_sexpr(&mut self, src: &str) -> Result<Id, SexprError> {
         let spaced = src.replace('(', " ( ").replace(')', " ) ");
         let tokens: Vec<&str> = spaced.split_whitespace().collect();
         let mut pos = 0;
         let id = self.parse_tokens(&tokens, &mut pos)?;
         match tokens.get(pos) {
             None => Ok(id),
-            Some(t) => Err(format!("unexpected `{t}` after the expression")),
+            Some(t) => Err(SexprError::Trailing(t.to_string())),
         }
     }
 
-    fn parse_tokens(&mut self, tokens: &[&str], pos: &mut usize) -> Result<Id, String> {
-        let tok = *tokens.get(*pos).ok_or("unexpected end of input")?;
+    fn parse_tokens(&mut self, tokens: &[&str], pos: &mut usize) -> Result<Id, SexprError> {
+        let tok = *tokens.get(*pos).ok_or(SexprError::End)?;
         *pos += 1;
         if tok != "(" {
             return self.parse_atom(tok);
         }
-        let op = *tokens
-            .get(*pos)
-            .ok_or("unexpected end of input after `(`")?;
+        let op = *tokens.get(*pos).ok_or(SexprError::EndAfterParen)?;
         *pos += 1;
         let mut args = vec![];
         while tokens.get(*pos) != Some(&")") {
             if *pos >= tokens.len() {
-                return Err(format!("missing `)` for `({op}`"));
+                return Err(SexprError::Unclosed(op.to_string()));
             }
             args.push(self.parse_tokens(tokens, pos)?);
         }
@@ -115,17 +113,20 @@ impl Dag {
                 Ok(acc)
             }
             (_, [a]) if fun.is_some() => Ok(self.fun(fun.unwrap_or(Fun::Abs), *a)),
-            _ => Err(format!("`({op}` with {} operands", args.len())),
+            _ => Err(SexprError::Arity {
+                op: op.to_string(),
+                operands: args.len(),
+            }),
         }
     }
 
-    fn parse_atom(&mut self, tok: &str) -> Result<Id, String> {
+    fn parse_atom(&mut self, tok: &str) -> Result<Id, SexprError> {
         if let Ok(v) = tok.parse::<f64>() {
             return Ok(self.constant(v));
         }
         let index = |rest: &str| {
             rest.parse::<u32>()
-                .map_err(|_| format!("unknown atom `{tok}`"))
+                .map_err(|_| SexprError::Atom(tok.to_string()))
         };
         let var = if tok == "t" {
             Var::Time
@@ -138,8 +139,37 @@ impl Dag {
         } else if let Some(r) = tok.strip_prefix('p') {
             Var::Param(index(r)?)
         } else {
-            return Err(format!("unknown atom `{tok}`"));
+            return Err(SexprError::Atom(tok.to_string()));
         };
         Ok(self.var(var))
     }
+}
+
+/// Why an s-expression cannot be read ([`Dag::parse_sexpr`]); each names the token.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SexprError {
+    /// The input ends where an expression is expected.
+    #[error("unexpected end of input")]
+    End,
+    /// The input ends after `(`.
+    #[error("unexpected end of input after `(`")]
+    EndAfterParen,
+    /// An operator's list is not closed.
+    #[error("missing `)` for `({0}`")]
+    Unclosed(String),
+    /// An operator with a number of operands it does not take.
+    #[error("`({op}` with {operands} operands")]
+    Arity {
+        /// The operator.
+        op: String,
+        /// The operands given.
+        operands: usize,
+    },
+    /// Not a number, `t`, `qN`, `qdN`, `qddN` or `pN`.
+    #[error("unknown atom `{0}`")]
+    Atom(String),
+    /// Text after a complete expression.
+    #[error("unexpected `{0}` after the expression")]
+    Trailing(String),
 }

@@ -25,17 +25,32 @@ pub(crate) const MAX_DEPTH: usize = 200;
 pub(crate) const RESERVED: [&str; 8] = ["pi", "sin", "cos", "tan", "sqrt", "exp", "ln", "abs"];
 
 /// A parse error at a 1-based character column of the expression.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{message} (at column {column})")]
 pub(crate) struct ExprError {
     pub column: usize,
     pub message: String,
+}
+
+/// Why a name in an expression is not a parameter it may use.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub(crate) enum NameError {
+    /// No parameter has that name.
+    #[error("unknown parameter `{0}`")]
+    Unknown(String),
+    /// A parameter's expression uses the parameter itself.
+    #[error("parameter `{0}` refers to itself")]
+    SelfReference(String),
+    /// A parameter's expression uses a parameter declared after it.
+    #[error("parameter `{0}` is declared later (a parameter may only use earlier ones)")]
+    Later(String),
 }
 
 /// Parses `src`; `lookup` maps a parameter name to its index, or returns the message to
 /// report (unknown parameter, declared later, ...).
 pub(crate) fn parse_expr(
     src: &str,
-    lookup: &dyn Fn(&str) -> Result<usize, String>,
+    lookup: &dyn Fn(&str) -> Result<usize, NameError>,
 ) -> Result<Scalar, ExprError> {
     let tokens = lex(src)?;
     let mut p = Parser {
@@ -220,7 +235,7 @@ struct Parser<'a> {
     pos: usize,
     /// Current recursion level (parentheses, unary operators, exponents, calls).
     level: usize,
-    lookup: &'a dyn Fn(&str) -> Result<usize, String>,
+    lookup: &'a dyn Fn(&str) -> Result<usize, NameError>,
 }
 
 impl Parser<'_> {
@@ -413,9 +428,9 @@ impl Parser<'_> {
                 }
                 match (self.lookup)(name) {
                     Ok(index) => Ok((Scalar::Param(index), 1)),
-                    Err(message) => Err(ExprError {
+                    Err(e) => Err(ExprError {
                         column: tok.column,
-                        message,
+                        message: e.to_string(),
                     }),
                 }
             }
@@ -447,11 +462,11 @@ mod tests {
     const NAMES: [&str; 3] = ["L1", "m1", "a_2"];
     const VALUES: [f64; 3] = [0.1, 0.024, 2.0];
 
-    fn lookup(name: &str) -> Result<usize, String> {
+    fn lookup(name: &str) -> Result<usize, NameError> {
         NAMES
             .iter()
             .position(|n| *n == name)
-            .ok_or_else(|| format!("unknown parameter `{name}`"))
+            .ok_or_else(|| NameError::Unknown(name.to_string()))
     }
 
     fn parse(src: &str) -> Result<Scalar, ExprError> {

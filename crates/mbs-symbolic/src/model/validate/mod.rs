@@ -12,7 +12,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
-use super::expr_parse::{RESERVED, params_used, parse_expr};
+use super::expr_parse::{ExprError, NameError, RESERVED, params_used, parse_expr};
 use super::node::{Node, Seg, Value};
 use super::raw::{RawBody, RawParam, RawScalar, RawVec3};
 use super::types::{Axis, Body, Joint, JointKind, Model, Parameter, Point, Scalar, SourceInfo};
@@ -318,7 +318,7 @@ impl<'n> Validator<'_, 'n> {
                     index
                         .get(name)
                         .copied()
-                        .ok_or_else(|| format!("unknown parameter `{name}`"))
+                        .ok_or_else(|| NameError::Unknown(name.to_string()))
                 };
                 match parse_expr(src, &lookup) {
                     Ok(s) => self.inline_derived(s),
@@ -659,7 +659,13 @@ impl<'n> Validator<'_, 'n> {
                     }
                     // Uses a broken parameter: already reported.
                     Ok((None, _)) => ok = false,
-                    Err(message) => {
+                    Err(e) => {
+                        let message = match &raw.value {
+                            RawScalar::Expr(src) => {
+                                format!("{} (in \"{src}\" at column {})", e.message, e.column)
+                            }
+                            RawScalar::Num(_) => e.to_string(),
+                        };
                         self.error(Kind::InvalidValue, Some(line), Some(&label), message);
                         ok = false;
                     }
@@ -704,21 +710,18 @@ impl<'n> Validator<'_, 'n> {
         name: &str,
         raw: &RawScalar,
         all_names: &BTreeSet<&str>,
-    ) -> Result<(Option<f64>, Option<Scalar>), String> {
+    ) -> Result<(Option<f64>, Option<Scalar>), ExprError> {
         match raw {
             RawScalar::Num(v) => Ok((Some(*v), None)),
             RawScalar::Expr(src) => {
                 let index = &self.param_index;
                 let lookup = |n: &str| match index.get(n) {
                     Some(&i) => Ok(i),
-                    None if n == name => Err(format!("parameter `{n}` refers to itself")),
-                    None if all_names.contains(n) => Err(format!(
-                        "parameter `{n}` is declared later (a parameter may only use earlier ones)"
-                    )),
-                    None => Err(format!("unknown parameter `{n}`")),
+                    None if n == name => Err(NameError::SelfReference(n.to_string())),
+                    None if all_names.contains(n) => Err(NameError::Later(n.to_string())),
+                    None => Err(NameError::Unknown(n.to_string())),
                 };
-                let scalar = parse_expr(src, &lookup)
-                    .map_err(|e| format!("{} (in \"{src}\" at column {})", e.message, e.column))?;
+                let scalar = parse_expr(src, &lookup)?;
                 let scalar = self.inline_derived(scalar);
                 Ok((self.value(&scalar), Some(scalar)))
             }
