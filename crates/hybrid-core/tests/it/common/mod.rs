@@ -8,8 +8,8 @@ use std::f64::consts::PI;
 use std::path::Path;
 
 use fem_beam::{Beam, BeamModel, TimeFunction};
-use hybrid_core::damper::Method;
 use hybrid_core::generator::GeneratorSpec;
+use hybrid_core::hybrid::Method;
 use hybrid_core::hybrid::Placement;
 use hybrid_core::hybrid::{
     Attachment, AttachmentKind, BeamPoint, Excitation, ExcitationTarget, ForceKind, HybridModel,
