@@ -8,14 +8,14 @@ static GLOBAL: damper_e2e::alloc_counter::CountingAllocator =
 
 mod amplification_cli;
 mod bad_values_cli;
+mod bundled_hybrid;
 mod common;
-mod damper_physics;
+mod damper_run;
 mod eval_cli;
 mod frf;
 mod fuzz;
 mod generate_cli;
 mod hybrid_cli;
-mod hybrid_damper;
 mod linear_vs_time_domain;
 mod linearize_cli;
 mod modes_cli;
@@ -27,5 +27,4 @@ mod simulate_cli;
 mod simulate_mechanism_cli;
 mod special_files_cli;
 mod stale_model_cli;
-mod step_alloc;
 mod sweep_cli;
