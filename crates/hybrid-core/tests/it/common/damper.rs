@@ -2,7 +2,9 @@
 //! application: as a general hybrid system (the engine's [`HybridModel`] and initial
 //! state) and as the rank-one oracle's [`DamperModel`] — the same beam, the same double bar
 //! placed by its half-angle, the same generator on the joint of body `crank`. The fields a
-//! test varies are those of [`PaperDamper`]; its [`Default`] is the bundled scenario.
+//! test varies are those of [`PaperDamper`]; its [`Default`] is the bundled scenario. (The
+//! oracle's side, `PaperDamper::oracle`, is in `oracle/build.rs`: the benches share this
+//! module without the oracle.)
 //!
 //! Also the run of the engine that the damper tests read (samples of the beam point, the
 //! first mode's modal coordinate, the energy account): what the application's damper run
@@ -19,8 +21,6 @@ use hybrid_core::hybrid::{
     initial_deflection, initial_state, input_work, place_two_bar,
 };
 use mbs_symbolic::runtime::System;
-
-use crate::oracle::{self, DamperModel, Energy, MechanismLink};
 
 /// The paper's damper (`scenarios/damper.toml`) with the fields the tests vary.
 #[derive(Clone, Debug)]
@@ -100,15 +100,21 @@ pub fn double_bar() -> Box<dyn System> {
         .system()
 }
 
-/// How a damper is placed: the beam point, the attached point, the generator joint, the
-/// attached point relative to the ground pivot, the initial guess and the reach.
-struct Geometry {
-    point: BeamPoint,
-    tip: usize,
-    joint: usize,
-    target: [f64; 2],
-    guess: [f64; 2],
-    reach: f64,
+/// How the damper is placed (scenario `[mechanism]`), the same for the engine and the
+/// oracle.
+pub struct Geometry {
+    /// The beam point at `x`.
+    pub point: BeamPoint,
+    /// The double bar's point `tip`.
+    pub tip: usize,
+    /// The joint of body `crank` (the generator's).
+    pub joint: usize,
+    /// `tip` relative to the ground pivot at the half-angle, `[x0, y0]` (m).
+    pub target: [f64; 2],
+    /// Initial guess of the double bar's coordinates.
+    pub guess: [f64; 2],
+    /// How far the beam point can move towards the toggle (m).
+    pub reach: f64,
 }
 
 impl PaperDamper {
@@ -131,7 +137,7 @@ impl PaperDamper {
     }
 
     /// `system` (a double bar) with the run-time parameter overrides set.
-    fn with_parameters<M: System>(&self, mut system: M) -> M {
+    pub fn with_parameters<M: System>(&self, mut system: M) -> M {
         for &(name, value) in &self.parameters {
             system
                 .set_param(name, value)
@@ -140,7 +146,8 @@ impl PaperDamper {
         system
     }
 
-    fn geometry<M: System + ?Sized>(&self, beam: &BeamModel, system: &M) -> Geometry {
+    /// Where the double bar `system` goes on `beam`.
+    pub fn geometry<M: System + ?Sized>(&self, beam: &BeamModel, system: &M) -> Geometry {
         let point = BeamPoint::on(beam, self.x).expect("the beam point is on the beam");
         assert!(!point.is_locked(), "a support locks x = {}", self.x);
         let tip = system
@@ -217,48 +224,6 @@ impl PaperDamper {
         let state = initial_state(&model, q0, vec![0.0; n])?;
         let integrator = Integrator::new(&model, self.method, self.dt, &state)?;
         Ok((model, state, integrator))
-    }
-
-    /// The same damper as the rank-one oracle with the generated double bar, and the
-    /// initial guess of the double bar's coordinates.
-    pub fn oracle(&self) -> (DamperModel<Box<dyn System>>, [f64; 2]) {
-        self.oracle_with(double_bar())
-    }
-
-    /// The rank-one oracle with `system` as its double bar.
-    pub fn oracle_with<M: System>(&self, system: M) -> (DamperModel<M>, [f64; 2]) {
-        let system = self.with_parameters(system);
-        let beam = self.beam();
-        let g = self.geometry(&beam, &system);
-        let attachment = oracle::Attachment {
-            point: g.tip,
-            x0: g.target[0],
-            y0: g.target[1],
-        };
-        let mut link = MechanismLink::new(system, attachment, g.joint, self.max_condition)
-            .unwrap_or_else(|e| panic!("{e}"));
-        link.reach = Some(g.reach);
-        let model = DamperModel {
-            beam,
-            link,
-            generator: self.generator.clone(),
-            coupling: g.point.weights,
-        };
-        (model, g.guess)
-    }
-
-    /// The oracle's initial state and integrator.
-    pub fn oracle_start<M: System>(
-        &self,
-        model: &DamperModel<M>,
-        guess: [f64; 2],
-    ) -> (oracle::State, oracle::Integrator) {
-        let state = model
-            .initial_state(self.initial_displacement, guess)
-            .unwrap_or_else(|e| panic!("{e}"));
-        let integ =
-            oracle::Integrator::new(model, self.method, self.dt).unwrap_or_else(|e| panic!("{e}"));
-        (state, integ)
     }
 
     /// Runs the damper on the engine with the generated double bar ([`DamperRun`]).
@@ -338,6 +303,45 @@ impl PaperDamper {
             energy_balance_rel_error: outcome.figures.balance_rel_error,
             state,
         })
+    }
+}
+
+/// Stored energies and the energy account at the end of a damper run (J).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Energy {
+    /// `v^T A v / 2`.
+    pub beam_kinetic: f64,
+    /// `q^T C q / 2`.
+    pub beam_potential: f64,
+    /// Mechanism and rotor kinetic energy.
+    pub mechanism_kinetic: f64,
+    /// Mechanism potential energy (gravity, springs).
+    pub mechanism_potential: f64,
+    /// `L i^2 / 2`.
+    pub magnetic: f64,
+    /// Dissipated by the beam's Rayleigh damping.
+    pub dissipated_structure: f64,
+    /// Dissipated in the armature, `integral R_a i^2 dt`.
+    pub dissipated_armature: f64,
+    /// Dissipated (harvested) in the load, `integral R_L i^2 dt`.
+    pub dissipated_load: f64,
+    /// Work of the beam loads and excitations.
+    pub external_work: f64,
+}
+
+impl Energy {
+    /// Stored energy.
+    pub fn total(&self) -> f64 {
+        self.beam_kinetic
+            + self.beam_potential
+            + self.mechanism_kinetic
+            + self.mechanism_potential
+            + self.magnetic
+    }
+
+    /// Energy dissipated so far (structure + generator).
+    pub fn dissipated(&self) -> f64 {
+        self.dissipated_structure + self.dissipated_armature + self.dissipated_load
     }
 }
 

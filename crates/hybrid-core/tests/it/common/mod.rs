@@ -5,6 +5,7 @@
 
 pub mod damper;
 
+#[allow(unused_imports)] // the benches share this module
 pub use damper::{PaperDamper, double_bar_model};
 
 use std::f64::consts::PI;

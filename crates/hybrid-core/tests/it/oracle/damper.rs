@@ -134,23 +134,6 @@ pub struct Energy {
     pub external_work: f64,
 }
 
-impl Energy {
-    /// Stored energy: kinetic + potential (beam strain, mechanism gravity and springs) +
-    /// magnetic.
-    pub fn total(&self) -> f64 {
-        self.beam_kinetic
-            + self.beam_potential
-            + self.mechanism_kinetic
-            + self.mechanism_potential
-            + self.magnetic
-    }
-
-    /// Energy dissipated so far (structure + generator).
-    pub fn dissipated(&self) -> f64 {
-        self.dissipated_structure + self.dissipated_armature + self.dissipated_load
-    }
-}
-
 /// The state of a run.
 #[derive(Clone, Debug, PartialEq)]
 pub struct State {

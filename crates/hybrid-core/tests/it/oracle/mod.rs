@@ -5,12 +5,13 @@
 //!
 //! A second, independent formulation of the equations [`hybrid_core::hybrid`] integrates:
 //! the engine follows it step for step (to 1e-9, `damper_oracle.rs`). Test code only; it
-//! uses nothing but hybrid-core's public API. [`crate::common::PaperDamper::oracle`]
+//! uses nothing but hybrid-core's public API. `PaperDamper::oracle` (`build.rs`)
 //! builds it.
 
+mod build;
 pub mod coupling;
 pub mod damper;
 pub mod full;
 
 pub use coupling::{Attachment, KinematicError, MechanismLink};
-pub use damper::{DamperModel, Energy, Integrator, State};
+pub use damper::{DamperModel, Integrator, State};
