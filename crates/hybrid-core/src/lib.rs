@@ -8,15 +8,13 @@
 //!   partitioned (eqs. 18–25 applied to 51–54) and integrated in O(n) per step; every run
 //!   of the product goes through it;
 //! - [`generator`]: the DC generator (THEORY.md section 7);
-//! - [`coupling`], [`damper`]: the paper's damper in its specialised form — one double bar
-//!   pinned to one beam point, reduced to a rank-one term (eqs. 55–58) and integrated with a
-//!   scalar secant iteration. Kept as a second, independent formulation of the same
-//!   equations that the general engine is checked against (same trajectory to 1e-9), and
-//!   for the double-bar geometry [`study::build_model`] reads off;
 //! - [`decay`]: damping from a free decay (modal filter, damping vs amplitude, over- and
 //!   critically damped decays): the one estimator;
-//! - [`study`]: a damper run from a checked setup on the general engine, the damping ratio
-//!   from the free decay and the energy account;
+//! - [`coupling`], [`damper`], [`study`]: the paper's damper in its specialised rank-one
+//!   form (eqs. 55–58) and the application's damper preset — still used by `codegen-cli`,
+//!   nothing else, and on their way out: the rank-one form now lives in this crate's tests
+//!   (`tests/it/oracle`) as the step-by-step trajectory oracle of the engine (same
+//!   trajectory to 1e-9), built by `tests/it/common/damper.rs` without the application;
 //! - [`closed_loop`], [`partition`]: rigid closed-loop mechanisms and coordinate
 //!   partitioning (eqs. 18–25);
 

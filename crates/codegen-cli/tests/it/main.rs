@@ -1,14 +1,21 @@
 //! The one integration-test binary of `codegen-cli` (STYLE.md rule 7): one module per
 //! area, built and linked once.
 
+// Allocation counting (per thread) for the tests that prove hot paths allocation-free.
+#[global_allocator]
+static GLOBAL: damper_e2e::alloc_counter::CountingAllocator =
+    damper_e2e::alloc_counter::CountingAllocator;
+
 mod amplification_cli;
 mod bad_values_cli;
+mod bundled_hybrid;
 mod common;
 mod eval_cli;
 mod frf;
 mod fuzz;
 mod generate_cli;
 mod hybrid_cli;
+mod linear_vs_time_domain;
 mod linearize_cli;
 mod modes_cli;
 mod output_dir_cli;

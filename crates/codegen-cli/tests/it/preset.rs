@@ -198,3 +198,36 @@ fn preset_problems_name_the_damper_file_lines() {
     assert!(err.contains(&format!("d.toml:{line}:")), "{err}");
     assert!(err.contains("max_conditoin"), "{err}");
 }
+
+/// A model the preset cannot place (a double bar given a third body) is refused with one
+/// line naming the scenario line and the model's coordinate count.
+#[test]
+fn a_mechanism_of_the_wrong_shape_is_refused_in_one_line() {
+    let dir = std::env::temp_dir().join(format!("damper-preset-shape-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let root = crate::common::root();
+    let model = std::fs::read_to_string(root.join("models/double_bar.toml"))
+        .unwrap()
+        .replace(
+            "[[points]]",
+            "[[bodies]]\nname = \"third\"\nparent = \"coupler\"\njoint = \"R3\"\nanchor = [\"L2\", 0, 0]\nmass = \"m2\"\ncom = [\"L2/2\", 0, 0]\ninertia = { xx = 0, yy = \"m2*L2^2/12\", zz = \"m2*L2^2/12\" }\n\n[[points]]",
+        );
+    std::fs::write(dir.join("triple_bar.toml"), model).unwrap();
+    let text = edited(&[(
+        "model = \"../models/double_bar.toml\"",
+        "model = \"triple_bar.toml\"",
+    )]);
+    let line = 1 + text
+        .lines()
+        .position(|l| l.contains("triple_bar.toml"))
+        .unwrap();
+    let sc = dir.join("damper.toml");
+    std::fs::write(&sc, &text).unwrap();
+    let err = crate::common::assert_bad_input(
+        &["simulate", sc.to_str().unwrap(), "-o", dir.join("out").to_str().unwrap()],
+        &["3 coordinate(s)", "two-bar chain"],
+    );
+    assert!(err.contains(&format!("damper.toml:{line}:")), "{err}");
+    assert!(!dir.join("out").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -8,8 +8,8 @@ use nalgebra::{DMatrix, DVector};
 
 use super::error::HybridError;
 use super::follow::{CurrentRule, FollowError, Follower};
+use super::method::Method;
 use super::model::{ExcitationTarget, HybridModel};
-use crate::damper::Method;
 use crate::partition::choose_partition;
 use crate::partition::dense::{lu_in_place, lu_solve};
 

@@ -37,8 +37,10 @@
 //!
 //! # Time integration
 //!
-//! Newmark / HHT-alpha on `(q^c, u)` with the mechanism terms at `t_{n+1}` (not
-//! alpha-weighted: see [`crate::damper`]). With the predictors `^` and
+//! Newmark / HHT-alpha ([`Method`]) on `(q^c, u)` with the mechanism terms at `t_{n+1}`
+//! (not alpha-weighted: the mechanism's whole reaction on the beam is inertial apart from
+//! its force elements, and weighting only part of it would split its inertia between two
+//! instants and pump energy into the system). With the predictors `^` and
 //! `K = A + (1+alpha)(gamma h B + beta h^2 C)` factorised once,
 //!
 //! ```text
@@ -68,6 +70,7 @@ mod error;
 mod follow;
 mod integrator;
 mod linear;
+mod method;
 mod model;
 mod pencil;
 mod placement;
@@ -82,6 +85,7 @@ pub use integrator::{Account, HybridState, Integrator, MechanismState, Repartiti
 pub use linear::{
     ElectricalState, Equilibrium, EquilibriumOptions, LinearError, Linearization, Matrix,
 };
+pub use method::Method;
 pub use model::{
     Attachment, AttachmentKind, BeamPoint, Excitation, ExcitationTarget, ForceKind, HybridModel,
     JointForce, ModelError, Mount, MountedMechanism,
@@ -94,7 +98,6 @@ pub use steady::{
     warped_frequency,
 };
 
-use crate::damper::Method;
 use crate::partition::choose_partition;
 use follow::Follower;
 

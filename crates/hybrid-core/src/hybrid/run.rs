@@ -159,7 +159,7 @@ pub fn run<E>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::damper::Method;
+    use crate::hybrid::Method;
     use crate::hybrid::{BeamPoint, Excitation, ExcitationTarget, initial_state};
     use fem_beam::{Beam, BeamModel, TimeFunction};
 

@@ -66,8 +66,8 @@ use super::error::HybridError;
 use super::initial_state;
 use super::integrator::{HybridState, Integrator};
 use super::linear::Equilibrium;
+use super::method::Method;
 use super::model::{ExcitationTarget, HybridModel};
-use crate::damper::Method;
 
 /// Settings of the steady-state runs.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -22,8 +22,8 @@ use std::f64::consts::PI;
 use std::path::Path;
 
 use fem_beam::{Beam, BeamModel, Dof};
-use hybrid_core::damper::Method;
 use hybrid_core::generator::GeneratorSpec;
+use hybrid_core::hybrid::Method;
 use hybrid_core::hybrid::{
     Attachment, AttachmentKind, BeamPoint, ForceKind, HybridModel, HybridState, Integrator,
     JointForce, Mount, MountedMechanism, Stored, initial_state,

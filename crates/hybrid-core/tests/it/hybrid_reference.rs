@@ -9,7 +9,7 @@
 use std::f64::consts::PI;
 
 use fem_beam::TimeFunction;
-use hybrid_core::damper::Method;
+use hybrid_core::hybrid::Method;
 use hybrid_core::hybrid::reference::{self, Reference};
 use hybrid_core::hybrid::{
     Attachment, AttachmentKind, BeamPoint, Excitation, ExcitationTarget, ForceKind, HybridModel,

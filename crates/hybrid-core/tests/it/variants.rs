@@ -53,7 +53,7 @@ fn disconnected_damper_is_the_damper_built_with_its_circuit_open() {
         let run = |m: &hybrid_core::hybrid::HybridModel| {
             let mut s = initial_state(m, q0.clone(), vec![0.0; n]).unwrap();
             let mut integ =
-                Integrator::new(m, hybrid_core::damper::Method::Newmark, 1e-4, &s).unwrap();
+                Integrator::new(m, hybrid_core::hybrid::Method::Newmark, 1e-4, &s).unwrap();
             let mut currents = 0.0f64;
             for _ in 0..2000 {
                 integ.step(m, &mut s).unwrap();

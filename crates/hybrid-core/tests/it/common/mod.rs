@@ -3,19 +3,20 @@
 
 #![allow(dead_code)]
 
-use std::collections::BTreeMap;
+pub mod damper;
+
+#[allow(unused_imports)] // the benches share this module
+pub use damper::{PaperDamper, double_bar_model};
+
 use std::f64::consts::PI;
 use std::path::Path;
 
 use fem_beam::{Beam, BeamModel, TimeFunction};
-use hybrid_core::damper::Method;
 use hybrid_core::generator::GeneratorSpec;
-use hybrid_core::hybrid::Placement;
 use hybrid_core::hybrid::{
     Attachment, AttachmentKind, BeamPoint, Excitation, ExcitationTarget, ForceKind, HybridModel,
     JointForce, Mount, MountedMechanism,
 };
-use hybrid_core::study::{DamperSetup, build_model, hybrid_of};
 use mbs_symbolic::runtime::{InterpretedSystem, System};
 use mbs_symbolic::samples::SplitMix64;
 use nalgebra::{DMatrix, DVector};
@@ -397,7 +398,7 @@ pub fn paper_damper(
     paper_damper_at(elements, damping, connected, inductance, 10.0)
 }
 
-/// [`paper_damper`] at half-angle `half_angle_deg`.
+/// [`paper_damper`] at half-angle `half_angle_deg` ([`PaperDamper`]).
 pub fn paper_damper_at(
     elements: usize,
     damping: bool,
@@ -405,33 +406,14 @@ pub fn paper_damper_at(
     inductance: f64,
     half_angle_deg: f64,
 ) -> (HybridModel, Vec<f64>) {
-    let mut text = format!(
-        "[[segment]]\nlength = 1.0\nyoungs_modulus = 210e9\ndensity = 7850.0\n\
-         width = 0.040\nheight = 0.008\nelements = {elements}\n\
-         [[support]]\nx = 0.0\nkind = \"clamped\"\n"
-    );
-    if damping {
-        text += "[damping]\nratios = [{ mode = 1, ratio = 0.002 }, { mode = 2, ratio = 0.002 }]\n";
+    PaperDamper {
+        elements,
+        rayleigh: damping.then_some(0.002),
+        half_angle_deg,
+        generator: generator(inductance, connected),
+        ..PaperDamper::default()
     }
-    let setup = DamperSetup {
-        beam: Beam::from_toml_str(&text, "damper_beam.toml").unwrap(),
-        parameters: BTreeMap::new(),
-        point: "tip".into(),
-        x: 1.0,
-        placement: Placement::HalfAngle(half_angle_deg),
-        generator_joint: "crank".into(),
-        max_condition: 1e4,
-        generator: generator(inductance, true),
-        initial_displacement: 1e-3,
-        method: Method::Newmark,
-        dt: 1e-4,
-        t_end: 5.0,
-        every: 10,
-    };
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../models/double_bar.toml");
-    let model = mbs_symbolic::model::load(Path::new(path)).unwrap();
-    let (coupled, guess) = build_model(&setup, &model, compiled("double_bar"), connected).unwrap();
-    hybrid_of(&setup, &coupled, guess).unwrap()
+    .hybrid()
 }
 
 pub fn max_abs(x: &[f64]) -> f64 {
