@@ -35,5 +35,5 @@ pub use system::{
     Backend, ElementPower, Names, ParamError, System, Workspace, constraint_row_names,
     coordinate_names,
 };
-pub use tangent::{TangentSystem, TangentWorkspace};
+pub use tangent::{TangentError, TangentSystem, TangentWorkspace};
 pub use trig::sin_cos;
