@@ -125,8 +125,8 @@ pub enum LinearError {
     ForceElement {
         /// The mechanism.
         mechanism: String,
-        /// The element and why.
-        source: mbs_symbolic::runtime::TangentError,
+        /// The element and why (boxed: the error stays small).
+        source: Box<mbs_symbolic::runtime::TangentError>,
     },
     /// The beam part `C + s B + s^2 A` of the shifted pencil has a zero pivot.
     #[error(
@@ -360,7 +360,7 @@ impl Linearization {
             t.check_elements(&m.initial_q, &mut t.workspace())
                 .map_err(|source| LinearError::ForceElement {
                     mechanism: m.name.clone(),
-                    source,
+                    source: Box::new(source),
                 })?;
         }
         let model = static_model(model);
@@ -485,7 +485,7 @@ impl Linearization {
             t.check_elements(&q, ws)
                 .map_err(|source| LinearError::ForceElement {
                     mechanism: m.name.clone(),
-                    source,
+                    source: Box::new(source),
                 })?;
             t.evaluate_dynamics(&q, &zero, &zero, 0.0, ws);
             let mut sws = m.system.workspace();
