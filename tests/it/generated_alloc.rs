@@ -95,6 +95,8 @@ fn exercise_dyn(s: &dyn System) -> (f64, usize) {
         s.evaluate_positions(&q, &mut ws);
         acc += ws.h.iter().sum::<f64>();
         acc += s.potential_energy(&q, &mut ws);
+        let power = s.element_power(&q, &qd, &mut ws);
+        acc += power.dissipated + power.input;
         for k in 0..points {
             assert!(s.point_kinematics(k, &q, &qd, &mut ws));
             acc += ws.point_p[0] + ws.point_j[(0, 0)] + ws.point_a[0];

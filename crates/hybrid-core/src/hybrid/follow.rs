@@ -310,6 +310,32 @@ impl Follower {
         self.measure_condition();
     }
 
+    /// The power of the mechanism model's own force elements at `(q, q')`: their dissipation
+    /// `D` (model dampers) and input power `P` (constant joint forces, external loads), see
+    /// [`mbs_symbolic::runtime::System::element_power`]. Allocation-free.
+    pub fn element_power(
+        &mut self,
+        model: &HybridModel,
+        q: &[f64],
+        qd: &[f64],
+    ) -> mbs_symbolic::runtime::ElementPower {
+        model.mechanisms[self.mech]
+            .system
+            .element_power(q, qd, &mut self.ws)
+    }
+
+    /// [`Follower::element_power`] at the follower's own `(q, q')` (the last solve).
+    pub fn current_element_power(
+        &mut self,
+        model: &HybridModel,
+    ) -> mbs_symbolic::runtime::ElementPower {
+        model.mechanisms[self.mech].system.element_power(
+            self.q.as_slice(),
+            self.qd.as_slice(),
+            &mut self.ws,
+        )
+    }
+
     /// Kinetic energy `q'^T M q' / 2` (rotors included) and potential energy (gravity and
     /// model springs) at `(q, q')`.
     pub fn energies(

@@ -43,6 +43,13 @@ pub struct Account {
     pub dissipated: Vec<f64>,
     /// Work done by each excitation.
     pub excitation_work: Vec<f64>,
+    /// Dissipated by each mechanism model's own force elements (its dampers: `c q'^2`,
+    /// `c l'^2`), `integral D dt` with `D` of
+    /// [`mbs_symbolic::runtime::System::element_power`], one entry per mechanism.
+    pub dissipated_model: Vec<f64>,
+    /// Work put in by each mechanism model's force elements without potential (constant
+    /// joint forces, external forces and torques), `integral P dt`, one entry per mechanism.
+    pub model_input_work: Vec<f64>,
 }
 
 /// The state of a run.
@@ -666,6 +673,17 @@ impl Integrator {
                 f.dissipated_power(state.mechanisms[f.mechanism].qd[f.joint], state.currents[k]);
             let new = f.dissipated_power(self.followers[f.mechanism].qd[f.joint], self.currents[k]);
             acc.dissipated[k] += 0.5 * h * (old + new);
+        }
+        // The mechanism models' own force elements (THEORY.md section 8: d(T + V)/dt of a
+        // tree is P - D), by the same trapezoidal rule.
+        acc.dissipated_model.resize(self.followers.len(), 0.0);
+        acc.model_input_work.resize(self.followers.len(), 0.0);
+        for (i, f) in self.followers.iter_mut().enumerate() {
+            let ms = &state.mechanisms[i];
+            let old = f.element_power(model, &ms.q, &ms.qd);
+            let new = f.current_element_power(model);
+            acc.dissipated_model[i] += 0.5 * h * (old.dissipated + new.dissipated);
+            acc.model_input_work[i] += 0.5 * h * (old.input + new.input);
         }
         for (k, e) in model.excitations.iter().enumerate() {
             if let ExcitationTarget::Joint { mechanism, joint } = e.target {

@@ -55,7 +55,11 @@
 //! (THEORY.md section 7: `Q_j += n k_t i`, `L i' + R i = k_e n q_j'`). A generator without
 //! inductance is the damper `n^2 k_t k_e / R` on its joint, inside `C_i`.
 //!
-//! The force elements' contributions are linear in `(q, q', i)`, so they are taken exactly
+//! The mechanism models' own force elements are inside `K_i`, `C_i`, exactly (symbolic
+//! derivatives, see [`mbs_symbolic::runtime::TangentSystem`]); one without a tangent at the
+//! equilibrium (a point spring-damper whose points coincide) is refused with
+//! [`LinearError::ForceElement`]. The scenario's force elements' contributions are linear in
+//! `(q, q', i)`, so they are taken exactly
 //! as differences of [`HybridModel::add_joint_forces`] at unit changes (no truncation: the
 //! difference of an affine function is its slope, up to one rounding).
 
@@ -114,6 +118,15 @@ pub enum LinearError {
         mechanism: String,
         /// What does not match.
         what: String,
+    },
+    /// A force element of a mechanism model has no tangent at the equilibrium (e.g. a point
+    /// spring-damper whose points coincide): refused rather than linearised inexactly.
+    #[error("mechanism \"{mechanism}\": {source}")]
+    ForceElement {
+        /// The mechanism.
+        mechanism: String,
+        /// The element and why (boxed: the error stays small).
+        source: Box<mbs_symbolic::runtime::TangentError>,
     },
     /// The beam part `C + s B + s^2 A` of the shifted pencil has a zero pivot.
     #[error(
@@ -340,6 +353,16 @@ impl Linearization {
                 });
             }
         }
+        // A force element without a tangent at the start (where the consistent
+        // accelerations of `initial_state` would already be non-finite) is refused by name;
+        // the Newton iterates are checked in `assemble`.
+        for (m, t) in model.mechanisms.iter().zip(tangents) {
+            t.check_elements(&m.initial_q, &mut t.workspace())
+                .map_err(|source| LinearError::ForceElement {
+                    mechanism: m.name.clone(),
+                    source: Box::new(source),
+                })?;
+        }
         let model = static_model(model);
         let model = &model;
         let n = model.beam_dofs();
@@ -457,7 +480,13 @@ impl Linearization {
             let zero = vec![0.0; dof];
             let lambda: Vec<f64> = f.multipliers().collect();
             f.refresh_condition();
-            // Tree: M, K, C (eqs. 11-13 differentiated).
+            // Tree: M, K, C (eqs. 11-13 differentiated), exact for every force element that
+            // has a tangent here (the others are refused).
+            t.check_elements(&q, ws)
+                .map_err(|source| LinearError::ForceElement {
+                    mechanism: m.name.clone(),
+                    source: Box::new(source),
+                })?;
             t.evaluate_dynamics(&q, &zero, &zero, 0.0, ws);
             let mut sws = m.system.workspace();
             m.system.evaluate(&q, &zero, 0.0, &mut sws);

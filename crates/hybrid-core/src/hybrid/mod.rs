@@ -92,7 +92,9 @@ pub use model::{
 };
 pub use pencil::Pencil;
 pub use placement::{Placement, PlacementError, TwoBar, initial_deflection, place_two_bar};
-pub use run::{RunError, RunFigures, RunOptions, RunOutcome, balance_error, input_work, run};
+pub use run::{
+    RunError, RunFigures, RunOptions, RunOutcome, balance_error, dissipated, input_work, run,
+};
 pub use steady::{
     SteadyError, SteadyOptions, SteadyState, output_value, rest_state, steady_state, steady_states,
     warped_frequency,
@@ -156,6 +158,8 @@ pub fn initial_state(
         account: Account {
             dissipated: vec![0.0; nf],
             excitation_work: vec![0.0; model.excitations.len()],
+            dissipated_model: vec![0.0; model.mechanisms.len()],
+            model_input_work: vec![0.0; model.mechanisms.len()],
             ..Account::default()
         },
         steps: 0,

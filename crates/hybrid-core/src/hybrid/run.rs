@@ -6,8 +6,13 @@
 //! The energy balance (see [`Account`]) is
 //!
 //! ```text
-//! error = (E_0 + W_beam loads + sum W_excitations) - (E + D_structure + sum D_elements)
+//! error = (E_0 + W_beam loads + sum W_excitations + sum W_model)
+//!         - (E + D_structure + sum D_elements + sum D_model)
 //! ```
+//!
+//! with `D_model`, `W_model` the dissipation and the input work of each mechanism model's own
+//! force elements (its dampers; its constant joint forces and external loads), integrated
+//! like the scenario's elements (THEORY.md section 8).
 //!
 //! with `E` the stored energy ([`Stored::total`]). The stored energies cost quadratic forms
 //! and a mechanism evaluation each, so they are computed only at the output steps, and the
@@ -73,16 +78,26 @@ pub enum RunError<E> {
     Sink(E),
 }
 
-/// Work put into the system since the start: beam loads and excitations (J).
+/// Work put into the system since the start: beam loads, excitations and the mechanism
+/// models' loads without potential (J).
 pub fn input_work(account: &Account) -> f64 {
-    account.beam_load_work + account.excitation_work.iter().sum::<f64>()
+    account.beam_load_work
+        + account.excitation_work.iter().sum::<f64>()
+        + account.model_input_work.iter().sum::<f64>()
+}
+
+/// Energy dissipated since the start: the structure's Rayleigh damping, the scenario's force
+/// elements and the mechanism models' own dampers (J).
+pub fn dissipated(account: &Account) -> f64 {
+    account.dissipated_structure
+        + account.dissipated.iter().sum::<f64>()
+        + account.dissipated_model.iter().sum::<f64>()
 }
 
 /// The energy-balance error `(E_0 + W) - (E + D)` (J) of a state with stored energies
 /// `stored`, `initial` the stored energy at the start.
 pub fn balance_error(initial: f64, stored: &Stored, account: &Account) -> f64 {
-    let dissipated = account.dissipated_structure + account.dissipated.iter().sum::<f64>();
-    (initial + input_work(account)) - (stored.total() + dissipated)
+    (initial + input_work(account)) - (stored.total() + dissipated(account))
 }
 
 /// Integrates `model` from `state` to `options.t_end` with `integrator` (whose step is the

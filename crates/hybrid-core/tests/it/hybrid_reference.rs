@@ -13,7 +13,8 @@ use hybrid_core::hybrid::Method;
 use hybrid_core::hybrid::reference::{self, Reference};
 use hybrid_core::hybrid::{
     Attachment, AttachmentKind, BeamPoint, Excitation, ExcitationTarget, ForceKind, HybridModel,
-    HybridState, Integrator, MountedMechanism, Stored, initial_state,
+    HybridState, Integrator, JointForce, MountedMechanism, Stored, balance_error, initial_state,
+    input_work,
 };
 use mbs_symbolic::runtime::System;
 use mbs_symbolic::samples::SplitMix64;
@@ -461,7 +462,8 @@ fn composite(dissipative: bool, excited: bool) -> Case {
 
 /// Runs `case` with Newmark at `dt` for `t_end` and returns `(initial stored, worst
 /// |balance| over the run, input work at the end)`, the balance being
-/// `initial stored + beam load work + excitation work - stored - dissipated` (all of it).
+/// `initial stored + input work - stored - dissipated` (all of it: beam loads, excitations,
+/// the mechanism models' own loads; structure, scenario elements, model dampers).
 fn energy_run(case: Case, dt: f64, t_end: f64) -> (f64, f64, f64) {
     let model = &case.model;
     let mut state = initial_state(model, case.q0, case.v0).unwrap();
@@ -477,10 +479,8 @@ fn energy_run(case: Case, dt: f64, t_end: f64) -> (f64, f64, f64) {
             continue;
         }
         integ.stored_into(model, &state, &mut stored);
-        let acc = &state.account;
-        input = acc.beam_load_work + acc.excitation_work.iter().sum::<f64>();
-        let out = stored.total() + acc.dissipated_structure + acc.dissipated.iter().sum::<f64>();
-        worst = worst.max((e0 + input - out).abs());
+        input = input_work(&state.account);
+        worst = worst.max(balance_error(e0, &stored, &state.account).abs());
     }
     (e0, worst, input)
 }
@@ -514,6 +514,154 @@ fn dissipation_and_excitation_balance_the_energy_account() {
     );
     assert!(input.abs() > 0.05 * e0, "the excitation does work");
     assert!(worst < 1e-6 * scale, "{:e}", worst / scale);
+}
+
+/// The carriage arm on a roller at `x = 0.8` of a damped cantilever deflected by 2 mm, its
+/// arm carrying a pivot spring-damper (`k = 0.05 N m/rad`, `c = 2e-4 N m s/rad`, rest
+/// 0.3 rad) either as scenario force elements on its joint (`model_level = false`, the
+/// `carriage_arm` fixture) or in the model file (`carriage_arm_damped.toml`, which adds a
+/// tether spring-damper to a ground anchor and a constant ground-frame force on the arm's
+/// end: model-level dissipation of both kinds and model-level input work).
+fn arm_case(model_level: bool) -> Case {
+    let bm = beam(8, &[(0.0, "clamped")], Some(0.01));
+    let q0 = static_shape(&bm, 1.0, 2e-3);
+    let x = 0.8;
+    let bp = BeamPoint::on(&bm, x).unwrap();
+    let system = fixture(if model_level {
+        "carriage_arm_damped"
+    } else {
+        "carriage_arm"
+    });
+    let roller = system.point_index("roller").unwrap();
+    let q = vec![0.0, 1.2];
+    let mount = mount_for(system.as_ref(), roller, &q, 0.2, [x, bp.value(&q0)]);
+    let forces = if model_level {
+        vec![]
+    } else {
+        [
+            ForceKind::Spring { k: 0.05, q0: 0.3 },
+            ForceKind::Damper { c: 2e-4 },
+        ]
+        .into_iter()
+        .enumerate()
+        .map(|(k, kind)| JointForce {
+            name: format!("pivot{k}"),
+            mechanism: 0,
+            joint: 1,
+            kind,
+        })
+        .collect()
+    };
+    let n = q0.len();
+    Case {
+        model: HybridModel::new(
+            Some(bm),
+            vec![MountedMechanism {
+                name: "arm".into(),
+                system,
+                mount,
+                max_condition: 1e8,
+                reach: None,
+                initial_q: q,
+            }],
+            vec![Attachment {
+                name: "roller".into(),
+                mechanism: 0,
+                point: roller,
+                kind: AttachmentKind::Roller,
+                beam: bp,
+            }],
+            forces,
+            vec![],
+        )
+        .unwrap(),
+        q0,
+        v0: vec![0.0; n],
+    }
+}
+
+/// What an energy run of [`arm_case`] measured: the initial stored energy, the worst
+/// |balance| (the engine's account) and the worst |balance| with the model elements' terms
+/// left out (the account as it was before they entered it), the model dampers' dissipation
+/// and the model loads' work at the end, and the scenario elements' dissipation at the end.
+struct ArmRun {
+    e0: f64,
+    worst: f64,
+    worst_without_model_terms: f64,
+    dissipated_model: f64,
+    model_work: f64,
+    dissipated_scenario: f64,
+}
+
+fn arm_run(case: Case, dt: f64, t_end: f64) -> ArmRun {
+    let model = &case.model;
+    let mut state = initial_state(model, case.q0, case.v0).unwrap();
+    let mut integ = Integrator::new(model, Method::Newmark, dt, &state).unwrap();
+    let mut stored = Stored::default();
+    integ.stored_into(model, &state, &mut stored);
+    let e0 = stored.total();
+    let (mut worst, mut without) = (0.0f64, 0.0f64);
+    for k in 1..=(t_end / dt).round() as usize {
+        integ.step(model, &mut state).unwrap();
+        if k % 10 != 0 {
+            continue;
+        }
+        integ.stored_into(model, &state, &mut stored);
+        let acc = &state.account;
+        let err = balance_error(e0, &stored, acc);
+        let model_terms =
+            acc.model_input_work.iter().sum::<f64>() - acc.dissipated_model.iter().sum::<f64>();
+        worst = worst.max(err.abs());
+        without = without.max((err - model_terms).abs());
+    }
+    let acc = &state.account;
+    ArmRun {
+        e0,
+        worst,
+        worst_without_model_terms: without,
+        dissipated_model: acc.dissipated_model.iter().sum(),
+        model_work: acc.model_input_work.iter().sum(),
+        dissipated_scenario: acc.dissipated.iter().sum(),
+    }
+}
+
+#[test]
+fn model_level_dampers_and_loads_enter_the_energy_account() {
+    // The same pivot spring-damper as scenario elements and as model elements (plus, at
+    // model level, a tether spring-damper and a constant force): both accounts must close
+    // to the same tolerance (O(h^2) of the mechanism terms, dt = 5e-5 s over 1 s), and the
+    // model terms must matter: leaving them out breaks the balance by orders of magnitude
+    // more than its tolerance.
+    let (dt, t_end) = (5e-5, 1.0);
+    let scenario = arm_run(arm_case(false), dt, t_end);
+    let model = arm_run(arm_case(true), dt, t_end);
+    println!(
+        "scenario-level: E0 {:e} J, dissipated {:e} J, worst balance / E0 {:e}",
+        scenario.e0,
+        scenario.dissipated_scenario,
+        scenario.worst / scenario.e0
+    );
+    println!(
+        "model-level: E0 {:e} J, dissipated by the model's dampers {:e} J, model work {:e} J, worst balance / E0 {:e}, without the model terms {:e}",
+        model.e0,
+        model.dissipated_model,
+        model.model_work,
+        model.worst / model.e0,
+        model.worst_without_model_terms / model.e0
+    );
+    assert_eq!(scenario.dissipated_model, 0.0);
+    assert!(scenario.dissipated_scenario > 0.0);
+    assert!(model.dissipated_model > 0.0 && model.model_work != 0.0);
+    assert_eq!(model.dissipated_scenario, 0.0);
+    for run in [&scenario, &model] {
+        assert!(run.worst < 1e-6 * run.e0, "{:e}", run.worst / run.e0);
+    }
+    assert!(
+        model.worst_without_model_terms > 100.0 * model.worst.max(scenario.worst),
+        "the model terms are significant: {:e} vs {:e}",
+        model.worst_without_model_terms,
+        model.worst
+    );
 }
 
 // ---------------------------------------------------------------------------------------

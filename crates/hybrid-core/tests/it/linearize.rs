@@ -281,3 +281,60 @@ fn a_huge_generator_inductance_returns_instead_of_hanging() {
         }
     }
 }
+
+/// A mechanism whose model has a point spring-damper with coincident points at the
+/// equilibrium (a zero-length tether, `l = 0`) has no tangent there: the linearisation is
+/// refused with [`LinearError::ForceElement`] naming the mechanism and the element.
+#[test]
+fn a_force_element_without_tangent_is_refused_by_name() {
+    use hybrid_core::hybrid::{Attachment, AttachmentKind, LinearError, MountedMechanism};
+    let bm = beam(8, &[(0.0, "clamped")], None);
+    let x = 0.8;
+    let bp = BeamPoint::on(&bm, x).unwrap();
+    let system = fixture("carriage_tethered");
+    let roller = system.point_index("roller").unwrap();
+    let q = vec![0.0, 0.0];
+    let mount = mount_for(system.as_ref(), roller, &q, 0.0, [x, 0.0]);
+    let model = HybridModel::new(
+        Some(bm),
+        vec![MountedMechanism {
+            name: "tethered".into(),
+            system,
+            mount,
+            max_condition: 1e8,
+            reach: None,
+            initial_q: q,
+        }],
+        vec![Attachment {
+            name: "roller".into(),
+            mechanism: 0,
+            point: roller,
+            kind: AttachmentKind::Roller,
+            beam: bp,
+        }],
+        vec![],
+        vec![],
+    )
+    .unwrap();
+    let path = format!(
+        "{}/tests/fixtures/carriage_tethered.toml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let mm = mbs_symbolic::model::load(std::path::Path::new(&path)).unwrap();
+    let tangent = mbs_symbolic::runtime::TangentSystem::new(&mm);
+    let err = Linearization::new(&model, &[&tangent], EquilibriumOptions::default()).unwrap_err();
+    let text = err.to_string();
+    assert!(
+        matches!(
+            &err,
+            LinearError::ForceElement { mechanism, source }
+                if mechanism == "tethered"
+                    && matches!(&**source, mbs_symbolic::runtime::TangentError::CoincidentSpringPoints { element, .. } if element == "tether")
+        ),
+        "{err:?}"
+    );
+    assert!(
+        text.contains("tethered") && text.contains("tether") && text.contains("coincide"),
+        "{text}"
+    );
+}

@@ -1,14 +1,19 @@
-//! Potential energy `V(q)`: gravity `-sum m_i g . x_Ci` plus `k s^2 / 2` of every force
-//! element that stores energy (its stretch comes from `forces.rs`). The gravity part of `F^b`
-//! and the spring part of `Q^b` are its gradient.
+//! Potential energy `V(q)`: gravity `-sum m_i g . x_Ci` plus the potentials `V_e` of the
+//! force elements that store energy (`k s^2 / 2` of the springs, stated with each element in
+//! `elements.rs`). The gravity part of `F^b` and the spring part of `Q^b` are its gradient
+//! (THEORY.md section 8).
 
 use super::kinematics::{BodyKinematics, ground_point};
-use super::{Builder, forces, vec3};
+use super::{Builder, vec3};
 use crate::expr::Id;
 
-/// `V(q)`: gravity and the springs of the force elements (see
+/// `V(q)`: gravity and the element potentials `element_potentials` (see
 /// [`Symbolic::potential`](super::Symbolic::potential)).
-pub(super) fn potential_energy(b: &mut Builder<'_>, kin: &[BodyKinematics]) -> Id {
+pub(super) fn potential_energy(
+    b: &mut Builder<'_>,
+    kin: &[BodyKinematics],
+    element_potentials: &[Id],
+) -> Id {
     let model = b.model;
     let g = b.v(&model.gravity);
     let mut v = b.dag.zero();
@@ -20,14 +25,8 @@ pub(super) fn potential_energy(b: &mut Builder<'_>, kin: &[BodyKinematics]) -> I
         let mgx = b.dag.mul(m, gx);
         v = b.dag.sub(v, mgx);
     }
-    let half = b.dag.constant(0.5);
-    for fe in &model.forces {
-        if let Some((s, k)) = forces::spring_stretch(b, kin, fe) {
-            let s2 = b.dag.mul(s, s);
-            let ks2 = b.dag.mul(k, s2);
-            let e = b.dag.mul(half, ks2);
-            v = b.dag.add(v, e);
-        }
+    for &e in element_potentials {
+        v = b.dag.add(v, e);
     }
     v
 }

@@ -1,18 +1,12 @@
-//! The force terms of the equations of motion: `F^b` (eq. 12, the `D` terms of eq. 9 —
-//! inertial wrenches with `q'' = 0` and gravity) and `Q^b` (eq. 13, the `E` terms — the
-//! force elements, paper sign `Q = -(generalised applied force)`), both summed from the
-//! leaves to the root and projected on the joint axes.
-//!
-//! Each force element has one function here ([`joint_spring_damper`], [`external_load`],
-//! [`point_spring`]) and its stored energy in [`spring_stretch`]: adding a force element
-//! means adding a `ForceElement` variant (model types and validation), its function and
-//! match arms here, and the same formulas in the numeric reference (`numeric/`).
+//! The inertial and gravity terms of the equations of motion, `F^b` (eq. 12, the `D` terms
+//! of eq. 9 — inertial wrenches with `q'' = 0` and gravity), summed from the leaves to the
+//! root and projected on the joint axes; the backward recursion and projection are shared
+//! with the force elements' `Q^b` (eq. 13, `elements.rs`).
 
-use super::kinematics::{BodyKinematics, ground_point, wrench_to_parent};
+use super::kinematics::{BodyKinematics, wrench_to_parent};
 use super::vec3::{self, V3};
 use super::{Builder, joint};
-use crate::expr::{Fun, Id};
-use crate::model::{ForceElement, Scalar};
+use crate::expr::Id;
 
 /// How gravity enters `F^b`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -144,7 +138,7 @@ pub(super) fn velocity_and_gravity_terms(
 }
 
 /// Sums wrenches from the leaves to the root and projects each on its joint axis.
-fn backward_and_project(
+pub(super) fn backward_and_project(
     b: &mut Builder<'_>,
     kin: &[BodyKinematics],
     mut w: Vec<(V3, V3)>,
@@ -162,223 +156,4 @@ fn backward_and_project(
     (0..n)
         .map(|i| joint::project(model, i, w[i].0, w[i].1))
         .collect()
-}
-
-/// Accumulators of the force elements' contributions to `Q^b`: the applied wrench of each
-/// body (force and moment about `O_i`, body frame) and the direct terms of each joint row.
-struct Applied {
-    wrench: Vec<(V3, V3)>,
-    joint: Vec<Id>,
-}
-
-impl Applied {
-    /// Adds a body-frame force `fb` at body-frame point `r` and a body-frame torque `tb` (if
-    /// any) to the applied wrench of body `i`.
-    fn add_body_force(&mut self, b: &mut Builder<'_>, i: usize, r: V3, fb: V3, tb: Option<V3>) {
-        let mut mom = vec3::cross(&mut b.dag, r, fb);
-        if let Some(tb) = tb {
-            mom = vec3::add(&mut b.dag, mom, tb);
-        }
-        let f = vec3::add(&mut b.dag, self.wrench[i].0, fb);
-        let nn = vec3::add(&mut b.dag, self.wrench[i].1, mom);
-        self.wrench[i] = (f, nn);
-    }
-
-    /// Adds a ground-frame force `fg` at body-frame point `r` of body `i`.
-    fn add_ground_force(
-        &mut self,
-        b: &mut Builder<'_>,
-        kin: &[BodyKinematics],
-        i: usize,
-        r: V3,
-        fg: V3,
-    ) {
-        let fb = vec3::mat_t_vec(&mut b.dag, &kin[i].ground_rot, fg);
-        self.add_body_force(b, i, r, fb, None);
-    }
-}
-
-/// `Q^b` (eq. 13): the `E` terms of the force elements, with `Q = -(generalised force)`.
-pub(super) fn applied_terms(b: &mut Builder<'_>, kin: &[BodyKinematics]) -> Vec<Id> {
-    let model = b.model;
-    let n = model.dof();
-    let z = vec3::zero(&mut b.dag);
-    let mut acc = Applied {
-        wrench: vec![(z, z); n],
-        joint: vec![b.dag.zero(); n],
-    };
-    for fe in &model.forces {
-        match fe {
-            ForceElement::Joint {
-                body,
-                stiffness,
-                damping,
-                rest,
-                constant,
-                ..
-            } => joint_spring_damper(b, &mut acc, *body, [stiffness, damping, rest, constant]),
-            ForceElement::External {
-                body,
-                point,
-                force,
-                torque,
-                in_body_frame,
-                ..
-            } => external_load(
-                b,
-                kin,
-                &mut acc,
-                *body,
-                [point, force, torque],
-                *in_body_frame,
-            ),
-            ForceElement::PointSpring {
-                a,
-                b: pb,
-                stiffness,
-                damping,
-                rest_length,
-                ..
-            } => point_spring(
-                b,
-                kin,
-                &mut acc,
-                (*a, *pb),
-                [stiffness, damping, rest_length],
-            ),
-        }
-    }
-    let Applied { wrench, joint } = acc;
-    let projected = backward_and_project(b, kin, wrench);
-    (0..n)
-        .map(|i| {
-            let neg = b.dag.neg(projected[i]);
-            b.dag.add(neg, joint[i])
-        })
-        .collect()
-}
-
-/// Joint spring–damper with constant force on the row of `body`: `k (q - q0) + c q' - f0`.
-fn joint_spring_damper(
-    b: &mut Builder<'_>,
-    acc: &mut Applied,
-    body: usize,
-    [stiffness, damping, rest, constant]: [&Scalar; 4],
-) {
-    let (k, c, q0, f0) = (b.s(stiffness), b.s(damping), b.s(rest), b.s(constant));
-    let (q, qd) = (b.dag.q(body), b.dag.qd(body));
-    let dq = b.dag.sub(q, q0);
-    let spring = b.dag.mul(k, dq);
-    let damp = b.dag.mul(c, qd);
-    let s = b.dag.add(spring, damp);
-    let s = b.dag.sub(s, f0);
-    acc.joint[body] = b.dag.add(acc.joint[body], s);
-}
-
-/// External force and torque on `body`, the force applied at a body-frame point; given in the
-/// ground frame unless `in_body_frame`.
-fn external_load(
-    b: &mut Builder<'_>,
-    kin: &[BodyKinematics],
-    acc: &mut Applied,
-    body: usize,
-    [point, force, torque]: [&[Scalar; 3]; 3],
-    in_body_frame: bool,
-) {
-    let r = b.v(point);
-    let f = b.v(force);
-    let t = b.v(torque);
-    let (fb, tb) = if in_body_frame {
-        (f, t)
-    } else {
-        let rt = &kin[body].ground_rot;
-        (
-            vec3::mat_t_vec(&mut b.dag, rt, f),
-            vec3::mat_t_vec(&mut b.dag, rt, t),
-        )
-    };
-    acc.add_body_force(b, body, r, fb, Some(tb));
-}
-
-/// Spring–damper between named points `a` and `b`: tension `k (l - l0) + c l'` along
-/// `d = p_b - p_a`, pulling `a` towards `b` and `b` towards `a`.
-fn point_spring(
-    b: &mut Builder<'_>,
-    kin: &[BodyKinematics],
-    acc: &mut Applied,
-    (a, pb): (usize, usize),
-    [stiffness, damping, rest_length]: [&Scalar; 3],
-) {
-    let model = b.model;
-    let (pa, pbb) = (&model.points[a], &model.points[pb]);
-    let (ra, rb, d, l) = spring_geometry(b, kin, a, pb);
-    // l' = d . d' / l, with d' the time derivative of d along the motion.
-    let dv = b.dag.time_derivative_many(&d);
-    let ddv = vec3::dot(&mut b.dag, d, [dv[0], dv[1], dv[2]]);
-    let ld = b.dag.div(ddv, l);
-    let (k, c, l0) = (b.s(stiffness), b.s(damping), b.s(rest_length));
-    let stretch = b.dag.sub(l, l0);
-    let ks = b.dag.mul(k, stretch);
-    let cl = b.dag.mul(c, ld);
-    let tension = b.dag.add(ks, cl);
-    let per_len = b.dag.div(tension, l);
-    let fa = vec3::scale(&mut b.dag, per_len, d);
-    if let Some(i) = pa.body {
-        acc.add_ground_force(b, kin, i, ra, fa);
-    }
-    if let Some(i) = pbb.body {
-        let fb = [b.dag.neg(fa[0]), b.dag.neg(fa[1]), b.dag.neg(fa[2])];
-        acc.add_ground_force(b, kin, i, rb, fb);
-    }
-}
-
-/// The stretch `s` and stiffness `k` of a force element that stores energy `k s^2 / 2`
-/// (`None` for one that stores none): `q - q0` of a joint spring, `l - l0` of a point spring.
-pub(super) fn spring_stretch(
-    b: &mut Builder<'_>,
-    kin: &[BodyKinematics],
-    fe: &ForceElement,
-) -> Option<(Id, Id)> {
-    match fe {
-        ForceElement::Joint {
-            body,
-            stiffness,
-            rest,
-            ..
-        } => {
-            let (k, q0) = (b.s(stiffness), b.s(rest));
-            let q = b.dag.q(*body);
-            Some((b.dag.sub(q, q0), k))
-        }
-        ForceElement::PointSpring {
-            a,
-            b: pb,
-            stiffness,
-            rest_length,
-            ..
-        } => {
-            let (_, _, _, l) = spring_geometry(b, kin, *a, *pb);
-            let (k, l0) = (b.s(stiffness), b.s(rest_length));
-            Some((b.dag.sub(l, l0), k))
-        }
-        ForceElement::External { .. } => None,
-    }
-}
-
-/// Geometry of a spring between points `a` and `b`: their body-frame positions, the ground
-/// vector `d = p_b - p_a` and the length `l = |d|`.
-fn spring_geometry(
-    b: &mut Builder<'_>,
-    kin: &[BodyKinematics],
-    a: usize,
-    pb: usize,
-) -> (V3, V3, V3, Id) {
-    let (pa, pbb) = (&b.model.points[a], &b.model.points[pb]);
-    let ra = b.v(&pa.position);
-    let rb = b.v(&pbb.position);
-    let xa = ground_point(&mut b.dag, kin, pa.body, ra);
-    let xb = ground_point(&mut b.dag, kin, pbb.body, rb);
-    let d = vec3::sub(&mut b.dag, xb, xa);
-    let dd = vec3::dot(&mut b.dag, d, d);
-    (ra, rb, d, b.dag.fun(Fun::Sqrt, dd))
 }

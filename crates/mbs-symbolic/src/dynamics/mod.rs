@@ -47,9 +47,12 @@
 //! * `joint.rs`: every joint type's formulas (eqs. 1–3, 11) — a new joint type is added here.
 //! * `kinematics.rs`: the forward recursion (eqs. 1–3).
 //! * `mass.rs`: `M^b` (eq. 11) by composite bodies.
-//! * `forces.rs`: `F^b` (eq. 12) and `Q^b` (eq. 13), one function per force element — a new
-//!   force element is added here.
-//! * `energy.rs`: the potential energy `V(q)`.
+//! * `forces.rs`: `F^b` (eq. 12) and the backward recursion it shares with `Q^b`.
+//! * `elements.rs`: the force elements, one function each stating its `Q^b` terms (eq. 13),
+//!   its potential `V_e`, its dissipation power `D_e` and its input power `P_e` — a new force
+//!   element is added here.
+//! * `energy.rs`: the potential energy `V(q)` (gravity and the elements' `V_e`).
+mod elements;
 mod energy;
 mod forces;
 mod joint;
@@ -85,6 +88,13 @@ pub struct Symbolic {
     /// elements, `k (q - rest)^2 / 2` and `k (l - l0)^2 / 2`. The gravity part of `F^b` and the
     /// spring part of `Q^b` are its gradient.
     pub potential: Id,
+    /// Dissipation power of the force elements `D(q, q') = sum_e D_e`: `c q'^2` of the
+    /// joint dampers, `c l'^2` of the point spring-dampers (see `elements.rs`).
+    pub dissipation: Id,
+    /// Power put in by the force elements that have neither potential nor dissipation,
+    /// `P(q, q') = sum_e P_e`: `f0 q'` of the constant joint forces, `f . x' + t . w` of the
+    /// external loads. Along any motion `d(T + V)/dt = P - D` (THEORY.md section 8).
+    pub input_power: Id,
 }
 
 /// The model being derived and the DAG its expressions go into.
@@ -141,16 +151,18 @@ impl Symbolic {
             }
         }
         let f = best.map(|(_, f)| f).unwrap_or_default();
-        let q = forces::applied_terms(&mut b, &bodies);
-        let potential = energy::potential_energy(&mut b, &bodies);
+        let elements = elements::force_elements(&mut b, &bodies);
+        let potential = energy::potential_energy(&mut b, &bodies, &elements.potentials);
         Symbolic {
             dag: b.dag,
             n,
             bodies,
             mass,
             f,
-            q,
+            q: elements.q,
             potential,
+            dissipation: elements.dissipation,
+            input_power: elements.input,
         }
     }
 

@@ -1,5 +1,6 @@
 //! The evaluation methods of the generated struct, one function per emitted method: `M^b`,
-//! `F^b`, `Q^b` (eqs. 11–13), `h`, `J`, `A` (eqs. 14–16), `V`, all of them at once
+//! `F^b`, `Q^b` (eqs. 11–13), `h`, `J`, `A` (eqs. 14–16), `V`, the elements' power `[D, P]`,
+//! all of them at once
 //! (`evaluate`), the kinematics of each named point (eqs. 49–50), everything including the
 //! points at once (`evaluate_with_points`), and the cache of parameter-only subexpressions
 //! (`hoisted_values`). Each records the operation count of its outputs per call (hoisted
@@ -321,6 +322,28 @@ impl<'a> Methods<'a> {
                 let v: f64;
                 #body
                 v
+            }
+        }
+    }
+
+    /// `element_power`: `[D, P]`, the force elements' dissipation and input power.
+    pub fn element_power(&mut self, sym: &Symbolic) -> TokenStream {
+        let outs = [
+            (sym.dissipation, Dest::Scalar("d".into())),
+            (sym.input_power, Dest::Scalar("p".into())),
+        ];
+        let (body, inputs) = self.body("element_power", &outs);
+        let (q, qd, nl) = (arg(&inputs, "q"), arg(&inputs, "qd"), self.nl());
+        quote! {
+            /// `[D, P]`: the dissipation power of the force elements (`c q'^2` of the joint
+            /// dampers, `c l'^2` of the point spring-dampers) and the power of the loads without
+            /// potential (constant joint forces, external forces and torques); along any motion
+            /// `d(T + V)/dt = P - D`.
+            pub fn element_power(&self, #q: &[f64; #nl], #qd: &[f64; #nl]) -> [f64; 2] {
+                let d: f64;
+                let p: f64;
+                #body
+                [d, p]
             }
         }
     }

@@ -153,9 +153,13 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
 
     // Sines and cosines of angle sums by angle addition, decided once for all the functions
     // that must stay bit-identical (the separate methods, `evaluate`, the points and
-    // `evaluate_with_points`); `potential_energy` is tied to none of them and decides alone.
+    // `evaluate_with_points`); `potential_energy` and `element_power` are tied to none of
+    // them and decide alone.
     let potential = sym.potential;
+    let power = [sym.dissipation, sym.input_power];
     sym.potential = sym.dag.zero();
+    sym.dissipation = sym.dag.zero();
+    sym.input_power = sym.dag.zero();
     let roots = all_roots(&sym, &cons, &pts);
     let mut rewrite = trig::angle_addition(&mut sym.dag, &roots);
     rewrite.map_all(&mut sym.mass);
@@ -175,6 +179,10 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
     }
     let alone = trig::angle_addition(&mut sym.dag, &[potential]);
     sym.potential = alone.map(potential);
+    rewrite.names.extend(alone.names);
+    let alone = trig::angle_addition(&mut sym.dag, &power);
+    sym.dissipation = alone.map(power[0]);
+    sym.input_power = alone.map(power[1]);
     rewrite.names.extend(alone.names);
     // The cache of parameter-only subexpressions, over everything any method computes.
     let hoisting = hoist::hoist(&sym.dag, &all_roots(&sym, &cons, &pts));
@@ -206,6 +214,7 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
     methods.extend(m.constraint_jacobian(&cons));
     methods.extend(m.constraint_bias(&cons));
     methods.extend(m.potential_energy(&sym));
+    methods.extend(m.element_power(&sym));
     methods.extend(m.evaluate(&sym, &cons));
     for (pt, fname) in pts.iter().zip(&point_fns) {
         methods.extend(m.point(pt, fname));
@@ -263,6 +272,8 @@ fn all_roots(sym: &Symbolic, cons: &ConstraintExprs, pts: &[PointExprs]) -> Vec<
     roots.extend(cons.j.iter().flatten());
     roots.extend(&cons.a);
     roots.push(sym.potential);
+    roots.push(sym.dissipation);
+    roots.push(sym.input_power);
     for pt in pts {
         roots.extend(pt.p.iter().chain(pt.j.iter().flatten()).chain(&pt.a));
     }

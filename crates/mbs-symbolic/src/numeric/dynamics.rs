@@ -254,6 +254,76 @@ impl NumericModel {
         -self.generalised_force(q, qd, Part::NonConservative)
     }
 
+    /// Dissipation power `D(q, q')` and input power `P(q, q')` of the force elements, as
+    /// `(D, P)` (the symbolic counterparts are stated with each element in
+    /// `dynamics/elements.rs`):
+    ///
+    /// ```text
+    /// joint spring-damper        D_e = c q'^2      P_e = constant q'
+    /// point spring-damper        D_e = c l'^2      P_e = 0            (l' = u . (v_b - v_a))
+    /// external force and torque  D_e = 0           P_e = f . x_P' + t . w      (ground frame)
+    /// ```
+    ///
+    /// With [`NumericModel::potential_energy`] (gravity and springs) and
+    /// [`NumericModel::q_nonconservative`] they satisfy, at every state,
+    ///
+    /// ```text
+    /// -q'^T Q_nc = P - D,      so along any motion   d(T + V)/dt = P - D
+    /// ```
+    ///
+    /// (THEORY.md section 8). A point spring-damper whose points coincide contributes
+    /// nothing, as in [`NumericModel::q_vector`].
+    ///
+    /// `q` and `qd` must have [`NumericModel::dof`] entries.
+    pub fn element_power(&self, q: &[f64], qd: &[f64]) -> (f64, f64) {
+        let fr = self.frames(q);
+        let motion = self.motion(&fr, qd, None, &Vector3::zeros());
+        let (mut d, mut p) = (0.0, 0.0);
+        for force in &self.forces {
+            match *force {
+                NForce::Joint {
+                    body,
+                    damping,
+                    constant,
+                    ..
+                } => {
+                    d += damping * qd[body] * qd[body];
+                    p += constant * qd[body];
+                }
+                NForce::PointSpring { a, b, damping, .. } => {
+                    let (pa, pb) = (self.points[a], self.points[b]);
+                    let (xa, xb) = (fr.point(pa.body, &pa.local), fr.point(pb.body, &pb.local));
+                    let dv = xb - xa;
+                    let l = dv.norm();
+                    if l == 0.0 {
+                        continue;
+                    }
+                    let va = point_velocity(&fr, &motion, pa.body, &xa);
+                    let vb = point_velocity(&fr, &motion, pb.body, &xb);
+                    let ld = (dv / l).dot(&(vb - va));
+                    d += damping * ld * ld;
+                }
+                NForce::External {
+                    body,
+                    point,
+                    force,
+                    torque,
+                    in_body_frame,
+                } => {
+                    let (f, t) = if in_body_frame {
+                        (fr.rot[body] * force, fr.rot[body] * torque)
+                    } else {
+                        (force, torque)
+                    };
+                    let x = fr.point(Some(body), &point);
+                    let v = point_velocity(&fr, &motion, Some(body), &x);
+                    p += f.dot(&v) + t.dot(&motion[body].omega);
+                }
+            }
+        }
+        (d, p)
+    }
+
     /// Forward dynamics of the tree (eq. 10): `q'' = -M^-1 (F + Q)`, or `None` when `M` is
     /// singular (possible only for degenerate models, e.g. a body without inertia about its
     /// joint axis at the end of a chain).

@@ -2,7 +2,7 @@
 //! compiled in) behind the dynamic [`System`] interface.
 
 use super::mechanism::{Evaluation, Mechanism, PointKinematics};
-use super::system::{Backend, Names, ParamError, System, Workspace, store_bias};
+use super::system::{Backend, ElementPower, Names, ParamError, System, Workspace, store_bias};
 
 /// Generated code as a [`System`]: the fixed-size outputs are copied into the workspace
 /// buffers. Allocation-free.
@@ -157,6 +157,11 @@ where
 
     fn potential_energy(&self, q: &[f64], _ws: &mut Workspace) -> f64 {
         self.mech.potential_energy(&array::<N>(q))
+    }
+
+    fn element_power(&self, q: &[f64], qd: &[f64], _ws: &mut Workspace) -> ElementPower {
+        let [dissipated, input] = self.mech.element_power(&array::<N>(q), &array::<N>(qd));
+        ElementPower { dissipated, input }
     }
 
     fn point_kinematics(&self, k: usize, q: &[f64], qd: &[f64], ws: &mut Workspace) -> bool {

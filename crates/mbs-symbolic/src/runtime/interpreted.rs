@@ -6,7 +6,9 @@ use crate::constraints;
 use crate::expr::{EvalInput, Id, Tape};
 use crate::model::Model;
 
-use super::system::{Backend, Names, ParamError, System, Workspace, bias_entry, store_bias};
+use super::system::{
+    Backend, ElementPower, Names, ParamError, System, Workspace, bias_entry, store_bias,
+};
 
 /// The symbolic equations of a model evaluated by the DAG interpreter: complete — `M`, `F`,
 /// `Q`, `h`, `J`, `A` (one tape), `h`, `J` (the position-level tape), `V`, and the
@@ -19,6 +21,8 @@ pub struct InterpretedSystem {
     all: Tape,
     positions: Tape,
     potential: Tape,
+    /// Outputs `D`, `P` of the force elements.
+    power: Tape,
     point_tapes: Vec<Tape>,
     values: Vec<f64>,
     names: Names,
@@ -62,6 +66,7 @@ impl InterpretedSystem {
             all: Tape::new(&sym.dag, &outs),
             positions: Tape::new(&sym.dag, &outs[pos_start..pos_end]),
             potential: Tape::new(&sym.dag, &[sym.potential]),
+            power: Tape::new(&sym.dag, &[sym.dissipation, sym.input_power]),
             point_tapes,
             values: model.default_params(),
             names,
@@ -136,7 +141,7 @@ impl System for InterpretedSystem {
 
     fn scratch_len(&self) -> usize {
         std::iter::once(&self.all)
-            .chain([&self.positions, &self.potential])
+            .chain([&self.positions, &self.potential, &self.power])
             .chain(&self.point_tapes)
             .map(|t| t.scratch_len() + t.output_len())
             .max()
@@ -171,6 +176,17 @@ impl System for InterpretedSystem {
         let mut v = 0.0;
         self.run(&self.potential, q, &[], 0.0, ws, |out, _| v = out[0]);
         v
+    }
+
+    fn element_power(&self, q: &[f64], qd: &[f64], ws: &mut Workspace) -> ElementPower {
+        let mut p = ElementPower::default();
+        self.run(&self.power, q, qd, 0.0, ws, |out, _| {
+            p = ElementPower {
+                dissipated: out[0],
+                input: out[1],
+            }
+        });
+        p
     }
 
     fn point_kinematics(&self, k: usize, q: &[f64], qd: &[f64], ws: &mut Workspace) -> bool {

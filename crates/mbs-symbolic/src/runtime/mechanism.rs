@@ -96,6 +96,10 @@ pub trait Mechanism<const N: usize, const NC: usize> {
     /// part of `F^b` and the spring part of `Q^b` are its gradient).
     fn potential_energy(&self, q: &[f64; N]) -> f64;
 
+    /// `[D, P]`: the dissipation power and the input power of the force elements at
+    /// `(q, q')` (see [`super::System::element_power`]; THEORY.md section 8).
+    fn element_power(&self, q: &[f64; N], qd: &[f64; N]) -> [f64; 2];
+
     /// `M^b`, `F^b`, `Q^b`, `h`, `J` and `A` at once. The default calls the separate
     /// methods; generated code overrides it with one fused body in which every intermediate
     /// (trigonometric leaves, rotation products) is computed once. Results are bit-identical

@@ -32,7 +32,8 @@ pub use interpreted::InterpretedSystem;
 pub use mechanism::{Evaluation, Mechanism, PointKinematics};
 pub use numeric::NumericSystem;
 pub use system::{
-    Backend, Names, ParamError, System, Workspace, constraint_row_names, coordinate_names,
+    Backend, ElementPower, Names, ParamError, System, Workspace, constraint_row_names,
+    coordinate_names,
 };
-pub use tangent::{TangentSystem, TangentWorkspace};
+pub use tangent::{TangentError, TangentSystem, TangentWorkspace};
 pub use trig::sin_cos;

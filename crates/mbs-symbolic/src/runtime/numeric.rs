@@ -4,7 +4,7 @@
 use crate::model::Model;
 use crate::numeric::NumericModel;
 
-use super::system::{Backend, Names, ParamError, System, Workspace, store_bias};
+use super::system::{Backend, ElementPower, Names, ParamError, System, Workspace, store_bias};
 
 /// The numeric recursive reference as a [`System`]. It allocates its results (a reference,
 /// not a hot path).
@@ -76,6 +76,11 @@ impl System for NumericSystem {
 
     fn potential_energy(&self, q: &[f64], _ws: &mut Workspace) -> f64 {
         self.numeric.potential_energy(q)
+    }
+
+    fn element_power(&self, q: &[f64], qd: &[f64], _ws: &mut Workspace) -> ElementPower {
+        let (dissipated, input) = self.numeric.element_power(q, qd);
+        ElementPower { dissipated, input }
     }
 
     fn point_kinematics(&self, k: usize, q: &[f64], qd: &[f64], ws: &mut Workspace) -> bool {

@@ -69,6 +69,20 @@ pub(super) fn store_bias(values: &[f64], out: &mut [f64]) {
     }
 }
 
+/// The power of a mechanism's force elements at one state (W), split as in
+/// THEORY.md section 8: along any motion of the tree `d(T + V)/dt = input - dissipated`,
+/// `V` being [`System::potential_energy`] (gravity and springs).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ElementPower {
+    /// `D(q, q') >= 0` (for non-negative damping coefficients): `c q'^2` of the joint
+    /// dampers and `c l'^2` of the point spring-dampers.
+    pub dissipated: f64,
+    /// `P(q, q')`, any sign: the power of the loads that have no potential — `f0 q'` of the
+    /// constant joint forces, `f . x' + t . w` of the external forces and torques (ground-
+    /// or body-frame).
+    pub input: f64,
+}
+
 /// Which of the three backends implements a [`System`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Backend {
@@ -198,6 +212,18 @@ pub trait System: Send + Sync {
     /// part of `F^b` and the spring part of `Q^b` are its gradient).
     fn potential_energy(&self, q: &[f64], ws: &mut Workspace) -> f64;
 
+    /// The dissipation and input power of the force elements at `(q, q')` (no element
+    /// depends on time). With `Q_nc` the part of `Q^b` that is not the springs' gradient,
+    /// `-q'^T Q_nc = input - dissipated` at every state; the generated and interpreted
+    /// backends allocate nothing.
+    fn element_power(&self, q: &[f64], qd: &[f64], ws: &mut Workspace) -> ElementPower;
+
+    /// The dissipation power `D(q, q')` of the force elements (see
+    /// [`System::element_power`]).
+    fn dissipated_power(&self, q: &[f64], qd: &[f64], ws: &mut Workspace) -> f64 {
+        self.element_power(q, qd, ws).dissipated
+    }
+
     /// Kinematics of point `k` (index into [`System::point_names`]) into
     /// [`Workspace::point_p`], [`Workspace::point_j`] and [`Workspace::point_a`]; `false`
     /// (workspace unchanged) when there is no such point.
@@ -279,6 +305,9 @@ macro_rules! forward_system {
             }
             fn potential_energy(&self, q: &[f64], ws: &mut Workspace) -> f64 {
                 (**self).potential_energy(q, ws)
+            }
+            fn element_power(&self, q: &[f64], qd: &[f64], ws: &mut Workspace) -> ElementPower {
+                (**self).element_power(q, qd, ws)
             }
             fn point_kinematics(
                 &self,

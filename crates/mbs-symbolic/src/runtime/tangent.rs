@@ -63,6 +63,21 @@
 //! runs a tape into [`TangentWorkspace::scratch`]: nothing is allocated once the workspace
 //! exists.
 //!
+//! # Which force elements linearise exactly
+//!
+//! Every force element's `Q^b` terms are expressions of the DAG (`dynamics/elements.rs`), so
+//! `K` and `C` are their exact derivatives at any state, moving or at rest: the joint
+//! spring-damper and constant force (affine in `q`, `q'`), the point spring-damper (its
+//! damping term `c l' d / l` is differentiated in `q` as well as in `q'`, so a tangent about
+//! a moving state keeps `c d(l')/dq`), and the external loads (a body-frame load is a
+//! follower force: its stiffness `d(J^T T f)/dq` is exact and in general not symmetric).
+//! The one place where an element has no tangent is a point spring-damper whose two points
+//! coincide (`l = 0`): its direction `d / l` is undefined there (the numeric reference
+//! applies no force, the symbolic expressions are not finite). [`TangentSystem::check_elements`]
+//! refuses such a state with [`TangentError::CoincidentSpringPoints`] naming the element,
+//! instead of returning a silently wrong or non-finite tangent; the hybrid linearisation
+//! calls it at the equilibrium.
+//!
 //! Cost: forward mode makes one derivative pass per coordinate, so the `K`, `C` tape grows
 //! about `n`-fold over the equations' own: measured tape slots 127 against the
 //! interpreter's 73 for the double bar (`n = 2`), 25,597 against 2,968 for a 12-body
@@ -72,9 +87,38 @@ use nalgebra::{DMatrix, DVector, Vector3};
 
 use crate::constraints;
 use crate::expr::{Dag, EvalInput, Id, Tape, Var};
-use crate::model::Model;
+use crate::model::{ForceElement, Model};
 
 use super::system::{Names, ParamError};
+
+/// Why a force element has no tangent at a state (see the module documentation).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum TangentError {
+    /// A point spring-damper whose two points coincide: its direction, hence its force and
+    /// its tangent, is undefined.
+    #[error(
+        "force element `{element}`: its points `{a}` and `{b}` coincide (length {length:e} m), where the spring-damper's direction and so its linearisation are undefined"
+    )]
+    CoincidentSpringPoints {
+        /// The element's name.
+        element: String,
+        /// Its first point.
+        a: String,
+        /// Its second point.
+        b: String,
+        /// The length `l = |p_b - p_a|` found.
+        length: f64,
+    },
+}
+
+/// A point spring-damper of the model, for [`TangentSystem::check_elements`].
+#[derive(Clone, Debug)]
+struct SpringCheck {
+    element: String,
+    a: String,
+    b: String,
+}
 
 /// Caller-owned buffers for the evaluations of a [`TangentSystem`]; created by
 /// [`TangentSystem::workspace`]. Each evaluation method overwrites the buffers it documents
@@ -122,6 +166,9 @@ pub struct TangentSystem {
     constraints: Tape,
     /// Per point: `p` (3), `J_k` (3n), `G_k(f)` (n²).
     point_tapes: Vec<Tape>,
+    /// Outputs `l^2` of each point spring-damper, in [`TangentSystem::springs`] order.
+    spring_tape: Tape,
+    springs: Vec<SpringCheck>,
     values: Vec<f64>,
     names: Names,
     param_index: Vec<usize>,
@@ -225,6 +272,24 @@ impl TangentSystem {
             })
             .collect();
 
+        // l^2 = |p_b - p_a|^2 of every point spring-damper.
+        let mut springs = Vec::new();
+        let mut lengths = Vec::new();
+        for fe in &model.forces {
+            if let ForceElement::PointSpring { name, a, b, .. } = fe {
+                let (pa, pb) = (pts[*a].p, pts[*b].p);
+                let d: Vec<Id> = (0..3).map(|c| dag.sub(pb[c], pa[c])).collect();
+                let d2: Vec<Id> = d.iter().map(|&x| dag.mul(x, x)).collect();
+                lengths.push(dag.sum(d2));
+                springs.push(SpringCheck {
+                    element: name.clone(),
+                    a: model.points[*a].name.clone(),
+                    b: model.points[*b].name.clone(),
+                });
+            }
+        }
+        let spring_tape = Tape::new(dag, &lengths);
+
         let (names, param_index) = Names::of(model);
         TangentSystem {
             n,
@@ -233,6 +298,8 @@ impl TangentSystem {
             dynamics,
             constraints,
             point_tapes,
+            spring_tape,
+            springs,
             values: model.default_params(),
             names,
             param_index,
@@ -263,7 +330,7 @@ impl TangentSystem {
     }
 
     fn tapes(&self) -> impl Iterator<Item = &Tape> {
-        [&self.dynamics, &self.constraints]
+        [&self.dynamics, &self.constraints, &self.spring_tape]
             .into_iter()
             .chain(&self.point_tapes)
     }
@@ -323,6 +390,30 @@ impl TangentSystem {
         tape.eval(&input, slots, out);
         read(out, ws);
         ws.scratch = scratch;
+    }
+
+    /// Checks that every force element has a tangent at `q` (see the module documentation):
+    /// refuses a point spring-damper whose points coincide. Allocation-free.
+    pub fn check_elements(&self, q: &[f64], ws: &mut TangentWorkspace) -> Result<(), TangentError> {
+        let mut bad = None;
+        self.run(&self.spring_tape, positions(q), &[], ws, |out, _| {
+            bad = out
+                .iter()
+                .position(|&l2| !(l2 > 0.0 && l2.is_finite()))
+                .map(|k| (k, out[k].max(0.0).sqrt()));
+        });
+        match bad {
+            None => Ok(()),
+            Some((k, length)) => {
+                let s = &self.springs[k];
+                Err(TangentError::CoincidentSpringPoints {
+                    element: s.element.clone(),
+                    a: s.a.clone(),
+                    b: s.b.clone(),
+                    length,
+                })
+            }
+        }
     }
 
     /// Fills [`TangentWorkspace::m`], [`TangentWorkspace::k`] and [`TangentWorkspace::c`] at

@@ -3,6 +3,7 @@
 
 mod bias_at_rest;
 mod common;
+mod element_power;
 mod emit_snapshot;
 mod model_validation;
 mod numeric_reference;

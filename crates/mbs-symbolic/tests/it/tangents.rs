@@ -433,3 +433,64 @@ fn random_conservative_trees_stiffness_at_rest_is_the_hessian_of_the_potential()
         }
     }
 }
+
+/// A point spring-damper has no tangent where its points coincide (`l = 0`: no direction):
+/// `check_elements` refuses that state naming the element and its points, and accepts the
+/// others (where `K` and `C` are exact, checked by `check_state` on every kind of element).
+#[test]
+fn a_spring_whose_points_coincide_is_refused() {
+    let src = r#"
+name = "tethered_rod"
+gravity = [0, 0, 0]
+
+[[bodies]]
+name = "rod"
+parent = "ground"
+joint = "R3"
+mass = 1.0
+com = [0.25, 0, 0]
+inertia = { xx = 0.01, yy = 0.02, zz = 0.02 }
+
+[[points]]
+name = "tip"
+body = "rod"
+position = [0.5, 0, 0]
+
+[[points]]
+name = "anchor"
+body = "ground"
+position = [0.5, 0, 0]
+
+[[forces]]
+type = "spring"
+name = "tether"
+a = "anchor"
+b = "tip"
+stiffness = 10
+damping = 0.1
+"#;
+    let m = model::parse_str(src, "tethered_rod.toml", model::Format::Toml)
+        .unwrap_or_else(|e| panic!("{e:?}"));
+    let tan = TangentSystem::new(&m);
+    let mut tw = tan.workspace();
+    let err = tan.check_elements(&[0.0], &mut tw).unwrap_err();
+    let text = err.to_string();
+    assert!(
+        matches!(
+            &err,
+            mbs_symbolic::runtime::TangentError::CoincidentSpringPoints { element, a, b, length }
+                if element == "tether" && a == "anchor" && b == "tip" && *length == 0.0
+        ),
+        "{err:?}"
+    );
+    assert!(
+        text.contains("tether") && text.contains("coincide"),
+        "{text}"
+    );
+    assert!(tan.check_elements(&[0.4], &mut tw).is_ok());
+    // There the tangent is finite; at the coincident state it is not.
+    tan.evaluate_dynamics(&[0.4], &[0.3], &[0.0], 0.0, &mut tw);
+    assert!(tw.k.iter().chain(tw.c.iter()).all(|x| x.is_finite()));
+    tan.evaluate_dynamics(&[0.0], &[0.3], &[0.0], 0.0, &mut tw);
+    assert!(!tw.k.iter().chain(tw.c.iter()).all(|x| x.is_finite()));
+}
