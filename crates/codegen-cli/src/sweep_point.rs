@@ -116,7 +116,7 @@ pub fn evaluate(
                 "shorten t_end",
                 options.allow_long,
             )
-            .map_err(|e| Box::new(Error::from(e)))?;
+            .map_err(Box::new)?;
         }
         time_domain(path, &loaded, &mut figures).map_err(remap)?;
     }

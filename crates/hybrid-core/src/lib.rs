@@ -10,19 +10,16 @@
 //! - [`generator`]: the DC generator (THEORY.md section 7);
 //! - [`decay`]: damping from a free decay (modal filter, damping vs amplitude, over- and
 //!   critically damped decays): the one estimator;
-//! - [`coupling`], [`damper`], [`study`]: the paper's damper in its specialised rank-one
-//!   form (eqs. 55–58) and the application's damper preset — still used by `codegen-cli`,
-//!   nothing else, and on their way out: the rank-one form now lives in this crate's tests
-//!   (`tests/it/oracle`) as the step-by-step trajectory oracle of the engine (same
-//!   trajectory to 1e-9), built by `tests/it/common/damper.rs` without the application;
+//! - the paper's damper in its specialised rank-one form (eqs. 55–58, one double bar pinned
+//!   to one beam point, a scalar secant iteration) and the full system with multipliers
+//!   (eqs. 51–54) live in this crate's tests (`tests/it/oracle`) as the step-by-step
+//!   trajectory oracles of the engine (same trajectory to 1e-9), built by
+//!   `tests/it/common/damper.rs`;
 //! - [`closed_loop`], [`partition`]: rigid closed-loop mechanisms and coordinate
 //!   partitioning (eqs. 18–25);
 
 pub mod closed_loop;
-pub mod coupling;
-pub mod damper;
 pub mod decay;
 pub mod generator;
 pub mod hybrid;
 pub mod partition;
-pub mod study;

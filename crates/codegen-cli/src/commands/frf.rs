@@ -766,7 +766,7 @@ fn outputs(
             tolerance: args.tolerance,
             max_periods: args.max_periods,
             method: match lz.method {
-                hybrid_core::damper::Method::Newmark => "newmark",
+                hybrid_core::hybrid::Method::Newmark => "newmark",
                 _ => "hht",
             },
         }),

@@ -68,8 +68,8 @@ use std::path::{Path, PathBuf};
 
 use diagnostic::{Diagnostic, Diagnostics, Kind, LineIndex};
 use fem_beam::{Beam, BeamModel, BeamSpec, TimeFunction};
-use hybrid_core::damper::Method;
 use hybrid_core::generator::GeneratorSpec;
+use hybrid_core::hybrid::Method;
 use hybrid_core::hybrid::{
     Attachment, AttachmentKind, BeamPoint, Excitation, ExcitationTarget, ForceKind, HybridError,
     HybridModel, HybridState, JointForce, Mount, MountedMechanism, Placement, initial_deflection,

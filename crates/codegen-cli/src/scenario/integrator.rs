@@ -2,7 +2,7 @@
 //! step and end time, checked at load.
 
 use diagnostic::Kind;
-use hybrid_core::damper::Method;
+use hybrid_core::hybrid::Method;
 use serde::{Deserialize, Serialize};
 
 use super::Doc;

@@ -9,7 +9,7 @@ use std::sync::{Mutex, OnceLock};
 use mbs_symbolic::model::Model;
 use mbs_symbolic::runtime::TangentSystem;
 
-use hybrid_core::damper::Method;
+use hybrid_core::hybrid::Method;
 use hybrid_core::hybrid::{EquilibriumOptions, HybridModel, LinearError, Linearization};
 
 use super::{HybridScenario, Scenario};

@@ -133,6 +133,7 @@ fn stats_prints_one_row_per_function_and_the_sums() {
             "constraint_jacobian",
             "constraint_bias",
             "potential_energy",
+            "element_power",
             "evaluate",
             "point_tip",
             "evaluate_with_points",

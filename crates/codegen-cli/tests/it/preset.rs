@@ -217,14 +217,17 @@ fn a_mechanism_of_the_wrong_shape_is_refused_in_one_line() {
         "model = \"../models/double_bar.toml\"",
         "model = \"triple_bar.toml\"",
     )]);
-    let line = 1 + text
-        .lines()
-        .position(|l| l.contains("triple_bar.toml"))
-        .unwrap();
+    // At the damper file's [mechanism] table, where the placement is asked for.
+    let line = 1 + text.lines().position(|l| l == "[mechanism]").unwrap();
     let sc = dir.join("damper.toml");
     std::fs::write(&sc, &text).unwrap();
     let err = crate::common::assert_bad_input(
-        &["simulate", sc.to_str().unwrap(), "-o", dir.join("out").to_str().unwrap()],
+        &[
+            "simulate",
+            sc.to_str().unwrap(),
+            "-o",
+            dir.join("out").to_str().unwrap(),
+        ],
         &["3 coordinate(s)", "two-bar chain"],
     );
     assert!(err.contains(&format!("damper.toml:{line}:")), "{err}");
