@@ -93,7 +93,7 @@ pub fn simulate(
     let file = sc.path.display().to_string();
     let built = sc.build()?;
     let model = &built.model;
-    let mut columns = Columns::new(model, &built.state);
+    let mut columns = Columns::new(model, &built.state).with_model_elements(model, &built.models);
     // The run as described and each comparison run.
     Estimate::hybrid(sc, columns.header().len(), model.attachments.len())
         .check(&file, allow_long)?;
@@ -122,7 +122,9 @@ pub fn simulate(
         let Some((variant, probes)) = comparison(&file, &built, c)? else {
             continue;
         };
-        let mut columns = Columns::new(&variant.model, &variant.state).with_probes(&probes);
+        let mut columns = Columns::new(&variant.model, &variant.state)
+            .with_probes(&probes)
+            .with_model_elements(&variant.model, &variant.models);
         let path = out.join(format!("time_history_{}.csv", c.key()));
         let stream = StreamFile::create(&path).map_err(ReportError::from)?;
         let mut csv = CsvRows::new(stream, columns.header()).map_err(|e| csv_error(&path, e))?;
@@ -500,6 +502,17 @@ pub fn evaluate<'a>(
                 }),
         )
         .collect();
+    // Per mechanism whose own model has force elements, by name.
+    let model_elements = |per_mechanism: &[f64]| -> BTreeMap<String, f64> {
+        model
+            .mechanisms
+            .iter()
+            .zip(&built.models)
+            .zip(per_mechanism)
+            .filter(|((_, mm), _)| !mm.forces.is_empty())
+            .map(|((m, _), v)| (m.name.clone(), *v))
+            .collect()
+    };
     let generators = model
         .forces
         .iter()
@@ -570,6 +583,8 @@ pub fn evaluate<'a>(
                 .zip(&state.account.dissipated)
                 .map(|(f, d)| (f.name.clone(), *d))
                 .collect(),
+            dissipated_model: model_elements(&state.account.dissipated_model),
+            model_work: model_elements(&state.account.model_input_work),
             beam_load_work: state.account.beam_load_work,
             excitation_work: model
                 .excitations

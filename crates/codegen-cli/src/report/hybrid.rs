@@ -24,13 +24,17 @@
 //! - the energy account: `beam_kinetic [J]`, `beam_potential [J]`, per mechanism
 //!   `M.kinetic [J]` and `M.potential [J]`, `magnetic [J]`, `stored [J]`,
 //!   `dissipated_structure [J]`, `beam_load_work [J]` and `balance_error [J]`
-//!   (`(E_0 + W) - (E + D)`).
+//!   (`(E_0 + W) - (E + D)`, every dissipation and input work in it);
+//! - a comparison run's probes `P.w [m]`, `P.w_dot [m/s]`;
+//! - per mechanism `M` whose model has force elements of its own:
+//!   `M.dissipated_model [J]` (its dampers) and `M.model_work [J]` (its constant loads).
 
 use std::collections::BTreeMap;
 
 use hybrid_core::hybrid::{
     BeamPoint, ExcitationTarget, HybridModel, HybridState, Integrator, Stored, balance_error,
 };
+use mbs_symbolic::model::Model;
 use serde::Serialize;
 
 use crate::scenario::OverrideRecord;
@@ -44,8 +48,10 @@ pub struct Columns {
     /// Per attachment: the generator force element on its mechanism, if any, and whether
     /// the speed ratio has its own column.
     amplifier: Vec<Option<(usize, bool)>>,
-    /// Beam points read but not attached (the last columns).
+    /// Beam points read but not attached.
     probes: Vec<BeamPoint>,
+    /// The mechanisms whose own model's force elements have columns (the last ones).
+    model_elements: Vec<usize>,
     cells: Vec<f64>,
 }
 
@@ -132,8 +138,24 @@ impl Columns {
             header: h,
             amplifier,
             probes: vec![],
+            model_elements: vec![],
             cells,
         }
+    }
+
+    /// These columns and, last, `M.dissipated_model [J]` and `M.model_work [J]` of every
+    /// mechanism whose model has force elements of its own (`models`, in the order of the
+    /// mechanisms): the energy its dampers dissipated and the work of its constant loads,
+    /// both in the energy account.
+    pub fn with_model_elements(mut self, model: &HybridModel, models: &[Model]) -> Columns {
+        for (k, (m, mm)) in model.mechanisms.iter().zip(models).enumerate() {
+            if !mm.forces.is_empty() {
+                self.header.push(format!("{}.dissipated_model [J]", m.name));
+                self.header.push(format!("{}.model_work [J]", m.name));
+                self.model_elements.push(k);
+            }
+        }
+        self
     }
 
     /// These columns and, last, `P.w [m]` and `P.w_dot [m/s]` of every probe `P`: a beam
@@ -218,6 +240,10 @@ impl Columns {
         for p in &self.probes {
             c.push(p.value(&state.q));
             c.push(p.value(&state.v));
+        }
+        for &k in &self.model_elements {
+            c.push(state.account.dissipated_model[k]);
+            c.push(state.account.model_input_work[k]);
         }
         debug_assert_eq!(c.len(), self.header.len());
         &self.cells
@@ -444,6 +470,13 @@ pub struct HybridEnergy {
     pub dissipated_structure: f64,
     /// Dissipated by each force element.
     pub dissipated_elements: BTreeMap<String, f64>,
+    /// Dissipated by the dampers of each mechanism's own model (mechanisms whose model has
+    /// force elements).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub dissipated_model: BTreeMap<String, f64>,
+    /// Work of the constant loads of each mechanism's own model (the same mechanisms).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub model_work: BTreeMap<String, f64>,
     /// Work of the beam's own loads.
     pub beam_load_work: f64,
     /// Work of each excitation.

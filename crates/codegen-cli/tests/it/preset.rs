@@ -234,3 +234,101 @@ fn a_mechanism_of_the_wrong_shape_is_refused_in_one_line() {
     assert!(!dir.join("out").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The last row of a CSV time history as `(header, values)`.
+fn last_row(path: &Path) -> Vec<(String, f64)> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let header: Vec<String> = text
+        .lines()
+        .next()
+        .unwrap()
+        .split(',')
+        .map(String::from)
+        .collect();
+    let last = text.lines().last().unwrap();
+    header
+        .into_iter()
+        .zip(last.split(',').map(|c| c.parse().unwrap_or(f64::NAN)))
+        .collect()
+}
+
+fn cell(row: &[(String, f64)], name: &str) -> f64 {
+    row.iter()
+        .find(|(h, _)| h == name)
+        .unwrap_or_else(|| panic!("no column {name}"))
+        .1
+}
+
+/// A viscous damper on the crank written in the mechanism's model file (a model-level
+/// force element) and the same damper written as a scenario force element: the same
+/// trajectory, the same dissipated energy (`damper.dissipated_model` against
+/// `crank_damper.dissipated`), and both energy balances closed.
+#[test]
+fn a_model_level_damper_closes_the_energy_balance_like_a_scenario_damper() {
+    let dir = std::env::temp_dir().join(format!("damper-model-damper-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let root = crate::common::root();
+    let c = 0.002; // N m s/rad: about as much as the generator's electrical damping
+    let model = std::fs::read_to_string(root.join("models/double_bar.toml")).unwrap()
+        + &format!(
+            "\n[[forces]]\ntype = \"joint\"\nname = \"crank_damper\"\nbody = \"crank\"\ndamping = {c}\n"
+        );
+    let damped = dir.join("double_bar_damped.toml");
+    std::fs::write(&damped, model).unwrap();
+    let model_level = edited(&[(
+        "model = \"../models/double_bar.toml\"",
+        &format!("model = {:?}", damped.to_str().unwrap()),
+    )]);
+    let bare_model = root.join("models/double_bar.toml");
+    let scenario_level = by_hand("half_angle_deg = 10.0", GENERATOR, NEWMARK).replace(
+        "model = \"../models/double_bar.toml\"",
+        &format!("model = {:?}", bare_model.to_str().unwrap()),
+    ) + &format!(
+        "\n[[force]]\nname = \"crank_damper\"\nmechanism = \"damper\"\njoint = \"crank\"\nkind = \"damper\"\nc = {c}\n"
+    );
+    let mut rows = vec![];
+    for (name, text) in [("model", model_level), ("scenario", scenario_level)] {
+        let sc = dir.join(format!("{name}.toml"));
+        std::fs::write(&sc, text).unwrap();
+        let out = dir.join(format!("out_{name}"));
+        let (code, _, err) = crate::common::damper(&[
+            "simulate",
+            sc.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--quiet",
+            "--set",
+            "integrator.t_end=1.0",
+        ]);
+        assert_eq!(code, 0, "{name}: {err}");
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
+                .unwrap();
+        let balance = summary["energy_balance_rel_error"].as_f64().unwrap();
+        assert!(balance < 1e-5, "{name}: energy balance {balance}");
+        rows.push((last_row(&out.join("time_history.csv")), summary));
+    }
+    let (model_row, model_summary) = &rows[0];
+    let (scenario_row, _) = &rows[1];
+    let by_model = cell(model_row, "damper.dissipated_model [J]");
+    let by_scenario = cell(scenario_row, "crank_damper.dissipated [J]");
+    let initial = model_summary["energy"]["initial"].as_f64().unwrap();
+    // A significant share of the initial energy: leaving it out would open the balance.
+    assert!(by_model > 0.05 * initial, "{by_model} of {initial}");
+    assert!(
+        (by_model - by_scenario).abs() <= 1e-9 * by_scenario,
+        "{by_model} vs {by_scenario}"
+    );
+    assert_eq!(
+        model_summary["energy"]["dissipated_model"]["damper"].as_f64(),
+        Some(by_model)
+    );
+    for col in ["pin.w [m]", "damper.q1 [rad]", "generator.dissipated [J]"] {
+        let (a, b) = (cell(model_row, col), cell(scenario_row, col));
+        assert!(
+            (a - b).abs() <= 1e-9 * a.abs().max(1e-12),
+            "{col}: {a} vs {b}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
