@@ -68,6 +68,7 @@ pub struct Assembly {
 
 /// Errors of the assembly.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum AssemblyError {
     /// The constraints cannot be satisfied with the given coordinates (a loop that cannot
     /// close): the closest configuration found leaves these residuals.

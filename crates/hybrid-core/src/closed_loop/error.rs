@@ -92,12 +92,116 @@ impl fmt::Display for SingularReport {
     }
 }
 
+/// A setting of a closed-loop simulation out of its range, with the value.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum SettingsError {
+    /// `t_end` not after `t_start`.
+    #[error("t_end ({t_end}) must be finite and greater than t_start ({t_start})")]
+    Span {
+        /// Start time.
+        t_start: f64,
+        /// End time.
+        t_end: f64,
+    },
+    /// A step or tolerance that must be positive.
+    #[error("{name} ({value}) must be positive")]
+    NotPositive {
+        /// The setting.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// `rtol` outside `[1e-15, 1)`.
+    #[error("rtol ({0}) must be in [1e-15, 1)")]
+    Rtol(f64),
+    /// `atol` negative or not finite.
+    #[error("atol ({0}) must be finite and non-negative")]
+    Atol(f64),
+    /// RK4 rows between steps.
+    #[error(
+        "output_step ({output_step}) must be at least the step ({step}): rows between steps would only be interpolated"
+    )]
+    OutputBelowStep {
+        /// The output step.
+        output_step: f64,
+        /// The RK4 step.
+        step: f64,
+    },
+    /// RK4 steps above the step limit.
+    #[error("step ({step}) needs more than max_steps ({max_steps}) steps")]
+    StepLimit {
+        /// The RK4 step.
+        step: f64,
+        /// The step limit.
+        max_steps: usize,
+    },
+    /// `switch_ratio < 1`.
+    #[error("switch_ratio ({0}) must be >= 1")]
+    SwitchRatio(f64),
+    /// A partition tolerance that is not positive.
+    #[error("max_condition, singular_condition and projection_tol must be positive")]
+    Tolerances,
+    /// `rank_tol` outside `(0, 1)`.
+    #[error("rank_tol ({0}) must be in (0, 1)")]
+    RankTol(f64),
+    /// Initial coordinates or velocities of the wrong count.
+    #[error("{coordinates} coordinates and {velocities} velocities given, the mechanism has {dof}")]
+    StateSize {
+        /// Coordinates given.
+        coordinates: usize,
+        /// Velocities given.
+        velocities: usize,
+        /// Coordinates of the mechanism.
+        dof: usize,
+    },
+}
+
+/// Why the independent coordinates the user chose cannot be used.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum PartitionChoiceError {
+    /// Not a valid set of coordinate indices.
+    #[error(transparent)]
+    Indices(#[from] crate::partition::PartitionError),
+    /// As many independent coordinates as degrees of freedom are needed.
+    #[error(
+        "{chosen} independent coordinates chosen ([{names}]), but the mechanism has {dof} degrees of freedom (n = {n}, rank of J = {rank})"
+    )]
+    Count {
+        /// Coordinates chosen.
+        chosen: usize,
+        /// Their names, comma-separated.
+        names: String,
+        /// Degrees of freedom.
+        dof: usize,
+        /// Coordinates.
+        n: usize,
+        /// Rank of `J`.
+        rank: usize,
+    },
+    /// They make `J_v` singular at the start and re-partitioning is off.
+    #[error(
+        "the chosen independent coordinates [{names}] make J_v singular at the initial configuration (cond {cond:.3e}); choose others or enable repartitioning"
+    )]
+    Singular {
+        /// Their names, comma-separated.
+        names: String,
+        /// cond(J_v).
+        cond: f64,
+    },
+    /// The velocity projection failed.
+    #[error(transparent)]
+    Projection(#[from] super::projection::ProjectionError),
+}
+
 /// Errors of a closed-loop simulation.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum SimError {
     /// Invalid settings (names the setting).
     #[error("invalid settings: {0}")]
-    Settings(String),
+    Settings(SettingsError),
     /// The initial state could not be made consistent.
     #[error(transparent)]
     Assembly(#[from] AssemblyError),
@@ -106,7 +210,7 @@ pub enum SimError {
     Redundant(RedundancyReport),
     /// The requested partition is unusable.
     #[error("partition: {0}")]
-    Partition(String),
+    Partition(PartitionChoiceError),
     /// `J` loses rank: the run stops.
     #[error("{0}")]
     Singular(SingularReport),

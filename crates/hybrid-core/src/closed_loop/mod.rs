@@ -38,7 +38,7 @@ mod trajectory;
 pub use assembly::{
     Assembly, AssemblyError, AssemblyOptions, assemble_positions, assemble_velocities,
 };
-pub use error::{RedundancyReport, SimError, SingularReport};
+pub use error::{PartitionChoiceError, RedundancyReport, SettingsError, SimError, SingularReport};
 pub use mbs_symbolic::runtime::{
     GeneratedSystem, InterpretedSystem, NumericSystem, System, Workspace,
 };

@@ -24,7 +24,9 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::partition::{self, Partition, PartitionChoice, choose_partition};
 
-use super::error::{RedundancyReport, RedundantRow, SimError, SingularReport};
+use super::error::{
+    PartitionChoiceError, RedundancyReport, RedundantRow, SimError, SingularReport,
+};
 use super::settings::Settings;
 use super::simulator::Simulator;
 use super::trajectory::{Event, PartitionChange};
@@ -200,15 +202,15 @@ impl<S: System + ?Sized> Simulator<'_, S> {
         let n = self.sys.dof();
         let rank = self.expected_rank;
         let user =
-            Partition::from_independent(n, &ind).map_err(|e| SimError::Partition(e.to_string()))?;
+            Partition::from_independent(n, &ind).map_err(|e| SimError::Partition(e.into()))?;
         if user.independent.len() != n - rank {
-            return Err(SimError::Partition(format!(
-                "{} independent coordinates chosen ([{}]), but the mechanism has {} degrees \
-                 of freedom (n = {n}, rank of J = {rank})",
-                user.independent.len(),
-                self.names_of(&user.independent).join(", "),
-                n - rank
-            )));
+            return Err(SimError::Partition(PartitionChoiceError::Count {
+                chosen: user.independent.len(),
+                names: self.names_of(&user.independent).join(", "),
+                dof: n - rank,
+                n,
+                rank,
+            }));
         }
         self.partition = user;
         self.proj.load_active_jacobian(&self.ws);
@@ -216,12 +218,10 @@ impl<S: System + ?Sized> Simulator<'_, S> {
         self.cond = cond;
         if cond > self.settings.partition.singular_condition {
             if !self.settings.partition.repartition {
-                return Err(SimError::Partition(format!(
-                    "the chosen independent coordinates [{}] make J_v singular at the \
-                     initial configuration (cond {cond:.3e}); choose others or enable \
-                     repartitioning",
-                    self.independent_names().join(", ")
-                )));
+                return Err(SimError::Partition(PartitionChoiceError::Singular {
+                    names: self.independent_names().join(", "),
+                    cond,
+                }));
             }
             self.switch_to(auto, &mut |_| {});
         }

@@ -10,6 +10,7 @@ use mbs_symbolic::runtime::{System, Workspace};
 
 /// Why a projection failed.
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum ProjectionError {
     /// `J_v` became singular during the iteration.
     #[error("J_v singular during the position projection: {0}")]

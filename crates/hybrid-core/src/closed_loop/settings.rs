@@ -2,7 +2,7 @@
 //! output grid, and how the independent coordinates are chosen and monitored (eqs. 18–25;
 //! THEORY.md §3).
 
-use super::error::SimError;
+use super::error::{SettingsError, SimError};
 
 /// The integration method.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -119,19 +119,19 @@ impl Settings {
 
     /// Checks every setting; names the first one out of range.
     pub(super) fn validate(&self) -> Result<(), SimError> {
-        let bad = |m: String| Err(SimError::Settings(m));
+        let bad = |e: SettingsError| Err(SimError::Settings(e));
         let pos = |x: f64| x.is_finite() && x > 0.0;
         if !(self.t_start.is_finite() && self.t_end.is_finite() && self.t_end > self.t_start) {
-            return bad(format!(
-                "t_end ({}) must be finite and greater than t_start ({})",
-                self.t_end, self.t_start
-            ));
+            return bad(SettingsError::Span {
+                t_start: self.t_start,
+                t_end: self.t_end,
+            });
         }
         if !pos(self.output_step) {
-            return bad(format!(
-                "output_step ({}) must be positive",
-                self.output_step
-            ));
+            return bad(SettingsError::NotPositive {
+                name: "output_step",
+                value: self.output_step,
+            });
         }
         match self.method {
             Method::Dopri5 {
@@ -141,48 +141,54 @@ impl Settings {
                 max_step,
             } => {
                 if !(1e-15..1.0).contains(&rtol) {
-                    return bad(format!("rtol ({rtol}) must be in [1e-15, 1)"));
+                    return bad(SettingsError::Rtol(rtol));
                 }
                 if !(atol.is_finite() && atol >= 0.0) {
-                    return bad(format!("atol ({atol}) must be finite and non-negative"));
+                    return bad(SettingsError::Atol(atol));
                 }
                 if let Some(h) = initial_step.filter(|h| !pos(*h)) {
-                    return bad(format!("initial_step ({h}) must be positive"));
+                    return bad(SettingsError::NotPositive {
+                        name: "initial_step",
+                        value: h,
+                    });
                 }
                 if let Some(h) = max_step.filter(|h| !pos(*h)) {
-                    return bad(format!("max_step ({h}) must be positive"));
+                    return bad(SettingsError::NotPositive {
+                        name: "max_step",
+                        value: h,
+                    });
                 }
             }
             Method::Rk4 { step } => {
                 if !pos(step) {
-                    return bad(format!("step ({step}) must be positive"));
+                    return bad(SettingsError::NotPositive {
+                        name: "step",
+                        value: step,
+                    });
                 }
                 if self.output_step < step {
-                    return bad(format!(
-                        "output_step ({}) must be at least the step ({step}): rows between \
-                         steps would only be interpolated",
-                        self.output_step
-                    ));
+                    return bad(SettingsError::OutputBelowStep {
+                        output_step: self.output_step,
+                        step,
+                    });
                 }
                 if (self.t_end - self.t_start) / step > self.max_steps as f64 {
-                    return bad(format!(
-                        "step ({step}) needs more than max_steps ({}) steps",
-                        self.max_steps
-                    ));
+                    return bad(SettingsError::StepLimit {
+                        step,
+                        max_steps: self.max_steps,
+                    });
                 }
             }
         }
         let p = &self.partition;
         if !(p.switch_ratio.is_finite() && p.switch_ratio >= 1.0) {
-            return bad(format!("switch_ratio ({}) must be >= 1", p.switch_ratio));
+            return bad(SettingsError::SwitchRatio(p.switch_ratio));
         }
         if !(pos(p.max_condition) && pos(p.singular_condition) && pos(self.projection_tol)) {
-            return bad(
-                "max_condition, singular_condition and projection_tol must be positive".into(),
-            );
+            return bad(SettingsError::Tolerances);
         }
         if !(p.rank_tol.is_finite() && p.rank_tol > 0.0 && p.rank_tol < 1.0) {
-            return bad(format!("rank_tol ({}) must be in (0, 1)", p.rank_tol));
+            return bad(SettingsError::RankTol(p.rank_tol));
         }
         Ok(())
     }

@@ -12,7 +12,7 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::partition::{Partition, PartitionChoice, ReduceWorkspace, Reduced};
 
-use super::error::SimError;
+use super::error::{SettingsError, SimError};
 use super::partitioning::{InitialRank, examine_rank, singular_range};
 use super::projection::Projector;
 use super::settings::{Method, Settings};
@@ -102,11 +102,11 @@ fn check_initial_state<S: System + ?Sized>(
 ) -> Result<(), SimError> {
     let n = sys.dof();
     if q0.len() != n || qd0.len() != n {
-        return Err(SimError::Settings(format!(
-            "{} coordinates and {} velocities given, the mechanism has {n}",
-            q0.len(),
-            qd0.len()
-        )));
+        return Err(SimError::Settings(SettingsError::StateSize {
+            coordinates: q0.len(),
+            velocities: qd0.len(),
+            dof: n,
+        }));
     }
     if q0.iter().chain(qd0).any(|x| !x.is_finite()) {
         return Err(SimError::Diverged {
@@ -249,7 +249,7 @@ impl<'s, S: System + ?Sized> Simulator<'s, S> {
         let cond = self
             .proj
             .velocities(&part, &mut qd)
-            .map_err(|e| SimError::Partition(e.to_string()))?;
+            .map_err(|e| SimError::Partition(e.into()))?;
         self.qd = qd;
         self.cond = cond;
         Ok(())

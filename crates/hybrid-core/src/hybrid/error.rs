@@ -76,12 +76,16 @@ pub enum HybridError {
         t: f64,
     },
     /// The constraints of a mechanism have no full-rank dependent block at the start.
-    #[error("mechanism \"{mechanism}\": {what}")]
+    #[error(
+        "mechanism \"{mechanism}\": its {rows} constraint rows (loops and attachments) have rank {rank} at the initial configuration: over-constrained or at a singular position"
+    )]
     Partition {
         /// The mechanism.
         mechanism: String,
-        /// What is wrong.
-        what: String,
+        /// Its constraint rows.
+        rows: usize,
+        /// Their rank.
+        rank: usize,
     },
     /// A beam matrix could not be factorised (the kernel's typed cause: the pivot or the
     /// non-finite entry, with its index).

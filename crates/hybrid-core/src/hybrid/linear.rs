@@ -111,13 +111,32 @@ pub enum LinearError {
         /// Iterations made.
         iterations: usize,
     },
-    /// The tangent model does not describe the mechanism (different model or parameters).
-    #[error("mechanism \"{mechanism}\": {what}")]
-    Tangent {
+    /// The tangent model is not of the mechanism's size (a different model).
+    #[error(
+        "mechanism \"{mechanism}\": the tangent model has {tangent_dof} coordinates and {tangent_rows} loop rows, the mechanism {dof} and {rows}"
+    )]
+    TangentSize {
         /// The mechanism.
         mechanism: String,
-        /// What does not match.
-        what: String,
+        /// Coordinates of the tangent model.
+        tangent_dof: usize,
+        /// Loop rows of the tangent model.
+        tangent_rows: usize,
+        /// Coordinates of the mechanism.
+        dof: usize,
+        /// Loop rows of the mechanism.
+        rows: usize,
+    },
+    /// The tangent model's mass matrix differs from the mechanism's (a different model file
+    /// or run-time parameters).
+    #[error(
+        "mechanism \"{mechanism}\": its tangent model's mass matrix differs from the mechanism's by {difference:.3e} (relative; different model file or run-time parameters)"
+    )]
+    TangentMass {
+        /// The mechanism.
+        mechanism: String,
+        /// Largest entry of the difference over the largest entry of the mass matrix.
+        difference: f64,
     },
     /// A force element of a mechanism model has no tangent at the equilibrium (e.g. a point
     /// spring-damper whose points coincide): refused rather than linearised inexactly.
@@ -341,15 +360,12 @@ impl Linearization {
         );
         for (m, t) in model.mechanisms.iter().zip(tangents) {
             if t.dof() != m.system.dof() || t.rows() != m.system.rows() {
-                return Err(LinearError::Tangent {
+                return Err(LinearError::TangentSize {
                     mechanism: m.name.clone(),
-                    what: format!(
-                        "the tangent model has {} coordinates and {} loop rows, the mechanism {} and {}",
-                        t.dof(),
-                        t.rows(),
-                        m.system.dof(),
-                        m.system.rows()
-                    ),
+                    tangent_dof: t.dof(),
+                    tangent_rows: t.rows(),
+                    dof: m.system.dof(),
+                    rows: m.system.rows(),
                 });
             }
         }
@@ -491,10 +507,11 @@ impl Linearization {
             let mut sws = m.system.workspace();
             m.system.evaluate(&q, &zero, 0.0, &mut sws);
             let mscale = sws.m.amax().max(1e-300);
-            if (&sws.m - &ws.m).amax() > 1e-9 * mscale {
-                return Err(LinearError::Tangent {
+            let difference = (&sws.m - &ws.m).amax() / mscale;
+            if difference > 1e-9 {
+                return Err(LinearError::TangentMass {
                     mechanism: m.name.clone(),
-                    what: "its tangent model's mass matrix differs from the mechanism's (different model file or run-time parameters)".into(),
+                    difference,
                 });
             }
             let (mut mi, mut ki, mut ci) = (ws.m.clone(), ws.k.clone(), ws.c.clone());

@@ -126,11 +126,8 @@ pub fn initial_state(
             if choice.rank < f.rows() {
                 return Err(HybridError::Partition {
                     mechanism: m.name.clone(),
-                    what: format!(
-                        "its {} constraint rows (loops and attachments) have rank {} at the initial configuration: over-constrained or at a singular position",
-                        f.rows(),
-                        choice.rank
-                    ),
+                    rows: f.rows(),
+                    rank: choice.rank,
                 });
             }
             choice.partition.independent

@@ -301,16 +301,46 @@ pub struct HybridModel {
     pub excitations: Vec<Excitation>,
 }
 
-/// Why a hybrid system description cannot be used; each names the entity.
+/// Why a hybrid system description cannot be used; each names the entity (`mechanism
+/// "left"`, `attachment "tip"`, `force "gen"`, `excitation "shaker"`) and carries the
+/// index or value at fault.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum ModelError {
-    /// An index out of range.
-    #[error("{entity}: {what}")]
-    Reference {
-        /// The entity (e.g. `attachment "tip"`).
+    /// A mechanism index out of range.
+    #[error("{entity}: no mechanism number {index}")]
+    NoMechanism {
+        /// The entity.
         entity: String,
-        /// What it refers to that does not exist.
-        what: String,
+        /// The index.
+        index: usize,
+    },
+    /// A point index out of range of its mechanism's points.
+    #[error("{entity}: mechanism \"{mechanism}\" has no point number {index}")]
+    NoPoint {
+        /// The entity.
+        entity: String,
+        /// The mechanism.
+        mechanism: String,
+        /// The index.
+        index: usize,
+    },
+    /// A joint index out of range of its mechanism's coordinates.
+    #[error("{entity}: mechanism \"{mechanism}\" has no joint number {index}")]
+    NoJoint {
+        /// The entity.
+        entity: String,
+        /// The mechanism.
+        mechanism: String,
+        /// The index.
+        index: usize,
+    },
+    /// A beam point's weights refer to degrees of freedom the beam does not have (or are
+    /// not finite).
+    #[error("{entity}: beam point outside the beam")]
+    OutsideBeam {
+        /// The entity.
+        entity: String,
     },
     /// More constraint rows than coordinates.
     #[error(
@@ -342,13 +372,53 @@ pub enum ModelError {
         /// The abscissa.
         x: f64,
     },
-    /// A non-finite or non-physical value.
-    #[error("{entity}: {what}")]
-    Value {
-        /// The entity.
+    /// Initial coordinates of the wrong count.
+    #[error("{entity}: {given} initial coordinate(s) given for {dof} coordinate(s)")]
+    InitialCount {
+        /// The mechanism.
         entity: String,
-        /// What is wrong.
-        what: String,
+        /// Coordinates given.
+        given: usize,
+        /// Coordinates of the model.
+        dof: usize,
+    },
+    /// A non-finite mounting position, angle or initial coordinate.
+    #[error("{entity}: mounting position, angle and initial coordinates must be finite")]
+    NotFinitePlacement {
+        /// The mechanism.
+        entity: String,
+    },
+    /// A stop condition number that is not above 1.
+    #[error("{entity}: max_condition = {value} must be > 1")]
+    MaxCondition {
+        /// The mechanism.
+        entity: String,
+        /// The value.
+        value: f64,
+    },
+    /// A generator whose parameters cannot be used.
+    #[error("{entity}: {source}")]
+    Generator {
+        /// The force element.
+        entity: String,
+        /// Why.
+        source: crate::generator::GeneratorError,
+    },
+    /// A damper or spring with a negative or non-finite coefficient.
+    #[error("{entity}: {kind} values must be finite and non-negative")]
+    Coefficient {
+        /// The force element.
+        entity: String,
+        /// Its kind (`damper`, `spring`).
+        kind: &'static str,
+    },
+    /// A non-finite excitation amplitude.
+    #[error("{entity}: amplitude = {value} is not finite")]
+    Amplitude {
+        /// The excitation.
+        entity: String,
+        /// The value.
+        value: f64,
     },
 }
 
@@ -373,48 +443,42 @@ impl HybridModel {
     }
 
     fn check(&self) -> Result<(), ModelError> {
-        let reference = |entity: String, what: String| ModelError::Reference { entity, what };
         for m in &self.mechanisms {
             let entity = format!("mechanism \"{}\"", m.name);
             if m.initial_q.len() != m.system.dof() {
-                return Err(ModelError::Value {
+                return Err(ModelError::InitialCount {
                     entity,
-                    what: format!(
-                        "{} initial coordinate(s) given for {} coordinate(s)",
-                        m.initial_q.len(),
-                        m.system.dof()
-                    ),
+                    given: m.initial_q.len(),
+                    dof: m.system.dof(),
                 });
             }
             let finite = m.mount.origin.iter().all(|x| x.is_finite())
                 && m.mount.angle.is_finite()
                 && m.initial_q.iter().all(|x| x.is_finite());
             if !finite {
-                return Err(ModelError::Value {
-                    entity,
-                    what: "mounting position, angle and initial coordinates must be finite".into(),
-                });
+                return Err(ModelError::NotFinitePlacement { entity });
             }
             if m.max_condition.is_nan() || m.max_condition <= 1.0 {
-                return Err(ModelError::Value {
+                return Err(ModelError::MaxCondition {
                     entity,
-                    what: format!("max_condition = {} must be > 1", m.max_condition),
+                    value: m.max_condition,
                 });
             }
         }
         for a in &self.attachments {
             let entity = format!("attachment \"{}\"", a.name);
             let Some(m) = self.mechanisms.get(a.mechanism) else {
-                return Err(reference(
+                return Err(ModelError::NoMechanism {
                     entity,
-                    format!("no mechanism number {}", a.mechanism),
-                ));
+                    index: a.mechanism,
+                });
             };
             if a.point >= m.system.point_names().len() {
-                return Err(reference(
+                return Err(ModelError::NoPoint {
                     entity,
-                    format!("mechanism \"{}\" has no point number {}", m.name, a.point),
-                ));
+                    mechanism: m.name.clone(),
+                    index: a.point,
+                });
             }
             let Some(beam) = &self.beam else {
                 return Err(ModelError::NoBeam { entity });
@@ -430,7 +494,7 @@ impl HybridModel {
                 .iter()
                 .any(|&(k, w)| k >= beam.dof_count() || !w.is_finite())
             {
-                return Err(reference(entity, "beam point outside the beam".into()));
+                return Err(ModelError::OutsideBeam { entity });
             }
         }
         for (i, m) in self.mechanisms.iter().enumerate() {
@@ -454,23 +518,21 @@ impl HybridModel {
         for f in &self.forces {
             let entity = format!("force \"{}\"", f.name);
             let Some(m) = self.mechanisms.get(f.mechanism) else {
-                return Err(reference(
+                return Err(ModelError::NoMechanism {
                     entity,
-                    format!("no mechanism number {}", f.mechanism),
-                ));
+                    index: f.mechanism,
+                });
             };
             if f.joint >= m.system.dof() {
-                return Err(reference(
+                return Err(ModelError::NoJoint {
                     entity,
-                    format!("mechanism \"{}\" has no joint number {}", m.name, f.joint),
-                ));
+                    mechanism: m.name.clone(),
+                    index: f.joint,
+                });
             }
             if let ForceKind::Generator(g) = &f.kind {
-                if let Err(e) = g.validate() {
-                    return Err(ModelError::Value {
-                        entity,
-                        what: e.to_string(),
-                    });
+                if let Err(source) = g.validate() {
+                    return Err(ModelError::Generator { entity, source });
                 }
             }
             let ok = match &f.kind {
@@ -479,18 +541,18 @@ impl HybridModel {
                 ForceKind::Spring { k, q0 } => k.is_finite() && *k >= 0.0 && q0.is_finite(),
             };
             if !ok {
-                return Err(ModelError::Value {
+                return Err(ModelError::Coefficient {
                     entity,
-                    what: format!("{} values must be finite and non-negative", f.kind.as_str()),
+                    kind: f.kind.as_str(),
                 });
             }
         }
         for e in &self.excitations {
             let entity = format!("excitation \"{}\"", e.name);
             if !e.amplitude.is_finite() {
-                return Err(ModelError::Value {
+                return Err(ModelError::Amplitude {
                     entity,
-                    what: format!("amplitude = {} is not finite", e.amplitude),
+                    value: e.amplitude,
                 });
             }
             match &e.target {
@@ -499,21 +561,22 @@ impl HybridModel {
                         return Err(ModelError::NoBeam { entity });
                     };
                     if p.weights.iter().any(|&(k, _)| k >= beam.dof_count()) {
-                        return Err(reference(entity, "beam point outside the beam".into()));
+                        return Err(ModelError::OutsideBeam { entity });
                     }
                 }
                 ExcitationTarget::Joint { mechanism, joint } => {
                     let Some(m) = self.mechanisms.get(*mechanism) else {
-                        return Err(reference(
+                        return Err(ModelError::NoMechanism {
                             entity,
-                            format!("no mechanism number {mechanism}"),
-                        ));
+                            index: *mechanism,
+                        });
                     };
                     if *joint >= m.system.dof() {
-                        return Err(reference(
+                        return Err(ModelError::NoJoint {
                             entity,
-                            format!("mechanism \"{}\" has no joint number {joint}", m.name),
-                        ));
+                            mechanism: m.name.clone(),
+                            index: *joint,
+                        });
                     }
                 }
             }

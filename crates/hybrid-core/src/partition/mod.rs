@@ -141,6 +141,7 @@ impl Partition {
 
 /// Errors of the partitioning routines. Each carries the data needed to explain it.
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum PartitionError {
     /// `J_v` is singular or too badly conditioned to be inverted (condition above
     /// [`SINGULAR_CONDITION`]; infinite when a pivot is exactly zero).
