@@ -90,15 +90,27 @@ pub struct PointOptions {
     pub allow_long: bool,
 }
 
+/// The figures of a point, and why its time-domain run failed when it did (the linearised
+/// figures are kept: a design whose free decay reaches the toggle still has its modes).
+#[derive(Debug)]
+pub struct Evaluated {
+    /// The figures (the linearised ones, then the time domain's when it ran).
+    pub figures: Vec<Figure>,
+    /// Why the time-domain run of the point failed.
+    pub time_domain_error: Option<PointError>,
+}
+
 /// Evaluates one point: `text` (the scenario file `path`, the base of its relative paths)
-/// with `overrides` applied in order. An error (a value the loader rejects, a run that
-/// stops at the singular position, a divergence) is a [`PointError`].
+/// with `overrides` applied in order. An error of the point as a whole (a value the loader
+/// rejects, no static equilibrium) is a [`PointError`]; a time-domain run that fails (stops
+/// at the singular position, diverges, is above the step limit) keeps the linearised
+/// figures and records its error apart.
 pub fn evaluate(
     path: &Path,
     text: &str,
     overrides: &[Override],
     options: &PointOptions,
-) -> Result<Vec<Figure>, PointError> {
+) -> Result<Evaluated, PointError> {
     let loaded = scenario::parse_with(text, path, overrides)?;
     let mut figures = vec![];
     let remap = |e: Error| {
@@ -108,20 +120,32 @@ pub fn evaluate(
         })
     };
     linearised(path, &loaded, &mut figures).map_err(remap)?;
-    if options.time_domain {
-        if let Some(steps) = budget::steps_per_run(&loaded.scenario) {
-            budget::refuse_above(
-                &path.display().to_string(),
-                &[Quantity::count("time steps", steps, budget::MAX_STEPS)],
-                "shorten t_end",
-                options.allow_long,
-            )
-            .map_err(Box::new)?;
-        }
-        time_domain(path, &loaded, &mut figures).map_err(remap)?;
-    }
     finite(&figures)?;
-    Ok(figures)
+    let mut time_domain_error = None;
+    if options.time_domain {
+        let linear = figures.len();
+        let run = |figures: &mut Vec<Figure>| -> Result<(), PointError> {
+            if let Some(steps) = budget::steps_per_run(&loaded.scenario) {
+                budget::refuse_above(
+                    &path.display().to_string(),
+                    &[Quantity::count("time steps", steps, budget::MAX_STEPS)],
+                    "shorten t_end",
+                    options.allow_long,
+                )
+                .map_err(Box::new)?;
+            }
+            time_domain(path, &loaded, figures).map_err(remap)?;
+            finite(figures)
+        };
+        if let Err(e) = run(&mut figures) {
+            figures.truncate(linear);
+            time_domain_error = Some(e);
+        }
+    }
+    Ok(Evaluated {
+        figures,
+        time_domain_error,
+    })
 }
 
 /// Refuses figures of which one is not finite, naming it (the point's error).

@@ -2,8 +2,9 @@
 //! [--time-domain] [--t-end T]`: a cartesian grid over scenario fields.
 //!
 //! VALUES is `a:b:n` (n points from a to b inclusive, `a + (b - a) k / (n - 1)`, the
-//! endpoints exact; integers when a and b are integers and the step is a whole number) or a
-//! comma list of TOML values (`0.5,1,2,5`; one value is a fixed override). The grid is the
+//! endpoints exact; integers when a and b are integers and the step is a whole number),
+//! `a:b:n:log` (n points in geometric progression, `a (b / a)^(k / (n - 1))`, a, b > 0) or
+//! a comma list of TOML values (`0.5,1,2,5`; one value is a fixed override). The grid is the
 //! product of the options in command-line order, the last one varying fastest. Each point
 //! is [`crate::sweep_point::evaluate`]d — linearised about its static equilibrium, and with
 //! `--time-domain` also run in the time domain — (in parallel, rayon; results collected by index, so
@@ -106,6 +107,12 @@ pub enum ValuesError {
     /// `a` or `b` is not finite.
     #[error("`{text}`: a and b must be finite")]
     NotFinite {
+        /// VALUES.
+        text: String,
+    },
+    /// `a:b:n:log` with `a` or `b` not positive.
+    #[error("`{text}`: a:b:n:log needs a > 0 and b > 0")]
+    LogNotPositive {
         /// VALUES.
         text: String,
     },
@@ -245,6 +252,8 @@ struct Range {
     fa: f64,
     fb: f64,
     n: usize,
+    /// `a:b:n:log`: a geometric progression.
+    log: bool,
 }
 
 impl Range {
@@ -257,6 +266,18 @@ impl Range {
             text: text.to_string(),
             n,
         })?;
+        if self.log {
+            let (la, lb) = (self.fa.ln(), self.fb.ln());
+            out.extend((0..n).map(|k| {
+                let x = match k {
+                    0 => self.fa,
+                    k if k + 1 == n => self.fb,
+                    k => (la + (lb - la) * k as f64 / (n - 1) as f64).exp(),
+                };
+                Value::from(x)
+            }));
+            return Ok(out);
+        }
         if let (Value::Integer(ia), Value::Integer(ib), Ok(steps)) =
             (&self.a, &self.b, i64::try_from(n - 1))
         {
@@ -283,8 +304,11 @@ impl Range {
 /// `a:b:n` when the text is three numbers separated by colons.
 fn parse_range(text: &str) -> Result<Option<Range>, ValuesError> {
     let parts: Vec<&str> = text.split(':').map(str::trim).collect();
-    let [a, b, n] = parts[..] else {
-        return Ok(None);
+    let (a, b, n, log) = match parts[..] {
+        [a, b, n] => (a, b, n, false),
+        [a, b, n, "log"] => (a, b, n, true),
+        [a, b, n, "lin"] => (a, b, n, false),
+        _ => return Ok(None),
     };
     let (a, b) = (parse_value(a), parse_value(b));
     let number = |v: &Value| match v {
@@ -303,7 +327,17 @@ fn parse_range(text: &str) -> Result<Option<Range>, ValuesError> {
     if !(fa.is_finite() && fb.is_finite()) {
         return Err(ValuesError::NotFinite { text: text() });
     }
-    Ok(Some(Range { a, b, fa, fb, n }))
+    if log && !(fa > 0.0 && fb > 0.0) {
+        return Err(ValuesError::LogNotPositive { text: text() });
+    }
+    Ok(Some(Range {
+        a,
+        b,
+        fa,
+        fb,
+        n,
+        log,
+    }))
 }
 
 /// Splits at the commas outside brackets, braces and quotes.
@@ -487,10 +521,13 @@ pub struct SweepSpec {
 pub struct PointResult {
     /// Grid index.
     pub index: usize,
-    /// The figures (empty when the point failed).
+    /// The figures (empty when the point failed; the linearised ones only when its
+    /// time-domain run failed).
     pub figures: Vec<Figure>,
     /// Why the point failed.
     pub error: Option<String>,
+    /// Why its time-domain run failed (the linearised figures are kept).
+    pub time_domain_error: Option<String>,
 }
 
 /// FNV-1a (64 bit) of `bytes`, in hex.
@@ -598,16 +635,19 @@ pub fn run(args: Args) -> Result<(), Error> {
         }))
         .unwrap_or(Err(sweep_point::PointError::Panicked));
         bar.inc(1);
+        let line = |e: &dyn std::fmt::Display| e.to_string().replace('\n', "; ");
         match result {
-            Ok(figures) => PointResult {
+            Ok(p) => PointResult {
                 index,
-                figures,
+                figures: p.figures,
                 error: None,
+                time_domain_error: p.time_domain_error.map(|e| line(&e)),
             },
             Err(e) => PointResult {
                 index,
                 figures: vec![],
-                error: Some(e.to_string().replace('\n', "; ")),
+                error: Some(line(&e)),
+                time_domain_error: None,
             },
         }
     };
@@ -620,6 +660,15 @@ pub fn run(args: Args) -> Result<(), Error> {
         pool.install(|| indices.par_iter().map(|&i| evaluate(i)).collect());
     bar.finish_and_clear();
     let failed = results.iter().filter(|r| r.error.is_some()).count();
+    let td_failed = results
+        .iter()
+        .filter(|r| r.time_domain_error.is_some())
+        .count();
+    let td_note = if args.time_domain {
+        format!(" ({td_failed} time-domain run(s) failed, their linear figures kept)")
+    } else {
+        String::new()
+    };
     let files = match shard {
         Some((i, n)) => vec![OutputFile {
             path: args.out.join(part_name(i, n)),
@@ -630,7 +679,7 @@ pub fn run(args: Args) -> Result<(), Error> {
     commit_files(&files).map_err(ReportError::from)?;
     let written: Vec<String> = files.iter().map(|f| f.path.display().to_string()).collect();
     eprintln!(
-        "sweep: {} of {} point(s) evaluated in {:.1} s, {failed} failed; wrote {}",
+        "sweep: {} of {} point(s) evaluated in {:.1} s, {failed} failed{td_note}; wrote {}",
         results.len(),
         grid.len(),
         started.elapsed().as_secs_f64(),
@@ -730,6 +779,9 @@ pub struct PartRow {
     pub figures: Vec<PartFigure>,
     /// Why the point failed.
     pub error: Option<String>,
+    /// Why its time-domain run failed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_domain_error: Option<String>,
 }
 
 /// `sweep.part-I-of-N.json`: the rows of shard I of N, what identifies the sweep, and the
@@ -772,6 +824,7 @@ impl Part {
                         })
                         .collect(),
                     error: r.error.clone(),
+                    time_domain_error: r.time_domain_error.clone(),
                 })
                 .collect(),
             checksum: String::new(),
@@ -839,6 +892,7 @@ impl Part {
                     index: r.index,
                     figures,
                     error: r.error.clone(),
+                    time_domain_error: r.time_domain_error.clone(),
                 })
             })
             .collect()
@@ -853,6 +907,8 @@ struct SweepJson<'a> {
     parameters: Vec<&'a str>,
     figures: Vec<FigureHead<'a>>,
     failed: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    time_domain_failed: Option<usize>,
     points: Vec<PointJson<'a>>,
 }
 
@@ -868,6 +924,8 @@ struct PointJson<'a> {
     parameters: Vec<serde_json::Value>,
     figures: Vec<Option<f64>>,
     error: Option<&'a str>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    time_domain_error: Option<&'a str>,
 }
 
 /// The files of a complete sweep (`sweep.csv`, `sweep.json`) from the results of every point
@@ -912,6 +970,9 @@ pub fn outputs(
     header.extend(grid.axes.iter().map(|a| a.path.clone()));
     header.extend(heads.iter().map(|(n, u)| format!("{n} [{u}]")));
     header.push("error".into());
+    if spec.time_domain {
+        header.push("time_domain_error".into());
+    }
     let csv_err = |e: ::csv::Error| Error::from(ReportError::from(e));
     csv.write_record(&header).map_err(csv_err)?;
     let mut points = vec![];
@@ -921,12 +982,16 @@ pub fn outputs(
         record.extend(values.iter().map(|v| param_cell(v)));
         record.extend(heads.iter().map(|(n, _)| cell(value_of(r, n))));
         record.push(r.error.clone().unwrap_or_default());
+        if spec.time_domain {
+            record.push(r.time_domain_error.clone().unwrap_or_default());
+        }
         csv.write_record(&record).map_err(csv_err)?;
         points.push(PointJson {
             index: r.index,
             parameters: values.iter().map(|v| json_value(v)).collect(),
             figures: heads.iter().map(|(n, _)| value_of(r, n)).collect(),
             error: r.error.as_deref(),
+            time_domain_error: r.time_domain_error.as_deref(),
         });
     }
     let csv = csv
@@ -940,6 +1005,11 @@ pub fn outputs(
             .map(|(name, unit)| FigureHead { name, unit })
             .collect(),
         failed: rows.iter().filter(|r| r.error.is_some()).count(),
+        time_domain_failed: spec.time_domain.then(|| {
+            rows.iter()
+                .filter(|r| r.time_domain_error.is_some())
+                .count()
+        }),
         points,
     };
     let mut files = vec![
