@@ -56,8 +56,8 @@ use crate::Error;
 use crate::budget::{self, Quantity};
 use crate::report::summary::json_bytes;
 use crate::report::{OutputFile, OutputLock, ReportError, commit_files};
-use crate::scenario::tangents::{Linearizable, tangents_for};
 use crate::scenario::{self, Scenario};
+use crate::setup::{Linearizable, tangents_for};
 
 /// Arguments of `damper frf`.
 #[derive(clap::Args, Debug)]

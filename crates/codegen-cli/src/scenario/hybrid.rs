@@ -57,7 +57,7 @@
 //!
 //! Loading ([`from_doc`], through the one loader [`super::load`]) checks the file itself:
 //! keys, values, names that refer to other entries of the file, the beam, the time
-//! tables. [`HybridScenario::build`] then loads the mechanism models and checks what needs
+//! tables. The setup stage ([`crate::setup::build`]) then loads the mechanism models and checks what needs
 //! them (points, joints, coordinates, parameters, points on ground, over-constraint,
 //! placements) and assembles the initial state. Both report every problem at once, each
 //! with file:line:column and the entity.
@@ -67,16 +67,10 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use diagnostic::{Diagnostic, Diagnostics, Kind, LineIndex};
-use fem_beam::{Beam, BeamModel, BeamSpec, TimeFunction};
+use fem_beam::{Beam, BeamSpec, TimeFunction};
 use hybrid_core::damper::Method;
 use hybrid_core::generator::GeneratorSpec;
-use hybrid_core::hybrid::{
-    Attachment, AttachmentKind, BeamPoint, Excitation, ExcitationTarget, ForceKind, HybridError,
-    HybridModel, HybridState, JointForce, Mount, MountedMechanism, Placement, initial_deflection,
-    initial_state, place_two_bar,
-};
-use mbs_symbolic::model::Model;
-use mbs_symbolic::runtime::{ParamError, System};
+use hybrid_core::hybrid::{AttachmentKind, ForceKind, Placement};
 use serde::Deserialize;
 use serde::de::DeserializeOwned;
 use toml::Spanned;
@@ -105,9 +99,9 @@ pub struct MechanismEntry {
     pub max_condition: f64,
     /// A two-bar placement for an attachment (index into the attachments).
     pub placement: Option<(usize, Placement)>,
-    span: Range<usize>,
-    model_span: Range<usize>,
-    placement_span: Option<Range<usize>>,
+    pub(crate) span: Range<usize>,
+    pub(crate) model_span: Range<usize>,
+    pub(crate) placement_span: Option<Range<usize>>,
 }
 
 /// One `[[attachment]]`.
@@ -123,8 +117,8 @@ pub struct AttachmentEntry {
     pub kind: AttachmentKind,
     /// Beam abscissa (m).
     pub x: f64,
-    point_span: Range<usize>,
-    x_span: Range<usize>,
+    pub(crate) point_span: Range<usize>,
+    pub(crate) x_span: Range<usize>,
 }
 
 /// One `[[force]]`.
@@ -138,7 +132,7 @@ pub struct ForceEntry {
     pub joint: String,
     /// What it is.
     pub kind: ForceKind,
-    joint_span: Range<usize>,
+    pub(crate) joint_span: Range<usize>,
 }
 
 /// Where an `[[excitation]]` acts, as written.
@@ -169,10 +163,10 @@ pub struct ExcitationEntry {
     pub amplitude: f64,
     /// Time dependence (a table file already read).
     pub time: TimeFunction,
-    at_span: Range<usize>,
+    pub(crate) at_span: Range<usize>,
 }
 
-/// A loaded and checked hybrid scenario (models not loaded yet: [`HybridScenario::build`]).
+/// A loaded and checked hybrid scenario (models not loaded yet: [`crate::setup::build`]).
 #[derive(Clone, Debug)]
 pub struct HybridScenario {
     /// The scenario file as given.
@@ -200,21 +194,9 @@ pub struct HybridScenario {
     /// The comparison runs beside the run as described (`[output] compare`; none by
     /// default, `["generator_disconnected"]` for the damper preset).
     pub compare: Vec<Comparison>,
-    index: LineIndex,
-    beam_span: Option<Range<usize>>,
-    initial_x_span: Option<Range<usize>>,
-}
-
-/// A hybrid scenario resolved against its models: the model, its initial state and what
-/// the reports need.
-#[derive(Debug)]
-pub struct Built {
-    /// The hybrid system.
-    pub model: HybridModel,
-    /// Its initial state (consistent accelerations).
-    pub state: HybridState,
-    /// The mechanism models, in the order of the mechanisms.
-    pub models: Vec<Model>,
+    pub(crate) index: LineIndex,
+    pub(crate) beam_span: Option<Range<usize>>,
+    pub(crate) initial_x_span: Option<Range<usize>>,
 }
 
 #[derive(Deserialize)]
@@ -400,7 +382,8 @@ fn mechanism_ref(
     k
 }
 
-fn list(names: &[String]) -> String {
+/// The names, comma-separated (`none` when there is none).
+pub(crate) fn list(names: &[String]) -> String {
     if names.is_empty() {
         "none".into()
     } else {
@@ -1024,7 +1007,8 @@ impl HybridScenario {
         }
     }
 
-    fn at(
+    /// A problem of this scenario at a span of its file, about `entity`.
+    pub(crate) fn at(
         &self,
         kind: Kind,
         span: Option<&Range<usize>>,
@@ -1036,446 +1020,5 @@ impl HybridScenario {
             Some(s) => d.at_offset(&self.index, s.start),
             None => d,
         }
-    }
-
-    /// Loads the mechanism models (generated code when compiled in, the interpreter
-    /// otherwise), resolves every name against them, places the two-bar chains, checks the
-    /// attachments (points on ground, over-constraint, beam points), builds the hybrid model
-    /// and its initial state. Every problem is reported at once.
-    pub fn build(&self) -> Result<Built, Diagnostics> {
-        let (model, models) = self.build_model()?;
-        let n = model.beam_dofs();
-        let q0 = match (self.initial, &model.beam) {
-            (Some((d, x)), Some(b)) => {
-                let point = BeamPoint::on(b, x).filter(|p| !p.is_locked());
-                let Some(point) = point else {
-                    return Err(self
-                        .at(
-                            Kind::InvalidValue,
-                            self.initial_x_span.as_ref(),
-                            "[initial] x",
-                            "a support locks the beam there: no static shape of a load",
-                        )
-                        .into());
-                };
-                initial_deflection(b, &point, d).map_err(|e| {
-                    self.at(
-                        Kind::InvalidValue,
-                        self.initial_x_span.as_ref(),
-                        "[initial]",
-                        e.to_string(),
-                    )
-                })?
-            }
-            _ => vec![0.0; n],
-        };
-        let state = initial_state(&model, q0, vec![0.0; n]).map_err(|e| {
-            let span = match &e {
-                HybridError::Partition { mechanism, .. }
-                | HybridError::Singular { mechanism, .. }
-                | HybridError::NoAssembly { mechanism, .. } => self
-                    .mechanisms
-                    .iter()
-                    .find(|m| &m.name == mechanism)
-                    .map(|m| &m.span),
-                _ => None,
-            };
-            let d = Diagnostic::new(
-                Kind::InvalidValue,
-                self.path.display().to_string(),
-                format!("initial state: {e}"),
-            );
-            Diagnostics::from(match span {
-                Some(s) => d.at_offset(&self.index, s.start),
-                None => d,
-            })
-        })?;
-        Ok(Built {
-            model,
-            state,
-            models,
-        })
-    }
-
-    /// The hybrid system of the scenario and its mechanism models (in the order of the
-    /// mechanisms), without the initial state: what a linearisation about the rest position
-    /// needs (an initial displacement out of the mechanism's reach does not stop it).
-    pub fn build_model(&self) -> Result<(HybridModel, Vec<Model>), Diagnostics> {
-        let mut diags: Vec<Diagnostic> = vec![];
-        let beam = match &self.beam {
-            Some((_, b)) => match BeamModel::new(b) {
-                Ok(m) => Some(m),
-                Err(e) => {
-                    let msg = e.to_string().replace('\n', "; ");
-                    return Err(self
-                        .at(Kind::InvalidValue, self.beam_span.as_ref(), "[beam]", msg)
-                        .into());
-                }
-            },
-            None => None,
-        };
-        // Models and systems.
-        let mut models = vec![];
-        let mut systems: Vec<Option<Box<dyn System>>> = vec![];
-        for m in &self.mechanisms {
-            let entity = format!("mechanism \"{}\"", m.name);
-            let model = match mbs_symbolic::model::load(&m.model) {
-                Ok(model) => model,
-                Err(d) => {
-                    diags.extend(d.0);
-                    models.push(None);
-                    systems.push(None);
-                    continue;
-                }
-            };
-            let mut system = match crate::system_for(&model, None) {
-                Ok(r) => r.system,
-                Err(e) => {
-                    diags.push(self.at(
-                        Kind::Unsupported,
-                        Some(&m.model_span),
-                        &entity,
-                        e.to_string(),
-                    ));
-                    models.push(None);
-                    systems.push(None);
-                    continue;
-                }
-            };
-            let mut values = model.default_params();
-            let mut params_ok = true;
-            for (name, value, span) in &m.parameters {
-                match system.set_param(name, *value) {
-                    Ok(()) => {
-                        if let Some(k) = model.param_index(name) {
-                            values[k] = *value;
-                        }
-                    }
-                    Err(e @ ParamError::Unknown { .. }) => {
-                        diags.push(self.at(
-                            Kind::UnknownName,
-                            Some(span),
-                            &format!("{entity}: parameters"),
-                            e.to_string(),
-                        ));
-                        params_ok = false;
-                    }
-                    Err(e) => {
-                        diags.push(self.at(
-                            Kind::InvalidValue,
-                            Some(span),
-                            &format!("{entity}: parameters"),
-                            e.to_string(),
-                        ));
-                        params_ok = false;
-                    }
-                }
-            }
-            if params_ok {
-                let at = m
-                    .parameters
-                    .first()
-                    .map(|p| p.2.clone())
-                    .unwrap_or(m.span.clone());
-                if let Err(d) = mbs_symbolic::model::check_parameter_values(
-                    &model,
-                    &values,
-                    &self.path.display().to_string(),
-                ) {
-                    for mut d in d.0 {
-                        let what = d.entity.take().unwrap_or_default();
-                        d = d
-                            .entity(format!("{entity}: parameters: {what}"))
-                            .at_offset(&self.index, at.start);
-                        diags.push(d);
-                    }
-                }
-            }
-            models.push(Some(model));
-            systems.push(Some(system));
-        }
-        // Initial coordinates by name.
-        let mut initial_q: Vec<Vec<f64>> = vec![];
-        for (m, sys) in self.mechanisms.iter().zip(&systems) {
-            let Some(sys) = sys else {
-                initial_q.push(vec![]);
-                continue;
-            };
-            let mut q = vec![0.0; sys.dof()];
-            for (name, value, span) in &m.initial {
-                match sys.coordinate_index(name) {
-                    Some(k) => q[k] = *value,
-                    None => diags.push(self.at(
-                        Kind::UnknownName,
-                        Some(span),
-                        &format!("mechanism \"{}\": initial", m.name),
-                        format!(
-                            "unknown coordinate {name:?} (the model has {})",
-                            list(sys.coordinate_names())
-                        ),
-                    )),
-                }
-            }
-            initial_q.push(q);
-        }
-        // Attachments: points and beam points.
-        let mut points = vec![];
-        for a in &self.attachments {
-            let entity = format!("attachment \"{}\"", a.name);
-            let (Some(model), Some(sys)) = (&models[a.mechanism], &systems[a.mechanism]) else {
-                points.push(None);
-                continue;
-            };
-            let point = sys.point_index(&a.point);
-            let point = match point {
-                None => {
-                    diags.push(self.at(
-                        Kind::UnknownName,
-                        Some(&a.point_span),
-                        &entity,
-                        format!(
-                            "no point {:?} in mechanism \"{}\" (points: {})",
-                            a.point,
-                            self.mechanisms[a.mechanism].name,
-                            list(sys.point_names())
-                        ),
-                    ));
-                    None
-                }
-                Some(_)
-                    if model
-                        .point_index(&a.point)
-                        .is_some_and(|i| model.points[i].body.is_none()) =>
-                {
-                    diags.push(self.at(
-                        Kind::InvalidValue,
-                        Some(&a.point_span),
-                        &entity,
-                        format!(
-                            "point {:?} is on the ground body: it cannot follow the beam",
-                            a.point
-                        ),
-                    ));
-                    None
-                }
-                Some(k) => Some(k),
-            };
-            let beam_point = beam.as_ref().and_then(|b| BeamPoint::on(b, a.x));
-            let beam_point = match beam_point {
-                Some(p) if p.is_locked() => {
-                    diags.push(self.at(
-                        Kind::InvalidValue,
-                        Some(&a.x_span),
-                        &entity,
-                        format!(
-                            "the beam cannot move transversely at x = {} (a support locks it)",
-                            a.x
-                        ),
-                    ));
-                    None
-                }
-                Some(p) => Some(p),
-                None => {
-                    diags.push(self.at(
-                        Kind::InvalidValue,
-                        Some(&a.x_span),
-                        &entity,
-                        format!("x = {} is not a point of the beam", a.x),
-                    ));
-                    None
-                }
-            };
-            points.push(point.zip(beam_point));
-        }
-        // Placements, reach and over-constraint per mechanism.
-        let mut mounts = vec![];
-        for (i, m) in self.mechanisms.iter().enumerate() {
-            let entity = format!("mechanism \"{}\"", m.name);
-            let mut mount = Mount {
-                origin: m.origin,
-                angle: m.angle,
-            };
-            let mut reach = None;
-            if let (Some((a, how)), Some(sys)) = (m.placement, &systems[i]) {
-                if sys.dof() != 2 || sys.rows() != 0 {
-                    diags.push(self.at(
-                        Kind::Unsupported,
-                        m.placement_span.as_ref(),
-                        &entity,
-                        format!("placement is for a two-bar chain (2 coordinates, no loop rows); this model has {} coordinate(s) and {} loop row(s): give origin and initial instead", sys.dof(), sys.rows()),
-                    ));
-                } else if let Some((point, _)) = &points[a] {
-                    match place_two_bar(sys.as_ref(), *point, how) {
-                        Ok(two) => {
-                            // The beam point (x_b, 0) = origin + R(angle) target.
-                            let r = mount.rotate(two.target);
-                            mount.origin = [self.attachments[a].x - r[0], -r[1]];
-                            initial_q[i] = two.guess.to_vec();
-                            reach = (m.angle == 0.0).then_some(two.reach);
-                        }
-                        Err(e) => diags.push(self.at(
-                            Kind::InvalidValue,
-                            m.placement_span.as_ref(),
-                            &entity,
-                            format!("placement: {e}"),
-                        )),
-                    }
-                }
-            }
-            if let Some(sys) = &systems[i] {
-                let attached: usize = self
-                    .attachments
-                    .iter()
-                    .filter(|a| a.mechanism == i)
-                    .map(|a| a.kind.rows())
-                    .sum();
-                let (loops, dof) = (sys.rows(), sys.dof());
-                if loops + attached > dof {
-                    diags.push(self.at(
-                        Kind::InvalidValue,
-                        Some(&m.span),
-                        &entity,
-                        format!("over-constrained: {} constraint rows ({loops} loop row(s) + {attached} attachment row(s)) for {dof} coordinate(s)", loops + attached),
-                    ));
-                }
-            }
-            mounts.push((mount, reach));
-        }
-        // Points that do not move at the initial configuration.
-        for (a, p) in self.attachments.iter().zip(&points) {
-            let (Some((point, _)), Some(sys)) = (p, &systems[a.mechanism]) else {
-                continue;
-            };
-            let q = &initial_q[a.mechanism];
-            if q.len() != sys.dof() {
-                continue;
-            }
-            let mut ws = sys.workspace();
-            sys.point_kinematics(*point, q, &vec![0.0; q.len()], &mut ws);
-            let moves =
-                (0..sys.dof()).any(|c| ws.point_j[(0, c)] != 0.0 || ws.point_j[(1, c)] != 0.0);
-            if !moves {
-                diags.push(self.at(
-                    Kind::InvalidValue,
-                    Some(&a.point_span),
-                    &format!("attachment \"{}\"", a.name),
-                    format!("point {:?} does not move in the plane at the initial configuration (its Jacobian is zero): it is fixed to ground", a.point),
-                ));
-            }
-        }
-        // Forces and excitations on joints.
-        let joint = |m: usize,
-                     name: &str,
-                     span: &Range<usize>,
-                     entity: &str,
-                     diags: &mut Vec<Diagnostic>|
-         -> Option<usize> {
-            let model = models[m].as_ref()?;
-            let k = model.body_index(name);
-            if k.is_none() {
-                let bodies: Vec<String> = model.bodies.iter().map(|b| b.name.clone()).collect();
-                diags.push(self.at(
-                    Kind::UnknownName,
-                    Some(span),
-                    entity,
-                    format!(
-                        "no body {name:?} in mechanism \"{}\" (bodies: {})",
-                        self.mechanisms[m].name,
-                        list(&bodies)
-                    ),
-                ));
-            }
-            k
-        };
-        let mut forces = vec![];
-        for f in &self.forces {
-            let entity = format!("force \"{}\"", f.name);
-            if let Some(j) = joint(f.mechanism, &f.joint, &f.joint_span, &entity, &mut diags) {
-                forces.push(JointForce {
-                    name: f.name.clone(),
-                    mechanism: f.mechanism,
-                    joint: j,
-                    kind: f.kind.clone(),
-                });
-            }
-        }
-        let mut excitations = vec![];
-        for e in &self.excitations {
-            let entity = format!("excitation \"{}\"", e.name);
-            let target = match &e.target {
-                TargetEntry::Beam { x } => match beam.as_ref().and_then(|b| BeamPoint::on(b, *x)) {
-                    Some(p) => Some(ExcitationTarget::Beam(p)),
-                    None => {
-                        diags.push(self.at(
-                            Kind::InvalidValue,
-                            Some(&e.at_span),
-                            &entity,
-                            format!("x = {x} is not a point of the beam"),
-                        ));
-                        None
-                    }
-                },
-                TargetEntry::Joint {
-                    mechanism,
-                    joint: name,
-                } => joint(*mechanism, name, &e.at_span, &entity, &mut diags).map(|j| {
-                    ExcitationTarget::Joint {
-                        mechanism: *mechanism,
-                        joint: j,
-                    }
-                }),
-            };
-            if let Some(target) = target {
-                excitations.push(Excitation {
-                    name: e.name.clone(),
-                    target,
-                    amplitude: e.amplitude,
-                    time: e.time.clone(),
-                });
-            }
-        }
-        if !diags.is_empty() {
-            let mut d = Diagnostics(diags);
-            d.sort();
-            return Err(d);
-        }
-        // Everything resolved: the model.
-        let models: Vec<Model> = models.into_iter().flatten().collect();
-        let mechanisms = self
-            .mechanisms
-            .iter()
-            .zip(systems.into_iter().flatten())
-            .zip(mounts)
-            .zip(initial_q)
-            .map(|(((m, system), (mount, reach)), q)| MountedMechanism {
-                name: m.name.clone(),
-                system,
-                mount,
-                max_condition: m.max_condition,
-                reach,
-                initial_q: q,
-            })
-            .collect();
-        let attachments = self
-            .attachments
-            .iter()
-            .zip(points.into_iter().flatten())
-            .map(|(a, (point, beam))| Attachment {
-                name: a.name.clone(),
-                mechanism: a.mechanism,
-                point,
-                kind: a.kind,
-                beam,
-            })
-            .collect();
-        let model =
-            HybridModel::new(beam, mechanisms, attachments, forces, excitations).map_err(|e| {
-                Diagnostics::from(Diagnostic::new(
-                    Kind::InvalidValue,
-                    self.path.display().to_string(),
-                    e.to_string(),
-                ))
-            })?;
-        Ok((model, models))
     }
 }
