@@ -2,9 +2,9 @@
 //! only) → the engine's model (`hybrid_core::hybrid::HybridModel`), what runs and analyses
 //! take.
 //!
-//! - [`build`] / [`build_model`] ([`mod@build`]): the mechanism models loaded (generated code
+//! - [`build()`] / [`build_model`] ([`mod@build`]): the mechanism models loaded (generated code
 //!   when compiled in, the interpreter otherwise), every name resolved against them, the
-//!   two-bar chains placed, the attachments checked, the hybrid system and (for [`build`])
+//!   two-bar chains placed, the attachments checked, the hybrid system and (for [`build()`])
 //!   its initial state; every problem reported at once as [`diagnostic::Diagnostics`] at
 //!   the scenario file's line;
 //! - [`tangents`]: the same system with one exact tangent model per mechanism, for

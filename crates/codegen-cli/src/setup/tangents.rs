@@ -128,7 +128,7 @@ impl Linearizable {
     }
 
     /// Linearises `model` (this scenario's system or a variant of it with the same
-    /// mechanisms, e.g. [`disconnected`]) about its static equilibrium.
+    /// mechanisms, e.g. [`HybridModel::generators_disconnected`]) about its static equilibrium.
     pub fn linearize(&self, model: &HybridModel) -> Result<Linearization, LinearError> {
         Linearization::new(model, &self.tangent_refs(), EquilibriumOptions::default())
     }
