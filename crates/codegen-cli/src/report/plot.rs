@@ -432,18 +432,16 @@ where
             .map_err(|e| err(&e))?;
         if let Some(nl) = nonlinear {
             chart
-                .draw_series(nl.iter().filter_map(|&(f, m, settled)| {
-                    (m > 0.0).then(|| {
-                        Circle::new(
-                            (f, m),
-                            4,
-                            if settled {
-                                black.filled()
-                            } else {
-                                black.stroke_width(1)
-                            },
-                        )
-                    })
+                .draw_series(nl.iter().filter(|p| p.1 > 0.0).map(|&(f, m, settled)| {
+                    Circle::new(
+                        (f, m),
+                        4,
+                        if settled {
+                            black.filled()
+                        } else {
+                            black.stroke_width(1)
+                        },
+                    )
                 }))
                 .map_err(|e| err(&e))?;
         }

@@ -295,7 +295,7 @@ fn placement(
             let msg = format!(
                 "placement: unknown attachment {:?} (attachments: {})",
                 p.attachment.get_ref(),
-                list(&attachment_names)
+                list(attachment_names)
             );
             doc.push(
                 Kind::UnknownName,
