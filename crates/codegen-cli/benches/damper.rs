@@ -83,7 +83,7 @@ fn whole_run(c: &mut Criterion) {
     let sc = damper(20, 1);
     g.bench_function("default_5s_dt1e-4", |b| {
         b.iter(|| {
-            let built = sc.build().unwrap();
+            let built = codegen_cli::setup::build(&sc).unwrap();
             let run =
                 codegen_cli::run_hybrid::evaluate(&sc, &built, &[], None, vec![], false).unwrap();
             black_box(run.summary.steps)
@@ -97,7 +97,7 @@ fn step_cost(c: &mut Criterion) {
         let mut g = c.benchmark_group(format!("step_1000/{mechanisms}_mechanisms"));
         for elements in [20usize, 200, 2000] {
             let sc = damper(elements, mechanisms);
-            let built = sc.build().unwrap();
+            let built = codegen_cli::setup::build(&sc).unwrap();
             let (model, state) = (&built.model, &built.state);
             let integ = Integrator::new(model, sc.method, sc.integrator.dt, state).unwrap();
             g.bench_with_input(BenchmarkId::from_parameter(elements), &elements, |b, _| {

@@ -6,6 +6,9 @@
 //! - [`scenario`]: the one loader of scenario files (`kind = "damper"`, the default, or
 //!   `kind = "mechanism"` or `kind = "hybrid"`), every problem reported at once with
 //!   file:line:column;
+//! - [`setup`]: the one lowering, a hybrid scenario → the engine's model (mechanism models
+//!   loaded, names resolved, placements, initial state, tangent models, comparison
+//!   variants);
 //! - [`run`]: scenario → model (compiled-in generated code, numeric reference or DAG
 //!   interpreter) → `hybrid-core` → observer; [`run_hybrid`] for hybrid systems;
 //! - [`report`]: CSV time histories, typed JSON summaries, the SVG plot, and the one atomic
@@ -33,6 +36,7 @@ pub mod report;
 pub mod run;
 pub mod run_hybrid;
 pub mod scenario;
+pub mod setup;
 pub mod sweep_point;
 
 use std::io::Write;

@@ -14,7 +14,7 @@ use serde::Serialize;
 
 use crate::Error;
 use crate::scenario::Scenario;
-use crate::scenario::tangents::{Linearizable, tangents_for};
+use crate::setup::{Linearizable, tangents_for};
 
 /// One mode as reported: frequencies, damping and the shape in physical terms.
 #[derive(Clone, Debug, Serialize)]

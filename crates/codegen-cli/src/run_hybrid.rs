@@ -27,7 +27,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use hybrid_core::decay::DecayTracker;
-use hybrid_core::hybrid::{BeamPoint, Integrator, RunError, RunOptions, initial_state, run};
+use hybrid_core::hybrid::{BeamPoint, Integrator, RunError, RunOptions, run};
 use indicatif::ProgressBar;
 
 use crate::Error;
@@ -41,10 +41,9 @@ use crate::report::plot::{plot_damping_vs_amplitude_svg, plot_displacements_svg}
 use crate::report::rows::{CsvRows, RowSink};
 use crate::report::summary::json_bytes;
 use crate::report::{OutputFile, ReportError, StreamFile, commit, csv_error};
-use crate::scenario::Comparison;
 use crate::scenario::HybridScenario;
 use crate::scenario::OverrideRecord;
-use crate::scenario::hybrid::Built;
+use crate::setup::{Built, comparison};
 
 fn progress_bar(show: bool) -> ProgressBar {
     crate::progress::bar_or_hidden(show, 1000, "simulate [{bar:40}] {percent:>3}% ETA {eta}")
@@ -91,7 +90,7 @@ pub fn simulate(
     overrides: Vec<OverrideRecord>,
 ) -> Result<(), Error> {
     let file = sc.path.display().to_string();
-    let built = sc.build()?;
+    let built = crate::setup::build(sc)?;
     let model = &built.model;
     let mut columns = Columns::new(model, &built.state).with_model_elements(model, &built.models);
     // The run as described and each comparison run.
@@ -244,51 +243,6 @@ pub fn simulate(
         summary.energy_balance_rel_error,
         out.display()
     ))
-}
-
-/// Beam points read as the attachments are, by name, without being attached.
-pub type Probes = Vec<(String, BeamPoint)>;
-
-/// The system of a comparison run of a built scenario, from the same initial state, and the
-/// beam points it reads as probes (the bare beam's: where the attachments were); `None` for
-/// `bare_beam` without a beam (the loader refuses it).
-pub fn comparison(
-    file: &str,
-    built: &Built,
-    c: Comparison,
-) -> Result<Option<(Built, Probes)>, Error> {
-    let model = &built.model;
-    let (variant, models, probes) = match c {
-        Comparison::GeneratorDisconnected => (
-            model.generators_disconnected(),
-            built.models.clone(),
-            vec![],
-        ),
-        Comparison::BareBeam => {
-            let Some(bare) = model.bare_beam() else {
-                return Ok(None);
-            };
-            let probes: Vec<(String, BeamPoint)> = model
-                .attachments
-                .iter()
-                .map(|a| (a.name.clone(), a.beam.clone()))
-                .collect();
-            (bare, vec![], probes)
-        }
-    };
-    let state =
-        initial_state(&variant, built.state.q.clone(), built.state.v.clone()).map_err(|error| {
-            Error::Hybrid {
-                file: file.to_string(),
-                error,
-            }
-        })?;
-    let variant = Built {
-        model: variant,
-        state,
-        models,
-    };
-    Ok(Some((variant, probes)))
 }
 
 /// Integrates a built hybrid scenario and makes its summary; every output row goes to
@@ -627,7 +581,7 @@ fn first_mode_filter(
     built: &Built,
     point: &BeamPoint,
 ) -> Option<(hybrid_core::decay::ModalFilter, Vec<Vec<usize>>)> {
-    let tangents = crate::scenario::tangents::hybrid_tangents(sc, &built.models).ok()?;
+    let tangents = crate::setup::hybrid_tangents(sc, &built.models).ok()?;
     let refs: Vec<_> = tangents.iter().collect();
     hybrid_core::decay::ModalFilter::first_mode(&built.model, &refs, point).ok()
 }

@@ -218,13 +218,13 @@ fn linearised(path: &Path, loaded: &Loaded, figures: &mut Vec<Figure>) -> Result
 fn time_domain(path: &Path, loaded: &Loaded, figures: &mut Vec<Figure>) -> Result<(), Error> {
     match &loaded.scenario {
         Scenario::Hybrid(sc) => {
-            let built = sc.build()?;
+            let built = crate::setup::build(sc)?;
             let run = crate::run_hybrid::evaluate(sc, &built, &[], None, vec![], false)?;
             let s = &run.summary;
             figures.push(Figure::new("damping_ratio", "-", s.damping_ratio));
             let file = path.display().to_string();
             for &c in &sc.compare {
-                if let Some((variant, probes)) = crate::run_hybrid::comparison(&file, &built, c)? {
+                if let Some((variant, probes)) = crate::setup::comparison(&file, &built, c)? {
                     let r =
                         crate::run_hybrid::evaluate(sc, &variant, &probes, None, vec![], false)?;
                     let name = format!("damping_ratio_{}", c.key());

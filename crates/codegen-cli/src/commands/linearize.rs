@@ -22,8 +22,8 @@ use crate::budget::{self, Quantity};
 use crate::linear::{LinearReport, ModeReport, analyse_model};
 use crate::report::ReportError;
 use crate::report::summary::json_bytes;
-use crate::scenario::tangents::{Linearizable, tangents_for};
 use crate::scenario::{self, Override};
+use crate::setup::{Linearizable, tangents_for};
 
 /// Arguments of `damper linearize`.
 #[derive(clap::Args, Debug)]

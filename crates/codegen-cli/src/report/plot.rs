@@ -1,11 +1,13 @@
 //! The plots of a run (plotters, SVG backend, no system fonts needed): displacements
-//! against time — a run's beam points and those of its comparison runs —, the damping ratio of each cycle against its amplitude, and
-//! a mechanism's coordinates against time.
+//! against time — a run's beam points and those of its comparison runs —, the damping ratio
+//! of each cycle against its amplitude, a mechanism's coordinates against time, a figure
+//! against a swept parameter, and receptances against frequency (`damper frf`).
 //!
 //! Every plot has its main settings in the title and its legend in a band below the plot
-//! area, never on the traces.
+//! area (the receptance plot: in a panel right of it), never on the traces.
 
 use plotters::coord::Shift;
+use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::prelude::*;
 
 /// The plot could not be drawn (plotters' message).
@@ -14,6 +16,11 @@ use plotters::prelude::*;
 pub struct PlotError(String);
 
 impl PlotError {
+    /// Plotters' message.
+    pub fn message(&self) -> &str {
+        &self.0
+    }
+
     fn of<E: std::error::Error + Send + Sync>(e: DrawingAreaErrorKind<E>) -> PlotError {
         PlotError(e.to_string())
     }
@@ -287,6 +294,189 @@ pub fn plot_xy_svg(
     })
 }
 
+/// SVG plot of receptances against frequency (Hz, from `from` to `to`: a linear axis, or a
+/// logarithmic one with 1-2-5 ticks when `log`): `|H|` (`unit`) on a log axis, the linear
+/// responses with the generator and with it disconnected as lines (`(f, |H|)` points), the
+/// nonlinear steady states as markers (`(f, |H|, settled)`: filled when settled); the
+/// legend in a panel of its own right of the chart (off the traces).
+pub fn plot_receptance_svg(
+    title: &str,
+    unit: &str,
+    (from, to, log): (f64, f64, bool),
+    with_generator: &[(f64, f64)],
+    disconnected: &[(f64, f64)],
+    nonlinear: Option<&[(f64, f64, bool)]>,
+) -> Result<Vec<u8>, PlotError> {
+    if log {
+        receptance_on(
+            title,
+            unit,
+            (from..to).log_scale().with_key_points(log_ticks(from, to)),
+            with_generator,
+            disconnected,
+            nonlinear,
+        )
+    } else {
+        receptance_on(
+            title,
+            unit,
+            from..to,
+            with_generator,
+            disconnected,
+            nonlinear,
+        )
+    }
+}
+
+/// Tick values of a log axis over `[a, b]` (`0 < a < b`): the 1-2-5 sequence of every
+/// decade, thinned to 1-3 or to the decades when it would give more than 12 ticks; the two
+/// ends are added when fewer than 3 values fall inside.
+fn log_ticks(a: f64, b: f64) -> Vec<f64> {
+    let (lo, hi) = (a.log10().floor() as i32, b.log10().ceil() as i32);
+    let inside = |mantissas: &[f64]| -> Vec<f64> {
+        (lo..=hi)
+            .flat_map(|e| mantissas.iter().map(move |m| m * 10f64.powi(e)))
+            .filter(|v| *v >= a * (1.0 - 1e-12) && *v <= b * (1.0 + 1e-12))
+            .collect()
+    };
+    let mut ticks = [&[1.0, 2.0, 5.0][..], &[1.0, 3.0], &[1.0]]
+        .iter()
+        .map(|m| inside(m))
+        .find(|t| t.len() <= 12)
+        .unwrap_or_default();
+    if ticks.len() < 3 {
+        ticks.extend([a, b]);
+        ticks.sort_by(f64::total_cmp);
+        ticks.dedup_by(|x, y| (*x - *y).abs() <= 1e-9 * y.abs());
+    }
+    ticks
+}
+
+/// A tick label: at most four significant digits, no trailing zeros (`2`, `0.5`, `12.5`).
+fn tick_label(v: f64) -> String {
+    let digits = (3 - v.abs().log10().floor() as i32).clamp(0, 12) as usize;
+    let s = format!("{v:.digits$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+/// The SVG plot: `|H|` on a log axis against frequency (`x`: a linear or log range), the
+/// linear responses as lines, the nonlinear steady states as markers; the legend in a panel
+/// of its own right of the chart (off the traces).
+fn receptance_on<X>(
+    title: &str,
+    unit: &str,
+    x: X,
+    with_generator: &[(f64, f64)],
+    disconnected: &[(f64, f64)],
+    nonlinear: Option<&[(f64, f64, bool)]>,
+) -> Result<Vec<u8>, PlotError>
+where
+    X: AsRangedCoord<Value = f64>,
+    X::CoordDescType: ValueFormatter<f64>,
+{
+    let err = |e: &dyn std::fmt::Display| PlotError(e.to_string());
+    let mut values: Vec<f64> = with_generator
+        .iter()
+        .zip(disconnected)
+        .flat_map(|(a, b)| [a.1, b.1])
+        .chain(nonlinear.into_iter().flatten().map(|r| r.1))
+        .filter(|v| *v > 0.0 && v.is_finite())
+        .collect();
+    if values.is_empty() {
+        values.push(1.0);
+    }
+    let lo = values.iter().copied().fold(f64::INFINITY, f64::min) / 1.5;
+    let hi = values.iter().copied().fold(0.0, f64::max) * 1.5;
+    let red = RGBColor(200, 30, 30);
+    let blue = RGBColor(30, 80, 200);
+    let black = RGBColor(0, 0, 0);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (1100, 560)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let root = root
+            .titled(title, ("sans-serif", 18))
+            .map_err(|e| err(&e))?;
+        let (left, right) = root.split_horizontally(860);
+        let mut chart = ChartBuilder::on(&left)
+            .margin(15)
+            .x_label_area_size(40)
+            .y_label_area_size(80)
+            .build_cartesian_2d(x, (lo..hi).log_scale())
+            .map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc("frequency (Hz)")
+            .x_labels(12)
+            .x_label_formatter(&|v| tick_label(*v))
+            .y_desc(format!("|H| ({unit})"))
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .draw()
+            .map_err(|e| err(&e))?;
+        chart
+            .draw_series(LineSeries::new(
+                disconnected.iter().copied(),
+                blue.stroke_width(2),
+            ))
+            .map_err(|e| err(&e))?;
+        chart
+            .draw_series(LineSeries::new(
+                with_generator.iter().copied(),
+                red.stroke_width(2),
+            ))
+            .map_err(|e| err(&e))?;
+        if let Some(nl) = nonlinear {
+            chart
+                .draw_series(nl.iter().filter(|p| p.1 > 0.0).map(|&(f, m, settled)| {
+                    Circle::new(
+                        (f, m),
+                        4,
+                        if settled {
+                            black.filled()
+                        } else {
+                            black.stroke_width(1)
+                        },
+                    )
+                }))
+                .map_err(|e| err(&e))?;
+        }
+        // The legend, in its own panel.
+        let mut entries: Vec<(&str, ShapeStyle, bool)> = vec![
+            ("linear, with generator", red.stroke_width(2), false),
+            (
+                "linear, generator disconnected",
+                blue.stroke_width(2),
+                false,
+            ),
+        ];
+        if nonlinear.is_some() {
+            entries.push(("nonlinear steady state", black.filled(), true));
+            entries.push(("(open: not settled)", black.stroke_width(1), true));
+        }
+        for (k, (label, style, marker)) in entries.into_iter().enumerate() {
+            let y = 40 + 26 * k as i32;
+            if marker {
+                right
+                    .draw(&Circle::new((18, y), 4, style))
+                    .map_err(|e| err(&e))?;
+            } else {
+                right
+                    .draw(&PathElement::new(vec![(5, y), (30, y)], style))
+                    .map_err(|e| err(&e))?;
+            }
+            right
+                .draw(&Text::new(label, (38, y - 7), ("sans-serif", 14)))
+                .map_err(|e| err(&e))?;
+        }
+        root.present().map_err(|e| err(&e))?;
+    }
+    Ok(svg.into_bytes())
+}
+
 #[cfg(test)]
 mod log_range_tests {
     use super::log_range;
@@ -300,5 +490,39 @@ mod log_range_tests {
         assert!(!log_range(0.0, 1.0));
         assert!(!log_range(1.0, f64::MAX));
         assert!(!log_range(f64::NAN, 1.0));
+    }
+}
+
+#[cfg(test)]
+mod receptance_tests {
+    use super::{log_ticks, tick_label};
+
+    #[test]
+    fn log_ticks_follow_1_2_5_and_thin_out() {
+        assert_eq!(log_ticks(2.0, 20.0), vec![2.0, 5.0, 10.0, 20.0]);
+        assert_eq!(
+            log_ticks(0.1, 100.0),
+            vec![0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0]
+        );
+        // Six decades: 1-3 would give 13, so the decades alone.
+        assert_eq!(
+            log_ticks(1.0, 1e6),
+            vec![1.0, 10.0, 100.0, 1e3, 1e4, 1e5, 1e6]
+        );
+        // Less than a tick pair inside: the ends are added.
+        assert_eq!(log_ticks(5.5, 7.5), vec![5.5, 7.5]);
+        assert_eq!(log_ticks(4.5, 9.0), vec![4.5, 5.0, 9.0]);
+    }
+
+    #[test]
+    fn tick_labels_are_short() {
+        let labels: Vec<String> = [2.0, 0.5, 12.5, 100.0, 6.425, 0.002, 1e5]
+            .into_iter()
+            .map(tick_label)
+            .collect();
+        assert_eq!(
+            labels,
+            ["2", "0.5", "12.5", "100", "6.425", "0.002", "100000"]
+        );
     }
 }

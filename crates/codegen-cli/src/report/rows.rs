@@ -36,6 +36,14 @@ impl<W: Write> CsvRows<W> {
         })
     }
 
+    /// Appends one row of cells already formatted (one per header column: a table of
+    /// results with its own number format, flags and messages).
+    pub fn write_text_row(&mut self, cells: &[String]) -> Result<(), csv::Error> {
+        assert_eq!(cells.len(), self.columns, "CsvRows: one cell per column");
+        self.rows += 1;
+        self.w.write_record(cells)
+    }
+
     /// The writer, flushed.
     pub fn into_inner(self) -> Result<W, csv::Error> {
         self.w.into_inner().map_err(|e| e.into_error().into())

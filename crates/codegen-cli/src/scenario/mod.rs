@@ -25,7 +25,6 @@ pub mod integrator;
 pub mod mechanism;
 pub mod overrides;
 pub mod preset;
-pub mod tangents;
 
 use std::ops::Range;
 use std::path::Path;

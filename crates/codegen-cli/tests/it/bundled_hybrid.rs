@@ -26,7 +26,7 @@ fn bundled_hybrid_shapes_match_the_full_constrained_system() {
         let Scenario::Hybrid(sc) = scenario::load(path).unwrap() else {
             continue;
         };
-        let built = sc.build().unwrap_or_else(|e| panic!("{e}"));
+        let built = codegen_cli::setup::build(&sc).unwrap_or_else(|e| panic!("{e}"));
         let model = &built.model;
         let mut state = built.state.clone();
         let mut integ = Integrator::new(model, sc.method, sc.integrator.dt, &state).unwrap();
@@ -94,7 +94,7 @@ fn every_bundled_hybrid_scenario_steps_without_allocating() {
         let Scenario::Hybrid(sc) = scenario::load(path).unwrap() else {
             continue;
         };
-        let built = sc.build().unwrap_or_else(|e| panic!("{e}"));
+        let built = codegen_cli::setup::build(&sc).unwrap_or_else(|e| panic!("{e}"));
         let mut state = built.state.clone();
         let mut integ =
             HybridIntegrator::new(&built.model, sc.method, sc.integrator.dt, &state).unwrap();

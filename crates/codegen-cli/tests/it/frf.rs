@@ -6,7 +6,7 @@ use crate::common;
 
 use std::f64::consts::PI;
 
-use codegen_cli::scenario::tangents::{Linearizable, tangents_for};
+use codegen_cli::setup::{Linearizable, tangents_for};
 use common::{assert_bad_input, damper, root};
 use hybrid_core::hybrid::{
     BeamPoint, EigenMethod, EquilibriumOptions, ExcitationTarget, ForceKind, HybridModel,

@@ -208,7 +208,7 @@ fn check_scenario(text: &str, base: &Path) {
             accepted(1);
             // Models, names and geometry are checked by `build`: a typed error naming the
             // scenario file, or a state to step from.
-            let built = match sc.build() {
+            let built = match codegen_cli::setup::build(&sc) {
                 Err(d) => return names_file("hybrid build", &d.to_string(), "fuzz_scenario.toml"),
                 Ok(b) => b,
             };

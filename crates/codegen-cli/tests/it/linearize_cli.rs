@@ -146,7 +146,8 @@ fn eigen_solves_above_the_limits_are_refused_unless_allow_long() {
 /// (`hybrid_core::hybrid::reference::tangent_error`) to 1e-7 relative.
 #[test]
 fn tangents_of_every_bundled_scenario_equal_differences_of_the_kkt_system() {
-    use codegen_cli::scenario::{self, Override, tangents::tangents_for};
+    use codegen_cli::scenario::{self, Override};
+    use codegen_cli::setup::tangents_for;
     use hybrid_core::hybrid::reference::tangent_error;
     let gravity = |path: &str, g: &str| {
         let text = format!("{{ {g} = -9.81 }}");

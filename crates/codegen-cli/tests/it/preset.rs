@@ -87,7 +87,7 @@ const NEWMARK: &str = "method = \"newmark\"\ndt = 1e-4\nt_end = 5.0";
 
 /// Steps `steps` times from the scenario's initial state.
 fn steps(sc: &HybridScenario, steps: usize) -> HybridState {
-    let built = sc.build().unwrap_or_else(|e| panic!("{e}"));
+    let built = codegen_cli::setup::build(sc).unwrap_or_else(|e| panic!("{e}"));
     let mut state = built.state.clone();
     let mut integ = Integrator::new(&built.model, sc.method, sc.integrator.dt, &state).unwrap();
     for _ in 0..steps {

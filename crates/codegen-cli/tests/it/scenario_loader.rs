@@ -240,7 +240,7 @@ fn every_bundled_scenario_loads_and_runs_a_few_hundred_steps() {
                 assert!(rows > 10 && o.stats.steps_accepted > 10, "{name}");
             }
             Scenario::Hybrid(sc) => {
-                let built = sc.build().unwrap_or_else(|e| panic!("{e}"));
+                let built = codegen_cli::setup::build(&sc).unwrap_or_else(|e| panic!("{e}"));
                 let mut integrator =
                     Integrator::new(&built.model, sc.method, sc.integrator.dt, &built.state)
                         .unwrap();

@@ -12,8 +12,8 @@ use mbs_symbolic::runtime::TangentSystem;
 use hybrid_core::hybrid::Method;
 use hybrid_core::hybrid::{EquilibriumOptions, HybridModel, LinearError, Linearization};
 
-use super::{HybridScenario, Scenario};
 use crate::Error;
+use crate::scenario::{HybridScenario, Scenario};
 
 /// A scenario built for linearisation.
 #[derive(Debug)]
@@ -37,7 +37,7 @@ pub fn tangents_for(scenario: &Scenario) -> Result<Linearizable, Error> {
         Scenario::Hybrid(sc) => {
             // The model only: the equilibrium does not need the initial state, which may be
             // out of the mechanism's reach where the rest position is not.
-            let (model, models) = sc.build_model()?;
+            let (model, models) = super::build_model(sc)?;
             let tangents = hybrid_tangents(sc, &models)?;
             Ok(Linearizable {
                 model,
@@ -128,7 +128,7 @@ impl Linearizable {
     }
 
     /// Linearises `model` (this scenario's system or a variant of it with the same
-    /// mechanisms, e.g. [`disconnected`]) about its static equilibrium.
+    /// mechanisms, e.g. [`HybridModel::generators_disconnected`]) about its static equilibrium.
     pub fn linearize(&self, model: &HybridModel) -> Result<Linearization, LinearError> {
         Linearization::new(model, &self.tangent_refs(), EquilibriumOptions::default())
     }

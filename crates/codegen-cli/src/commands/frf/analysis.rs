@@ -1,0 +1,376 @@
+//! The analysis of `damper frf`: the output and the excitation resolved against the
+//! model, the linear receptances (with the generator and with it disconnected) from the
+//! linearisation about the static equilibrium, and the nonlinear steady states from
+//! time-domain runs.
+
+use fem_beam::TimeFunction;
+use hybrid_core::hybrid::{
+    BeamPoint, Excitation, ExcitationTarget, HybridModel, Linearization, SteadyOptions, rest_state,
+    steady_states,
+};
+use nalgebra::Complex;
+use serde::Serialize;
+
+use super::Args;
+use crate::Error;
+use crate::setup::Linearizable;
+
+/// The response and the force, resolved against the model.
+pub(super) struct Io {
+    pub(super) output: ExcitationTarget,
+    pub(super) output_label: String,
+    pub(super) response_unit: &'static str,
+    pub(super) force_unit: &'static str,
+    pub(super) excitation: Excitation,
+    /// Index of a scenario excitation, `None` for the force at the output point.
+    pub(super) scenario_excitation: Option<usize>,
+}
+
+impl Io {
+    /// The receptance's unit: `m/N`, `rad/(N m)`, ...
+    pub(super) fn unit(&self) -> String {
+        if self.force_unit.contains(' ') {
+            format!("{}/({})", self.response_unit, self.force_unit)
+        } else {
+            format!("{}/{}", self.response_unit, self.force_unit)
+        }
+    }
+}
+
+/// One linear value: `|H|`, phase (deg), real and imaginary parts.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Receptance {
+    /// `|H|`.
+    pub magnitude: f64,
+    /// `arg H` (deg).
+    pub phase_deg: f64,
+    /// `Re H`.
+    pub re: f64,
+    /// `Im H`.
+    pub im: f64,
+}
+
+impl From<Complex<f64>> for Receptance {
+    fn from(h: Complex<f64>) -> Self {
+        Receptance {
+            magnitude: h.norm(),
+            phase_deg: h.arg().to_degrees(),
+            re: h.re,
+            im: h.im,
+        }
+    }
+}
+
+/// One row of the linear response.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct LinearRow {
+    /// Frequency (Hz).
+    pub f_hz: f64,
+    /// With the generator.
+    pub with_generator: Receptance,
+    /// Generator disconnected.
+    pub generator_disconnected: Receptance,
+}
+
+/// One nonlinear steady state.
+#[derive(Clone, Debug, Serialize)]
+pub struct NonlinearRow {
+    /// Frequency (Hz).
+    pub f_hz: f64,
+    /// Amplitude of the fundamental (response unit).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub amplitude: Option<f64>,
+    /// `A / |F|`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub magnitude: Option<f64>,
+    /// Phase relative to the excitation (deg).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub phase_deg: Option<f64>,
+    /// RMS of the fit's residual relative to the amplitude.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub distortion: Option<f64>,
+    /// Periods run (up to the stop when there is an error).
+    pub periods: usize,
+    /// Whether the settle criterion was met.
+    pub settled: bool,
+    /// Time step (s).
+    pub dt: f64,
+    /// The linear receptance (with generator) at the same frequency.
+    pub linear: Receptance,
+    /// Why the run stopped (singular position, no convergence), if it did.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+}
+
+/// `n` frequencies from `a` to `b`, evenly or geometrically spaced (`n = 1`: the middle).
+pub fn grid(a: f64, b: f64, n: usize, log: bool) -> Vec<f64> {
+    if n == 1 {
+        return vec![if log { (a * b).sqrt() } else { 0.5 * (a + b) }];
+    }
+    (0..n)
+        .map(|k| {
+            let s = k as f64 / (n - 1) as f64;
+            if log {
+                a * (b / a).powf(s)
+            } else {
+                a + (b - a) * s
+            }
+        })
+        .collect()
+}
+
+pub(super) fn usage(msg: impl Into<String>) -> Error {
+    Error::Usage(msg.into())
+}
+
+/// Resolves `--output`, `--excitation` and `--force` against the model.
+pub(super) fn resolve(args: &Args, lz: &Linearizable) -> Result<Io, Error> {
+    let model = &lz.model;
+    let (output, output_label, response_unit) = match args.output.split_once('/') {
+        None => {
+            let x: f64 = args.output.trim().parse().map_err(|_| {
+                usage(format!(
+                    "--output {:?}: give a beam abscissa in m (1.0) or MECHANISM/COORDINATE",
+                    args.output
+                ))
+            })?;
+            let beam = model
+                .beam
+                .as_ref()
+                .ok_or_else(|| usage("--output: the scenario has no beam"))?;
+            let p = BeamPoint::on(beam, x)
+                .filter(|p| !p.is_locked())
+                .ok_or_else(|| {
+                    usage(format!(
+                        "--output {x}: not a point of the beam that can move transversely"
+                    ))
+                })?;
+            (ExcitationTarget::Beam(p), format!("beam w(x = {x} m)"), "m")
+        }
+        Some((mech, coord)) => {
+            let names: Vec<&str> = model.mechanisms.iter().map(|m| m.name.as_str()).collect();
+            let i = names.iter().position(|n| *n == mech).ok_or_else(|| {
+                usage(format!(
+                    "--output: no mechanism {mech:?} (mechanisms: {})",
+                    names.join(", ")
+                ))
+            })?;
+            let sys = &model.mechanisms[i].system;
+            let j = sys.coordinate_index(coord).ok_or_else(|| {
+                usage(format!(
+                    "--output: mechanism {mech:?} has no coordinate {coord:?} (coordinates: {})",
+                    sys.coordinate_names().join(", ")
+                ))
+            })?;
+            let unit = sys.coordinate_units()[j];
+            (
+                ExcitationTarget::Joint {
+                    mechanism: i,
+                    joint: j,
+                },
+                format!("{mech}/{coord}"),
+                unit.symbol(),
+            )
+        }
+    };
+    let harmonic = |e: &Excitation| matches!(e.time, TimeFunction::Harmonic { .. });
+    let chosen = match &args.excitation {
+        Some(name) => Some(
+            model
+                .excitations
+                .iter()
+                .position(|e| &e.name == name)
+                .ok_or_else(|| {
+                    let known: Vec<&str> =
+                        model.excitations.iter().map(|e| e.name.as_str()).collect();
+                    usage(format!(
+                        "--excitation: no excitation {name:?} in the scenario (excitations: {})",
+                        if known.is_empty() {
+                            "none".into()
+                        } else {
+                            known.join(", ")
+                        }
+                    ))
+                })?,
+        ),
+        None => {
+            let h: Vec<usize> = (0..model.excitations.len())
+                .filter(|&k| harmonic(&model.excitations[k]))
+                .collect();
+            match h.len() {
+                0 => None,
+                1 => Some(h[0]),
+                _ => {
+                    return Err(usage(format!(
+                        "the scenario has {} harmonic excitations: choose one with --excitation",
+                        h.len()
+                    )));
+                }
+            }
+        }
+    };
+    if let Some(f) = args.force
+        && !f.is_finite()
+    {
+        return Err(usage(format!("--force {f}: not a finite number")));
+    }
+    let excitation = match chosen {
+        Some(k) => {
+            let mut e = model.excitations[k].clone();
+            if let Some(f) = args.force {
+                e.amplitude = f;
+            }
+            e
+        }
+        None => Excitation {
+            name: "force at the output".into(),
+            target: output.clone(),
+            amplitude: args.force.unwrap_or(1.0),
+            time: TimeFunction::Harmonic {
+                frequency_hz: args.from,
+                phase: 0.0,
+            },
+        },
+    };
+    // The force's unit follows its target (a beam force, or a joint torque or force).
+    let force_unit = match &excitation.target {
+        ExcitationTarget::Beam(_) => "N",
+        ExcitationTarget::Joint { mechanism, joint } => {
+            lz.model.mechanisms[*mechanism].system.coordinate_units()[*joint].force()
+        }
+    };
+    Ok(Io {
+        output,
+        output_label,
+        response_unit,
+        force_unit,
+        excitation,
+        scenario_excitation: chosen,
+    })
+}
+
+/// The receptance at the output for the force vector `f`, at `omega` (rad/s).
+fn receptance(
+    lin: &Linearization,
+    output: &ExcitationTarget,
+    f: &[f64],
+    omega: f64,
+) -> Result<Complex<f64>, Error> {
+    let z = lin
+        .harmonic_response(f, omega)
+        .map_err(|e| usage(format!("harmonic response at {omega} rad/s: {e}")))?;
+    Ok(match output {
+        ExcitationTarget::Beam(p) => {
+            let re: Vec<f64> = z.iter().map(|v| v.re).collect();
+            let im: Vec<f64> = z.iter().map(|v| v.im).collect();
+            Complex::new(p.value(&re), p.value(&im))
+        }
+        ExcitationTarget::Joint { mechanism, joint } => {
+            lin.mechanism_motion(&z)[*mechanism][*joint]
+        }
+    })
+}
+
+/// The linear receptances at `freqs` (Hz) with the generator (`lin`, force vector `f_with`)
+/// and with it disconnected (`lin_off`, `f_off`).
+pub(super) fn linear_rows(
+    lin: &Linearization,
+    lin_off: &Linearization,
+    io: &Io,
+    (f_with, f_off): (&[f64], &[f64]),
+    freqs: &[f64],
+) -> Result<Vec<LinearRow>, Error> {
+    let mut linear = Vec::with_capacity(freqs.len());
+    for &f in freqs {
+        let w = 2.0 * std::f64::consts::PI * f;
+        linear.push(LinearRow {
+            f_hz: f,
+            with_generator: receptance(lin, &io.output, f_with, w)?.into(),
+            generator_disconnected: receptance(lin_off, &io.output, f_off, w)?.into(),
+        });
+    }
+    Ok(linear)
+}
+
+/// The nonlinear steady states at `m` frequencies.
+pub(super) fn nonlinear_rows(
+    args: &Args,
+    lz: &Linearizable,
+    lin: &Linearization,
+    io: &Io,
+    f_with: &[f64],
+    m: usize,
+) -> Result<Vec<NonlinearRow>, Error> {
+    let mut model: HybridModel = lz.model.clone();
+    // Constant excitations stay (they are part of the equilibrium); the driving one is put
+    // last; other time-dependent ones are left out.
+    model
+        .excitations
+        .retain(|e| e.time == TimeFunction::Constant);
+    let dropped = lz.model.excitations.len()
+        - model.excitations.len()
+        - usize::from(io.scenario_excitation.is_some());
+    if dropped > 0 {
+        eprintln!(
+            "note: the nonlinear runs leave out {dropped} other time-dependent excitation(s) of the scenario"
+        );
+    }
+    model.excitations.push(io.excitation.clone());
+    let excitation = model.excitations.len() - 1;
+    let start = rest_state(&mut model, &lin.equilibrium).map_err(|e| {
+        usage(format!(
+            "{}: the rest state at the static equilibrium: {e}",
+            args.scenario.display()
+        ))
+    })?;
+    let options = SteadyOptions {
+        excitation,
+        method: lz.method,
+        steps_per_period: args.steps_per_period,
+        tolerance: args.tolerance,
+        min_periods: 10,
+        max_periods: args.max_periods,
+    };
+    let freqs = grid(args.from, args.to, m, args.log);
+    let bar = crate::progress::bar_or_hidden(
+        !args.quiet,
+        freqs.len() as u64,
+        "frf nonlinear [{bar:40}] {pos}/{len} ETA {eta}",
+    );
+    let results = steady_states(&model, &start, &io.output, &freqs, &options, &|| bar.inc(1));
+    bar.finish_and_clear();
+    let force = io.excitation.amplitude.abs();
+    let mut rows = Vec::with_capacity(m);
+    for (&f, r) in freqs.iter().zip(results) {
+        let w = 2.0 * std::f64::consts::PI * f;
+        let linear: Receptance = receptance(lin, &io.output, f_with, w)?.into();
+        let dt = 1.0 / (f * args.steps_per_period as f64);
+        rows.push(match r {
+            Ok(s) => NonlinearRow {
+                f_hz: f,
+                amplitude: Some(s.amplitude),
+                magnitude: (force > 0.0).then(|| s.amplitude / force),
+                phase_deg: Some(s.phase.to_degrees()),
+                distortion: Some(s.distortion),
+                periods: s.periods,
+                settled: s.settled,
+                dt: s.dt,
+                linear,
+                error: None,
+            },
+            Err(e) => NonlinearRow {
+                f_hz: f,
+                amplitude: None,
+                magnitude: None,
+                phase_deg: None,
+                distortion: None,
+                periods: e.period,
+                settled: false,
+                dt,
+                linear,
+                error: Some(e.error.to_string()),
+            },
+        });
+    }
+    Ok(rows)
+}

@@ -1,0 +1,225 @@
+//! The report of `damper frf`: `frf.csv`, `frf_nonlinear.csv` (the one CSV writer,
+//! [`CsvRows`]), `frf.json` and `frf.svg` ([`plot_receptance_svg`]), in memory, for the one
+//! atomic writer.
+
+use std::path::Path;
+
+use hybrid_core::hybrid::Linearization;
+use serde::Serialize;
+
+use super::Args;
+use super::analysis::{Io, LinearRow, NonlinearRow};
+use crate::Error;
+use crate::report::plot::{PlotError, plot_receptance_svg};
+use crate::report::rows::CsvRows;
+use crate::report::summary::json_bytes;
+use crate::report::{OutputFile, ReportError};
+use crate::scenario;
+use crate::setup::Linearizable;
+
+/// `frf.json`.
+#[derive(Serialize)]
+struct FrfJson<'a> {
+    scenario: String,
+    overrides: Vec<scenario::OverrideRecord>,
+    output: &'a str,
+    response_unit: &'a str,
+    force_unit: &'a str,
+    excitation: &'a str,
+    force_amplitude: f64,
+    phase_convention: &'static str,
+    from_hz: f64,
+    to_hz: f64,
+    points: usize,
+    log: bool,
+    equilibrium_newton_iterations: usize,
+    generators: usize,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    nonlinear_settings: Option<NonlinearSettings>,
+    linear: &'a [LinearRow],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    nonlinear: Option<&'a [NonlinearRow]>,
+}
+
+#[derive(Serialize)]
+struct NonlinearSettings {
+    steps_per_period: usize,
+    tolerance: f64,
+    max_periods: usize,
+    method: &'static str,
+}
+
+/// The plot could not be drawn (plotters' message).
+#[derive(Debug, thiserror::Error)]
+#[error("cannot draw frf.svg: {0}")]
+struct PlotFailed(String);
+
+impl From<PlotFailed> for Error {
+    fn from(e: PlotFailed) -> Error {
+        Error::Usage(e.to_string())
+    }
+}
+
+/// A CSV of formatted cells through the one CSV writer.
+fn csv_bytes(header: &[String], rows: &[Vec<String>]) -> Result<Vec<u8>, ReportError> {
+    let mut w = CsvRows::new(Vec::new(), header)?;
+    for r in rows {
+        w.write_text_row(r)?;
+    }
+    Ok(w.into_inner()?)
+}
+
+/// Every output file, in memory.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn outputs(
+    args: &Args,
+    out: &Path,
+    file: &str,
+    lz: &Linearizable,
+    lin: &Linearization,
+    io: &Io,
+    linear: &[LinearRow],
+    nonlinear: Option<&[NonlinearRow]>,
+    generators: usize,
+) -> Result<Vec<OutputFile>, Error> {
+    let unit = io.unit();
+    let g = |v: f64| format!("{v:e}");
+    let header: Vec<String> = vec![
+        "f [Hz]".into(),
+        format!("|H| with generator [{unit}]"),
+        "phase with generator [deg]".into(),
+        format!("|H| generator disconnected [{unit}]"),
+        "phase generator disconnected [deg]".into(),
+        format!("Re H with generator [{unit}]"),
+        format!("Im H with generator [{unit}]"),
+        format!("Re H generator disconnected [{unit}]"),
+        format!("Im H generator disconnected [{unit}]"),
+    ];
+    let rows: Vec<Vec<String>> = linear
+        .iter()
+        .map(|r| {
+            let (a, b) = (r.with_generator, r.generator_disconnected);
+            vec![
+                g(r.f_hz),
+                g(a.magnitude),
+                g(a.phase_deg),
+                g(b.magnitude),
+                g(b.phase_deg),
+                g(a.re),
+                g(a.im),
+                g(b.re),
+                g(b.im),
+            ]
+        })
+        .collect();
+    let mut files = vec![OutputFile {
+        path: out.join("frf.csv"),
+        bytes: csv_bytes(&header, &rows).map_err(Error::from)?,
+    }];
+    if let Some(nl) = nonlinear {
+        let header: Vec<String> = vec![
+            "f [Hz]".into(),
+            format!("amplitude [{}]", io.response_unit),
+            format!("|H| [{unit}]"),
+            "phase [deg]".into(),
+            format!("|H| linear [{unit}]"),
+            "phase linear [deg]".into(),
+            "periods".into(),
+            "settled".into(),
+            "distortion [-]".into(),
+            "dt [s]".into(),
+            "error".into(),
+        ];
+        let opt = |v: Option<f64>| v.map_or_else(String::new, g);
+        let rows: Vec<Vec<String>> = nl
+            .iter()
+            .map(|r| {
+                vec![
+                    g(r.f_hz),
+                    opt(r.amplitude),
+                    opt(r.magnitude),
+                    opt(r.phase_deg),
+                    g(r.linear.magnitude),
+                    g(r.linear.phase_deg),
+                    r.periods.to_string(),
+                    r.settled.to_string(),
+                    opt(r.distortion),
+                    g(r.dt),
+                    r.error.clone().unwrap_or_default(),
+                ]
+            })
+            .collect();
+        files.push(OutputFile {
+            path: out.join("frf_nonlinear.csv"),
+            bytes: csv_bytes(&header, &rows).map_err(Error::from)?,
+        });
+    }
+    let json = FrfJson {
+        scenario: file.to_string(),
+        overrides: args.set.iter().map(scenario::Override::record).collect(),
+        output: &io.output_label,
+        response_unit: io.response_unit,
+        force_unit: io.force_unit,
+        excitation: &io.excitation.name,
+        force_amplitude: io.excitation.amplitude,
+        phase_convention: "response = |H| F sin(omega t + phi_excitation + phase)",
+        from_hz: args.from,
+        to_hz: args.to,
+        points: args.points,
+        log: args.log,
+        equilibrium_newton_iterations: lin.equilibrium.iterations,
+        generators,
+        nonlinear_settings: nonlinear.map(|_| NonlinearSettings {
+            steps_per_period: args.steps_per_period,
+            tolerance: args.tolerance,
+            max_periods: args.max_periods,
+            method: match lz.method {
+                hybrid_core::hybrid::Method::Newmark => "newmark",
+                _ => "hht",
+            },
+        }),
+        linear,
+        nonlinear,
+    };
+    files.push(OutputFile {
+        path: out.join("frf.json"),
+        bytes: json_bytes(&json).map_err(ReportError::from)?,
+    });
+    let stem = Path::new(file)
+        .file_stem()
+        .map_or_else(|| file.to_string(), |s| s.to_string_lossy().into_owned());
+    let mut title = format!(
+        "{stem}: receptance {} / {} ({})",
+        io.output_label, io.excitation.name, unit
+    );
+    if nonlinear.is_some() {
+        title += &format!(
+            "; nonlinear at |F| = {:.3e} {}, {} steps/period",
+            io.excitation.amplitude.abs(),
+            io.force_unit,
+            args.steps_per_period
+        );
+    }
+    let magnitudes = |of: fn(&LinearRow) -> f64| -> Vec<(f64, f64)> {
+        linear.iter().map(|r| (r.f_hz, of(r))).collect()
+    };
+    let markers: Option<Vec<(f64, f64, bool)>> = nonlinear.map(|nl| {
+        nl.iter()
+            .filter_map(|r| Some((r.f_hz, r.magnitude?, r.settled)))
+            .collect()
+    });
+    let svg = plot_receptance_svg(
+        &title,
+        &unit,
+        (args.from, args.to, args.log),
+        &magnitudes(|r| r.with_generator.magnitude),
+        &magnitudes(|r| r.generator_disconnected.magnitude),
+        markers.as_deref(),
+    )
+    .map_err(|e: PlotError| PlotFailed(e.message().to_string()))?;
+    files.push(OutputFile {
+        path: out.join("frf.svg"),
+        bytes: svg,
+    });
+    Ok(files)
+}

@@ -1,0 +1,561 @@
+//! Reading the sections of a hybrid scenario, one function per section: every value and
+//! every name that refers to another entry of the file checked, every problem recorded in
+//! the document (the order of the sections is the order of the checks).
+
+use std::collections::BTreeMap;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use diagnostic::Kind;
+use fem_beam::{Beam, BeamSpec};
+use hybrid_core::generator::GeneratorSpec;
+use hybrid_core::hybrid::{AttachmentKind, ForceKind, Placement};
+use toml::Spanned;
+use toml::de::DeValue;
+
+use super::checks::{OnBeam, de, finite, list, mechanism_ref, split, tables, unique};
+use super::schema::{
+    RawAttachment, RawDamper, RawExcitation, RawForceHead, RawInitial, RawMechanism, RawOutput,
+    RawSpring,
+};
+use super::table::time_function;
+use super::{
+    AttachmentEntry, ExcitationEntry, ForceEntry, HybridScenario, MechanismEntry, TargetEntry,
+};
+use crate::scenario::Doc;
+use crate::scenario::compare::Comparison;
+use crate::scenario::integrator::{IntegratorSpec, check_integrator};
+
+/// Reads the sections of a hybrid scenario and checks every value and every name that
+/// refers to another entry of the file.
+pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<HybridScenario> {
+    doc.check_keys(&[
+        "kind",
+        "description",
+        "beam",
+        "mechanism",
+        "attachment",
+        "force",
+        "excitation",
+        "initial",
+        "integrator",
+        "output",
+    ]);
+    let mut ok = true;
+    let description = doc.section::<String>("description", false);
+    let (beam, beam_span) = beam(doc, &mut ok);
+    let on_beam = OnBeam {
+        length: beam.as_ref().map(|(_, b)| b.length()),
+        written: beam_span.is_some(),
+    };
+    // [[mechanism]]: names first (attachments and forces refer to them).
+    let (raw_mechanisms, names) = mechanism_tables(doc, beam.is_some(), &mut ok);
+    let attachments = attachments(doc, &names, &on_beam, &mut ok);
+    let mechanisms = mechanisms(doc, &raw_mechanisms, &attachments, &mut ok);
+    let forces = forces(doc, &names, &mut ok);
+    let excitations = excitations(doc, &names, &on_beam, &mut ok);
+    let initial = initial(doc, &on_beam, &mut ok);
+    // [integrator], [output]
+    let integrator = doc.section::<IntegratorSpec>("integrator", true);
+    let method = integrator
+        .as_ref()
+        .and_then(|ig| check_integrator(doc, ig.get_ref()));
+    let (every, compare) = output(doc, beam_span.is_some(), &mut ok);
+    let (integrator, method) = (integrator?.into_inner(), method?);
+    if !ok {
+        return None;
+    }
+    let (initial, initial_x_span) = match initial {
+        Some((d, x, span)) => (Some((d, x)), Some(span)),
+        None => (None, None),
+    };
+    Some(HybridScenario {
+        path: PathBuf::from(doc.file()),
+        description: description.map(Spanned::into_inner),
+        beam,
+        mechanisms,
+        attachments,
+        forces,
+        excitations,
+        initial,
+        integrator,
+        method,
+        every,
+        compare,
+        index: doc.index().clone(),
+        beam_span,
+        initial_x_span,
+    })
+}
+
+/// `[beam]`: the beam as written and validated, and where it is written.
+#[allow(clippy::type_complexity)]
+fn beam(doc: &mut Doc<'_>, ok: &mut bool) -> (Option<(BeamSpec, Beam)>, Option<Range<usize>>) {
+    let beam_spec = doc.section::<BeamSpec>("beam", false);
+    let beam_span = doc.span(&["beam"]);
+    let beam = match beam_spec {
+        Some(b) => match Beam::new_in_physical_range(b.get_ref()) {
+            Ok(beam) => Some((b.into_inner(), beam)),
+            Err(e) => {
+                let msg = e.to_string().replace('\n', "; ");
+                doc.push(Kind::InvalidValue, beam_span.clone(), Some("[beam]"), msg);
+                *ok = false;
+                None
+            }
+        },
+        None => {
+            *ok &= !doc.root.contains_key("beam");
+            None
+        }
+    };
+    (beam, beam_span)
+}
+
+/// The `[[mechanism]]` tables as written, and their names (unique).
+fn mechanism_tables(
+    doc: &mut Doc<'_>,
+    has_beam: bool,
+    ok: &mut bool,
+) -> (Vec<RawMechanism>, Vec<String>) {
+    let raw_mechanisms: Vec<RawMechanism> = tables(doc, "mechanism")
+        .into_iter()
+        .filter_map(|v| {
+            let m = de::<RawMechanism>(doc, v, "[[mechanism]]");
+            *ok &= m.is_some();
+            m
+        })
+        .collect();
+    if raw_mechanisms.is_empty() && !doc.root.contains_key("mechanism") && !has_beam {
+        let msg = "a hybrid scenario needs a [beam] or at least one [[mechanism]]";
+        doc.push(Kind::MissingField, None, None, msg);
+        *ok = false;
+    }
+    let mut seen = BTreeMap::new();
+    for m in &raw_mechanisms {
+        unique(doc, &mut seen, &m.name, "mechanism");
+    }
+    let names: Vec<String> = raw_mechanisms
+        .iter()
+        .map(|m| m.name.get_ref().clone())
+        .collect();
+    (raw_mechanisms, names)
+}
+
+/// `[[attachment]]`.
+fn attachments(
+    doc: &mut Doc<'_>,
+    names: &[String],
+    on_beam: &OnBeam,
+    ok: &mut bool,
+) -> Vec<AttachmentEntry> {
+    let mut attachments = vec![];
+    let mut seen = BTreeMap::new();
+    for v in tables(doc, "attachment") {
+        let Some(a) = de::<RawAttachment>(doc, v, "[[attachment]]") else {
+            *ok = false;
+            continue;
+        };
+        unique(doc, &mut seen, &a.name, "attachment");
+        let entity = format!("attachment \"{}\"", a.name.get_ref());
+        let mechanism = mechanism_ref(doc, names, &a.mechanism, &entity);
+        let kind = match a.kind.as_ref().map(|k| (k.get_ref().as_str(), k.span())) {
+            None | Some(("pin", _)) => Some(AttachmentKind::Pin),
+            Some(("roller", _)) => Some(AttachmentKind::Roller),
+            Some((other, span)) => {
+                let msg = format!("unknown kind {other:?} (expected \"pin\" or \"roller\")");
+                doc.push(Kind::InvalidValue, Some(span), Some(&entity), msg);
+                None
+            }
+        };
+        // Kept when x is wrong (reported), so that placements still find it.
+        *ok &= on_beam.check(doc, &a.x, &entity);
+        match (mechanism, kind) {
+            (Some(mechanism), Some(kind)) => attachments.push(AttachmentEntry {
+                name: a.name.get_ref().clone(),
+                mechanism,
+                point: a.point.get_ref().clone(),
+                kind,
+                x: *a.x.get_ref(),
+                point_span: a.point.span(),
+                x_span: a.x.span(),
+            }),
+            _ => *ok = false,
+        }
+    }
+    attachments
+}
+
+/// The values of the `[[mechanism]]` tables (their placements refer to attachments).
+fn mechanisms(
+    doc: &mut Doc<'_>,
+    raw_mechanisms: &[RawMechanism],
+    attachments: &[AttachmentEntry],
+    ok: &mut bool,
+) -> Vec<MechanismEntry> {
+    let attachment_names: Vec<String> = attachments.iter().map(|a| a.name.clone()).collect();
+    let mut mechanisms = vec![];
+    for (k, m) in raw_mechanisms.iter().enumerate() {
+        let entity = format!("mechanism \"{}\"", m.name.get_ref());
+        let model_path = Path::new(m.model.get_ref());
+        if m.model.get_ref().trim().is_empty() {
+            doc.push(
+                Kind::InvalidValue,
+                Some(m.model.span()),
+                Some(&entity),
+                "empty model path",
+            );
+            *ok = false;
+        }
+        let origin = match &m.origin {
+            Some(o) => {
+                if !o.get_ref().iter().all(|x| x.is_finite()) {
+                    let msg = "origin must be two finite numbers [x, y] (m)";
+                    doc.push(Kind::InvalidValue, Some(o.span()), Some(&entity), msg);
+                    *ok = false;
+                }
+                *o.get_ref()
+            }
+            None => [0.0, 0.0],
+        };
+        let angle = m
+            .angle_deg
+            .as_ref()
+            .map_or(0.0, |a| finite(doc, a, &entity))
+            .to_radians();
+        let max_condition = match &m.max_condition {
+            Some(c) if !(c.get_ref().is_finite() && *c.get_ref() > 1.0) => {
+                let msg = format!("max_condition must be > 1 (got {})", c.get_ref());
+                doc.push(Kind::InvalidValue, Some(c.span()), Some(&entity), msg);
+                *ok = false;
+                1e4
+            }
+            Some(c) => *c.get_ref(),
+            None => 1e4,
+        };
+        let named = |doc: &mut Doc<'_>, map: &BTreeMap<String, Spanned<f64>>| {
+            map.iter()
+                .map(|(n, v)| {
+                    (
+                        n.clone(),
+                        finite(doc, v, &format!("{entity}: {n}")),
+                        v.span(),
+                    )
+                })
+                .collect::<Vec<_>>()
+        };
+        let parameters = named(doc, &m.parameters);
+        let initial = named(doc, &m.initial);
+        *ok &= parameters.iter().chain(&initial).all(|p| p.1.is_finite());
+        let placement = placement(doc, k, m, &entity, attachments, &attachment_names, ok);
+        mechanisms.push(MechanismEntry {
+            name: m.name.get_ref().clone(),
+            model: if model_path.is_absolute() {
+                model_path.to_path_buf()
+            } else {
+                doc.base().join(model_path)
+            },
+            origin,
+            angle,
+            parameters,
+            initial,
+            max_condition,
+            placement,
+            span: m.name.span(),
+            model_span: m.model.span(),
+            placement_span: m.placement.as_ref().map(|p| p.span()),
+        });
+    }
+    mechanisms
+}
+
+/// The `placement` of mechanism `k`: the index of its attachment (one of its own) and how
+/// the two-bar chain is placed there.
+fn placement(
+    doc: &mut Doc<'_>,
+    k: usize,
+    m: &RawMechanism,
+    entity: &str,
+    attachments: &[AttachmentEntry],
+    attachment_names: &[String],
+    ok: &mut bool,
+) -> Option<(usize, Placement)> {
+    let p = m.placement.as_ref()?;
+    let span = p.span();
+    let p = p.get_ref();
+    if m.origin.is_some() || !m.initial.is_empty() {
+        let msg = "placement computes the origin and the initial coordinates: give either placement or origin/initial";
+        doc.push(Kind::InvalidValue, Some(span.clone()), Some(entity), msg);
+        *ok = false;
+    }
+    let target = attachment_names
+        .iter()
+        .position(|n| n == p.attachment.get_ref());
+    match target {
+        None => {
+            let msg = format!(
+                "placement: unknown attachment {:?} (attachments: {})",
+                p.attachment.get_ref(),
+                list(attachment_names)
+            );
+            doc.push(
+                Kind::UnknownName,
+                Some(p.attachment.span()),
+                Some(entity),
+                msg,
+            );
+            *ok = false;
+        }
+        Some(a) if attachments[a].mechanism != k => {
+            let msg = format!(
+                "placement: attachment {:?} belongs to another mechanism",
+                p.attachment.get_ref()
+            );
+            doc.push(
+                Kind::InvalidValue,
+                Some(p.attachment.span()),
+                Some(entity),
+                msg,
+            );
+            *ok = false;
+        }
+        _ => {}
+    }
+    let how = match (&p.half_angle_deg, &p.pivot) {
+        (Some(a), None) => {
+            let deg = *a.get_ref();
+            if deg.is_finite() && deg > 0.0 && deg < 90.0 {
+                Some(Placement::HalfAngle(deg))
+            } else {
+                let msg = format!(
+                    "placement: half_angle_deg must be between 0 (the singular position) and 90 degrees (got {deg})"
+                );
+                doc.push(Kind::InvalidValue, Some(a.span()), Some(entity), msg);
+                None
+            }
+        }
+        (None, Some(p)) if p.get_ref().iter().all(|x| x.is_finite()) => {
+            Some(Placement::Pivot(*p.get_ref()))
+        }
+        (None, Some(p)) => {
+            let msg = "placement: pivot must be two finite numbers [x, y] (m)";
+            doc.push(Kind::InvalidValue, Some(p.span()), Some(entity), msg);
+            None
+        }
+        _ => {
+            let msg = "placement: give half_angle_deg or pivot (one of them)";
+            doc.push(Kind::InvalidValue, Some(span.clone()), Some(entity), msg);
+            None
+        }
+    };
+    match (target, how) {
+        (Some(a), Some(how)) => Some((a, how)),
+        _ => {
+            *ok = false;
+            None
+        }
+    }
+}
+
+/// `[[force]]`.
+fn forces(doc: &mut Doc<'_>, names: &[String], ok: &mut bool) -> Vec<ForceEntry> {
+    let mut forces = vec![];
+    let mut seen = BTreeMap::new();
+    for v in tables(doc, "force") {
+        let (head, rest) = split(&v, &["name", "mechanism", "joint", "kind"]);
+        let head = Spanned::new(v.span(), DeValue::Table(head));
+        let Some(f) = de::<RawForceHead>(doc, head, "[[force]]") else {
+            *ok = false;
+            continue;
+        };
+        unique(doc, &mut seen, &f.name, "force");
+        let entity = format!("force \"{}\"", f.name.get_ref());
+        let mechanism = mechanism_ref(doc, names, &f.mechanism, &entity);
+        let kind = force_kind(doc, &f, rest, &entity);
+        match (mechanism, kind) {
+            (Some(mechanism), Some(kind)) => forces.push(ForceEntry {
+                name: f.name.get_ref().clone(),
+                mechanism,
+                joint: f.joint.get_ref().clone(),
+                kind,
+                joint_span: f.joint.span(),
+            }),
+            _ => *ok = false,
+        }
+    }
+    forces
+}
+
+/// The force element of a `[[force]]` table: its `kind` and the fields that go with it
+/// (`rest`).
+fn force_kind<'a>(
+    doc: &mut Doc<'a>,
+    f: &RawForceHead,
+    rest: Spanned<DeValue<'a>>,
+    entity: &str,
+) -> Option<ForceKind> {
+    match f.kind.get_ref().as_str() {
+        "generator" => de::<GeneratorSpec>(doc, rest.clone(), entity).and_then(|g| {
+            let problems = g.problems();
+            for e in &problems {
+                // At the field it is about when that is written, at `kind` otherwise.
+                let span = e
+                    .field()
+                    .and_then(|field| rest.get_ref().get(field.name()))
+                    .map_or(f.kind.span(), |v| v.span());
+                doc.push(Kind::InvalidValue, Some(span), Some(entity), e.to_string());
+            }
+            problems.is_empty().then_some(ForceKind::Generator(g))
+        }),
+        "damper" => de::<RawDamper>(doc, rest, entity).and_then(|d| {
+            let c = *d.c.get_ref();
+            if c.is_finite() && c >= 0.0 {
+                Some(ForceKind::Damper { c })
+            } else {
+                let msg = format!("c must be finite and >= 0 (got {c})");
+                doc.push(Kind::InvalidValue, Some(d.c.span()), Some(entity), msg);
+                None
+            }
+        }),
+        "spring" => de::<RawSpring>(doc, rest, entity).and_then(|s| {
+            let k = *s.k.get_ref();
+            let q0 = s.q0.as_ref().map_or(0.0, |q| finite(doc, q, entity));
+            if k.is_finite() && k >= 0.0 && q0.is_finite() {
+                Some(ForceKind::Spring { k, q0 })
+            } else {
+                if !(k.is_finite() && k >= 0.0) {
+                    let msg = format!("k must be finite and >= 0 (got {k})");
+                    doc.push(Kind::InvalidValue, Some(s.k.span()), Some(entity), msg);
+                }
+                None
+            }
+        }),
+        other => {
+            let msg = format!(
+                "unknown kind {other:?} (expected \"generator\", \"damper\" or \"spring\")"
+            );
+            doc.push(Kind::InvalidValue, Some(f.kind.span()), Some(entity), msg);
+            None
+        }
+    }
+}
+
+/// `[[excitation]]`.
+fn excitations(
+    doc: &mut Doc<'_>,
+    names: &[String],
+    on_beam: &OnBeam,
+    ok: &mut bool,
+) -> Vec<ExcitationEntry> {
+    let mut excitations = vec![];
+    let mut seen = BTreeMap::new();
+    for v in tables(doc, "excitation") {
+        let (mut time, rest) = split(&v, &["time"]);
+        let Some(e) = de::<RawExcitation>(doc, rest, "[[excitation]]") else {
+            *ok = false;
+            continue;
+        };
+        unique(doc, &mut seen, &e.name, "excitation");
+        let entity = format!("excitation \"{}\"", e.name.get_ref());
+        let amplitude = finite(doc, &e.amplitude, &entity);
+        let at = e.at.get_ref();
+        let target = match (&at.x, &at.mechanism, &at.joint) {
+            (Some(x), None, None) => on_beam
+                .check(doc, x, &entity)
+                .then(|| TargetEntry::Beam { x: *x.get_ref() }),
+            (None, Some(m), Some(j)) => {
+                mechanism_ref(doc, names, m, &entity).map(|mechanism| TargetEntry::Joint {
+                    mechanism,
+                    joint: j.get_ref().clone(),
+                })
+            }
+            _ => {
+                let msg =
+                    "at must be { x = ... } (a beam point) or { mechanism = ..., joint = ... }";
+                doc.push(Kind::InvalidValue, Some(e.at.span()), Some(&entity), msg);
+                None
+            }
+        };
+        let time = match time.remove("time") {
+            None => {
+                let msg = "missing field `time` (e.g. { kind = \"harmonic\", frequency_hz = 5.0 })";
+                doc.push(Kind::MissingField, Some(v.span()), Some(&entity), msg);
+                None
+            }
+            Some(t) => time_function(doc, t, &entity),
+        };
+        match (target, time) {
+            (Some(target), Some(time)) if amplitude.is_finite() => {
+                excitations.push(ExcitationEntry {
+                    name: e.name.get_ref().clone(),
+                    target,
+                    amplitude,
+                    time,
+                    at_span: e.at.span(),
+                })
+            }
+            _ => *ok = false,
+        }
+    }
+    excitations
+}
+
+/// `[initial]`: the displacement, the abscissa and where the abscissa is written.
+fn initial(doc: &mut Doc<'_>, on_beam: &OnBeam, ok: &mut bool) -> Option<(f64, f64, Range<usize>)> {
+    let raw_initial = doc.section::<RawInitial>("initial", false);
+    let initial = raw_initial.and_then(|i| {
+        let i = i.into_inner();
+        let d = finite(doc, &i.displacement, "[initial] displacement");
+        let x_ok = on_beam.check(doc, &i.x, "[initial] x");
+        (d.is_finite() && x_ok).then_some((d, *i.x.get_ref(), i.x.span()))
+    });
+    *ok &= initial.is_some() || !doc.root.contains_key("initial");
+    initial
+}
+
+/// `[output]`: a row every `every` steps, and the comparison runs (`bare_beam` only with a
+/// beam written).
+fn output(doc: &mut Doc<'_>, beam_written: bool, ok: &mut bool) -> (usize, Vec<Comparison>) {
+    let output = doc.section::<RawOutput>("output", false);
+    *ok &= output.is_some() || !doc.root.contains_key("output");
+    let every = match output.as_ref().and_then(|o| o.get_ref().every.as_ref()) {
+        Some(e) if *e.get_ref() == 0 => {
+            doc.push(
+                Kind::InvalidValue,
+                Some(e.span()),
+                Some("[output] every"),
+                "must be at least 1",
+            );
+            *ok = false;
+            1
+        }
+        Some(e) => *e.get_ref(),
+        None => 10,
+    };
+    let mut compare = vec![];
+    if let Some(list) = output.as_ref().and_then(|o| o.get_ref().compare.as_ref()) {
+        for c in list.get_ref() {
+            if compare.contains(c) {
+                let msg = format!("{:?} is listed twice", c.key());
+                doc.push(
+                    Kind::InvalidValue,
+                    Some(list.span()),
+                    Some("[output] compare"),
+                    msg,
+                );
+                *ok = false;
+            } else if *c == Comparison::BareBeam && !beam_written {
+                let msg = "\"bare_beam\" needs a [beam]";
+                doc.push(
+                    Kind::InvalidValue,
+                    Some(list.span()),
+                    Some("[output] compare"),
+                    msg,
+                );
+                *ok = false;
+            } else {
+                compare.push(*c);
+            }
+        }
+    }
+    (every, compare)
+}

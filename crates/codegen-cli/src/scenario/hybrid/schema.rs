@@ -1,0 +1,107 @@
+//! The serde shapes of the hybrid scenario's tables, as written (every value spanned for
+//! diagnostics); [`super::reader`] checks them into the entries of [`super`].
+
+use std::collections::BTreeMap;
+
+use serde::Deserialize;
+use toml::Spanned;
+
+use crate::scenario::compare::Comparison;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawMechanism {
+    pub(super) name: Spanned<String>,
+    pub(super) model: Spanned<String>,
+    #[serde(default)]
+    pub(super) origin: Option<Spanned<[f64; 2]>>,
+    #[serde(default)]
+    pub(super) angle_deg: Option<Spanned<f64>>,
+    #[serde(default)]
+    pub(super) parameters: BTreeMap<String, Spanned<f64>>,
+    #[serde(default)]
+    pub(super) initial: BTreeMap<String, Spanned<f64>>,
+    #[serde(default)]
+    pub(super) max_condition: Option<Spanned<f64>>,
+    #[serde(default)]
+    pub(super) placement: Option<Spanned<RawPlacement>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawPlacement {
+    pub(super) attachment: Spanned<String>,
+    #[serde(default)]
+    pub(super) half_angle_deg: Option<Spanned<f64>>,
+    #[serde(default)]
+    pub(super) pivot: Option<Spanned<[f64; 2]>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawAttachment {
+    pub(super) name: Spanned<String>,
+    pub(super) mechanism: Spanned<String>,
+    pub(super) point: Spanned<String>,
+    #[serde(default)]
+    pub(super) kind: Option<Spanned<String>>,
+    pub(super) x: Spanned<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawForceHead {
+    pub(super) name: Spanned<String>,
+    pub(super) mechanism: Spanned<String>,
+    pub(super) joint: Spanned<String>,
+    pub(super) kind: Spanned<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawDamper {
+    pub(super) c: Spanned<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawSpring {
+    pub(super) k: Spanned<f64>,
+    #[serde(default)]
+    pub(super) q0: Option<Spanned<f64>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawExcitation {
+    pub(super) name: Spanned<String>,
+    pub(super) at: Spanned<RawAt>,
+    pub(super) amplitude: Spanned<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawAt {
+    #[serde(default)]
+    pub(super) x: Option<Spanned<f64>>,
+    #[serde(default)]
+    pub(super) mechanism: Option<Spanned<String>>,
+    #[serde(default)]
+    pub(super) joint: Option<Spanned<String>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawInitial {
+    pub(super) displacement: Spanned<f64>,
+    pub(super) x: Spanned<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawOutput {
+    #[serde(default)]
+    pub(super) every: Option<Spanned<usize>>,
+    #[serde(default)]
+    pub(super) compare: Option<Spanned<Vec<Comparison>>>,
+}
