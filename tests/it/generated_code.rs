@@ -489,6 +489,9 @@ fn quantities(s: &dyn System, q: &[f64], qd: &[f64], t: f64) -> Vec<(String, Vec
     out.push(("V".into(), vec![s.potential_energy(q, &mut ws)]));
     let power = s.element_power(q, qd, &mut ws);
     out.push(("D, P".into(), vec![power.dissipated, power.input]));
+    // Whether the backend says the model has force elements (the engine skips D, P without).
+    let has = if s.has_force_elements() { 1.0 } else { 0.0 };
+    out.push(("has force elements".into(), vec![has]));
     for (k, name) in s.point_names().iter().enumerate() {
         assert!(s.point_kinematics(k, q, qd, &mut ws), "point {name}");
         out.push((format!("point {name} p"), ws.point_p.as_slice().to_vec()));

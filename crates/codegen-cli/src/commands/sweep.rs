@@ -73,6 +73,20 @@ pub struct Args {
     /// No progress bar even on a terminal.
     #[arg(long)]
     pub quiet: bool,
+    /// A design constraint on a figure, `FIGURE>=VALUE` or `FIGURE<=VALUE` (repeatable; e.g.
+    /// `linear.zeta1>=0.08`, `linear.reach>=0.002`): the best feasible point is reported and,
+    /// on a two-axis sweep, the constraint's contour drawn on the design map, the points
+    /// that break it hatched.
+    #[arg(long = "constraint", value_name = "FIGURE>=VALUE")]
+    pub constraints: Vec<Constraint>,
+    /// The figure of the design map of a two-axis sweep (`sweep_map_<FIGURE>.svg`) and of
+    /// the best feasible point.
+    #[arg(long, value_name = "FIGURE", default_value = "linear.zeta1")]
+    pub map: String,
+    /// The best feasible point has the smallest value of the map's figure (default: the
+    /// largest).
+    #[arg(long)]
+    pub minimize: bool,
     /// Run even when the estimated grid points (1e5 a shard), memory (1 GiB) or time steps
     /// (2e7 a point, 1e9 in all) are above the limits (`codegen_cli::budget`).
     #[arg(long)]
@@ -162,6 +176,12 @@ pub enum SpecError {
         factors: String,
         /// Their product.
         product: f64,
+    },
+    /// A `--constraint` that is not `FIGURE>=VALUE` or `FIGURE<=VALUE` with a finite VALUE.
+    #[error("--constraint {text}: expected FIGURE>=VALUE or FIGURE<=VALUE (a finite number)")]
+    Constraint {
+        /// The option's value.
+        text: String,
     },
     /// `--shard` is not `I/N` with `0 <= I < N`.
     #[error("--shard {text}: expected I/N with 0 <= I < N")]
@@ -514,6 +534,85 @@ pub struct SweepSpec {
     pub time_domain: bool,
     /// Number of grid points.
     pub grid_size: usize,
+    /// The `--constraint`s, as written.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub constraints: Vec<String>,
+    /// The figure of the design map and of the best point (`--map`).
+    #[serde(default = "default_map")]
+    pub map: String,
+    /// `--minimize`.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub minimize: bool,
+}
+
+fn default_map() -> String {
+    "linear.zeta1".into()
+}
+
+/// Whether a constraint bounds its figure from below or above.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Bound {
+    /// `FIGURE>=VALUE`.
+    AtLeast,
+    /// `FIGURE<=VALUE`.
+    AtMost,
+}
+
+/// A design constraint of a sweep: `FIGURE>=VALUE` or `FIGURE<=VALUE`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Constraint {
+    /// The figure (a column of `sweep.csv` without its unit).
+    pub figure: String,
+    /// Which side.
+    pub bound: Bound,
+    /// The bound.
+    pub value: f64,
+    /// As written.
+    pub text: String,
+}
+
+impl std::str::FromStr for Constraint {
+    type Err = SpecError;
+
+    fn from_str(text: &str) -> Result<Constraint, SpecError> {
+        let bad = || SpecError::Constraint {
+            text: text.to_string(),
+        };
+        let (figure, bound, value) = if let Some((f, v)) = text.split_once(">=") {
+            (f, Bound::AtLeast, v)
+        } else if let Some((f, v)) = text.split_once("<=") {
+            (f, Bound::AtMost, v)
+        } else {
+            return Err(bad());
+        };
+        let figure = figure.trim();
+        let value: f64 = value.trim().parse().map_err(|_| bad())?;
+        if figure.is_empty() || !value.is_finite() {
+            return Err(bad());
+        }
+        Ok(Constraint {
+            figure: figure.to_string(),
+            bound,
+            value,
+            text: text.trim().to_string(),
+        })
+    }
+}
+
+impl Constraint {
+    /// How far the point is inside the constraint (`>= 0`: satisfied; in the figure's
+    /// unit); `None` when the point does not give the figure.
+    pub fn margin(&self, r: &PointResult) -> Option<f64> {
+        let v = r
+            .figures
+            .iter()
+            .find(|f| f.name == self.figure)
+            .and_then(|f| f.value)?;
+        Some(match self.bound {
+            Bound::AtLeast => v - self.value,
+            Bound::AtMost => self.value - v,
+        })
+    }
 }
 
 /// The result of one point.
@@ -616,6 +715,9 @@ pub fn run(args: Args) -> Result<(), Error> {
         t_end: args.t_end.map(|t| cell(Some(t))),
         time_domain: args.time_domain,
         grid_size: grid.len(),
+        constraints: args.constraints.iter().map(|c| c.text.clone()).collect(),
+        map: args.map.clone(),
+        minimize: args.minimize,
     };
     let mut indices: Vec<usize> = Vec::new();
     indices
@@ -677,6 +779,11 @@ pub fn run(args: Args) -> Result<(), Error> {
         None => outputs(&args.out, &spec, &grid, &results)?,
     };
     commit_files(&files).map_err(ReportError::from)?;
+    if shard.is_none() {
+        let rows: Vec<&PointResult> = results.iter().collect();
+        let design = Design::of(&spec, &rows)?;
+        eprintln!("{}", design.describe(&spec, &grid));
+    }
     let written: Vec<String> = files.iter().map(|f| f.path.display().to_string()).collect();
     eprintln!(
         "sweep: {} of {} point(s) evaluated in {:.1} s, {failed} failed{td_note}; wrote {}",
@@ -909,7 +1016,106 @@ struct SweepJson<'a> {
     failed: usize,
     #[serde(skip_serializing_if = "Option::is_none")]
     time_domain_failed: Option<usize>,
+    /// The best feasible point (`null` when no point satisfies the constraints).
+    best: Option<BestJson>,
     points: Vec<PointJson<'a>>,
+}
+
+/// The best feasible point of a sweep.
+#[derive(Serialize)]
+struct BestJson {
+    index: usize,
+    parameters: Vec<serde_json::Value>,
+    figure: String,
+    value: f64,
+}
+
+/// The design reading of a sweep: which points satisfy every constraint, and the best of
+/// them by the map's figure (the lowest index among equals).
+pub struct Design {
+    /// The constraints.
+    pub constraints: Vec<Constraint>,
+    /// Per point (in grid order): whether it satisfies every constraint (a failed point, or
+    /// one without a constrained figure, does not).
+    pub feasible: Vec<bool>,
+    /// The best feasible point and its value of the map's figure.
+    pub best: Option<(usize, f64)>,
+}
+
+impl Design {
+    /// Reads `rows` (every point, in grid order) against the spec's constraints and map.
+    pub fn of(spec: &SweepSpec, rows: &[&PointResult]) -> Result<Design, Error> {
+        let constraints = spec
+            .constraints
+            .iter()
+            .map(|c| c.parse::<Constraint>())
+            .collect::<Result<Vec<_>, _>>()?;
+        let feasible: Vec<bool> = rows
+            .iter()
+            .map(|r| {
+                r.error.is_none()
+                    && constraints
+                        .iter()
+                        .all(|c| c.margin(r).is_some_and(|m| m >= 0.0))
+            })
+            .collect();
+        let mut best: Option<(usize, f64)> = None;
+        for (r, ok) in rows.iter().zip(&feasible) {
+            let value = r
+                .figures
+                .iter()
+                .find(|f| f.name == spec.map)
+                .and_then(|f| f.value);
+            if let (true, Some(v)) = (*ok, value) {
+                let better = match best {
+                    None => true,
+                    Some((_, b)) if spec.minimize => v < b,
+                    Some((_, b)) => v > b,
+                };
+                if better {
+                    best = Some((r.index, v));
+                }
+            }
+        }
+        Ok(Design {
+            constraints,
+            feasible,
+            best,
+        })
+    }
+
+    /// One line: the best feasible point with its fields and figure, or that no point
+    /// satisfies the constraints.
+    pub fn describe(&self, spec: &SweepSpec, grid: &Grid) -> String {
+        let feasible = self.feasible.iter().filter(|f| **f).count();
+        let of = if self.constraints.is_empty() {
+            String::new()
+        } else {
+            let c: Vec<&str> = self.constraints.iter().map(|c| c.text.as_str()).collect();
+            format!(" ({feasible} point(s) satisfy {})", c.join(", "))
+        };
+        match self.best {
+            Some((index, value)) => {
+                let at: Vec<String> = grid
+                    .axes
+                    .iter()
+                    .zip(grid.point(index))
+                    .map(|(a, v)| format!("{}={}", a.path, value_text(v)))
+                    .collect();
+                let which = if spec.minimize { "lowest" } else { "highest" };
+                format!(
+                    "best feasible point{of}: #{index} {}: {} = {} ({which})",
+                    at.join(" "),
+                    spec.map,
+                    cell(Some(value))
+                )
+            }
+            None if !self.constraints.is_empty() && feasible == 0 => {
+                format!("no grid point satisfies the constraints{of}")
+            }
+            None => format!("no point gives {}{of}", spec.map),
+        }
+    }
 }
 
 #[derive(Serialize)]
@@ -965,6 +1171,7 @@ pub fn outputs(
         Value::String(s) => s.value().clone(),
         v => value_text(v),
     };
+    let design = Design::of(spec, &rows)?;
     let mut csv = ::csv::Writer::from_writer(vec![]);
     let mut header = vec!["index".to_string()];
     header.extend(grid.axes.iter().map(|a| a.path.clone()));
@@ -1005,6 +1212,12 @@ pub fn outputs(
             .map(|(name, unit)| FigureHead { name, unit })
             .collect(),
         failed: rows.iter().filter(|r| r.error.is_some()).count(),
+        best: design.best.map(|(index, value)| BestJson {
+            index,
+            parameters: grid.point(index).iter().map(|v| json_value(v)).collect(),
+            figure: spec.map.clone(),
+            value,
+        }),
         time_domain_failed: spec.time_domain.then(|| {
             rows.iter()
                 .filter(|r| r.time_domain_error.is_some())
@@ -1023,8 +1236,124 @@ pub fn outputs(
         },
     ];
     files.extend(plots(out, spec, grid, &rows)?);
+    files.extend(design_map(out, spec, grid, &rows, &design)?);
     Ok(files)
 }
+
+/// `sweep_map_<FIGURE>.svg` of a sweep with exactly two swept fields of more than one
+/// numeric, monotonic value ([`crate::report::map`]): the map's figure over the grid, the
+/// contour of every constraint, the infeasible points hatched, the best feasible point
+/// marked. None otherwise.
+fn design_map(
+    out: &Path,
+    spec: &SweepSpec,
+    grid: &Grid,
+    rows: &[&PointResult],
+    design: &Design,
+) -> Result<Option<OutputFile>, Error> {
+    use crate::report::map::{DesignMap, MapAxis, is_monotonic, plot_map_svg};
+    let number = |v: &Value| match v {
+        Value::Float(f) => Some(*f.value()),
+        Value::Integer(i) => Some(*i.value() as f64),
+        _ => None,
+    };
+    let varying: Vec<usize> = (0..grid.axes.len())
+        .filter(|&a| grid.axes[a].values.len() > 1)
+        .collect();
+    let [ax, ay] = varying[..] else {
+        return Ok(None);
+    };
+    let values = |a: usize| -> Option<Vec<f64>> {
+        grid.axes[a]
+            .values
+            .iter()
+            .map(number)
+            .collect::<Option<Vec<f64>>>()
+    };
+    let (Some(xs), Some(ys)) = (values(ax), values(ay)) else {
+        return Ok(None);
+    };
+    if !(is_monotonic(&xs) && is_monotonic(&ys)) {
+        return Ok(None);
+    }
+    // Grid index of (i, j): the other axes have one value each.
+    let stride =
+        |a: usize| -> usize { grid.axes[a + 1..].iter().map(|x| x.values.len()).product() };
+    let (sx, sy) = (stride(ax), stride(ay));
+    let at = |i: usize, j: usize| i * sx + j * sy;
+    let (nx, ny) = (xs.len(), ys.len());
+    let per_point = |f: &dyn Fn(&PointResult) -> Option<f64>| -> Vec<Option<f64>> {
+        (0..nx)
+            .flat_map(|i| (0..ny).map(move |j| (i, j)))
+            .map(|(i, j)| f(rows[at(i, j)]))
+            .collect()
+    };
+    let map_values = per_point(&|r| {
+        r.figures
+            .iter()
+            .find(|f| f.name == spec.map)
+            .and_then(|f| f.value)
+    });
+    if map_values.iter().all(Option::is_none) {
+        return Ok(None);
+    }
+    let feasible: Vec<bool> = (0..nx)
+        .flat_map(|i| (0..ny).map(move |j| (i, j)))
+        .map(|(i, j)| design.feasible[at(i, j)])
+        .collect();
+    let contours: Vec<(String, Vec<Option<f64>>)> = design
+        .constraints
+        .iter()
+        .map(|c| (c.text.clone(), per_point(&|r| c.margin(r))))
+        .collect();
+    let best_label;
+    let best = match design.best {
+        Some((index, value)) => {
+            let p = grid.point(index);
+            let (bx, by) = (number(p[ax]), number(p[ay]));
+            best_label = format!(
+                "{} = {}, {} = {}: {} = {}",
+                grid.axes[ax].path,
+                value_text(p[ax]),
+                grid.axes[ay].path,
+                value_text(p[ay]),
+                spec.map,
+                cell(Some(value))
+            );
+            bx.zip(by).map(|b| (b, best_label.as_str()))
+        }
+        None => None,
+    };
+    let title = format!(
+        "{} over {} and {}: {}",
+        spec.map, grid.axes[ax].path, grid.axes[ay].path, spec.scenario
+    );
+    let bytes = plot_map_svg(&DesignMap {
+        title: &title,
+        x: MapAxis {
+            label: &grid.axes[ax].path,
+            values: &xs,
+        },
+        y: MapAxis {
+            label: &grid.axes[ay].path,
+            values: &ys,
+        },
+        figure: &spec.map,
+        values: &map_values,
+        feasible: &feasible,
+        contours: &contours,
+        best,
+    })
+    .map_err(ReportError::from)?;
+    Ok(Some(OutputFile {
+        path: out.join(format!("sweep_map_{}.svg", spec.map)),
+        bytes,
+    }))
+}
+
+/// Most lines of a sweep's line plots: a sweep with more combinations of its other varying
+/// fields draws its design map instead (two fields) or no line plot.
+const MAX_LINES: usize = 10;
 
 /// A figure read from a point's results.
 type FigureOf<'a> = dyn Fn(&PointResult) -> Option<f64> + 'a;
@@ -1046,10 +1375,20 @@ fn plots(
         Value::Integer(i) => Some(*i.value() as f64),
         _ => None,
     };
-    let Some(axis) = grid.axes.first() else {
+    // The x axis: the first swept field with more than one value (a fixed `--set` is
+    // never an axis); one line per combination of the other varying fields.
+    let varying: Vec<usize> = (0..grid.axes.len())
+        .filter(|&a| grid.axes[a].values.len() > 1)
+        .collect();
+    let Some((&x_axis, others)) = varying.split_first() else {
         return Ok(vec![]);
     };
+    let axis = &grid.axes[x_axis];
     if axis.values.iter().any(|v| number(v).is_none()) {
+        return Ok(vec![]);
+    }
+    let lines: usize = others.iter().map(|&a| grid.axes[a].values.len()).product();
+    if lines > MAX_LINES {
         return Ok(vec![]);
     }
     let value = |r: &PointResult, name: &str| {
@@ -1062,10 +1401,9 @@ fn plots(
     let mut groups: Vec<(String, Vec<&PointResult>)> = vec![];
     for r in rows {
         let values = grid.point(r.index);
-        let key: Vec<String> = grid.axes[1..]
+        let key: Vec<String> = others
             .iter()
-            .zip(&values[1..])
-            .map(|(a, v)| format!("{}={}", a.path, value_text(v)))
+            .map(|&a| format!("{}={}", grid.axes[a].path, value_text(values[a])))
             .collect();
         let key = key.join(", ");
         match groups.iter_mut().find(|(k, _)| *k == key) {
@@ -1073,7 +1411,7 @@ fn plots(
             None => groups.push((key, vec![r])),
         }
     }
-    let x_of = |r: &PointResult| number(grid.point(r.index)[0]).expect("checked numeric");
+    let x_of = |r: &PointResult| number(grid.point(r.index)[x_axis]).expect("checked numeric");
     let line = |g: &[&PointResult], f: &dyn Fn(&PointResult) -> Option<f64>| -> Vec<(f64, f64)> {
         g.iter()
             .filter_map(|r| f(r).map(|y| (x_of(r), y)))

@@ -7,6 +7,7 @@ pub mod csv;
 pub mod digest;
 pub mod hybrid;
 pub mod lock;
+pub mod map;
 pub mod plot;
 pub mod rows;
 pub mod stream;

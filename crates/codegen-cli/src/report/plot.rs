@@ -21,7 +21,7 @@ impl PlotError {
         &self.0
     }
 
-    fn of<E: std::error::Error + Send + Sync>(e: DrawingAreaErrorKind<E>) -> PlotError {
+    pub(crate) fn of<E: std::error::Error + Send + Sync>(e: DrawingAreaErrorKind<E>) -> PlotError {
         PlotError(e.to_string())
     }
 }

@@ -395,14 +395,22 @@ fn bad_sweep_specs_are_one_line_and_write_nothing() {
 
 /// Every file a (time-domain) sweep of the damper writes is the same, byte for byte, in
 /// `a` and `b`.
+/// Every file of sweep `a` is in `b`, byte for byte, and `b` has no other (sweep.csv and
+/// sweep.json at least).
 fn assert_same_outputs(a: &std::path::Path, b: &std::path::Path, what: &str) {
-    for f in [
-        "sweep.csv",
-        "sweep.json",
-        "sweep_damping.svg",
-        "sweep_frequency.svg",
-        "sweep_harvested.svg",
-    ] {
+    let names = |d: &std::path::Path| -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with("sweep") && !n.starts_with("sweep.part-"))
+            .collect();
+        v.sort();
+        v
+    };
+    let files = names(a);
+    assert!(files.iter().any(|f| f == "sweep.csv") && files.iter().any(|f| f == "sweep.json"));
+    assert_eq!(files, names(b), "{what}");
+    for f in &files {
         let read =
             |d: &std::path::Path| std::fs::read(d.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
         assert_eq!(read(a), read(b), "{f}: {what}");
@@ -688,4 +696,124 @@ fn a_subnormal_axis_value_does_not_hang_the_plot() {
     assert_eq!(code, 0, "{err}");
     assert!(out.join("sweep_damping.svg").is_file());
     let _ = std::fs::remove_dir_all(&out);
+}
+
+/// `a:b:n:log`: a geometric progression with exact endpoints; a non-positive end refused.
+#[test]
+fn log_spacing_is_geometric_with_exact_ends() {
+    let v = parse_values("0.5:20:7:log").unwrap();
+    let x: Vec<f64> = v.iter().map(|v| v.as_float().unwrap()).collect();
+    assert_eq!(x.len(), 7);
+    assert_eq!((x[0], x[6]), (0.5, 20.0));
+    let r = x[1] / x[0];
+    for w in x.windows(2) {
+        assert!((w[1] / w[0] / r - 1.0).abs() < 1e-12, "{x:?}");
+    }
+    let e = parse_values("0:20:7:log").unwrap_err().to_string();
+    assert!(e.contains("a > 0 and b > 0"), "{e}");
+}
+
+/// A two-axis sweep with constraints: the design map is drawn, the best feasible point is
+/// the best of the grid that satisfies every constraint (recomputed here from sweep.csv),
+/// the same in merged shards; a fixed `--set` is not an axis of the map or of the line
+/// plots; an infeasible problem says so.
+#[test]
+fn a_two_axis_sweep_draws_the_design_map_and_names_the_best_feasible_point() {
+    let dir = scratch("map");
+    let args = |out: &Path| -> Vec<String> {
+        [
+            "sweep",
+            "scenarios/damper.toml",
+            "--quiet",
+            "--set",
+            "generator.gear_ratio=5",
+            "--set",
+            "mechanism.half_angle_deg=4:20:9",
+            "--set",
+            "generator.load_resistance=0.5:20:6:log",
+            "--constraint",
+            "linear.reach>=0.002",
+            "--constraint",
+            "linear.zeta1>=0.03",
+            "-o",
+            out.to_str().unwrap(),
+        ]
+        .map(String::from)
+        .to_vec()
+    };
+    let out = dir.join("whole");
+    let a = args(&out);
+    let (code, _, err) = damper(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(code, 0, "{err}");
+    let svg = String::from_utf8(read(&out.join("sweep_map_linear.zeta1.svg"))).unwrap();
+    assert!(
+        svg.contains("contour of linear.reach&gt;=0.002")
+            || svg.contains("contour of linear.reach>=0.002"),
+        "contour legend"
+    );
+    assert!(svg.contains("best feasible point"), "best point marked");
+    // The best feasible point, recomputed from the CSV.
+    let bytes = read(&out.join("sweep.csv"));
+    let mut csv = csv::Reader::from_reader(&bytes[..]);
+    let header = csv.headers().unwrap().clone();
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let (reach, zeta) = (col("linear.reach [m]"), col("linear.zeta1 [-]"));
+    let mut best: Option<(usize, f64)> = None;
+    let mut feasible = 0;
+    for r in csv.records().map(Result::unwrap) {
+        let (re, z): (f64, f64) = (r[reach].parse().unwrap(), r[zeta].parse().unwrap());
+        if re >= 0.002 && z >= 0.03 {
+            feasible += 1;
+            if best.is_none_or(|b| z > b.1) {
+                best = Some((r[0].parse().unwrap(), z));
+            }
+        }
+    }
+    let (index, z) = best.expect("a feasible point");
+    assert!(feasible > 3 && feasible < 54, "{feasible} of 54 feasible");
+    let json: serde_json::Value = serde_json::from_slice(&read(&out.join("sweep.json"))).unwrap();
+    assert_eq!(json["best"]["index"], index);
+    // (serde_json's default float parsing is within an ulp of the written shortest form.)
+    let v = json["best"]["value"].as_f64().unwrap();
+    assert!((v - z).abs() <= 4.0 * f64::EPSILON * z, "{v} vs {z}");
+    assert!(err.contains(&format!("#{index} ")), "{err}");
+    // Shards merged: the same files, map included.
+    let sharded = dir.join("sharded");
+    for i in 0..2 {
+        let mut a = args(&sharded);
+        a.extend(["--shard".to_string(), format!("{i}/2")]);
+        let (code, _, err) = damper(&a.iter().map(String::as_str).collect::<Vec<_>>());
+        assert_eq!(code, 0, "{err}");
+    }
+    let (code, _, err) = damper(&["merge", sharded.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert_same_outputs(&out, &sharded, "2 shards");
+    // One swept field besides a fixed one: the line plots run along it.
+    let line = dir.join("line");
+    let (code, _, err) = damper(&[
+        "sweep",
+        "scenarios/damper.toml",
+        "--quiet",
+        "--set",
+        "generator.gear_ratio=5",
+        "--set",
+        "mechanism.half_angle_deg=4:20:5",
+        "--constraint",
+        "linear.reach>=0.5",
+        "-o",
+        line.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        err.contains("no grid point satisfies the constraints"),
+        "{err}"
+    );
+    let svg = String::from_utf8(read(&line.join("sweep_damping.svg"))).unwrap();
+    assert!(svg.contains("vs mechanism.half_angle_deg"), "x axis");
+    assert!(
+        !svg.contains("generator.gear_ratio=5:"),
+        "a fixed field is no line label"
+    );
+    assert!(!line.join("sweep_map_linear.zeta1.svg").exists());
+    let _ = std::fs::remove_dir_all(&dir);
 }

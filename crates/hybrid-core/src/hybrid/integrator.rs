@@ -679,6 +679,10 @@ impl Integrator {
         acc.dissipated_model.resize(self.followers.len(), 0.0);
         acc.model_input_work.resize(self.followers.len(), 0.0);
         for (i, f) in self.followers.iter_mut().enumerate() {
+            // Without force elements D = P = 0 at every state.
+            if !model.mechanisms[i].system.has_force_elements() {
+                continue;
+            }
             let ms = &state.mechanisms[i];
             let old = f.element_power(model, &ms.q, &ms.qd);
             let new = f.current_element_power(model);

@@ -207,9 +207,11 @@ impl Items<'_> {
             point_arms.extend(quote! { #kl => self.#fname(q, qd, out), });
         }
         let (sname, rt) = (self.sname, self.rt);
+        let has_elements = !self.model.forces.is_empty();
         quote! {
             #[allow(clippy::all)]
             impl #rt::Mechanism<#nl, #ncl> for #sname {
+                const FORCE_ELEMENTS: bool = #has_elements;
                 fn param_names(&self) -> &[&'static str] { &Self::PARAM_NAMES }
                 fn set_param(&mut self, name: &str, #value_arg: f64) -> bool {
                     match name { #setters _ => return false, }

@@ -159,6 +159,10 @@ where
         self.mech.potential_energy(&array::<N>(q))
     }
 
+    fn has_force_elements(&self) -> bool {
+        T::FORCE_ELEMENTS
+    }
+
     fn element_power(&self, q: &[f64], qd: &[f64], _ws: &mut Workspace) -> ElementPower {
         let [dissipated, input] = self.mech.element_power(&array::<N>(q), &array::<N>(qd));
         ElementPower { dissipated, input }

@@ -23,6 +23,8 @@ pub struct InterpretedSystem {
     potential: Tape,
     /// Outputs `D`, `P` of the force elements.
     power: Tape,
+    /// Whether the model has force elements.
+    force_elements: bool,
     point_tapes: Vec<Tape>,
     values: Vec<f64>,
     names: Names,
@@ -67,6 +69,7 @@ impl InterpretedSystem {
             positions: Tape::new(&sym.dag, &outs[pos_start..pos_end]),
             potential: Tape::new(&sym.dag, &[sym.potential]),
             power: Tape::new(&sym.dag, &[sym.dissipation, sym.input_power]),
+            force_elements: !model.forces.is_empty(),
             point_tapes,
             values: model.default_params(),
             names,
@@ -176,6 +179,10 @@ impl System for InterpretedSystem {
         let mut v = 0.0;
         self.run(&self.potential, q, &[], 0.0, ws, |out, _| v = out[0]);
         v
+    }
+
+    fn has_force_elements(&self) -> bool {
+        self.force_elements
     }
 
     fn element_power(&self, q: &[f64], qd: &[f64], ws: &mut Workspace) -> ElementPower {

@@ -61,6 +61,10 @@ impl<const N: usize, const NC: usize> Default for Evaluation<N, NC> {
 
 /// The equations of a mechanism with `N` coordinates and `NC` constraint rows.
 pub trait Mechanism<const N: usize, const NC: usize> {
+    /// Whether the model has force elements (`[[forces]]`); without them
+    /// [`Mechanism::element_power`] is zero at every state.
+    const FORCE_ELEMENTS: bool = true;
+
     /// Names of the run-time parameters, in the model's order.
     fn param_names(&self) -> &[&'static str];
 

@@ -83,6 +83,10 @@ impl System for NumericSystem {
         ElementPower { dissipated, input }
     }
 
+    fn has_force_elements(&self) -> bool {
+        !self.model.forces.is_empty()
+    }
+
     fn point_kinematics(&self, k: usize, q: &[f64], qd: &[f64], ws: &mut Workspace) -> bool {
         if k >= self.names.points.len() {
             return false;

@@ -218,6 +218,12 @@ pub trait System: Send + Sync {
     /// backends allocate nothing.
     fn element_power(&self, q: &[f64], qd: &[f64], ws: &mut Workspace) -> ElementPower;
 
+    /// Whether the model has force elements: without them [`System::element_power`] is
+    /// zero at every state, and a caller may skip it.
+    fn has_force_elements(&self) -> bool {
+        true
+    }
+
     /// The dissipation power `D(q, q')` of the force elements (see
     /// [`System::element_power`]).
     fn dissipated_power(&self, q: &[f64], qd: &[f64], ws: &mut Workspace) -> f64 {
@@ -308,6 +314,9 @@ macro_rules! forward_system {
             }
             fn element_power(&self, q: &[f64], qd: &[f64], ws: &mut Workspace) -> ElementPower {
                 (**self).element_power(q, qd, ws)
+            }
+            fn has_force_elements(&self) -> bool {
+                (**self).has_force_elements()
             }
             fn point_kinematics(
                 &self,

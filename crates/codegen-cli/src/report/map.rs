@@ -1,0 +1,382 @@
+//! The design map of a two-axis sweep (plotters, SVG): a figure over the grid of two swept
+//! fields as coloured cells with a colour bar, the contour of every design constraint
+//! (marching squares on the constraint's margin, linear interpolation between grid points),
+//! the cells that break a constraint hatched and the best feasible grid point marked.
+//!
+//! Each grid point is the centre of its cell; cell edges lie half-way between neighbouring
+//! values (in the logarithm of the values on a logarithmic axis, chosen when the values are
+//! a geometric progression over more than a decade).
+
+use plotters::prelude::*;
+
+use super::plot::PlotError;
+
+/// Size of the map (pixels).
+const WIDTH: u32 = 1000;
+/// Height of the map area, without the legend band (pixels).
+const HEIGHT: u32 = 600;
+/// Height of one legend row (pixels).
+const LEGEND_ROW: u32 = 22;
+/// Width of the colour bar panel (pixels).
+const BAR: u32 = 130;
+
+/// One axis of the map: its label and the swept values (strictly monotonic).
+#[derive(Clone, Copy, Debug)]
+pub struct MapAxis<'a> {
+    /// The label (the swept PATH).
+    pub label: &'a str,
+    /// The values, in grid order.
+    pub values: &'a [f64],
+}
+
+/// A design map: the figure at every grid point, feasibility, the constraints' margins and
+/// the best feasible point. Grid point `(i, j)` (`i` along x, `j` along y) is entry
+/// `i * ny + j` of every per-point slice.
+#[derive(Clone, Copy, Debug)]
+pub struct DesignMap<'a> {
+    /// Title (the figure and the scenario).
+    pub title: &'a str,
+    /// The x axis.
+    pub x: MapAxis<'a>,
+    /// The y axis.
+    pub y: MapAxis<'a>,
+    /// Label of the figure (colour bar).
+    pub figure: &'a str,
+    /// The figure at each grid point (`None`: the point failed or does not give it).
+    pub values: &'a [Option<f64>],
+    /// Whether each grid point satisfies every constraint.
+    pub feasible: &'a [bool],
+    /// Per constraint its label and its margin at each grid point (`>= 0`: satisfied);
+    /// drawn as the contour where the margin is zero.
+    pub contours: &'a [(String, Vec<Option<f64>>)],
+    /// The best feasible grid point `(x, y)`, if any, and its label.
+    pub best: Option<((f64, f64), &'a str)>,
+}
+
+/// Whether the values call for a logarithmic axis: positive, a geometric progression
+/// (ratios equal to 1e-6) over more than a decade.
+pub fn is_geometric(values: &[f64]) -> bool {
+    if values.len() < 3 || values.iter().any(|v| v.is_nan() || *v <= 0.0) {
+        return false;
+    }
+    let r = values[1] / values[0];
+    let span = values[values.len() - 1] / values[0];
+    values
+        .windows(2)
+        .all(|w| ((w[1] / w[0]) / r - 1.0).abs() < 1e-6)
+        && (span.max(1.0 / span)) > 10.0
+}
+
+/// Whether the values are strictly increasing or strictly decreasing (and finite).
+pub fn is_monotonic(values: &[f64]) -> bool {
+    values.iter().all(|v| v.is_finite())
+        && (values.windows(2).all(|w| w[0] < w[1]) || values.windows(2).all(|w| w[0] > w[1]))
+}
+
+/// A viridis-like colour for `t` in [0, 1] (piecewise linear between five stops).
+fn colormap(t: f64) -> RGBColor {
+    const STOPS: [(u8, u8, u8); 5] = [
+        (68, 1, 84),
+        (59, 82, 139),
+        (33, 145, 140),
+        (94, 201, 98),
+        (253, 231, 37),
+    ];
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let s = t * (STOPS.len() - 1) as f64;
+    let k = (s.floor() as usize).min(STOPS.len() - 2);
+    let f = s - k as f64;
+    let mix = |a: u8, b: u8| (a as f64 + (b as f64 - a as f64) * f).round() as u8;
+    let (a, b) = (STOPS[k], STOPS[k + 1]);
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+/// Colours of the constraint contours.
+const CONTOUR: [RGBColor; 4] = [
+    RGBColor(220, 30, 30),
+    RGBColor(255, 255, 255),
+    RGBColor(255, 140, 0),
+    RGBColor(0, 200, 255),
+];
+
+/// Cell edges of grid coordinates `c` (transformed): half-way between neighbours, half a
+/// spacing beyond the ends.
+fn edges(c: &[f64]) -> Vec<(f64, f64)> {
+    let n = c.len();
+    (0..n)
+        .map(|i| {
+            let lo = if i > 0 {
+                0.5 * (c[i - 1] + c[i])
+            } else if n > 1 {
+                c[0] - 0.5 * (c[1] - c[0])
+            } else {
+                c[0] - 0.5
+            };
+            let hi = if i + 1 < n {
+                0.5 * (c[i] + c[i + 1])
+            } else if n > 1 {
+                c[n - 1] + 0.5 * (c[n - 1] - c[n - 2])
+            } else {
+                c[0] + 0.5
+            };
+            (lo, hi)
+        })
+        .collect()
+}
+
+/// The zero contour of `m` over the grid of nodes `(x[i], y[j])` (`m[i * ny + j]`) as
+/// segments: marching squares with linear interpolation along the cell edges; cells with a
+/// missing corner are skipped; a saddle (four crossings) pairs them in edge order.
+pub fn zero_contour(x: &[f64], y: &[f64], m: &[Option<f64>]) -> Vec<[(f64, f64); 2]> {
+    let ny = y.len();
+    let mut segments = vec![];
+    for i in 0..x.len().saturating_sub(1) {
+        for j in 0..ny.saturating_sub(1) {
+            let corners = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)];
+            let values: Option<Vec<f64>> = corners.iter().map(|&(a, b)| m[a * ny + b]).collect();
+            let Some(v) = values else { continue };
+            let mut crossings = vec![];
+            for e in 0..4 {
+                let (p, q) = (corners[e], corners[(e + 1) % 4]);
+                let (a, b) = (v[e], v[(e + 1) % 4]);
+                if (a >= 0.0) != (b >= 0.0) {
+                    let t = a / (a - b);
+                    crossings.push((
+                        x[p.0] + t * (x[q.0] - x[p.0]),
+                        y[p.1] + t * (y[q.1] - y[p.1]),
+                    ));
+                }
+            }
+            for pair in crossings.chunks_exact(2) {
+                segments.push([pair[0], pair[1]]);
+            }
+        }
+    }
+    segments
+}
+
+/// Draws the design map (see the module documentation) and returns the SVG text.
+pub fn plot_map_svg(map: &DesignMap<'_>) -> Result<Vec<u8>, PlotError> {
+    let (nx, ny) = (map.x.values.len(), map.y.values.len());
+    debug_assert_eq!(map.values.len(), nx * ny);
+    let log = (is_geometric(map.x.values), is_geometric(map.y.values));
+    let tx = |v: f64| if log.0 { v.ln() } else { v };
+    let ty = |v: f64| if log.1 { v.ln() } else { v };
+    let cx: Vec<f64> = map.x.values.iter().map(|&v| tx(v)).collect();
+    let cy: Vec<f64> = map.y.values.iter().map(|&v| ty(v)).collect();
+    let (ex, ey) = (edges(&cx), edges(&cy));
+    let range = |e: &[(f64, f64)]| {
+        e.iter()
+            .flat_map(|&(a, b)| [a, b])
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                (lo.min(v), hi.max(v))
+            })
+    };
+    let ((x0, x1), (y0, y1)) = (range(&ex), range(&ey));
+    let (zmin, zmax) = map
+        .values
+        .iter()
+        .flatten()
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
+    let zspan = if zmax > zmin { zmax - zmin } else { 1.0 };
+    let z_of = |v: f64| (v - zmin) / zspan;
+    let label = |l: bool| move |v: &f64| tick(if l { v.exp() } else { *v });
+    let mut legend: Vec<(String, Option<RGBColor>)> = vec![];
+    legend.push((
+        "hatched: breaks a constraint; grey: no value (the point failed)".into(),
+        None,
+    ));
+    for (k, (name, _)) in map.contours.iter().enumerate() {
+        legend.push((
+            format!("contour of {name}"),
+            Some(CONTOUR[k % CONTOUR.len()]),
+        ));
+    }
+    if let Some((_, l)) = map.best {
+        legend.push((format!("x best feasible point: {l}"), Some(BLACK)));
+    }
+    let mut svg = String::new();
+    {
+        let band = 10 + LEGEND_ROW * legend.len() as u32;
+        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT + band)).into_drawing_area();
+        root.fill(&WHITE).map_err(PlotError::of)?;
+        let (main, legend_area) = root.split_vertically(HEIGHT);
+        let (plot, bar) = main.split_horizontally(WIDTH - BAR);
+        let mut chart = ChartBuilder::on(&plot)
+            .caption(map.title, ("sans-serif", 18))
+            .margin(15)
+            .x_label_area_size(45)
+            .y_label_area_size(80)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(PlotError::of)?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc(map.x.label)
+            .y_desc(map.y.label)
+            .x_label_formatter(&label(log.0))
+            .y_label_formatter(&label(log.1))
+            .draw()
+            .map_err(PlotError::of)?;
+        let grey = RGBColor(200, 200, 200);
+        let mut cells = vec![];
+        let mut hatch = vec![];
+        for i in 0..nx {
+            for j in 0..ny {
+                let ((xl, xh), (yl, yh)) = (ex[i], ey[j]);
+                let k = i * ny + j;
+                let fill = match map.values[k] {
+                    Some(v) if v.is_finite() => colormap(z_of(v)),
+                    _ => grey,
+                };
+                cells.push(Rectangle::new([(xl, yl), (xh, yh)], fill.filled()));
+                if !map.feasible[k] {
+                    let (xm, ym) = (0.5 * (xl + xh), 0.5 * (yl + yh));
+                    for seg in [
+                        [(xl, yl), (xh, yh)],
+                        [(xl, ym), (xm, yh)],
+                        [(xm, yl), (xh, ym)],
+                    ] {
+                        hatch.push(PathElement::new(
+                            seg.to_vec(),
+                            BLACK.mix(0.55).stroke_width(1),
+                        ));
+                    }
+                }
+            }
+        }
+        chart.draw_series(cells).map_err(PlotError::of)?;
+        chart.draw_series(hatch).map_err(PlotError::of)?;
+        for (k, (_, margins)) in map.contours.iter().enumerate() {
+            let c = CONTOUR[k % CONTOUR.len()];
+            let segments = zero_contour(&cx, &cy, margins);
+            chart
+                .draw_series(
+                    segments
+                        .into_iter()
+                        .map(|s| PathElement::new(s.to_vec(), c.stroke_width(3))),
+                )
+                .map_err(PlotError::of)?;
+        }
+        if let Some(((bx, by), _)) = map.best {
+            let p = (tx(bx), ty(by));
+            chart
+                .draw_series([
+                    Cross::new(p, 9, BLACK.stroke_width(4)),
+                    Cross::new(p, 7, WHITE.stroke_width(2)),
+                ])
+                .map_err(PlotError::of)?;
+        }
+        // The colour bar: the figure's range top to bottom.
+        let (top, bottom) = (60i32, HEIGHT as i32 - 70);
+        let steps = 120;
+        for s in 0..steps {
+            let y_a = top + (bottom - top) * s / steps;
+            let y_b = top + (bottom - top) * (s + 1) / steps;
+            let t = 1.0 - s as f64 / (steps - 1) as f64;
+            bar.draw(&Rectangle::new(
+                [(10, y_a), (35, y_b)],
+                colormap(t).filled(),
+            ))
+            .map_err(PlotError::of)?;
+        }
+        bar.draw(&Text::new(
+            map.figure.to_string(),
+            (5, top - 30),
+            ("sans-serif", 14).into_font(),
+        ))
+        .map_err(PlotError::of)?;
+        if zmin.is_finite() {
+            for k in 0..=4 {
+                let v = zmax - (zmax - zmin) * k as f64 / 4.0;
+                let y = top + (bottom - top) * k / 4;
+                bar.draw(&Text::new(
+                    tick(v),
+                    (40, y - 7),
+                    ("sans-serif", 13).into_font(),
+                ))
+                .map_err(PlotError::of)?;
+            }
+        }
+        for (k, (text, c)) in legend.iter().enumerate() {
+            let y = 5 + (LEGEND_ROW * k as u32 + LEGEND_ROW / 2) as i32;
+            if let Some(c) = c {
+                legend_area
+                    .draw(&PathElement::new(
+                        vec![(80, y), (120, y)],
+                        c.stroke_width(3),
+                    ))
+                    .map_err(PlotError::of)?;
+            }
+            legend_area
+                .draw(&Text::new(
+                    text.clone(),
+                    (130, y - 8),
+                    ("sans-serif", 15).into_font(),
+                ))
+                .map_err(PlotError::of)?;
+        }
+        root.present().map_err(PlotError::of)?;
+    }
+    Ok(svg.into_bytes())
+}
+
+/// A tick label: four significant digits, shortest form.
+fn tick(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let e = v.abs().log10().floor() as i32;
+    if !(-3..5).contains(&e) {
+        return format!("{v:.3e}");
+    }
+    let digits = (3 - e).clamp(0, 12) as usize;
+    let s = format!("{v:.digits$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The zero contour of a plane `x + y - 1` on a grid is the line `x + y = 1`.
+    #[test]
+    fn the_contour_of_a_plane_is_its_zero_line() {
+        let x: Vec<f64> = (0..6).map(|i| i as f64 * 0.2).collect();
+        let y = x.clone();
+        let m: Vec<Option<f64>> = x
+            .iter()
+            .flat_map(|a| y.iter().map(move |b| Some(a + b - 1.0)))
+            .collect();
+        let segments = zero_contour(&x, &y, &m);
+        assert!(!segments.is_empty());
+        for s in &segments {
+            for p in s {
+                assert!((p.0 + p.1 - 1.0).abs() < 1e-12, "{p:?}");
+            }
+        }
+        // A missing corner drops its cells only.
+        let mut holes = m.clone();
+        holes[2 * 6 + 3] = None;
+        assert!(zero_contour(&x, &y, &holes).len() < segments.len());
+    }
+
+    #[test]
+    fn log_axes_are_chosen_for_geometric_values_over_a_decade() {
+        assert!(is_geometric(&[0.5, 1.0, 2.0, 4.0, 8.0, 16.0]));
+        assert!(!is_geometric(&[1.0, 2.0, 3.0, 4.0]));
+        assert!(!is_geometric(&[1.0, 1.5, 2.25]));
+        assert!(is_monotonic(&[3.0, 2.0, 1.0]) && !is_monotonic(&[1.0, 3.0, 2.0]));
+    }
+}
