@@ -24,9 +24,9 @@
 //! compiled-in generated code, the DAG interpreter and the numeric reference, so any model
 //! the generator accepts can be simulated, compiled in or read at run time.
 
-pub mod assembly;
+mod assembly;
 mod dopri;
-pub mod error;
+mod error;
 mod partitioning;
 mod projection;
 mod rhs;
@@ -36,9 +36,11 @@ mod simulator;
 mod trajectory;
 
 pub use assembly::{
-    Assembly, AssemblyError, AssemblyOptions, assemble_positions, assemble_velocities,
+    Assembly, AssemblyError, AssemblyOptions, RowResidual, assemble_positions, assemble_velocities,
 };
-pub use error::{PartitionChoiceError, RedundancyReport, SettingsError, SimError, SingularReport};
+pub use error::{
+    PartitionChoiceError, RedundancyReport, RedundantRow, SettingsError, SimError, SingularReport,
+};
 pub use mbs_symbolic::runtime::{
     GeneratedSystem, InterpretedSystem, NumericSystem, System, Workspace,
 };
