@@ -31,6 +31,7 @@ pub mod budget;
 pub mod commands;
 pub mod interrupt;
 pub mod linear;
+pub mod optimize;
 pub mod progress;
 pub mod report;
 pub mod run;

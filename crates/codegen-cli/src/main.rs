@@ -9,7 +9,9 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use codegen_cli::commands::{eval, frf, generate, linearize, merge, modes, simulate, sweep};
+use codegen_cli::commands::{
+    eval, frf, generate, linearize, merge, modes, optimize, simulate, sweep,
+};
 
 /// Design and verification of electromagnetic vibration dampers (beam + mechanism + generator)
 ///
@@ -63,6 +65,11 @@ enum Command {
     /// The linear receptance with and without the generator, and with `--nonlinear` the
     /// steady state of the full system from time-domain runs.
     Frf(frf::Args),
+    /// Best design within bounds under constraints, from the linearised system
+    ///
+    /// Multi-start (a coarse grid, then COBYLA from its best feasible points) over numeric
+    /// scenario fields; the optimum, its active constraints and the KKT residual.
+    Optimize(optimize::Args),
 }
 
 /// The longest error line printed (characters): past it the remaining problems are counted,
@@ -119,6 +126,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Sweep(args) => sweep::run(args)?,
         Command::Merge(args) => merge::run(args)?,
         Command::Frf(args) => frf::run(args)?,
+        Command::Optimize(args) => optimize::run(args)?,
     }
     Ok(())
 }

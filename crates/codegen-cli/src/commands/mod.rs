@@ -6,5 +6,6 @@ pub mod generate;
 pub mod linearize;
 pub mod merge;
 pub mod modes;
+pub mod optimize;
 pub mod simulate;
 pub mod sweep;

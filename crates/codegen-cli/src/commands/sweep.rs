@@ -78,7 +78,7 @@ pub struct Args {
     /// on a two-axis sweep, the constraint's contour drawn on the design map, the points
     /// that break it hatched.
     #[arg(long = "constraint", value_name = "FIGURE>=VALUE")]
-    pub constraints: Vec<Constraint>,
+    pub constraints: Vec<String>,
     /// The figure of the design map of a two-axis sweep (`sweep_map_<FIGURE>.svg`) and of
     /// the best feasible point.
     #[arg(long, value_name = "FIGURE", default_value = "linear.zeta1")]
@@ -176,6 +176,12 @@ pub enum SpecError {
         factors: String,
         /// Their product.
         product: f64,
+    },
+    /// A `--vary` that is not `PATH=LO:HI` with finite `LO < HI`.
+    #[error("--vary {text}: expected PATH=LO:HI with finite LO < HI")]
+    Vary {
+        /// The option's value.
+        text: String,
     },
     /// A `--constraint` that is not `FIGURE>=VALUE` or `FIGURE<=VALUE` with a finite VALUE.
     #[error("--constraint {text}: expected FIGURE>=VALUE or FIGURE<=VALUE (a finite number)")]
@@ -715,7 +721,11 @@ pub fn run(args: Args) -> Result<(), Error> {
         t_end: args.t_end.map(|t| cell(Some(t))),
         time_domain: args.time_domain,
         grid_size: grid.len(),
-        constraints: args.constraints.iter().map(|c| c.text.clone()).collect(),
+        constraints: args
+            .constraints
+            .iter()
+            .map(|c| c.parse::<Constraint>().map(|c| c.text))
+            .collect::<Result<_, _>>()?,
         map: args.map.clone(),
         minimize: args.minimize,
     };

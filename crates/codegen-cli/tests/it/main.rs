@@ -18,6 +18,7 @@ mod hybrid_cli;
 mod linear_vs_time_domain;
 mod linearize_cli;
 mod modes_cli;
+mod optimize_cli;
 mod output_dir_cli;
 mod preset;
 mod readme_cli;

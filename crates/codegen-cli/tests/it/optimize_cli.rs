@@ -1,0 +1,155 @@
+//! `damper optimize`: the optimum of the paper's damper under a reach constraint against its
+//! closed form and against a dense sweep of the same figures, the active constraint and
+//! bound named, the KKT residual, the JSON and history outputs, and an infeasible problem.
+
+use std::path::PathBuf;
+
+use crate::common::{assert_bad_input, damper};
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("damper-optimize-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+/// Maximum first-mode damping of the paper's damper over the half-angle (3–25°) and the load
+/// resistance (0.5–20 Ω) with a 2 mm reach: damping rises towards the toggle and falls with
+/// the resistance, so the optimum is where the reach constraint is active,
+/// `2 L (1 - cos a) = 2 mm` (L = 0.1 m: a = acos(0.99)), at the lowest resistance; no point of
+/// a dense sweep of the same figures does better.
+#[test]
+fn the_paper_damper_optimum_is_on_its_reach_constraint_at_the_lowest_resistance() {
+    let dir = scratch("paper");
+    let (code, out, err) = damper(&[
+        "optimize",
+        "scenarios/damper.toml",
+        "--vary",
+        "mechanism.half_angle_deg=3:25",
+        "--vary",
+        "generator.load_resistance=0.5:20",
+        "--maximize",
+        "zeta1",
+        "--constraint",
+        "reach>=0.002",
+        "--json",
+        "-o",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let angle = j["optimum"][0][1].as_f64().unwrap();
+    let closed = 0.99f64.acos().to_degrees();
+    assert!(
+        (angle - closed).abs() < 1e-6 * closed,
+        "{angle} vs {closed}"
+    );
+    assert_eq!(j["optimum"][1][1].as_f64(), Some(0.5));
+    assert_eq!(j["at_bounds"][0][0], "generator.load_resistance");
+    assert_eq!(j["at_bounds"][0][1], "lower");
+    let c = &j["constraints"][0];
+    assert_eq!(c["active"], true);
+    assert!(c["margin"].as_f64().unwrap().abs() < 1e-9, "{c}");
+    assert!(c["multiplier"].as_f64().unwrap() > 0.0, "{c}");
+    assert!(
+        j["kkt_residual"].as_f64().unwrap() < 1e-6,
+        "{}",
+        j["kkt_residual"]
+    );
+    assert!(
+        j["starts_agreeing"].as_u64().unwrap() >= 2,
+        "{}",
+        j["starts_agreeing"]
+    );
+    let zeta = j["objective"][1].as_f64().unwrap();
+    // A dense sweep of the same figures: no feasible point beats the optimum, and the best
+    // one is close to it (the grid brackets the optimum's angle within 0.25 degrees).
+    let sweep = dir.join("sweep");
+    let (code, _, err) = damper(&[
+        "sweep",
+        "scenarios/damper.toml",
+        "--quiet",
+        "--set",
+        "mechanism.half_angle_deg=3:25:89",
+        "--set",
+        "generator.load_resistance=0.5,1,2,5,10,20",
+        "--constraint",
+        "linear.reach>=0.002",
+        "-o",
+        sweep.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let s: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(sweep.join("sweep.json")).unwrap()).unwrap();
+    let best = s["best"]["value"].as_f64().unwrap();
+    assert!(
+        best <= zeta * (1.0 + 1e-12),
+        "grid {best} beats the optimum {zeta}"
+    );
+    assert!(best > 0.95 * zeta, "grid {best} vs optimum {zeta}");
+    // The files: the same JSON, and one history row per evaluation.
+    let file: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("optimize.json")).unwrap()).unwrap();
+    assert_eq!(file, j);
+    let history = std::fs::read_to_string(dir.join("optimize_history.csv")).unwrap();
+    assert_eq!(
+        history.lines().count(),
+        1 + j["history"].as_array().unwrap().len()
+    );
+    assert!(history.starts_with(
+        "stage,mechanism.half_angle_deg,generator.load_resistance,linear.zeta1,linear.reach,error"
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A requirement no design meets: one line naming the least infeasible point, exit 2.
+#[test]
+fn an_infeasible_problem_names_the_least_infeasible_point() {
+    let err = assert_bad_input(
+        &[
+            "optimize",
+            "scenarios/damper.toml",
+            "--vary",
+            "mechanism.half_angle_deg=3:25",
+            "--maximize",
+            "zeta1",
+            "--constraint",
+            "reach>=0.05",
+        ],
+        &[
+            "no point satisfies the constraints",
+            "least infeasible",
+            "needs reach>=0.05",
+        ],
+    );
+    // The least infeasible point is the largest angle (the most reach).
+    assert!(err.contains("mechanism.half_angle_deg = 25"), "{err}");
+}
+
+/// Bad options are refused in one line before any work.
+#[test]
+fn bad_variables_and_goals_are_refused() {
+    assert_bad_input(
+        &[
+            "optimize",
+            "scenarios/damper.toml",
+            "--vary",
+            "mechanism.half_angle_deg=25:3",
+            "--maximize",
+            "zeta1",
+        ],
+        &["--vary mechanism.half_angle_deg=25:3", "LO < HI"],
+    );
+    // Both goals: clap's usage error (exit status 2).
+    let (code, _, err) = damper(&[
+        "optimize",
+        "scenarios/damper.toml",
+        "--vary",
+        "mechanism.half_angle_deg=3:25",
+        "--maximize",
+        "zeta1",
+        "--minimize",
+        "f1",
+    ]);
+    assert_eq!(code, 2);
+    assert!(err.contains("cannot be used with"), "{err}");
+}
