@@ -365,8 +365,7 @@ pub fn optimize(p: &Problem<'_>) -> Result<Outcome, OptimizeError> {
                 }) as Box<ScaledFn<'_>>
             })
             .collect();
-        let cons_ref: Vec<&ScaledFn<'_>> =
-            cons.iter().map(|c| c.as_ref()).collect();
+        let cons_ref: Vec<&ScaledFn<'_>> = cons.iter().map(|c| c.as_ref()).collect();
         let bounds = vec![(0.0, 1.0); d];
         let stop = cobyla::StopTols {
             xtol_rel: 1e-9,

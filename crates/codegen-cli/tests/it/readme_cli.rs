@@ -217,14 +217,16 @@ fn masked(line: &str) -> String {
 }
 
 /// Every sample line of `damper simulate` in the README (an indented line starting with a
-/// bundled scenario's path) is what the bundled scenario prints, apart from the wall-clock
+/// bundled scenario's path and giving its steps) is what the bundled scenario prints, apart from the wall-clock
 /// time and the output directory.
 #[test]
 fn readme_sample_runs_are_what_the_scenarios_print() {
     let text = readme();
     let samples: Vec<&str> = text
         .lines()
-        .filter(|l| l.starts_with("    scenarios/") && l.contains(".toml: "))
+        .filter(|l| {
+            l.starts_with("    scenarios/") && l.contains(".toml: ") && l.contains(" steps in ")
+        })
         .map(str::trim_start)
         .collect();
     assert!(samples.len() >= 3, "{samples:?}");
