@@ -81,7 +81,8 @@ impl std::str::FromStr for Variable {
 /// Short names of the linear figures: `zeta1` is `linear.zeta1`, ...
 pub fn figure_name(name: &str) -> String {
     match name {
-        "zeta1" | "f1" | "reach" | "amplification" | "jacobian_condition" => {
+        "zeta1" | "f1" | "reach" | "amplification" | "jacobian_condition" | "decay1"
+        | "overdamped1" => {
             format!("linear.{name}")
         }
         other => other.to_string(),
@@ -126,6 +127,9 @@ pub struct Evaluation {
     pub error: Option<String>,
     /// `grid` or the start index of the COBYLA run.
     pub stage: String,
+    /// Whether the first mode is overdamped there (`linear.overdamped1`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub overdamped: Option<bool>,
 }
 
 impl Evaluation {
@@ -180,6 +184,8 @@ pub struct Outcome {
     pub constraints: Vec<ConstraintReport>,
     /// The KKT residual (see the module documentation).
     pub kkt_residual: f64,
+    /// Whether the first mode is overdamped at the optimum (its damping ratio reads 1).
+    pub overdamped: bool,
     /// COBYLA runs that ended at this optimum (objective within 1e-6 relative).
     pub starts_agreeing: usize,
     /// COBYLA runs.
@@ -246,6 +252,7 @@ fn evaluate(p: &Problem<'_>, x: &[f64], stage: &str) -> Evaluation {
                 margins,
                 error: None,
                 stage: stage.to_string(),
+                overdamped: figure(&e.figures, "linear.overdamped1").map(|v| v > 0.5),
             }
         }
         Err(e) => Evaluation {
@@ -255,6 +262,7 @@ fn evaluate(p: &Problem<'_>, x: &[f64], stage: &str) -> Evaluation {
             margins: vec![None; p.constraints.len()],
             error: Some(e.to_string().replace('\n', "; ")),
             stage: stage.to_string(),
+            overdamped: None,
         },
     }
 }
@@ -504,6 +512,7 @@ pub fn optimize(p: &Problem<'_>) -> Result<Outcome, OptimizeError> {
         objective: (p.objective.clone(), value),
         constraints,
         kkt_residual: kkt,
+        overdamped: best.overdamped.unwrap_or(false),
         starts_agreeing: agreeing,
         starts: starts.len(),
         history,

@@ -3,7 +3,8 @@
 //!
 //! The linearised figures come from the report `damper linearize` prints
 //! ([`crate::linear::analyse`]): the first mode's natural frequency and damping ratio with
-//! the generator(s) connected and disconnected, the bare beam's first frequency, the first
+//! the generator(s) connected and disconnected, the first mode's decay rate
+//! (`linear.decay1`, `-Re lambda`) and whether it is overdamped (`linear.overdamped1`, 0/1), the bare beam's first frequency, the first
 //! generator's amplification, the smallest remaining reach to a singular position and the
 //! mechanisms' largest cond(J_d) at the equilibrium.
 //!
@@ -181,9 +182,20 @@ fn linearised(path: &Path, loaded: &Loaded, figures: &mut Vec<Figure>) -> Result
         .map(|m| (m.natural_frequency_hz, m.damping_ratio));
     let off = first(&r.generator_disconnected);
     let bare = first(&r.bare_beam);
+    // The first mode's decay rate -Re(lambda): ordered on both sides of critical damping
+    // (it rises with the damping up to critical, then falls with the slow root of an
+    // overdamped mode), where the damping ratio of an overdamped mode reads 1 (a plateau).
+    let decay1 = r.modes.first().map(|m| m.decay_rate);
+    let overdamped1 = r.modes.first().map(|m| {
+        f64::from(u8::from(
+            m.kind == hybrid_core::hybrid::ModeKind::Overdamped,
+        ))
+    });
     figures.extend([
         Figure::new("linear.f1", "Hz", with.map(|m| m.0)),
         Figure::new("linear.zeta1", "-", with.map(|m| m.1)),
+        Figure::new("linear.decay1", "1/s", decay1),
+        Figure::new("linear.overdamped1", "-", overdamped1),
         Figure::new("linear.f1_generator_disconnected", "Hz", off.map(|m| m.0)),
         Figure::new("linear.zeta1_generator_disconnected", "-", off.map(|m| m.1)),
         Figure::new("linear.f1_bare_beam", "Hz", bare.map(|m| m.0)),

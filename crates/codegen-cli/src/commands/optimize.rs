@@ -164,6 +164,9 @@ pub fn run(args: Args) -> Result<(), Error> {
         cell(Some(outcome.objective.1)),
         if maximize { "maximised" } else { "minimised" }
     ));
+    if outcome.overdamped {
+        text.push_str("  the first mode is overdamped at the optimum (zeta1 reads 1 there: maximise decay1 for the fastest decay)\n");
+    }
     for (p, side) in &outcome.at_bounds {
         text.push_str(&format!("  {p} at its {side} bound\n"));
     }

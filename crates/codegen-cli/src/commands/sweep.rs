@@ -919,7 +919,7 @@ pub struct Part {
 }
 
 /// Units known to figures (a part file names them as text).
-const UNITS: [&str; 6] = ["-", "Hz", "m", "rad/m", "J", "A"];
+const UNITS: [&str; 7] = ["-", "Hz", "m", "rad/m", "J", "A", "1/s"];
 
 impl Part {
     fn new(spec: &SweepSpec, shard: usize, shards: usize, results: &[PointResult]) -> Part {

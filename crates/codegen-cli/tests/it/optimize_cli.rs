@@ -153,3 +153,68 @@ fn bad_variables_and_goals_are_refused() {
     assert_eq!(code, 2);
     assert!(err.contains("cannot be used with"), "{err}");
 }
+
+/// A large gear ratio overdamps the first mode: its damping ratio reads 1 on a plateau, and
+/// the report says the optimum is overdamped; the decay rate stays ordered there.
+#[test]
+fn an_overdamped_optimum_is_reported_as_such() {
+    let (code, out, err) = damper(&[
+        "optimize",
+        "scenarios/damper.toml",
+        "--vary",
+        "generator.gear_ratio=5:30",
+        "--maximize",
+        "zeta1",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(j["overdamped"], true);
+    assert_eq!(j["objective"][1].as_f64(), Some(1.0));
+    // On the plateau the decay rate still varies: two gear ratios past the onset differ.
+    let decay = |g: &str| -> f64 {
+        let (code, out, err) = damper(&[
+            "linearize",
+            "scenarios/damper.toml",
+            "--json",
+            "--modes",
+            "1",
+            "--set",
+            &format!("generator.gear_ratio={g}"),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let r: serde_json::Value = serde_json::from_str(&out).unwrap();
+        assert_eq!(r["modes"][0]["damping_ratio"].as_f64(), Some(1.0), "{g}");
+        r["modes"][0]["decay_rate"].as_f64().unwrap()
+    };
+    let (a, b) = (decay("30"), decay("32"));
+    assert!(a > b * (1.0 + 1e-3), "{a} vs {b}");
+    // The fastest decay: the decay rate rises with the damping up to critical and falls
+    // past it (the slow root), so its maximum is the critical design (a kink: the KKT
+    // residual is not small there, and the report shows it).
+    let (code, out, err) = damper(&[
+        "optimize",
+        "scenarios/damper.toml",
+        "--vary",
+        "generator.gear_ratio=5:40",
+        "--maximize",
+        "decay1",
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let g = j["optimum"][0][1].as_f64().unwrap();
+    let (code, out, err) = damper(&[
+        "linearize",
+        "scenarios/damper.toml",
+        "--json",
+        "--modes",
+        "1",
+        "--set",
+        &format!("generator.gear_ratio={g}"),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let r: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let zeta = r["modes"][0]["damping_ratio"].as_f64().unwrap();
+    assert!(zeta > 0.99, "gear ratio {g}: zeta {zeta}");
+}
