@@ -909,7 +909,7 @@ pub struct Part {
 }
 
 /// Units known to figures (a part file names them as text).
-const UNITS: [&str; 6] = ["-", "Hz", "m", "rad/m", "J", "A"];
+const UNITS: [&str; 8] = ["-", "Hz", "m", "rad/m", "J", "A", "N", "N m"];
 
 impl Part {
     fn new(spec: &SweepSpec, shard: usize, shards: usize, results: &[PointResult]) -> Part {
