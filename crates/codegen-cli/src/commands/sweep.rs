@@ -1446,9 +1446,14 @@ fn plots(
         }
         let refs: Vec<(&str, &[(f64, f64)])> =
             series.iter().map(|(l, p)| (l.as_str(), &p[..])).collect();
-        let bytes =
-            crate::report::plot::plot_xy_svg(&title(what), &axis.path, y_desc, &refs, log_x)
-                .map_err(ReportError::from)?;
+        let bytes = crate::report::plot::plot_xy_svg(
+            &title(what),
+            &axis.path,
+            y_desc,
+            &refs,
+            (log_x, false),
+        )
+        .map_err(ReportError::from)?;
         files.push(OutputFile {
             path: out.join(file),
             bytes,

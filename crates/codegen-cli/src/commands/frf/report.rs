@@ -284,8 +284,8 @@ pub(super) fn smallest(linear: &[LinearRow], k: usize) -> (f64, f64) {
         .expect("at least two frequencies")
 }
 
-/// `frf_max_force.svg`: the admissible load of every mechanism against the frequency, and
-/// the excitation's own amplitude as a horizontal line (the design fails where a curve
+/// `frf_max_force.svg`: the admissible load of every mechanism against the frequency (on a
+/// log axis: it spans decades), and the excitation's own amplitude as a horizontal line (the design fails where a curve
 /// goes below it).
 fn max_force_svg(args: &Args, stem: &str, io: &Io, linear: &[LinearRow]) -> Result<Vec<u8>, Error> {
     let curves: Vec<(String, Vec<(f64, f64)>)> = io
@@ -324,7 +324,7 @@ fn max_force_svg(args: &Args, stem: &str, io: &Io, linear: &[LinearRow]) -> Resu
         "f [Hz]",
         &format!("max force amplitude [{}]", io.force_unit),
         &series,
-        args.log,
+        (args.log, true),
     )
     .map_err(|e: PlotError| PlotFailed("frf_max_force.svg", e.message().to_string()).into())
 }
