@@ -7,9 +7,11 @@
 //! figures are.
 
 use hybrid_core::hybrid::{
-    EigenMethod, EquilibriumOptions, HybridModel, Linearization, Mode, ModeKind, modes,
+    BeamPoint, EigenMethod, EquilibriumOptions, ExcitationTarget, HybridModel, Linearization, Mode,
+    ModeKind, modes,
 };
 use mbs_symbolic::runtime::TangentSystem;
+use nalgebra::Complex;
 use serde::Serialize;
 
 use crate::Error;
@@ -120,6 +122,113 @@ pub struct LinearReport {
     pub bare_beam: Option<Vec<ModeReport>>,
 }
 
+/// How far mechanism `i`'s first attached beam point can still move from the beam state
+/// `beam_q` toward the singular (toggle) position (m): the mechanism's reach less the
+/// point's displacement (the reach itself without an attachment); `None` where the geometry
+/// does not give a reach.
+pub fn remaining_reach(model: &HybridModel, i: usize, beam_q: &[f64]) -> Option<f64> {
+    let w = model
+        .attachments
+        .iter()
+        .find(|a| a.mechanism == i)
+        .map_or(0.0, |a| a.beam.value(beam_q));
+    Some(model.mechanisms[i].reach? - w)
+}
+
+/// The admissible load of one mechanism (issue #22, item 3): its remaining reach at the
+/// equilibrium and the beam point of its first attachment, whose harmonic amplitude must
+/// stay below the reach. For a harmonic force of amplitude `F` the linear amplitude of the
+/// point is `|H_att| F` (`H_att`: the receptance from the force to the point's
+/// displacement `w`), so the largest force amplitude the mechanism can take is
+///
+/// ```text
+/// F_max(omega) = reach / |H_att(omega)|
+/// ```
+#[derive(Clone, Debug)]
+pub struct LoadLimit {
+    /// Index into [`HybridModel::mechanisms`].
+    pub mechanism: usize,
+    /// Its name.
+    pub name: String,
+    /// The remaining reach at the equilibrium (m), [`remaining_reach`].
+    pub reach: f64,
+    /// The beam point of its first attachment.
+    pub point: BeamPoint,
+}
+
+impl LoadLimit {
+    /// Every mechanism with a reach and an attachment, at the equilibrium of `lin`.
+    pub fn of(model: &HybridModel, lin: &Linearization) -> Vec<LoadLimit> {
+        let beam_q = &lin.equilibrium.beam_q;
+        (0..model.mechanisms.len())
+            .filter_map(|i| {
+                let a = model.attachments.iter().find(|a| a.mechanism == i)?;
+                Some(LoadLimit {
+                    mechanism: i,
+                    name: model.mechanisms[i].name.clone(),
+                    reach: remaining_reach(model, i, beam_q)?,
+                    point: a.beam.clone(),
+                })
+            })
+            .collect()
+    }
+
+    /// `H_att`: the point's displacement in the harmonic response `z` (per unit force,
+    /// [`Linearization::harmonic_response`]).
+    pub fn receptance(&self, z: &[Complex<f64>]) -> Complex<f64> {
+        self.point
+            .weights
+            .iter()
+            .map(|&(k, w)| z[k] * w)
+            .sum::<Complex<f64>>()
+    }
+
+    /// `F_max = reach / |H_att|` for the harmonic response `z` per unit force (infinite
+    /// where the point does not move).
+    pub fn max_force(&self, z: &[Complex<f64>]) -> f64 {
+        self.reach / self.receptance(z).norm()
+    }
+}
+
+/// An admissible load and its unit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MaxForce {
+    /// The force amplitude.
+    pub value: f64,
+    /// `N`, or `N m` for a joint torque.
+    pub unit: &'static str,
+}
+
+/// `linear.max_force`: the smallest over the mechanisms of `reach / |H_att|` at `f_hz`
+/// for the model's first excitation (`None` without an excitation or a load limit), with
+/// its unit (`N` for a beam force, `N m` or `N` for a joint torque or force).
+pub fn max_force_at(
+    model: &HybridModel,
+    lin: &Linearization,
+    f_hz: f64,
+) -> Result<Option<MaxForce>, hybrid_core::hybrid::LinearError> {
+    let Some(e) = model.excitations.first() else {
+        return Ok(None);
+    };
+    let limits = LoadLimit::of(model, lin);
+    if limits.is_empty() {
+        return Ok(None);
+    }
+    let f = lin.force_vector(&e.target);
+    let z = lin.harmonic_response(&f, 2.0 * std::f64::consts::PI * f_hz)?;
+    let unit = match &e.target {
+        ExcitationTarget::Beam(_) => "N",
+        ExcitationTarget::Joint { mechanism, joint } => {
+            model.mechanisms[*mechanism].system.coordinate_units()[*joint].force()
+        }
+    };
+    Ok(limits
+        .iter()
+        .map(|l| l.max_force(&z))
+        .reduce(f64::min)
+        .map(|value| MaxForce { value, unit }))
+}
+
 /// Linearises a loaded scenario and computes `k` modes of each variant.
 pub fn analyse(
     file: &str,
@@ -169,6 +278,39 @@ pub fn analyse_model(
     k: usize,
     method: EigenMethod,
 ) -> Result<LinearReport, Error> {
+    Ok(analyse_linearization(file, input, k, method)?.0)
+}
+
+/// [`analyse`] and the admissible load at the first mode's natural frequency (with the
+/// generator) for the scenario's first excitation, [`max_force_at`]: one more complex
+/// solve (the sweep figure `linear.max_force`).
+pub fn analyse_with_max_force(
+    file: &str,
+    sc: &Scenario,
+    k: usize,
+    method: EigenMethod,
+) -> Result<(LinearReport, Option<MaxForce>), Error> {
+    let input = tangents_for(sc)?;
+    let (report, lin) = analyse_linearization(file, &input, k, method)?;
+    let max_force = match report.modes.first() {
+        Some(m) => max_force_at(&input.model, &lin, m.natural_frequency_hz).map_err(|error| {
+            Error::Linear {
+                file: file.to_string(),
+                error,
+            }
+        })?,
+        None => None,
+    };
+    Ok((report, max_force))
+}
+
+/// [`analyse_model`], keeping the linearisation with the generator.
+fn analyse_linearization(
+    file: &str,
+    input: &Linearizable,
+    k: usize,
+    method: EigenMethod,
+) -> Result<(LinearReport, Linearization), Error> {
     let refs = input.tangent_refs();
     let model = &input.model;
     let lin = linearise(file, model, &refs)?;
@@ -207,14 +349,7 @@ pub fn analyse_model(
                 free: eq.free[i].iter().map(|&c| names[c].clone()).collect(),
                 jacobian_condition: eq.conditions[i],
                 multipliers: eq.multipliers[i].clone(),
-                reach: m.reach.map(|r| {
-                    let w = model
-                        .attachments
-                        .iter()
-                        .find(|a| a.mechanism == i)
-                        .map_or(0.0, |a| a.beam.value(&eq.beam_q));
-                    r - w
-                }),
+                reach: remaining_reach(model, i, &eq.beam_q),
             }
         })
         .collect();
@@ -238,7 +373,7 @@ pub fn analyse_model(
             });
         }
     }
-    Ok(LinearReport {
+    let report = LinearReport {
         scenario: file.to_string(),
         overrides: vec![],
         method,
@@ -252,7 +387,8 @@ pub fn analyse_model(
         modes: with,
         generator_disconnected,
         bare_beam,
-    })
+    };
+    Ok((report, lin))
 }
 
 fn mode_report(i: usize, m: &Mode, lin: &Linearization, model: &HybridModel) -> ModeReport {

@@ -4,8 +4,11 @@
 //! The linearised figures come from the report `damper linearize` prints
 //! ([`crate::linear::analyse`]): the first mode's natural frequency and damping ratio with
 //! the generator(s) connected and disconnected, the first mode's decay rate
-//! (`linear.decay1`, `-Re lambda`) and whether it is overdamped (`linear.overdamped1`, 0/1), the bare beam's first frequency, the first
-//! generator's amplification, the smallest remaining reach to a singular position and the
+//! (`linear.decay1`, `-Re lambda`) and whether it is overdamped (`linear.overdamped1`, 0/1),
+//! the bare beam's first frequency, the first generator's amplification, the smallest
+//! remaining reach to a singular position, the admissible load (`linear.max_force`: the
+//! smallest over the mechanisms of reach / |H_att| at `linear.f1` for the scenario's first
+//! excitation, [`crate::linear::max_force_at`]; N, or N m for a joint excitation) and the
 //! mechanisms' largest cond(J_d) at the equilibrium.
 //!
 //! With `--time-domain`, the figures of the run's own summary, the one `damper simulate`
@@ -169,7 +172,8 @@ fn linearised(path: &Path, loaded: &Loaded, figures: &mut Vec<Figure>) -> Result
         return Ok(());
     }
     let file = path.display().to_string();
-    let r = crate::linear::analyse(&file, &loaded.scenario, 1, EigenMethod::Auto)?;
+    let (r, max_force) =
+        crate::linear::analyse_with_max_force(&file, &loaded.scenario, 1, EigenMethod::Auto)?;
     let first = |modes: &Option<Vec<crate::linear::ModeReport>>| {
         modes
             .as_ref()
@@ -212,6 +216,11 @@ fn linearised(path: &Path, loaded: &Loaded, figures: &mut Vec<Figure>) -> Result
                 .iter()
                 .filter_map(|m| m.reach)
                 .reduce(f64::min),
+        ),
+        Figure::new(
+            "linear.max_force",
+            max_force.map_or("N", |m| m.unit),
+            max_force.map(|m| m.value),
         ),
         Figure::new(
             "linear.jacobian_condition",

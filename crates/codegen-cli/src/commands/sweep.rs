@@ -919,7 +919,7 @@ pub struct Part {
 }
 
 /// Units known to figures (a part file names them as text).
-const UNITS: [&str; 7] = ["-", "Hz", "m", "rad/m", "J", "A", "1/s"];
+const UNITS: [&str; 9] = ["-", "Hz", "m", "rad/m", "J", "A", "N", "N m", "1/s"];
 
 impl Part {
     fn new(spec: &SweepSpec, shard: usize, shards: usize, results: &[PointResult]) -> Part {
@@ -1456,9 +1456,14 @@ fn plots(
         }
         let refs: Vec<(&str, &[(f64, f64)])> =
             series.iter().map(|(l, p)| (l.as_str(), &p[..])).collect();
-        let bytes =
-            crate::report::plot::plot_xy_svg(&title(what), &axis.path, y_desc, &refs, log_x)
-                .map_err(ReportError::from)?;
+        let bytes = crate::report::plot::plot_xy_svg(
+            &title(what),
+            &axis.path,
+            y_desc,
+            &refs,
+            (log_x, false),
+        )
+        .map_err(ReportError::from)?;
         files.push(OutputFile {
             path: out.join(file),
             bytes,

@@ -219,19 +219,19 @@ pub fn plot_damping_vs_amplitude_svg(
 }
 
 /// SVG plot of labelled series of points `(x, y)` joined by lines, with markers (a
-/// parameter study: a figure against a swept parameter); the x axis logarithmic when
-/// `log_x` and every x is positive. Series with fewer than one finite point are left out of
-/// the plot area but keep their legend row.
+/// parameter study: a figure against a swept parameter); an axis logarithmic when asked
+/// (`(log_x, log_y)`) and its every value is positive. Series with fewer than one finite
+/// point are left out of the plot area but keep their legend row.
 pub fn plot_xy_svg(
     title: &str,
     x_desc: &str,
     y_desc: &str,
     series: &[(&str, &[(f64, f64)])],
-    log_x: bool,
+    (log_x, log_y): (bool, bool),
 ) -> Result<Vec<u8>, PlotError> {
     let labels: Vec<&str> = series.iter().map(|s| s.0).collect();
     with_legend(&labels, |area| {
-        let (x0, x1, y0, y1) = extent(series);
+        let (x0, x1, y_lo, y_hi) = extent(series);
         let pad = |lo: f64, hi: f64| {
             if lo < hi {
                 let p = 0.05 * (hi - lo);
@@ -243,7 +243,7 @@ pub fn plot_xy_svg(
                 (0.0, 1.0)
             }
         };
-        let (y0, y1) = pad(y0, y1);
+        let (y0, y1) = pad(y_lo, y_hi);
         let caption = (title, ("sans-serif", 18));
         let draw_points = |k: usize, pts: &[(f64, f64)]| {
             pts.iter()
@@ -258,15 +258,15 @@ pub fn plot_xy_svg(
                 .filter(|p| p.0.is_finite() && p.1.is_finite())
                 .collect::<Vec<_>>()
         };
-        // The same chart on a logarithmic or a linear x axis (different coordinate types).
+        // The same chart on logarithmic or linear axes (different coordinate types).
         macro_rules! chart_on {
-            ($x:expr) => {{
+            ($x:expr, $y:expr) => {{
                 let mut chart = ChartBuilder::on(area)
                     .caption(caption.0, caption.1)
                     .margin(15)
                     .x_label_area_size(40)
                     .y_label_area_size(80)
-                    .build_cartesian_2d($x, y0..y1)
+                    .build_cartesian_2d($x, $y)
                     .map_err(PlotError::of)?;
                 chart
                     .configure_mesh()
@@ -284,11 +284,22 @@ pub fn plot_xy_svg(
                 }
             }};
         }
+        let log_y = log_y && log_range(y_lo, y_hi);
+        let y_log = (y_lo / 1.2..y_hi * 1.2).log_scale();
         if log_x && log_range(x0, x1) {
-            chart_on!((x0 / 1.1..x1 * 1.1).log_scale());
+            let x = (x0 / 1.1..x1 * 1.1).log_scale();
+            if log_y {
+                chart_on!(x, y_log);
+            } else {
+                chart_on!(x, y0..y1);
+            }
         } else {
             let (x0, x1) = pad(x0, x1);
-            chart_on!(x0..x1);
+            if log_y {
+                chart_on!(x0..x1, y_log);
+            } else {
+                chart_on!(x0..x1, y0..y1);
+            }
         }
         Ok(())
     })

@@ -6,6 +6,7 @@
 static GLOBAL: damper_e2e::alloc_counter::CountingAllocator =
     damper_e2e::alloc_counter::CountingAllocator;
 
+mod admissible_load;
 mod amplification_cli;
 mod bad_values_cli;
 mod bundled_hybrid;

@@ -13,6 +13,7 @@ use serde::Serialize;
 
 use super::Args;
 use crate::Error;
+use crate::linear::LoadLimit;
 use crate::setup::Linearizable;
 
 /// The response and the force, resolved against the model.
@@ -24,6 +25,9 @@ pub(super) struct Io {
     pub(super) excitation: Excitation,
     /// Index of a scenario excitation, `None` for the force at the output point.
     pub(super) scenario_excitation: Option<usize>,
+    /// The mechanisms with a reach and an attachment, at the equilibrium with the
+    /// generator: the admissible load.
+    pub(super) limits: Vec<LoadLimit>,
 }
 
 impl Io {
@@ -62,7 +66,7 @@ impl From<Complex<f64>> for Receptance {
 }
 
 /// One row of the linear response.
-#[derive(Clone, Copy, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize)]
 pub struct LinearRow {
     /// Frequency (Hz).
     pub f_hz: f64,
@@ -70,6 +74,9 @@ pub struct LinearRow {
     pub with_generator: Receptance,
     /// Generator disconnected.
     pub generator_disconnected: Receptance,
+    /// The admissible load with the generator, per load limit (in the order of
+    /// [`Io::limits`]): `reach / |H_att|` (force unit), [`LoadLimit::max_force`].
+    pub max_force: Vec<f64>,
 }
 
 /// One nonlinear steady state.
@@ -123,8 +130,9 @@ pub(super) fn usage(msg: impl Into<String>) -> Error {
     Error::Usage(msg.into())
 }
 
-/// Resolves `--output`, `--excitation` and `--force` against the model.
-pub(super) fn resolve(args: &Args, lz: &Linearizable) -> Result<Io, Error> {
+/// Resolves `--output`, `--excitation` and `--force` against the model (`lin`: its
+/// linearisation with the generator, whose equilibrium gives the remaining reaches).
+pub(super) fn resolve(args: &Args, lz: &Linearizable, lin: &Linearization) -> Result<Io, Error> {
     let model = &lz.model;
     let (output, output_label, response_unit) = match args.output.split_once('/') {
         None => {
@@ -246,7 +254,14 @@ pub(super) fn resolve(args: &Args, lz: &Linearizable) -> Result<Io, Error> {
         force_unit,
         excitation,
         scenario_excitation: chosen,
+        limits: LoadLimit::of(model, lin),
     })
+}
+
+/// The response per unit force for the force vector `f`, at `omega` (rad/s).
+fn response(lin: &Linearization, f: &[f64], omega: f64) -> Result<Vec<Complex<f64>>, Error> {
+    lin.harmonic_response(f, omega)
+        .map_err(|e| usage(format!("harmonic response at {omega} rad/s: {e}")))
 }
 
 /// The receptance at the output for the force vector `f`, at `omega` (rad/s).
@@ -256,19 +271,19 @@ fn receptance(
     f: &[f64],
     omega: f64,
 ) -> Result<Complex<f64>, Error> {
-    let z = lin
-        .harmonic_response(f, omega)
-        .map_err(|e| usage(format!("harmonic response at {omega} rad/s: {e}")))?;
-    Ok(match output {
+    Ok(output_of(lin, output, &response(lin, f, omega)?))
+}
+
+/// The output's value in the response `z`.
+fn output_of(lin: &Linearization, output: &ExcitationTarget, z: &[Complex<f64>]) -> Complex<f64> {
+    match output {
         ExcitationTarget::Beam(p) => {
             let re: Vec<f64> = z.iter().map(|v| v.re).collect();
             let im: Vec<f64> = z.iter().map(|v| v.im).collect();
             Complex::new(p.value(&re), p.value(&im))
         }
-        ExcitationTarget::Joint { mechanism, joint } => {
-            lin.mechanism_motion(&z)[*mechanism][*joint]
-        }
-    })
+        ExcitationTarget::Joint { mechanism, joint } => lin.mechanism_motion(z)[*mechanism][*joint],
+    }
 }
 
 /// The linear receptances at `freqs` (Hz) with the generator (`lin`, force vector `f_with`)
@@ -283,10 +298,13 @@ pub(super) fn linear_rows(
     let mut linear = Vec::with_capacity(freqs.len());
     for &f in freqs {
         let w = 2.0 * std::f64::consts::PI * f;
+        // One solve with the generator gives the output and every attachment (H_att).
+        let z = response(lin, f_with, w)?;
         linear.push(LinearRow {
             f_hz: f,
-            with_generator: receptance(lin, &io.output, f_with, w)?.into(),
+            with_generator: output_of(lin, &io.output, &z).into(),
             generator_disconnected: receptance(lin_off, &io.output, f_off, w)?.into(),
+            max_force: io.limits.iter().map(|l| l.max_force(&z)).collect(),
         });
     }
     Ok(linear)

@@ -35,6 +35,18 @@
 //! `frf.svg` (|H| on a log axis: the linear responses as lines, the nonlinear one as
 //! markers). Phases follow `response = |H| F sin(omega t + phi_e + phase)`.
 //!
+//! **Admissible load** (issue #22, item 3; [`crate::linear::LoadLimit`]): for every
+//! mechanism with a reach (the remaining distance of its first attached beam point to the
+//! toggle, as `damper linearize` reports it), at every frequency, the largest force
+//! amplitude of the excitation it can take, `max_force = reach / |H_att|`, with `H_att`
+//! the receptance (with the generator) from the excitation to that beam point, read from
+//! the same solve as the output's: a column `max_force [F]` of `frf.csv`
+//! (`<mechanism>.max_force [F]` with several), `load_limits` and each row's `max_force` in
+//! `frf.json`, `frf_max_force.svg` (the curves and the excitation's own amplitude as a
+//! horizontal line) and the smallest value over the band in the summary line. It is the
+//! linear bound: near the toggle the mechanism's growing amplification raises the
+//! generator's damping, so the nonlinear amplitude stays below the linear one.
+//!
 //! **Limits** (`crate::budget`), checked before the scenario is loaded: the memory of the
 //! `--points` (and `--nonlinear`) frequencies, 4 kB each, at most 1 GiB, and the time steps
 //! the nonlinear runs can take, `M * max_periods * steps_per_period`, at most 2e7; above
@@ -190,18 +202,18 @@ pub fn run(args: Args) -> Result<(), Error> {
     // One run at a time into a directory; the files a killed run left are removed here.
     let _lock = OutputLock::acquire(&out).map_err(ReportError::from)?;
     let lz = tangents_for(&sc)?;
-    let io = resolve(&args, &lz)?;
-    if args.nonlinear.is_some() && io.scenario_excitation.is_none() && args.force.is_none() {
-        return Err(usage(
-            "--nonlinear: the scenario has no harmonic excitation: give the force amplitude at the output point with --force F (N, or N m on a revolute coordinate)",
-        ));
-    }
     let linear_error = |what: &str, e: hybrid_core::hybrid::LinearError| {
         usage(format!("{file}: linearisation {what}: {e}"))
     };
     let lin = lz
         .linearize(&lz.model)
         .map_err(|e| linear_error("with generator", e))?;
+    let io = resolve(&args, &lz, &lin)?;
+    if args.nonlinear.is_some() && io.scenario_excitation.is_none() && args.force.is_none() {
+        return Err(usage(
+            "--nonlinear: the scenario has no harmonic excitation: give the force amplitude at the output point with --force F (N, or N m on a revolute coordinate)",
+        ));
+    }
     let off_model = lz.model.generators_disconnected();
     let lin_off = lz
         .linearize(&off_model)
@@ -251,6 +263,13 @@ pub fn run(args: Args) -> Result<(), Error> {
         peak_off.generator_disconnected.magnitude,
         peak_off.f_hz
     );
+    for (k, l) in io.limits.iter().enumerate() {
+        let (f, v) = report::smallest(&linear, k);
+        text += &format!(
+            "; smallest max force ({}, reach {:.4e} m) {v:.4e} {} at {f:.4} Hz",
+            l.name, l.reach, io.force_unit
+        );
+    }
     if let Some(rows) = &nonlinear {
         let settled = rows.iter().filter(|r| r.settled).count();
         let failed = rows.iter().filter(|r| r.error.is_some()).count();

@@ -1,6 +1,6 @@
 //! The report of `damper frf`: `frf.csv`, `frf_nonlinear.csv` (the one CSV writer,
-//! [`CsvRows`]), `frf.json` and `frf.svg` ([`plot_receptance_svg`]), in memory, for the one
-//! atomic writer.
+//! [`CsvRows`]), `frf.json`, `frf.svg` ([`plot_receptance_svg`]) and, when a mechanism has
+//! a reach, `frf_max_force.svg` ([`plot_xy_svg`]), in memory, for the one atomic writer.
 
 use std::path::Path;
 
@@ -10,7 +10,7 @@ use serde::Serialize;
 use super::Args;
 use super::analysis::{Io, LinearRow, NonlinearRow};
 use crate::Error;
-use crate::report::plot::{PlotError, plot_receptance_svg};
+use crate::report::plot::{PlotError, plot_receptance_svg, plot_xy_svg};
 use crate::report::rows::CsvRows;
 use crate::report::summary::json_bytes;
 use crate::report::{OutputFile, ReportError};
@@ -36,9 +36,27 @@ struct FrfJson<'a> {
     generators: usize,
     #[serde(skip_serializing_if = "Option::is_none")]
     nonlinear_settings: Option<NonlinearSettings>,
+    /// The admissible load: per mechanism its reach and attachment point (the values are
+    /// `max_force` of every linear row, in this order).
+    load_limits: Vec<LoadLimitJson<'a>>,
     linear: &'a [LinearRow],
     #[serde(skip_serializing_if = "Option::is_none")]
     nonlinear: Option<&'a [NonlinearRow]>,
+}
+
+/// A mechanism's admissible load in `frf.json`.
+#[derive(Serialize)]
+struct LoadLimitJson<'a> {
+    mechanism: &'a str,
+    /// Remaining reach at the equilibrium (m).
+    reach: f64,
+    /// Abscissa of its first attachment's beam point (m).
+    attachment_x: f64,
+    /// `reach / |H_att|`, in the force unit.
+    definition: &'static str,
+    /// The smallest value over the band and its frequency.
+    min_max_force: f64,
+    min_f_hz: f64,
 }
 
 #[derive(Serialize)]
@@ -49,10 +67,10 @@ struct NonlinearSettings {
     method: &'static str,
 }
 
-/// The plot could not be drawn (plotters' message).
+/// A plot could not be drawn (the file, plotters' message).
 #[derive(Debug, thiserror::Error)]
-#[error("cannot draw frf.svg: {0}")]
-struct PlotFailed(String);
+#[error("cannot draw {0}: {1}")]
+struct PlotFailed(&'static str, String);
 
 impl From<PlotFailed> for Error {
     fn from(e: PlotFailed) -> Error {
@@ -95,11 +113,20 @@ pub(super) fn outputs(
         format!("Re H generator disconnected [{unit}]"),
         format!("Im H generator disconnected [{unit}]"),
     ];
+    let mut header = header;
+    let force_unit = io.force_unit;
+    header.extend(io.limits.iter().map(|l| {
+        if io.limits.len() == 1 {
+            format!("max_force [{force_unit}]")
+        } else {
+            format!("{}.max_force [{force_unit}]", l.name)
+        }
+    }));
     let rows: Vec<Vec<String>> = linear
         .iter()
         .map(|r| {
             let (a, b) = (r.with_generator, r.generator_disconnected);
-            vec![
+            let mut row = vec![
                 g(r.f_hz),
                 g(a.magnitude),
                 g(a.phase_deg),
@@ -109,7 +136,9 @@ pub(super) fn outputs(
                 g(a.im),
                 g(b.re),
                 g(b.im),
-            ]
+            ];
+            row.extend(r.max_force.iter().map(|&v| g(v)));
+            row
         })
         .collect();
     let mut files = vec![OutputFile {
@@ -178,6 +207,22 @@ pub(super) fn outputs(
                 _ => "hht",
             },
         }),
+        load_limits: io
+            .limits
+            .iter()
+            .enumerate()
+            .map(|(k, l)| {
+                let (f, v) = smallest(linear, k);
+                LoadLimitJson {
+                    mechanism: &l.name,
+                    reach: l.reach,
+                    attachment_x: l.point.x,
+                    definition: "max_force = reach / |H_att|: the largest harmonic force amplitude keeping the attachment's linear amplitude within the reach",
+                    min_max_force: v,
+                    min_f_hz: f,
+                }
+            })
+            .collect(),
         linear,
         nonlinear,
     };
@@ -216,10 +261,70 @@ pub(super) fn outputs(
         &magnitudes(|r| r.generator_disconnected.magnitude),
         markers.as_deref(),
     )
-    .map_err(|e: PlotError| PlotFailed(e.message().to_string()))?;
+    .map_err(|e: PlotError| PlotFailed("frf.svg", e.message().to_string()))?;
     files.push(OutputFile {
         path: out.join("frf.svg"),
         bytes: svg,
     });
+    if !io.limits.is_empty() {
+        files.push(OutputFile {
+            path: out.join("frf_max_force.svg"),
+            bytes: max_force_svg(args, &stem, io, linear)?,
+        });
+    }
     Ok(files)
+}
+
+/// The smallest admissible load of limit `k` over the band: `(f (Hz), max_force)`.
+pub(super) fn smallest(linear: &[LinearRow], k: usize) -> (f64, f64) {
+    linear
+        .iter()
+        .map(|r| (r.f_hz, r.max_force[k]))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .expect("at least two frequencies")
+}
+
+/// `frf_max_force.svg`: the admissible load of every mechanism against the frequency (on a
+/// log axis: it spans decades), and the excitation's own amplitude as a horizontal line (the design fails where a curve
+/// goes below it).
+fn max_force_svg(args: &Args, stem: &str, io: &Io, linear: &[LinearRow]) -> Result<Vec<u8>, Error> {
+    let curves: Vec<(String, Vec<(f64, f64)>)> = io
+        .limits
+        .iter()
+        .enumerate()
+        .map(|(k, l)| {
+            let pts = linear
+                .iter()
+                .map(|r| (r.f_hz, r.max_force[k]))
+                .filter(|p| p.1.is_finite())
+                .collect();
+            (
+                format!("max force, {} (reach {:.3e} m)", l.name, l.reach),
+                pts,
+            )
+        })
+        .collect();
+    let amplitude = io.excitation.amplitude.abs();
+    let reference = [(args.from, amplitude), (args.to, amplitude)];
+    let reference_label = format!(
+        "|F| of {} = {amplitude:.3e} {}",
+        io.excitation.name, io.force_unit
+    );
+    let mut series: Vec<(&str, &[(f64, f64)])> = curves
+        .iter()
+        .map(|(label, pts)| (label.as_str(), pts.as_slice()))
+        .collect();
+    series.push((&reference_label, &reference));
+    let title = format!(
+        "{stem}: admissible load (reach / |H_att|) for {}",
+        io.excitation.name
+    );
+    plot_xy_svg(
+        &title,
+        "f [Hz]",
+        &format!("max force amplitude [{}]", io.force_unit),
+        &series,
+        (args.log, true),
+    )
+    .map_err(|e: PlotError| PlotFailed("frf_max_force.svg", e.message().to_string()).into())
 }
