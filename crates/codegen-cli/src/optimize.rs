@@ -393,7 +393,15 @@ pub fn optimize(p: &Problem<'_>) -> Result<Outcome, OptimizeError> {
         let end = match result {
             Ok((_, u, _)) | Err((_, u, _)) => at(&u),
         };
-        ends.push(end.feasible().then_some(end.objective).flatten());
+        // Where this search ended, if feasible to 1e-9 of each constraint's scale (COBYLA
+        // ends on an active constraint to within its own tolerance).
+        let nearly = end.objective.is_some()
+            && end
+                .margins
+                .iter()
+                .zip(&scales)
+                .all(|(m, s)| m.is_some_and(|m| m >= -1e-9 * s));
+        ends.push(end.objective.filter(|_| nearly));
         drop(cons_ref);
         drop(cons);
         history.extend(log.borrow_mut().drain(..));

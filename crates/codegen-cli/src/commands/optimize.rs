@@ -10,7 +10,8 @@
 //! (`optimum`, `objective`, `constraints`, `kkt_residual`, `history`). With `-o DIR`:
 //! `optimize.json` and `optimize_history.csv` (every evaluation: stage, variables,
 //! objective, constraint values, error). An infeasible problem is an error naming the least
-//! infeasible point (exit status 2).
+//! infeasible point (exit status 2). `--verify` runs the optimum in the time domain (a free
+//! decay from the amplitude of a `reach>=A` constraint) and reports its figures (`verify`).
 
 use std::path::PathBuf;
 
@@ -52,6 +53,14 @@ pub struct Args {
     /// Also write `optimize.json` and `optimize_history.csv` into this directory.
     #[arg(short = 'o', long = "out")]
     pub out: Option<PathBuf>,
+    /// Run the optimum in the time domain and report its figures beside the linear ones: a
+    /// free decay from the amplitude of a `reach>=A` constraint (`initial.displacement = A`,
+    /// when the scenario has an `[initial]` table), else the scenario's own run.
+    #[arg(long)]
+    pub verify: bool,
+    /// The amplitude of `--verify`'s free decay (m), instead of the reach constraint's.
+    #[arg(long, value_name = "A", requires = "verify")]
+    pub verify_amplitude: Option<f64>,
     /// Run even when the estimated evaluations are above the limit (1e4).
     #[arg(long)]
     pub allow_long: bool,
@@ -113,7 +122,15 @@ pub fn run(args: Args) -> Result<(), Error> {
     };
     let started = std::time::Instant::now();
     let outcome = optimize::optimize(&problem).map_err(|e| Error::Usage(format!("{file}: {e}")))?;
-    let json = serde_json::to_vec_pretty(&outcome).map_err(ReportError::from)?;
+    let verified = match args.verify {
+        true => Some(verify(&args, &text, &outcome, &constraints)),
+        false => None,
+    };
+    let report = Report {
+        outcome: &outcome,
+        verify: verified.as_ref(),
+    };
+    let json = serde_json::to_vec_pretty(&report).map_err(ReportError::from)?;
     if let Some(out) = &args.out {
         let mut csv = ::csv::Writer::from_writer(vec![]);
         let mut header = vec!["stage".to_string()];
@@ -182,6 +199,31 @@ pub fn run(args: Args) -> Result<(), Error> {
             c.margin
         ));
     }
+    if let Some(v) = &verified {
+        text.push_str(&format!("  time domain ({}): ", v.run));
+        match &v.error {
+            Some(e) => {
+                text.push_str(&format!("failed: {e}\n"));
+                let reach_active = outcome
+                    .constraints
+                    .iter()
+                    .any(|c| c.active && c.constraint.starts_with("reach"));
+                if reach_active && e.contains("singular position") {
+                    text.push_str("  (the reach constraint is active: the optimum reaches the toggle at exactly that amplitude; ask for a margin, e.g. reach>=1.1 A, or verify from a smaller amplitude with --verify-amplitude)\n");
+                }
+            }
+            None => {
+                let shown: Vec<String> = v
+                    .figures
+                    .iter()
+                    .filter(|(n, _)| !n.starts_with("linear."))
+                    .map(|(n, x)| format!("{n} = {}", x.map_or("n/a".into(), |x| cell(Some(x)))))
+                    .collect();
+                text.push_str(&shown.join(", "));
+                text.push('\n');
+            }
+        }
+    }
     text.push_str(&format!(
         "  KKT residual {:.1e}; {} of {} local search(es) ended here; {} evaluations in {:.1} s\n",
         outcome.kkt_residual,
@@ -191,4 +233,82 @@ pub fn run(args: Args) -> Result<(), Error> {
         started.elapsed().as_secs_f64()
     ));
     crate::print(&text)
+}
+
+/// What `--json` prints and `optimize.json` holds.
+#[derive(serde::Serialize)]
+struct Report<'a> {
+    #[serde(flatten)]
+    outcome: &'a optimize::Outcome,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    verify: Option<&'a Verified>,
+}
+
+/// The time-domain run of the optimum (`--verify`).
+#[derive(serde::Serialize)]
+struct Verified {
+    /// What was run.
+    run: String,
+    /// Every figure of the point (the linear ones and the time domain's).
+    figures: Vec<(String, Option<f64>)>,
+    /// Why the time-domain run (or the point) failed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    error: Option<String>,
+}
+
+/// Runs the optimum in the time domain (see [`Args::verify`]).
+fn verify(
+    args: &Args,
+    text: &str,
+    outcome: &optimize::Outcome,
+    constraints: &[Constraint],
+) -> Verified {
+    let mut overrides = args.set.clone();
+    for (path, x) in &outcome.optimum {
+        let t = cell(Some(*x));
+        overrides.push(
+            Override::new(path, scenario::overrides::parse_value(&t), &t).expect("PATH checked"),
+        );
+    }
+    let amplitude = args.verify_amplitude.or_else(|| {
+        constraints
+            .iter()
+            .find(|c| {
+                c.figure == "linear.reach" && c.bound == crate::commands::sweep::Bound::AtLeast
+            })
+            .map(|c| c.value)
+    });
+    let has_initial = text.lines().any(|l| l.trim() == "[initial]");
+    let run = match (amplitude, has_initial) {
+        (Some(a), true) => {
+            let t = cell(Some(a));
+            overrides.push(
+                Override::new(
+                    "initial.displacement",
+                    scenario::overrides::parse_value(&t),
+                    &t,
+                )
+                .expect("a valid PATH"),
+            );
+            format!("free decay from {t} m")
+        }
+        _ => "the scenario's own run".to_string(),
+    };
+    let options = crate::sweep_point::PointOptions {
+        time_domain: true,
+        allow_long: args.allow_long,
+    };
+    let line = |e: &dyn std::fmt::Display| e.to_string().replace('\n', "; ");
+    match crate::sweep_point::evaluate(&args.scenario, text, &overrides, &options) {
+        Ok(p) => Verified {
+            run,
+            figures: p.figures.into_iter().map(|f| (f.name, f.value)).collect(),
+            error: p.time_domain_error.map(|e| line(&e)),
+        },
+        Err(e) => Verified {
+            run,
+            figures: vec![],
+            error: Some(line(&e)),
+        },
+    }
 }
