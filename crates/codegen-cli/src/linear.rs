@@ -427,3 +427,110 @@ fn mode_report(i: usize, m: &Mode, lin: &Linearization, model: &HybridModel) -> 
         mechanism_shape,
     }
 }
+
+/// A receptance peak objective, `peak:X:F1:F2`: the largest `|H|` of the beam's transverse
+/// displacement at `x` (m) per unit amplitude of the scenario's first excitation, over the
+/// band `F1..F2` (Hz), with the generator(s) connected — the H-infinity design figure.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PeakSpec {
+    /// The output's abscissa on the beam (m).
+    pub x: f64,
+    /// The band (Hz).
+    pub band: (f64, f64),
+}
+
+impl PeakSpec {
+    /// `peak:X:F1:F2` (`None` for any other figure name).
+    pub fn parse(name: &str) -> Option<PeakSpec> {
+        let rest = name.strip_prefix("peak:")?;
+        let v: Vec<f64> = rest
+            .split(':')
+            .map(|t| t.trim().parse().ok())
+            .collect::<Option<_>>()?;
+        match v[..] {
+            [x, f1, f2] if x.is_finite() && f1 > 0.0 && f2 > f1 && f2.is_finite() => {
+                Some(PeakSpec { x, band: (f1, f2) })
+            }
+            _ => None,
+        }
+    }
+}
+
+/// Points of the scan of [`receptance_peak`] before the refinement.
+const PEAK_SCAN: usize = 200;
+
+/// The peak of [`PeakSpec`] for a loaded scenario: `(frequency (Hz), |H|)`. The band is
+/// scanned at [`PEAK_SCAN`] log-spaced frequencies, then the largest sample is refined by
+/// golden-section search between its neighbours (to 1e-9 of the frequency).
+pub fn receptance_peak(file: &str, sc: &Scenario, spec: &PeakSpec) -> Result<(f64, f64), Error> {
+    let input = tangents_for(sc)?;
+    let refs = input.tangent_refs();
+    let model = &input.model;
+    let lin = linearise(file, model, &refs)?;
+    let usage = |m: String| Error::Usage(format!("{file}: {m}"));
+    let Some(e) = model.excitations.first() else {
+        return Err(usage(
+            "a peak objective needs an excitation in the scenario".into(),
+        ));
+    };
+    let Some(point) = model
+        .beam
+        .as_ref()
+        .and_then(|b| hybrid_core::hybrid::BeamPoint::on(b, spec.x))
+    else {
+        return Err(usage(format!("peak: x = {} is not on the beam", spec.x)));
+    };
+    let f = lin.force_vector(&e.target);
+    let h = |hz: f64| -> Result<f64, Error> {
+        let z = lin
+            .harmonic_response(&f, 2.0 * std::f64::consts::PI * hz)
+            .map_err(|error| Error::Linear {
+                file: file.to_string(),
+                error,
+            })?;
+        let re: Vec<f64> = z.iter().map(|v| v.re).collect();
+        let im: Vec<f64> = z.iter().map(|v| v.im).collect();
+        Ok(point.value(&re).hypot(point.value(&im)))
+    };
+    let (f1, f2) = spec.band;
+    let at = |k: usize| f1 * (f2 / f1).powf(k as f64 / (PEAK_SCAN - 1) as f64);
+    let mut best = (0, h(f1)?);
+    for k in 1..PEAK_SCAN {
+        let v = h(at(k))?;
+        if v > best.1 {
+            best = (k, v);
+        }
+    }
+    let (mut a, mut b) = (
+        at(best.0.saturating_sub(1)),
+        at((best.0 + 1).min(PEAK_SCAN - 1)),
+    );
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    let (mut c, mut d) = (b - g * (b - a), a + g * (b - a));
+    let (mut hc, mut hd) = (h(c)?, h(d)?);
+    // Golden section: at most 60 iterations (the bracket shrinks by 0.618 each).
+    for _ in 0..60 {
+        if (b - a) <= 1e-9 * b {
+            break;
+        }
+        if hc > hd {
+            b = d;
+            d = c;
+            hd = hc;
+            c = b - g * (b - a);
+            hc = h(c)?;
+        } else {
+            a = c;
+            c = d;
+            hc = hd;
+            d = a + g * (b - a);
+            hd = h(d)?;
+        }
+    }
+    let (fm, hm) = if hc > hd { (c, hc) } else { (d, hd) };
+    Ok(if hm >= best.1 {
+        (fm, hm)
+    } else {
+        (at(best.0), best.1)
+    })
+}

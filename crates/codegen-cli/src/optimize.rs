@@ -221,6 +221,25 @@ fn evaluate(p: &Problem<'_>, x: &[f64], stage: &str) -> Evaluation {
         sweep_point::evaluate(p.path, p.text, &overrides, &PointOptions::default())
     }))
     .unwrap_or(Err(PointError::Panicked));
+    // A receptance peak objective (`peak:X:F1:F2`), computed beside the sweep figures.
+    let peak = crate::linear::PeakSpec::parse(&p.objective).map(|spec| {
+        let file = p.path.display().to_string();
+        crate::scenario::parse_with(p.text, p.path, &overrides)
+            .map_err(crate::Error::from)
+            .and_then(|loaded| crate::linear::receptance_peak(&file, &loaded.scenario, &spec))
+    });
+    let point = match (point, peak) {
+        (Ok(mut e), Some(Ok((_, h)))) => {
+            e.figures.push(Figure {
+                name: p.objective.clone(),
+                unit: "m",
+                value: Some(h),
+            });
+            Ok(e)
+        }
+        (Ok(_), Some(Err(e))) => Err(PointError::Run(Box::new(e))),
+        (point, _) => point,
+    };
     let figure = |figures: &[Figure], name: &str| {
         figures
             .iter()

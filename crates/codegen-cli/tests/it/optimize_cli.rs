@@ -266,3 +266,55 @@ fn verify_runs_the_optimum_in_the_time_domain() {
     // The linear figures beside the time domain's: more damping than at the bundled 10 degrees.
     assert!(figure("linear.zeta1").unwrap() > 0.0408);
 }
+
+/// The H-infinity objective `peak:X:F1:F2` is the largest receptance of the frf over the
+/// band: not below the largest of a dense frf grid, and above it by less than the grid's
+/// resolution can hide (the refinement finds the top between grid points).
+#[test]
+fn the_peak_objective_is_the_top_of_the_frf() {
+    let path = crate::common::root().join("scenarios/forced_damper.toml");
+    let sc = codegen_cli::scenario::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let spec = codegen_cli::linear::PeakSpec::parse("peak:1.0:3:10").unwrap();
+    let (f_peak, h_peak) =
+        codegen_cli::linear::receptance_peak("forced_damper.toml", &sc, &spec).unwrap();
+    let dir = scratch("peak");
+    let (code, _, err) = damper(&[
+        "frf",
+        "scenarios/forced_damper.toml",
+        "--output",
+        "1.0",
+        "--from",
+        "3",
+        "--to",
+        "10",
+        "--points",
+        "2000",
+        "-o",
+        dir.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let csv = std::fs::read_to_string(dir.join("frf.csv")).unwrap();
+    let (f_grid, h_grid) = csv
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let c: Vec<f64> = l.split(',').take(2).map(|x| x.parse().unwrap()).collect();
+            (c[0], c[1])
+        })
+        .fold((0.0, 0.0), |b, p| if p.1 > b.1 { p } else { b });
+    assert!(
+        h_peak >= h_grid * (1.0 - 1e-12),
+        "{h_peak} vs grid {h_grid}"
+    );
+    assert!(h_peak <= h_grid * (1.0 + 1e-3), "{h_peak} vs grid {h_grid}");
+    assert!(
+        (f_peak - f_grid).abs() < 0.01,
+        "{f_peak} Hz vs grid {f_grid} Hz"
+    );
+    // A name that is not `peak:X:F1:F2` with 0 < F1 < F2 is not a peak objective.
+    for bad in ["peak:1.0:10:3", "peak:1.0:3", "peak:x:3:10", "zeta1"] {
+        assert!(codegen_cli::linear::PeakSpec::parse(bad).is_none(), "{bad}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
