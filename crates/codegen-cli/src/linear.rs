@@ -534,3 +534,64 @@ pub fn receptance_peak(file: &str, sc: &Scenario, spec: &PeakSpec) -> Result<(f6
         (at(best.0), best.1)
     })
 }
+
+/// The mean power harvested in the load resistances (W) in the steady state of the
+/// linearised system under the scenario's harmonic excitations (`power`, the harvesting
+/// objective): per excitation frequency the complex responses of the excitations at that
+/// frequency are superposed (amplitude and phase), each generator's current amplitude is
+/// `|i| = ke g |omega q_j| / |R_a + R_L + i omega L|` (the rotor speed `g q_j'`), and the
+/// load's mean power is `R_L |i|^2 / 2`; powers at different frequencies add. An excitation
+/// that is not harmonic is an error.
+pub fn harvested_power(file: &str, sc: &Scenario) -> Result<f64, Error> {
+    let input = tangents_for(sc)?;
+    let refs = input.tangent_refs();
+    let model = &input.model;
+    let lin = linearise(file, model, &refs)?;
+    let usage = |m: String| Error::Usage(format!("{file}: {m}"));
+    if model.excitations.is_empty() {
+        return Err(usage(
+            "the power objective needs a harmonic excitation".into(),
+        ));
+    }
+    // Excitations grouped by frequency (in scenario order).
+    let mut groups: Vec<(f64, Vec<Complex<f64>>)> = vec![];
+    for e in &model.excitations {
+        let fem_beam::TimeFunction::Harmonic {
+            frequency_hz,
+            phase,
+        } = e.time
+        else {
+            return Err(usage(format!(
+                "excitation \"{}\": the power objective needs harmonic excitations",
+                e.name
+            )));
+        };
+        let omega = 2.0 * std::f64::consts::PI * frequency_hz;
+        let f = lin.force_vector(&e.target);
+        let z = lin
+            .harmonic_response(&f, omega)
+            .map_err(|error| Error::Linear {
+                file: file.to_string(),
+                error,
+            })?;
+        let scale = Complex::from_polar(e.amplitude, phase);
+        match groups.iter_mut().find(|(w, _)| *w == omega) {
+            Some((_, sum)) => sum.iter_mut().zip(&z).for_each(|(s, z)| *s += scale * z),
+            None => groups.push((omega, z.iter().map(|z| scale * z).collect())),
+        }
+    }
+    let mut power = 0.0;
+    for (omega, z) in &groups {
+        let motion = lin.mechanism_motion(z);
+        for f in &model.forces {
+            let Some(g) = f.generator().filter(|g| g.connected) else {
+                continue;
+            };
+            let speed = motion[f.mechanism][f.joint] * Complex::new(0.0, *omega);
+            let impedance = Complex::new(g.resistance(), omega * g.inductance);
+            let current = g.ke * g.gear_ratio * speed / impedance;
+            power += 0.5 * g.load_resistance * current.norm_sqr();
+        }
+    }
+    Ok(power)
+}

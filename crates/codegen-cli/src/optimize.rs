@@ -221,19 +221,29 @@ fn evaluate(p: &Problem<'_>, x: &[f64], stage: &str) -> Evaluation {
         sweep_point::evaluate(p.path, p.text, &overrides, &PointOptions::default())
     }))
     .unwrap_or(Err(PointError::Panicked));
-    // A receptance peak objective (`peak:X:F1:F2`), computed beside the sweep figures.
-    let peak = crate::linear::PeakSpec::parse(&p.objective).map(|spec| {
-        let file = p.path.display().to_string();
-        crate::scenario::parse_with(p.text, p.path, &overrides)
-            .map_err(crate::Error::from)
-            .and_then(|loaded| crate::linear::receptance_peak(&file, &loaded.scenario, &spec))
-    });
+    // A receptance peak objective (`peak:X:F1:F2`) or the harvested power (`power`),
+    // computed beside the sweep figures.
+    let extra =
+        |compute: &dyn Fn(&str, &crate::scenario::Scenario) -> Result<f64, crate::Error>| {
+            let file = p.path.display().to_string();
+            crate::scenario::parse_with(p.text, p.path, &overrides)
+                .map_err(crate::Error::from)
+                .and_then(|loaded| compute(&file, &loaded.scenario))
+        };
+    let peak = match crate::linear::PeakSpec::parse(&p.objective) {
+        Some(spec) => Some(extra(&|file, sc| {
+            crate::linear::receptance_peak(file, sc, &spec).map(|(_, h)| h)
+        })),
+        None if p.objective == "power" => Some(extra(&crate::linear::harvested_power)),
+        None => None,
+    };
+    let unit = if p.objective == "power" { "W" } else { "m" };
     let point = match (point, peak) {
-        (Ok(mut e), Some(Ok((_, h)))) => {
+        (Ok(mut e), Some(Ok(v))) => {
             e.figures.push(Figure {
                 name: p.objective.clone(),
-                unit: "m",
-                value: Some(h),
+                unit,
+                value: Some(v),
             });
             Ok(e)
         }
