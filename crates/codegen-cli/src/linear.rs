@@ -176,11 +176,7 @@ impl LoadLimit {
     /// `H_att`: the point's displacement in the harmonic response `z` (per unit force,
     /// [`Linearization::harmonic_response`]).
     pub fn receptance(&self, z: &[Complex<f64>]) -> Complex<f64> {
-        self.point
-            .weights
-            .iter()
-            .map(|&(k, w)| z[k] * w)
-            .sum::<Complex<f64>>()
+        self.point.complex_value(z)
     }
 
     /// `F_max = reach / |H_att|` for the harmonic response `z` per unit force (infinite
@@ -251,6 +247,14 @@ fn linearise(
             error,
         }
     })
+}
+
+/// A loaded scenario built for linearisation and linearised about its static equilibrium
+/// (the generators as the scenario says).
+fn linearise_scenario(file: &str, sc: &Scenario) -> Result<(Linearizable, Linearization), Error> {
+    let input = tangents_for(sc)?;
+    let lin = linearise(file, &input.model, &input.tangent_refs())?;
+    Ok((input, lin))
 }
 
 fn modes_of(
@@ -463,10 +467,8 @@ const PEAK_SCAN: usize = 200;
 /// scanned at [`PEAK_SCAN`] log-spaced frequencies, then the largest sample is refined by
 /// golden-section search between its neighbours (to 1e-9 of the frequency).
 pub fn receptance_peak(file: &str, sc: &Scenario, spec: &PeakSpec) -> Result<(f64, f64), Error> {
-    let input = tangents_for(sc)?;
-    let refs = input.tangent_refs();
+    let (input, lin) = linearise_scenario(file, sc)?;
     let model = &input.model;
-    let lin = linearise(file, model, &refs)?;
     let usage = |m: String| Error::Usage(format!("{file}: {m}"));
     let Some(e) = model.excitations.first() else {
         return Err(usage(
@@ -488,9 +490,7 @@ pub fn receptance_peak(file: &str, sc: &Scenario, spec: &PeakSpec) -> Result<(f6
                 file: file.to_string(),
                 error,
             })?;
-        let re: Vec<f64> = z.iter().map(|v| v.re).collect();
-        let im: Vec<f64> = z.iter().map(|v| v.im).collect();
-        Ok(point.value(&re).hypot(point.value(&im)))
+        Ok(point.complex_value(&z).norm())
     };
     let (f1, f2) = spec.band;
     let at = |k: usize| f1 * (f2 / f1).powf(k as f64 / (PEAK_SCAN - 1) as f64);
@@ -543,10 +543,8 @@ pub fn receptance_peak(file: &str, sc: &Scenario, spec: &PeakSpec) -> Result<(f6
 /// load's mean power is `R_L |i|^2 / 2`; powers at different frequencies add. An excitation
 /// that is not harmonic is an error.
 pub fn harvested_power(file: &str, sc: &Scenario) -> Result<f64, Error> {
-    let input = tangents_for(sc)?;
-    let refs = input.tangent_refs();
+    let (input, lin) = linearise_scenario(file, sc)?;
     let model = &input.model;
-    let lin = linearise(file, model, &refs)?;
     let usage = |m: String| Error::Usage(format!("{file}: {m}"));
     if model.excitations.is_empty() {
         return Err(usage(

@@ -210,13 +210,23 @@ pub enum OptimizeError {
     },
 }
 
+/// The fixed overrides followed by `path = value` of every pair (values written in their
+/// shortest round-trip form); the paths are checked PATHs.
+pub fn overrides_at<'a>(
+    fixed: &[Override],
+    values: impl Iterator<Item = (&'a str, &'a f64)>,
+) -> Vec<Override> {
+    let mut overrides = fixed.to_vec();
+    for (path, &x) in values {
+        let text = crate::report::csv::cell(Some(x));
+        overrides.push(Override::new(path, parse_value(&text), &text).expect("PATH checked"));
+    }
+    overrides
+}
+
 /// Evaluates the figures of the problem at `x`.
 fn evaluate(p: &Problem<'_>, x: &[f64], stage: &str) -> Evaluation {
-    let mut overrides = p.fixed.to_vec();
-    for (v, &xi) in p.variables.iter().zip(x) {
-        let text = crate::report::csv::cell(Some(xi));
-        overrides.push(Override::new(&v.path, parse_value(&text), &text).expect("PATH checked"));
-    }
+    let overrides = overrides_at(p.fixed, p.variables.iter().map(|v| v.path.as_str()).zip(x));
     let point = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         sweep_point::evaluate(p.path, p.text, &overrides, &PointOptions::default())
     }))

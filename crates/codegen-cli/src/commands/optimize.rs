@@ -20,6 +20,7 @@ use crate::budget::{self, Quantity};
 use crate::commands::sweep::Constraint;
 use crate::optimize::{self, MAX_EVALS, MAX_GRID, MAX_STARTS, Problem, Variable, figure_name};
 use crate::report::csv::cell;
+use crate::report::rows::CsvRows;
 use crate::report::{OutputFile, OutputLock, ReportError, commit_files};
 use crate::scenario::{self, Override};
 
@@ -132,25 +133,22 @@ pub fn run(args: Args) -> Result<(), Error> {
     };
     let json = serde_json::to_vec_pretty(&report).map_err(ReportError::from)?;
     if let Some(out) = &args.out {
-        let mut csv = ::csv::Writer::from_writer(vec![]);
         let mut header = vec!["stage".to_string()];
         header.extend(vary.iter().map(|v| v.path.clone()));
         header.push(objective.clone());
         header.extend(constraints.iter().map(|c| c.figure.clone()));
         header.push("error".into());
         let csv_err = |e: ::csv::Error| Error::from(ReportError::from(e));
-        csv.write_record(&header).map_err(csv_err)?;
+        let mut csv = CsvRows::new(vec![], &header).map_err(csv_err)?;
         for e in &outcome.history {
             let mut row = vec![e.stage.clone()];
             row.extend(e.x.iter().map(|x| cell(Some(*x))));
             row.push(cell(e.objective));
             row.extend(e.values.iter().map(|v| cell(*v)));
             row.push(e.error.clone().unwrap_or_default());
-            csv.write_record(&row).map_err(csv_err)?;
+            csv.write_text_row(&row).map_err(csv_err)?;
         }
-        let csv = csv
-            .into_inner()
-            .map_err(|e| csv_err(e.into_error().into()))?;
+        let csv = csv.into_inner().map_err(csv_err)?;
         let mut json_file = json.clone();
         json_file.push(b'\n');
         commit_files(&[
@@ -263,13 +261,10 @@ fn verify(
     outcome: &optimize::Outcome,
     constraints: &[Constraint],
 ) -> Verified {
-    let mut overrides = args.set.clone();
-    for (path, x) in &outcome.optimum {
-        let t = cell(Some(*x));
-        overrides.push(
-            Override::new(path, scenario::overrides::parse_value(&t), &t).expect("PATH checked"),
-        );
-    }
+    let mut overrides = optimize::overrides_at(
+        &args.set,
+        outcome.optimum.iter().map(|(p, x)| (p.as_str(), x)),
+    );
     let amplitude = args.verify_amplitude.or_else(|| {
         constraints
             .iter()
@@ -282,14 +277,10 @@ fn verify(
     let run = match (amplitude, has_initial) {
         (Some(a), true) => {
             let t = cell(Some(a));
-            overrides.push(
-                Override::new(
-                    "initial.displacement",
-                    scenario::overrides::parse_value(&t),
-                    &t,
-                )
-                .expect("a valid PATH"),
-            );
+            overrides.extend(optimize::overrides_at(
+                &[],
+                [("initial.displacement", &a)].into_iter(),
+            ));
             format!("free decay from {t} m")
         }
         _ => "the scenario's own run".to_string(),

@@ -327,6 +327,15 @@ impl Range {
     }
 }
 
+/// A TOML value as a number (an integer or a float), `None` otherwise.
+fn number(v: &Value) -> Option<f64> {
+    match v {
+        Value::Integer(i) => Some(*i.value() as f64),
+        Value::Float(f) => Some(*f.value()),
+        _ => None,
+    }
+}
+
 /// `a:b:n` when the text is three numbers separated by colons.
 fn parse_range(text: &str) -> Result<Option<Range>, ValuesError> {
     let parts: Vec<&str> = text.split(':').map(str::trim).collect();
@@ -337,11 +346,6 @@ fn parse_range(text: &str) -> Result<Option<Range>, ValuesError> {
         _ => return Ok(None),
     };
     let (a, b) = (parse_value(a), parse_value(b));
-    let number = |v: &Value| match v {
-        Value::Integer(i) => Some(*i.value() as f64),
-        Value::Float(f) => Some(*f.value()),
-        _ => None,
-    };
     let (Some(fa), Some(fb)) = (number(&a), number(&b)) else {
         return Ok(None);
     };
@@ -1262,11 +1266,6 @@ fn design_map(
     design: &Design,
 ) -> Result<Option<OutputFile>, Error> {
     use crate::report::map::{DesignMap, MapAxis, is_monotonic, plot_map_svg};
-    let number = |v: &Value| match v {
-        Value::Float(f) => Some(*f.value()),
-        Value::Integer(i) => Some(*i.value() as f64),
-        _ => None,
-    };
     let varying: Vec<usize> = (0..grid.axes.len())
         .filter(|&a| grid.axes[a].values.len() > 1)
         .collect();
@@ -1380,11 +1379,6 @@ fn plots(
     grid: &Grid,
     rows: &[&PointResult],
 ) -> Result<Vec<OutputFile>, Error> {
-    let number = |v: &Value| match v {
-        Value::Float(f) => Some(*f.value()),
-        Value::Integer(i) => Some(*i.value() as f64),
-        _ => None,
-    };
     // The x axis: the first swept field with more than one value (a fixed `--set` is
     // never an axis); one line per combination of the other varying fields.
     let varying: Vec<usize> = (0..grid.axes.len())

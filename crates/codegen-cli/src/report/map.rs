@@ -9,7 +9,7 @@
 
 use plotters::prelude::*;
 
-use super::plot::PlotError;
+use super::plot::{PlotError, tick_label as tick};
 
 /// Size of the map (pixels).
 const WIDTH: u32 = 1000;
@@ -326,24 +326,6 @@ pub fn plot_map_svg(map: &DesignMap<'_>) -> Result<Vec<u8>, PlotError> {
         root.present().map_err(PlotError::of)?;
     }
     Ok(svg.into_bytes())
-}
-
-/// A tick label: four significant digits, shortest form.
-fn tick(v: f64) -> String {
-    if v == 0.0 || !v.is_finite() {
-        return format!("{v}");
-    }
-    let e = v.abs().log10().floor() as i32;
-    if !(-3..5).contains(&e) {
-        return format!("{v:.3e}");
-    }
-    let digits = (3 - e).clamp(0, 12) as usize;
-    let s = format!("{v:.digits$}");
-    if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        s
-    }
 }
 
 #[cfg(test)]

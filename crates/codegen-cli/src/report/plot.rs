@@ -363,8 +363,15 @@ fn log_ticks(a: f64, b: f64) -> Vec<f64> {
     ticks
 }
 
-/// A tick label: at most four significant digits, no trailing zeros (`2`, `0.5`, `12.5`).
-fn tick_label(v: f64) -> String {
+/// A tick label: at most four significant digits, no trailing zeros (`2`, `0.5`, `12.5`);
+/// scientific outside [1e-3, 1e6) (`1.500e-5`).
+pub(crate) fn tick_label(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    if !(-3..6).contains(&(v.abs().log10().floor() as i32)) {
+        return format!("{v:.3e}");
+    }
     let digits = (3 - v.abs().log10().floor() as i32).clamp(0, 12) as usize;
     let s = format!("{v:.digits$}");
     if s.contains('.') {

@@ -88,6 +88,11 @@ impl BeamPoint {
         self.weights.iter().map(|&(k, w)| w * x[k]).sum()
     }
 
+    /// [`BeamPoint::value`] of a complex DOF vector (a harmonic response).
+    pub fn complex_value(&self, z: &[nalgebra::Complex<f64>]) -> nalgebra::Complex<f64> {
+        self.weights.iter().map(|&(k, w)| z[k] * w).sum()
+    }
+
     /// `out += f n` (the point's generalized force vector scaled by `f`).
     pub fn add_force(&self, f: f64, out: &mut [f64]) {
         for &(k, w) in &self.weights {

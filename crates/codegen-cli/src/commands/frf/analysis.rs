@@ -277,11 +277,7 @@ fn receptance(
 /// The output's value in the response `z`.
 fn output_of(lin: &Linearization, output: &ExcitationTarget, z: &[Complex<f64>]) -> Complex<f64> {
     match output {
-        ExcitationTarget::Beam(p) => {
-            let re: Vec<f64> = z.iter().map(|v| v.re).collect();
-            let im: Vec<f64> = z.iter().map(|v| v.im).collect();
-            Complex::new(p.value(&re), p.value(&im))
-        }
+        ExcitationTarget::Beam(p) => p.complex_value(z),
         ExcitationTarget::Joint { mechanism, joint } => lin.mechanism_motion(z)[*mechanism][*joint],
     }
 }
