@@ -535,12 +535,61 @@ pub fn receptance_peak(file: &str, sc: &Scenario, spec: &PeakSpec) -> Result<(f6
     })
 }
 
+/// A connected generator's phasors in a linear harmonic response (amplitudes and phases of
+/// `x e^{i omega t}`): the rotor speed `n i omega q_j`, the current
+/// `k_e n i omega q_j / (R_a + R_L + i omega L)` (THEORY.md section 7), the terminal voltage
+/// across the load `R_L i`, and the load's mean power `R_L |i|^2 / 2`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GeneratorPhasor {
+    /// Index of the generator in [`HybridModel::forces`].
+    pub force: usize,
+    /// Rotor speed (rad/s).
+    pub rotor_speed: Complex<f64>,
+    /// Current (A).
+    pub current: Complex<f64>,
+    /// Terminal voltage across the load (V).
+    pub voltage: Complex<f64>,
+    /// Mean power in the load (W).
+    pub load_power: f64,
+    /// Mean power dissipated in the circuit, `(R_a + R_L) |i|^2 / 2` (W).
+    pub dissipated_power: f64,
+}
+
+/// The phasors of every connected generator of `model` in the response `z` of `lin` at
+/// `omega` (rad/s), in the order of [`HybridModel::forces`].
+pub fn generator_phasors(
+    model: &HybridModel,
+    lin: &Linearization,
+    z: &[Complex<f64>],
+    omega: f64,
+) -> Vec<GeneratorPhasor> {
+    let motion = lin.mechanism_motion(z);
+    model
+        .forces
+        .iter()
+        .enumerate()
+        .filter_map(|(k, f)| {
+            let g = f.generator().filter(|g| g.connected)?;
+            let rotor_speed =
+                motion[f.mechanism][f.joint] * Complex::new(0.0, omega) * g.gear_ratio;
+            let current = g.ke * rotor_speed / Complex::new(g.resistance(), omega * g.inductance);
+            Some(GeneratorPhasor {
+                force: k,
+                rotor_speed,
+                current,
+                voltage: g.load_resistance * current,
+                load_power: 0.5 * g.load_resistance * current.norm_sqr(),
+                dissipated_power: 0.5 * g.resistance() * current.norm_sqr(),
+            })
+        })
+        .collect()
+}
+
 /// The mean power harvested in the load resistances (W) in the steady state of the
 /// linearised system under the scenario's harmonic excitations (`power`, the harvesting
 /// objective): per excitation frequency the complex responses of the excitations at that
-/// frequency are superposed (amplitude and phase), each generator's current amplitude is
-/// `|i| = ke g |omega q_j| / |R_a + R_L + i omega L|` (the rotor speed `g q_j'`), and the
-/// load's mean power is `R_L |i|^2 / 2`; powers at different frequencies add. An excitation
+/// frequency are superposed (amplitude and phase), each generator's load power is read from
+/// its phasors ([`generator_phasors`]); powers at different frequencies add. An excitation
 /// that is not harmonic is an error.
 pub fn harvested_power(file: &str, sc: &Scenario) -> Result<f64, Error> {
     let (input, lin) = linearise_scenario(file, sc)?;
@@ -578,18 +627,9 @@ pub fn harvested_power(file: &str, sc: &Scenario) -> Result<f64, Error> {
             None => groups.push((omega, z.iter().map(|z| scale * z).collect())),
         }
     }
-    let mut power = 0.0;
-    for (omega, z) in &groups {
-        let motion = lin.mechanism_motion(z);
-        for f in &model.forces {
-            let Some(g) = f.generator().filter(|g| g.connected) else {
-                continue;
-            };
-            let speed = motion[f.mechanism][f.joint] * Complex::new(0.0, *omega);
-            let impedance = Complex::new(g.resistance(), omega * g.inductance);
-            let current = g.ke * g.gear_ratio * speed / impedance;
-            power += 0.5 * g.load_resistance * current.norm_sqr();
-        }
-    }
-    Ok(power)
+    Ok(groups
+        .iter()
+        .flat_map(|(omega, z)| generator_phasors(model, &lin, z, *omega))
+        .map(|g| g.load_power)
+        .sum())
 }

@@ -39,6 +39,7 @@ use crate::report::hybrid::{
 };
 use crate::report::plot::{plot_damping_vs_amplitude_svg, plot_displacements_svg};
 use crate::report::rows::{CsvRows, RowSink};
+use crate::report::steady_power::SteadyPowerTracker;
 use crate::report::summary::json_bytes;
 use crate::report::{OutputFile, ReportError, StreamFile, commit, csv_error};
 use crate::scenario::HybridScenario;
@@ -230,6 +231,21 @@ pub fn simulate(
     } else {
         format!(" ({})", kinds.join(", "))
     };
+    // A forced run: the steady-state load power instead of the free decay's damping.
+    let zeta = match (&summary.steady_power, &summary.decay) {
+        (Some(p), None) => {
+            let load: f64 = p.generators.iter().map(|g| g.mean_power_load).sum();
+            if p.settled {
+                format!(
+                    "n/a (forced); steady load power {load:.4e} W over the last {} periods",
+                    p.settled_periods
+                )
+            } else {
+                format!("n/a (forced); load power {load:.4e} W in the last period (not settled)")
+            }
+        }
+        _ => zeta,
+    };
     crate::print(&format!(
         "{file}: {} steps in {:.3} s ({} mechanism(s){backends}, {} attachment(s), {} repartition(s)); peak {}; zeta {zeta}{others}; energy balance error {:.1e}; outputs in {}\n",
         summary.steps,
@@ -309,6 +325,8 @@ pub fn evaluate<'a>(
     // The decay of the first mode, estimated online from the modal filter's output (or the
     // first attachment's displacement): the same estimate as of the whole series.
     let mut decay = DecayTracker::default();
+    // A periodic forcing's steady-state mean powers, read from the rows.
+    let mut steady = SteadyPowerTracker::new(model, initial.t, dt * sc.every.max(1) as f64);
     let mut decay_samples: u64 = 0;
     let (mut z, mut zd) = (vec![0.0; model.beam_dofs()], vec![0.0; model.beam_dofs()]);
     let mut e0 = None;
@@ -369,6 +387,9 @@ pub fn evaluate<'a>(
             }
             for (k, i) in state.currents.iter().enumerate() {
                 tracks.peak_current[k] = tracks.peak_current[k].max(i.abs());
+            }
+            if let Some(s) = &mut steady {
+                s.push(state);
             }
             output_rows += 1;
             match &mut rows {
@@ -527,6 +548,7 @@ pub fn evaluate<'a>(
         attachments,
         generators,
         excitations,
+        steady_power: steady.as_ref().and_then(|s| s.finish(model)),
         energy: HybridEnergy {
             initial: fig.initial_energy,
             final_stored: outcome.stored.total(),

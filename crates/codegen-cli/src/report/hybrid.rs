@@ -326,6 +326,11 @@ pub struct HybridSummary<'a> {
     pub generators: Vec<GeneratorReport>,
     /// The excitations.
     pub excitations: Vec<ExcitationReport>,
+    /// Under a periodic forcing (harmonic excitations with commensurate frequencies): the
+    /// mean powers over the trailing settled periods, separately from the whole-run
+    /// account ([`crate::report::steady_power`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub steady_power: Option<crate::report::steady_power::SteadyPower>,
     /// The energy account.
     pub energy: HybridEnergy,
     /// Largest |energy balance error| / `energy.relative_to` at the output steps.

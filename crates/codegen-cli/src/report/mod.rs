@@ -10,6 +10,7 @@ pub mod lock;
 pub mod map;
 pub mod plot;
 pub mod rows;
+pub mod steady_power;
 pub mod stream;
 pub mod summary;
 pub mod writer;

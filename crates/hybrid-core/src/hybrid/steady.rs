@@ -47,6 +47,13 @@
 //! A run that does not settle within `max_periods` reports `settled = false` with the last
 //! period's values — never a NaN.
 //!
+//! **Power**: over the last period (the `N` steps ending at its last sample, exactly one
+//! period `T`) the energy account's increments divided by `T`: the mean power dissipated in
+//! each force element (a generator's `(R_a + R_L) i^2`, its load's share `R_L / (R_a + R_L)`
+//! of it) and the mean input power of each excitation. In a settled periodic state the
+//! input balances the dissipation (the structure's and the elements'), up to the remaining
+//! transient.
+//!
 //! **Discrete steady state**: the average-acceleration rule (Newmark, `beta = 1/4`,
 //! `gamma = 1/2`) is the trapezoidal rule, i.e. the bilinear transform: on a linear system
 //! its steady response to a sampled sinusoid of frequency `omega` is exactly the continuous
@@ -122,6 +129,14 @@ pub struct SteadyState {
     pub change: f64,
     /// Time step used (s).
     pub dt: f64,
+    /// Mean power dissipated in each force element over the last period (W), in the order
+    /// of [`HybridModel::forces`] (a generator: `(R_a + R_L) i^2`).
+    pub mean_power_dissipated: Vec<f64>,
+    /// Mean input power of each excitation over the last period (W), in the order of
+    /// [`HybridModel::excitations`].
+    pub mean_input_power: Vec<f64>,
+    /// Mean power dissipated by the structure's damping over the last period (W).
+    pub mean_power_structure: f64,
 }
 
 /// A steady-state run that stopped (singular position, no convergence).
@@ -245,6 +260,10 @@ pub fn steady_state(
     let max_periods = options.max_periods.max(min_periods);
     let tol = options.tolerance;
     let mut last = None;
+    // The account at the last sample of the previous period (one period before this
+    // period's last sample).
+    let mut account_before = state.account.clone();
+    let mut t_before = state.t;
     for k in 0..max_periods {
         for (j, yj) in y.iter_mut().enumerate() {
             if k > 0 || j > 0 {
@@ -259,6 +278,27 @@ pub fn steady_state(
         }
         let (a, ph, rms) = fit(&y, &cos, &sin);
         let amp = ph[0].hypot(ph[1]);
+        // Mean powers over the window ending at this period's last sample: a whole period
+        // from the second period on (the first one's window is N - 1 steps).
+        let span = state.t - t_before;
+        let mean = |now: &[f64], before: &[f64]| -> Vec<f64> {
+            now.iter()
+                .zip(before)
+                .map(|(n, b)| if span > 0.0 { (n - b) / span } else { 0.0 })
+                .collect()
+        };
+        let mean_power_dissipated = mean(&state.account.dissipated, &account_before.dissipated);
+        let mean_input_power = mean(
+            &state.account.excitation_work,
+            &account_before.excitation_work,
+        );
+        let mean_power_structure = if span > 0.0 {
+            (state.account.dissipated_structure - account_before.dissipated_structure) / span
+        } else {
+            0.0
+        };
+        account_before.clone_from(&state.account);
+        t_before = state.t;
         let mut result = SteadyState {
             frequency_hz,
             amplitude: amp,
@@ -269,6 +309,9 @@ pub fn steady_state(
             settled: false,
             change: f64::MAX,
             dt: h,
+            mean_power_dissipated,
+            mean_input_power,
+            mean_power_structure,
         };
         if let Some(p) = previous {
             let dc = (ph[0] - p[0]).hypot(ph[1] - p[1]);

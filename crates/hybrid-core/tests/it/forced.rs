@@ -162,6 +162,32 @@ fn paper_damper_small_amplitude_is_linear_and_large_amplitude_is_not() {
         );
         assert!(s.settled, "{s:?}");
         assert!(ea.abs() < 1e-2 && ep.abs() < 1e-2, "{s:?}: {ea:e} {ep:e}");
+        // The measured mean powers: the generator's against the linear steady state (its
+        // current `k_e n i omega' q_j / (R + i omega' L)`, omega' the warped frequency, at
+        // which the scheme's velocity is `i omega'` times its displacement; a sampled
+        // sinusoid's trapezoidal mean square over a whole period is `|i|^2 / 2`), and the
+        // excitation's input against the total dissipation (a periodic state stores nothing
+        // over a period).
+        let omega = warped_frequency(2.0 * PI * s.frequency_hz, s.dt);
+        let f = lin.force_vector(&ExcitationTarget::Beam(tip.clone()));
+        let motion = lin.mechanism_motion(&lin.harmonic_response(&f, omega).unwrap());
+        for (k, e) in model.forces.iter().enumerate() {
+            let Some(g) = e.generator() else { continue };
+            let speed = motion[e.mechanism][e.joint] * Complex::new(0.0, omega) * g.gear_ratio;
+            let current = g.ke * speed / Complex::new(g.resistance(), omega * g.inductance);
+            let linear = 0.5 * g.resistance() * (small * current).norm_sqr();
+            let rel = (s.mean_power_dissipated[k] - linear) / linear;
+            println!(
+                "  generator power {:.6e} W, linear {linear:.6e} W ({rel:.1e})",
+                s.mean_power_dissipated[k]
+            );
+            assert!(rel.abs() < 2e-2, "{s:?}: {rel:e}");
+        }
+        let input: f64 = s.mean_input_power.iter().sum();
+        let dissipated = s.mean_power_structure + s.mean_power_dissipated.iter().sum::<f64>();
+        let rel = (input - dissipated) / dissipated;
+        println!("  input {input:.6e} W, dissipated {dissipated:.6e} W ({rel:.1e})");
+        assert!(rel.abs() < 1e-2, "{s:?}: {rel:e}");
     }
     // The same results, in the same order, on one thread and on two.
     for threads in [1, 2] {

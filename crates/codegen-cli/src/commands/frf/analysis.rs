@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use super::Args;
 use crate::Error;
-use crate::linear::LoadLimit;
+use crate::linear::{LoadLimit, generator_phasors};
 use crate::setup::Linearizable;
 
 /// The response and the force, resolved against the model.
@@ -77,6 +77,24 @@ pub struct LinearRow {
     /// The admissible load with the generator, per load limit (in the order of
     /// [`Io::limits`]): `reach / |H_att|` (force unit), [`LoadLimit::max_force`].
     pub max_force: Vec<f64>,
+    /// Every connected generator's response per unit force, with the generator (in the
+    /// order of the scenario's force elements).
+    pub generators: Vec<GeneratorRow>,
+}
+
+/// A generator's linear response per unit force amplitude `F` at one frequency.
+#[derive(Clone, Debug, Serialize)]
+pub struct GeneratorRow {
+    /// The force element.
+    pub name: String,
+    /// Current amplitude per unit force, `|i| / |F|` (A per force unit).
+    pub current: f64,
+    /// Terminal voltage amplitude across the load per unit force, `R_L |i| / |F|` (V per
+    /// force unit).
+    pub voltage: f64,
+    /// Mean load power per unit force squared, `R_L |i|^2 / (2 |F|^2)` (W per force unit
+    /// squared).
+    pub load_power: f64,
 }
 
 /// One nonlinear steady state.
@@ -104,6 +122,12 @@ pub struct NonlinearRow {
     pub dt: f64,
     /// The linear receptance (with generator) at the same frequency.
     pub linear: Receptance,
+    /// Every connected generator's mean load power over the last period of a settled run
+    /// (W; empty when the run did not settle or stopped), in the order of
+    /// [`LinearRow::generators`].
+    pub load_power: Vec<f64>,
+    /// The linear prediction of the same powers at this force amplitude (W).
+    pub load_power_linear: Vec<f64>,
     /// Why the run stopped (singular position, no convergence), if it did.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
@@ -285,6 +309,7 @@ fn output_of(lin: &Linearization, output: &ExcitationTarget, z: &[Complex<f64>])
 /// The linear receptances at `freqs` (Hz) with the generator (`lin`, force vector `f_with`)
 /// and with it disconnected (`lin_off`, `f_off`).
 pub(super) fn linear_rows(
+    model: &HybridModel,
     lin: &Linearization,
     lin_off: &Linearization,
     io: &Io,
@@ -301,6 +326,15 @@ pub(super) fn linear_rows(
             with_generator: output_of(lin, &io.output, &z).into(),
             generator_disconnected: receptance(lin_off, &io.output, f_off, w)?.into(),
             max_force: io.limits.iter().map(|l| l.max_force(&z)).collect(),
+            generators: generator_phasors(model, lin, &z, w)
+                .iter()
+                .map(|g| GeneratorRow {
+                    name: model.forces[g.force].name.clone(),
+                    current: g.current.norm(),
+                    voltage: g.voltage.norm(),
+                    load_power: g.load_power,
+                })
+                .collect(),
         });
     }
     Ok(linear)
@@ -357,10 +391,30 @@ pub(super) fn nonlinear_rows(
     let mut rows = Vec::with_capacity(m);
     for (&f, r) in freqs.iter().zip(results) {
         let w = 2.0 * std::f64::consts::PI * f;
-        let linear: Receptance = receptance(lin, &io.output, f_with, w)?.into();
+        let z = response(lin, f_with, w)?;
+        let linear: Receptance = output_of(lin, &io.output, &z).into();
+        let phasors = generator_phasors(&model, lin, &z, w);
+        let load_power_linear = phasors
+            .iter()
+            .map(|g| g.load_power * force * force)
+            .collect();
         let dt = 1.0 / (f * args.steps_per_period as f64);
         rows.push(match r {
             Ok(s) => NonlinearRow {
+                // The load's share of the generator's measured dissipation.
+                load_power: if s.settled {
+                    phasors
+                        .iter()
+                        .map(|g| {
+                            let spec = model.forces[g.force].generator().expect("a generator");
+                            s.mean_power_dissipated[g.force] * spec.load_resistance
+                                / spec.resistance()
+                        })
+                        .collect()
+                } else {
+                    vec![]
+                },
+                load_power_linear,
                 f_hz: f,
                 amplitude: Some(s.amplitude),
                 magnitude: (force > 0.0).then(|| s.amplitude / force),
@@ -382,6 +436,8 @@ pub(super) fn nonlinear_rows(
                 settled: false,
                 dt,
                 linear,
+                load_power: vec![],
+                load_power_linear,
                 error: Some(e.error.to_string()),
             },
         });

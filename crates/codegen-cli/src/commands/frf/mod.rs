@@ -221,7 +221,7 @@ pub fn run(args: Args) -> Result<(), Error> {
     let f_with = lin.force_vector(&io.excitation.target);
     let f_off = lin_off.force_vector(&io.excitation.target);
     let freqs = grid(args.from, args.to, args.points, args.log);
-    let linear = linear_rows(&lin, &lin_off, &io, (&f_with, &f_off), &freqs)?;
+    let linear = linear_rows(&lz.model, &lin, &lin_off, &io, (&f_with, &f_off), &freqs)?;
     let nonlinear = match args.nonlinear {
         None => None,
         Some(m) => Some(nonlinear_rows(&args, &lz, &lin, &io, &f_with, m)?),
@@ -232,18 +232,21 @@ pub fn run(args: Args) -> Result<(), Error> {
         .iter()
         .filter(|f| f.generator().is_some())
         .count();
+    let warnings = band_edge_warnings(&linear, &io.unit());
     let files = outputs(
         &args,
         &out,
         &file,
-        &lz,
-        &lin,
-        &io,
+        (&lz, &lin, &io),
         &linear,
         nonlinear.as_deref(),
         generators,
+        &warnings,
     )?;
     commit_files(&files).map_err(ReportError::from)?;
+    for w in &warnings {
+        eprintln!("warning: {file}: {w}");
+    }
     let peak_of = |of: fn(&LinearRow) -> f64| {
         linear
             .iter()
@@ -280,4 +283,41 @@ pub fn run(args: Args) -> Result<(), Error> {
     }
     text += &format!("; outputs in {}\n", out.display());
     crate::print(&text)
+}
+
+/// A warning for each linear response (with the generator, generator disconnected) whose
+/// largest magnitude over the band lies at its first or last frequency: the peak the user is
+/// after may lie outside the band (below it when at the first, above when at the last).
+fn band_edge_warnings(linear: &[LinearRow], unit: &str) -> Vec<String> {
+    type Of = fn(&LinearRow) -> f64;
+    let responses: [(&str, Of); 2] = [
+        ("with generator", |r| r.with_generator.magnitude),
+        ("generator disconnected", |r| {
+            r.generator_disconnected.magnitude
+        }),
+    ];
+    let n = linear.len();
+    responses
+        .iter()
+        .filter_map(|(label, of)| {
+            let k = (0..n).max_by(|&a, &b| of(&linear[a]).total_cmp(&of(&linear[b])))?;
+            let side = if k == 0 {
+                "first"
+            } else if k + 1 == n {
+                "last"
+            } else {
+                return None;
+            };
+            let (below, widen) = if k == 0 {
+                ("below", "--from")
+            } else {
+                ("above", "--to")
+            };
+            Some(format!(
+                "the largest |H| {label} ({:.4e} {unit}) is at the {side} frequency of the band, {} Hz: the peak may lie {below} the band (widen it with {widen})",
+                of(&linear[k]),
+                linear[k].f_hz
+            ))
+        })
+        .collect()
 }

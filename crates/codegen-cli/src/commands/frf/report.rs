@@ -39,6 +39,8 @@ struct FrfJson<'a> {
     /// The admissible load: per mechanism its reach and attachment point (the values are
     /// `max_force` of every linear row, in this order).
     load_limits: Vec<LoadLimitJson<'a>>,
+    /// The largest response at an edge of the band (the peak may lie outside it).
+    warnings: &'a [String],
     linear: &'a [LinearRow],
     #[serde(skip_serializing_if = "Option::is_none")]
     nonlinear: Option<&'a [NonlinearRow]>,
@@ -93,12 +95,11 @@ pub(super) fn outputs(
     args: &Args,
     out: &Path,
     file: &str,
-    lz: &Linearizable,
-    lin: &Linearization,
-    io: &Io,
+    (lz, lin, io): (&Linearizable, &Linearization, &Io),
     linear: &[LinearRow],
     nonlinear: Option<&[NonlinearRow]>,
     generators: usize,
+    warnings: &[String],
 ) -> Result<Vec<OutputFile>, Error> {
     let unit = io.unit();
     let g = |v: f64| format!("{v:e}");
@@ -122,6 +123,24 @@ pub(super) fn outputs(
             format!("{}.max_force [{force_unit}]", l.name)
         }
     }));
+    // Per connected generator: current, terminal voltage and load power per unit force.
+    // `W/N^2`, `W/(N m)^2`.
+    let per = |what: &str| -> String {
+        if force_unit.contains(' ') {
+            format!("{what}/({force_unit})")
+        } else {
+            format!("{what}/{force_unit}")
+        }
+    };
+    let names: Vec<&str> = linear
+        .first()
+        .map(|r| r.generators.iter().map(|g| g.name.as_str()).collect())
+        .unwrap_or_default();
+    for name in &names {
+        header.push(format!("{name}.current [{}]", per("A")));
+        header.push(format!("{name}.voltage [{}]", per("V")));
+        header.push(format!("{name}.load_power [{}]", per("W") + "^2"));
+    }
     let rows: Vec<Vec<String>> = linear
         .iter()
         .map(|r| {
@@ -138,6 +157,9 @@ pub(super) fn outputs(
                 g(b.im),
             ];
             row.extend(r.max_force.iter().map(|&v| g(v)));
+            for p in &r.generators {
+                row.extend([g(p.current), g(p.voltage), g(p.load_power)]);
+            }
             row
         })
         .collect();
@@ -157,27 +179,37 @@ pub(super) fn outputs(
             "settled".into(),
             "distortion [-]".into(),
             "dt [s]".into(),
-            "error".into(),
         ];
+        let mut header = header;
+        for name in &names {
+            header.push(format!("{name}.load_power [W]"));
+            header.push(format!("{name}.load_power linear [W]"));
+        }
+        header.push("error".into());
         let opt = |v: Option<f64>| v.map_or_else(String::new, g);
-        let rows: Vec<Vec<String>> = nl
-            .iter()
-            .map(|r| {
-                vec![
-                    g(r.f_hz),
-                    opt(r.amplitude),
-                    opt(r.magnitude),
-                    opt(r.phase_deg),
-                    g(r.linear.magnitude),
-                    g(r.linear.phase_deg),
-                    r.periods.to_string(),
-                    r.settled.to_string(),
-                    opt(r.distortion),
-                    g(r.dt),
-                    r.error.clone().unwrap_or_default(),
-                ]
-            })
-            .collect();
+        let rows: Vec<Vec<String>> =
+            nl.iter()
+                .map(|r| {
+                    vec![
+                        g(r.f_hz),
+                        opt(r.amplitude),
+                        opt(r.magnitude),
+                        opt(r.phase_deg),
+                        g(r.linear.magnitude),
+                        g(r.linear.phase_deg),
+                        r.periods.to_string(),
+                        r.settled.to_string(),
+                        opt(r.distortion),
+                        g(r.dt),
+                    ]
+                    .into_iter()
+                    .chain((0..names.len()).flat_map(|k| {
+                        [opt(r.load_power.get(k).copied()), g(r.load_power_linear[k])]
+                    }))
+                    .chain([r.error.clone().unwrap_or_default()])
+                    .collect()
+                })
+                .collect();
         files.push(OutputFile {
             path: out.join("frf_nonlinear.csv"),
             bytes: csv_bytes(&header, &rows).map_err(Error::from)?,
@@ -223,6 +255,7 @@ pub(super) fn outputs(
                 }
             })
             .collect(),
+        warnings,
         linear,
         nonlinear,
     };
