@@ -495,7 +495,7 @@ pub fn evaluate<'a>(
         .filter_map(|(k, f)| {
             let g = f.generator()?;
             let d = state.account.dissipated[k];
-            let harvested = d * g.load_resistance / g.resistance();
+            let harvested = g.load_part(d);
             Some(GeneratorReport {
                 name: f.name.clone(),
                 mechanism: model.mechanisms[f.mechanism].name.clone(),

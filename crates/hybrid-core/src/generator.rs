@@ -50,6 +50,17 @@ impl GeneratorSpec {
         self.armature_resistance + self.load_resistance
     }
 
+    /// The load's part `R_L / (R_a + R_L)` of an energy or power `dissipated` in the circuit
+    /// (`(R_a + R_L) i^2`): what is harvested (0 for a circuit without resistance).
+    pub fn load_part(&self, dissipated: f64) -> f64 {
+        let r = self.resistance();
+        if r > 0.0 {
+            dissipated * self.load_resistance / r
+        } else {
+            0.0
+        }
+    }
+
     /// Equivalent rotational damping `c_g = n^2 k_t k_e / (R_a + R_L)` on the joint (0 when
     /// disconnected).
     pub fn damping_coefficient(&self) -> f64 {

@@ -215,7 +215,7 @@ impl Columns {
                 c.push(i);
                 c.push(g.resistance() * i * i);
                 c.push(g.load_resistance * i * i);
-                c.push(d * g.load_resistance / g.resistance());
+                c.push(g.load_part(d));
             }
         }
         for (k, e) in model.excitations.iter().enumerate() {

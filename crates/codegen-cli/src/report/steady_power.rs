@@ -244,11 +244,7 @@ impl SteadyPowerTracker {
                 Some(SteadyGeneratorPower {
                     name: f.name.clone(),
                     mean_power_dissipated: d,
-                    mean_power_load: if g.resistance() > 0.0 {
-                        d * g.load_resistance / g.resistance()
-                    } else {
-                        0.0
-                    },
+                    mean_power_load: g.load_part(d),
                 })
             })
             .collect();

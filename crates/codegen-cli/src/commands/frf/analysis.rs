@@ -407,8 +407,7 @@ pub(super) fn nonlinear_rows(
                         .iter()
                         .map(|g| {
                             let spec = model.forces[g.force].generator().expect("a generator");
-                            s.mean_power_dissipated[g.force] * spec.load_resistance
-                                / spec.resistance()
+                            spec.load_part(s.mean_power_dissipated[g.force])
                         })
                         .collect()
                 } else {
