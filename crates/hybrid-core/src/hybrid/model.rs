@@ -303,6 +303,60 @@ impl Excitation {
     pub fn value(&self, t: f64) -> f64 {
         self.amplitude * self.time.value(t)
     }
+
+    /// The motion this excitation gives the supports when it is their acceleration
+    /// ([`ExcitationTarget::Base`]): `(u, v)`, displacement (m) and velocity (m/s) at `t`,
+    /// the integrals of `a(t) = amplitude f(t)`:
+    ///
+    /// - harmonic `sin(w t + phi)` (`w > 0`): the zero-mean periodic motion
+    ///   `v = -a cos(w t + phi) / w`, `u = -a sin(w t + phi) / w^2` (the steady motion of a
+    ///   support shaken at that frequency, whatever it did before `t = 0`);
+    /// - constant, step, table (and a harmonic at 0 Hz, a constant): the exact integrals
+    ///   from rest at `t = 0` (`u(0) = v(0) = 0`; the table is piecewise linear, so its
+    ///   integrals are exact piecewise polynomials).
+    ///
+    /// A time function added later gives its own (a random kind: the realisation's
+    /// integral). Allocation-free; `O(points)` for a table.
+    pub fn support_motion(&self, t: f64) -> (f64, f64) {
+        let a = self.amplitude;
+        match &self.time {
+            TimeFunction::Harmonic {
+                frequency_hz,
+                phase,
+            } if *frequency_hz > 0.0 => {
+                let w = 2.0 * std::f64::consts::PI * frequency_hz;
+                let (s, c) = (w * t + phase).sin_cos();
+                (-a * s / (w * w), -a * c / w)
+            }
+            TimeFunction::Harmonic { phase, .. } => {
+                let f = phase.sin();
+                (a * f * t * t / 2.0, a * f * t)
+            }
+            TimeFunction::Constant => (a * t * t / 2.0, a * t),
+            TimeFunction::Step { at } => {
+                let d = (t - at.max(0.0)).max(0.0);
+                (a * d * d / 2.0, a * d)
+            }
+            TimeFunction::Table { points } => {
+                // Exact over each linear piece [t0, t1]: u += v dt + dt^2 (2 f0 + f1) / 6,
+                // v += dt (f0 + f1) / 2, the pieces cut at the table's times.
+                let (mut u, mut v) = (0.0, 0.0);
+                let mut t0 = 0.0;
+                let knots = points.iter().map(|p| p[0]).filter(|&k| k > 0.0 && k < t);
+                for t1 in knots.chain(std::iter::once(t)) {
+                    if t1 <= t0 {
+                        continue;
+                    }
+                    let (f0, f1) = (self.time.value(t0), self.time.value(t1));
+                    let dt = t1 - t0;
+                    u += v * dt + dt * dt * (2.0 * f0 + f1) / 6.0;
+                    v += dt * (f0 + f1) / 2.0;
+                    t0 = t1;
+                }
+                (a * u, a * v)
+            }
+        }
+    }
 }
 
 /// A hybrid system: beam + mechanisms + attachments + force elements + excitations.
@@ -647,6 +701,18 @@ impl HybridModel {
         }
     }
 
+    /// The unit of an excitation's amplitude at `target`: `N` for a beam force, the force
+    /// unit of the joint's coordinate (`N m` or `N`), `m/s^2` for the supports.
+    pub fn excitation_unit(&self, target: &ExcitationTarget) -> &'static str {
+        match target {
+            ExcitationTarget::Beam(_) => "N",
+            ExcitationTarget::Joint { mechanism, joint } => {
+                self.mechanisms[*mechanism].system.coordinate_units()[*joint].force()
+            }
+            ExcitationTarget::Base => "m/s^2",
+        }
+    }
+
     /// Whether an excitation moves the supports ([`ExcitationTarget::Base`]).
     pub fn has_base_excitation(&self) -> bool {
         self.excitations
@@ -662,6 +728,23 @@ impl HybridModel {
             .filter(|e| e.target == ExcitationTarget::Base)
             .map(|e| e.value(t))
             .sum()
+    }
+
+    /// The supports' motion at `t`: `[u, v, a]`, displacement (m), velocity (m/s) and
+    /// acceleration (m/s^2), summed over the base excitations
+    /// ([`Excitation::support_motion`]; zeros without one). The beam's absolute transverse
+    /// displacement is `w_abs = w + u` (the state holds `w` relative to the supports).
+    pub fn support_motion(&self, t: f64) -> [f64; 3] {
+        let mut out = [0.0; 3];
+        for e in &self.excitations {
+            if e.target == ExcitationTarget::Base {
+                let (u, v) = e.support_motion(t);
+                out[0] += u;
+                out[1] += v;
+                out[2] += e.value(t);
+            }
+        }
+        out
     }
 
     /// The beam load per unit support acceleration, `-(A r)` (N per m/s^2; `A` the reduced

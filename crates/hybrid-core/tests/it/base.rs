@@ -395,3 +395,65 @@ fn transverse_direction_in_the_ground_frame() {
         assert!(y[0].abs() < 1e-15 && (y[1] - 1.0).abs() < 1e-15 && d[2] == 0.0);
     }
 }
+
+/// The supports' motion of every time function: `v' = a` and `u' = v` (central differences,
+/// step 1e-5 s: truncation `h^2 f''' / 6`, rounding `1e-16 |u| / h`), `u = v = 0` at `t = 0`
+/// for the motions from rest (constant, step, table), the zero-mean periodic motion for a
+/// harmonic, and the exact value of a ramp table's integrals `a t^3 / (6 T)`.
+#[test]
+fn support_motion_integrates_the_acceleration() {
+    let kinds = [
+        TimeFunction::Harmonic {
+            frequency_hz: 3.0,
+            phase: 0.7,
+        },
+        TimeFunction::Harmonic {
+            frequency_hz: 0.0,
+            phase: 0.7,
+        },
+        TimeFunction::Constant,
+        TimeFunction::Step { at: 0.13 },
+        TimeFunction::Table {
+            points: vec![[-0.1, 0.5], [0.05, 1.0], [0.2, -2.0], [0.31, 0.25]],
+        },
+    ];
+    let h = 1e-5;
+    for time in kinds {
+        let e = base(1.7, time.clone());
+        for t in [0.021, 0.1, 0.17, 0.26, 0.4] {
+            let (u, v) = e.support_motion(t);
+            let (up, vp) = e.support_motion(t + h);
+            let (um, vm) = e.support_motion(t - h);
+            let dv = (vp - vm) / (2.0 * h);
+            let du = (up - um) / (2.0 * h);
+            assert!(
+                (dv - e.value(t)).abs() < 1e-6,
+                "{time:?} t = {t}: {dv} vs {}",
+                e.value(t)
+            );
+            assert!((du - v).abs() < 1e-8, "{time:?} t = {t}: {du} vs {v}");
+            assert!(u.is_finite());
+        }
+        let (u0, v0) = e.support_motion(0.0);
+        match time {
+            TimeFunction::Harmonic {
+                frequency_hz,
+                phase,
+            } if frequency_hz > 0.0 => {
+                let w = 2.0 * PI * frequency_hz;
+                assert!((v0 + 1.7 * phase.cos() / w).abs() < 1e-15);
+                assert!((u0 + 1.7 * phase.sin() / (w * w)).abs() < 1e-15);
+            }
+            _ => assert_eq!((u0, v0), (0.0, 0.0), "{time:?}"),
+        }
+    }
+    let ramp = base(
+        2.0,
+        TimeFunction::Table {
+            points: vec![[0.0, 0.0], [0.5, 1.0]],
+        },
+    );
+    let (u, v) = ramp.support_motion(0.3);
+    assert!((v - 2.0 * 0.09 / (2.0 * 0.5)).abs() < 1e-15);
+    assert!((u - 2.0 * 0.027 / (6.0 * 0.5)).abs() < 1e-15);
+}

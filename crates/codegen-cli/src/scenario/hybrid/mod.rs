@@ -156,6 +156,8 @@ pub enum TargetEntry {
         /// Body name whose joint it drives.
         joint: String,
     },
+    /// The supports' transverse acceleration (`at = "base"`; amplitude in m/s^2).
+    Base,
 }
 
 /// One `[[excitation]]`.
@@ -165,7 +167,7 @@ pub struct ExcitationEntry {
     pub name: String,
     /// Where it acts.
     pub target: TargetEntry,
-    /// Amplitude (N or N m).
+    /// Amplitude (N or N m; m/s^2 at the supports).
     pub amplitude: f64,
     /// Time dependence (a table file already read).
     pub time: TimeFunction,
