@@ -38,7 +38,9 @@
 //! [[excitation]]
 //! name = "shaker"
 //! at = { x = 1.0 }           # transverse beam force, or { mechanism = "left", joint = "crank" }
-//! amplitude = 0.5            # N (N m on a revolute joint)
+//!                            # or "base": the supports' transverse acceleration (every
+//!                            #   mass loaded by -m a_b in the frame moving with them)
+//! amplitude = 0.5            # N (N m on a revolute joint; m/s^2 at "base")
 //! time = { kind = "harmonic", frequency_hz = 6.2, phase = 0.0 }
 //! # or { kind = "step", at = 0.1 }, { kind = "constant" },
 //! # { kind = "table", points = [[0.0, 0.0], [0.1, 1.0]] } or
