@@ -7,8 +7,7 @@
 //! figures are.
 
 use hybrid_core::hybrid::{
-    BeamPoint, EigenMethod, EquilibriumOptions, ExcitationTarget, HybridModel, Linearization, Mode,
-    ModeKind, modes,
+    BeamPoint, EigenMethod, EquilibriumOptions, HybridModel, Linearization, Mode, ModeKind, modes,
 };
 use mbs_symbolic::runtime::TangentSystem;
 use nalgebra::Complex;
@@ -197,7 +196,8 @@ pub struct MaxForce {
 
 /// `linear.max_force`: the smallest over the mechanisms of `reach / |H_att|` at `f_hz`
 /// for the model's first excitation (`None` without an excitation or a load limit), with
-/// its unit (`N` for a beam force, `N m` or `N` for a joint torque or force).
+/// its unit (`N` for a beam force, `N m` or `N` for a joint torque or force, `m/s^2` for
+/// the supports' acceleration).
 pub fn max_force_at(
     model: &HybridModel,
     lin: &Linearization,
@@ -212,12 +212,7 @@ pub fn max_force_at(
     }
     let f = lin.force_vector(&e.target);
     let z = lin.harmonic_response(&f, 2.0 * std::f64::consts::PI * f_hz)?;
-    let unit = match &e.target {
-        ExcitationTarget::Beam(_) => "N",
-        ExcitationTarget::Joint { mechanism, joint } => {
-            model.mechanisms[*mechanism].system.coordinate_units()[*joint].force()
-        }
-    };
+    let unit = model.excitation_unit(&e.target);
     Ok(limits
         .iter()
         .map(|l| l.max_force(&z))

@@ -514,6 +514,7 @@ pub fn evaluate<'a>(
         .map(|(e, w)| ExcitationReport {
             name: e.name.clone(),
             work: *w,
+            supports: e.target == hybrid_core::hybrid::ExcitationTarget::Base,
         })
         .collect();
     let decay = (free && decay_samples > 0).then(|| decay.estimate());

@@ -20,7 +20,15 @@
 //!   `F.power [W]` (`(R_a + R_L) i^2`), `F.load_power [W]` (`R_L i^2`, the power harvested
 //!   in the load) and `F.harvested [J]` (the load's share `R_L / (R_a + R_L)` of the
 //!   dissipated energy);
-//! - per excitation `E`: `E.value [N|N m]` and `E.work [J]`;
+//! - per excitation `E`: `E.value [N|N m|m/s^2]` and `E.work [J]` (a base excitation's
+//!   work is that of the inertial loads `-m a_b y` on every mass, in the frame moving
+//!   with the supports);
+//! - with a base excitation (`at = "base"`): the supports' motion `base.a [m/s^2]`,
+//!   `base.v [m/s]`, `base.u [m]` ([`HybridModel::support_motion`]: harmonic — the
+//!   zero-mean periodic motion; constant, step, table — the integrals from rest at
+//!   `t = 0`), and per attachment `A` its absolute motion `A.w_abs [m]`,
+//!   `A.w_dot_abs [m/s]` (`w + u`, `w' + v`: every other displacement is relative to the
+//!   supports);
 //! - the energy account: `beam_kinetic [J]`, `beam_potential [J]`, per mechanism
 //!   `M.kinetic [J]` and `M.potential [J]`, `magnetic [J]`, `stored [J]`,
 //!   `dissipated_structure [J]`, `beam_load_work [J]` and `balance_error [J]`
@@ -31,9 +39,7 @@
 
 use std::collections::BTreeMap;
 
-use hybrid_core::hybrid::{
-    BeamPoint, ExcitationTarget, HybridModel, HybridState, Integrator, Stored, balance_error,
-};
+use hybrid_core::hybrid::{BeamPoint, HybridModel, HybridState, Integrator, Stored, balance_error};
 use mbs_symbolic::model::Model;
 use serde::Serialize;
 
@@ -52,6 +58,8 @@ pub struct Columns {
     probes: Vec<BeamPoint>,
     /// The mechanisms whose own model's force elements have columns (the last ones).
     model_elements: Vec<usize>,
+    /// Whether the supports' motion and the absolute attachment motion have columns.
+    base: bool,
     cells: Vec<f64>,
 }
 
@@ -111,12 +119,17 @@ impl Columns {
             }
         }
         for e in &model.excitations {
-            let u = match e.target {
-                ExcitationTarget::Beam(_) => "N",
-                ExcitationTarget::Joint { mechanism, joint } => unit(mechanism, joint).force(),
-            };
+            let u = model.excitation_unit(&e.target);
             h.push(format!("{}.value [{u}]", e.name));
             h.push(format!("{}.work [J]", e.name));
+        }
+        let base = model.has_base_excitation();
+        if base {
+            h.extend(["base.a [m/s^2]", "base.v [m/s]", "base.u [m]"].map(String::from));
+            for a in &model.attachments {
+                h.push(format!("{}.w_abs [m]", a.name));
+                h.push(format!("{}.w_dot_abs [m/s]", a.name));
+            }
         }
         h.push("beam_kinetic [J]".into());
         h.push("beam_potential [J]".into());
@@ -139,6 +152,7 @@ impl Columns {
             amplifier,
             probes: vec![],
             model_elements: vec![],
+            base,
             cells,
         }
     }
@@ -221,6 +235,14 @@ impl Columns {
         for (k, e) in model.excitations.iter().enumerate() {
             c.push(e.value(state.t));
             c.push(state.account.excitation_work[k]);
+        }
+        if self.base {
+            let [u, v, a] = model.support_motion(state.t);
+            c.extend([a, v, u]);
+            for at in &model.attachments {
+                c.push(at.beam.value(&state.q) + u);
+                c.push(at.beam.value(&state.v) + v);
+            }
         }
         c.push(stored.beam_kinetic);
         c.push(stored.beam_potential);
@@ -462,6 +484,11 @@ pub struct ExcitationReport {
     pub name: String,
     /// Work done on the system (J).
     pub work: f64,
+    /// Whether it is the supports' acceleration (`at = "base"`; written only then): its
+    /// work is the supports' input work, that of the inertial loads in the frame moving
+    /// with them.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub supports: bool,
 }
 
 /// The energy account of a hybrid run (J).

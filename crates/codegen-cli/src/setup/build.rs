@@ -415,6 +415,7 @@ pub fn build_model(sc: &HybridScenario) -> Result<(HybridModel, Vec<Model>), Dia
                     joint: j,
                 }
             }),
+            TargetEntry::Base => Some(ExcitationTarget::Base),
         };
         if let Some(target) = target {
             excitations.push(Excitation {

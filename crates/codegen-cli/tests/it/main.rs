@@ -9,6 +9,7 @@ static GLOBAL: damper_e2e::alloc_counter::CountingAllocator =
 mod admissible_load;
 mod amplification_cli;
 mod bad_values_cli;
+mod base_cli;
 mod bundled_hybrid;
 mod common;
 mod eval_cli;

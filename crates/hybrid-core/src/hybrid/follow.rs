@@ -336,6 +336,22 @@ impl Follower {
         )
     }
 
+    /// The power of the supports' inertial loads on this mechanism per unit support
+    /// acceleration at `(q, q')` ([`HybridModel::base_power_mechanism`]).
+    pub fn base_power(&mut self, model: &HybridModel, q: &[f64], qd: &[f64]) -> f64 {
+        model.base_power_mechanism(self.mech, q, qd, &mut self.ws)
+    }
+
+    /// [`Follower::base_power`] at the follower's own `(q, q')` (the last solve).
+    pub fn current_base_power(&mut self, model: &HybridModel) -> f64 {
+        model.base_power_mechanism(
+            self.mech,
+            self.q.as_slice(),
+            self.qd.as_slice(),
+            &mut self.ws,
+        )
+    }
+
     /// Kinetic energy `q'^T M q' / 2` (rotors included) and potential energy (gravity and
     /// model springs) at `(q, q')`.
     pub fn energies(
@@ -546,6 +562,7 @@ impl Follower {
             &mut self.ws.m,
             &mut self.ws.q,
         );
+        model.add_base_load(self.mech, t, self.q.as_slice(), &mut self.ws);
         // Accelerations (19): J_d qdd_d = E w'' - J_f u'' - A.
         for (k, &c) in self.free.iter().enumerate() {
             self.qdd[c] = acc[off + k];

@@ -160,6 +160,11 @@ pub struct Integrator {
     jac_piv: Vec<usize>,
     jac_valid: bool,
     currents: Vec<f64>,
+    /// The beam load per unit support acceleration, `-(A r)` (empty without a base
+    /// excitation or a beam; [`HybridModel::base_beam_load`]).
+    base_load: Vec<f64>,
+    /// Whether the model has a base excitation.
+    base: bool,
     checked_condition: Vec<f64>,
     /// Changes of independent coordinates so far.
     pub repartitions: Vec<Repartition>,
@@ -291,6 +296,12 @@ impl Integrator {
             jac_piv: Vec::with_capacity(nz),
             jac_valid: false,
             currents: vec![0.0; nf],
+            base: model.has_base_excitation(),
+            base_load: if model.has_base_excitation() {
+                model.base_beam_load()
+            } else {
+                Vec::new()
+            },
             checked_condition: state.mechanisms.iter().map(|m| m.condition).collect(),
             repartitions: Vec::new(),
         })
@@ -301,12 +312,19 @@ impl Integrator {
         self.h
     }
 
-    /// The beam load `P(t)`: the beam's own loads plus the beam excitations.
-    fn load_into(model: &HybridModel, t: f64, out: &mut [f64]) {
+    /// The beam load `P(t)`: the beam's own loads plus the beam excitations plus the
+    /// supports' inertial load `base_load a_b(t)`.
+    fn load_into(model: &HybridModel, base_load: &[f64], t: f64, out: &mut [f64]) {
         if let Some(beam) = &model.beam {
             beam.load_into(t, out);
         }
         model.add_beam_excitations(t, out);
+        if !base_load.is_empty() {
+            let a = model.base_acceleration(t);
+            for (o, b) in out.iter_mut().zip(base_load) {
+                *o += a * b;
+            }
+        }
     }
 
     /// Evaluates the reduced residual at `z` (into `res`); the followers hold the trial
@@ -571,7 +589,7 @@ impl Integrator {
         self.q_hat.copy_from_slice(&state.q);
         self.v_hat.copy_from_slice(&state.v);
         if let Some(beam) = &model.beam {
-            Self::load_into(model, state.t, &mut self.p_new);
+            Self::load_into(model, &self.base_load, state.t, &mut self.p_new);
             self.r0.copy_from_slice(&self.p_new);
             beam.damping().mul_add_into(-1.0, &state.v, &mut self.r0);
             beam.stiffness().mul_add_into(-1.0, &state.q, &mut self.r0);
@@ -654,6 +672,32 @@ impl Integrator {
         }
     }
 
+    /// The supports' inertial loads on the mechanisms in the energy account: the work of
+    /// each base excitation `k`, `integral a_k(t) sum_i q_i'^T G_i(q_i) R_i^T y dt`, by the
+    /// trapezoidal rule between `state` (the old step) and the followers' solution. Kept
+    /// out of [`Integrator::step`]'s body like [`Integrator::account_model_elements`].
+    #[inline(never)]
+    fn account_base_mechanisms(
+        followers: &mut [Follower],
+        model: &HybridModel,
+        state: &mut HybridState,
+        t_new: f64,
+        h: f64,
+    ) {
+        let (mut old, mut new) = (0.0, 0.0);
+        for (i, f) in followers.iter_mut().enumerate() {
+            let ms = &state.mechanisms[i];
+            old += f.base_power(model, &ms.q, &ms.qd);
+            new += f.current_base_power(model);
+        }
+        for (k, e) in model.excitations.iter().enumerate() {
+            if e.target == ExcitationTarget::Base {
+                state.account.excitation_work[k] +=
+                    0.5 * h * (e.value(state.t) * old + e.value(t_new) * new);
+            }
+        }
+    }
+
     /// Advances `state` by one step. Allocates nothing (unless a mechanism is
     /// re-partitioned, which is logged in [`Integrator::repartitions`]).
     pub fn step(
@@ -670,8 +714,8 @@ impl Integrator {
                 self.v_hat[i] = state.v[i] + h * (1.0 - gamma) * state.a[i];
             }
             // r0 = (1+alpha)(P_{n+1} - B v^ - C q^) - alpha (P_n - B v_n - C q_n)
-            Self::load_into(model, t_new, &mut self.p_new);
-            Self::load_into(model, state.t, &mut self.p_old);
+            Self::load_into(model, &self.base_load, t_new, &mut self.p_new);
+            Self::load_into(model, &self.base_load, state.t, &mut self.p_old);
             self.r0.copy_from_slice(&self.p_new);
             beam.damping().mul_add_into(-1.0, &self.v_hat, &mut self.r0);
             beam.stiffness()
@@ -703,6 +747,9 @@ impl Integrator {
             acc.dissipated[k] += 0.5 * h * (old + new);
         }
         Self::account_model_elements(&mut self.followers, model, state, h);
+        if self.base {
+            Self::account_base_mechanisms(&mut self.followers, model, state, t_new, h);
+        }
         let acc = &mut state.account;
         for (k, e) in model.excitations.iter().enumerate() {
             if let ExcitationTarget::Joint { mechanism, joint } = e.target {
@@ -738,12 +785,24 @@ impl Integrator {
                 work += 0.5 * (self.p_old[i] + self.p_new[i]) * self.v_mid[i];
             }
             let mut excited = 0.0;
+            let base_v: f64 = self
+                .base_load
+                .iter()
+                .zip(&self.v_mid)
+                .map(|(b, v)| b * v)
+                .sum();
             for (k, e) in model.excitations.iter().enumerate() {
-                if let ExcitationTarget::Beam(p) = &e.target {
-                    let w = 0.5 * (e.value(state.t) + e.value(t_new)) * p.value(&self.v_mid);
-                    acc.excitation_work[k] += h * w;
-                    excited += w;
-                }
+                let w = match &e.target {
+                    ExcitationTarget::Beam(p) => {
+                        0.5 * (e.value(state.t) + e.value(t_new)) * p.value(&self.v_mid)
+                    }
+                    ExcitationTarget::Base if !self.base_load.is_empty() => {
+                        0.5 * (e.value(state.t) + e.value(t_new)) * base_v
+                    }
+                    _ => continue,
+                };
+                acc.excitation_work[k] += h * w;
+                excited += w;
             }
             acc.beam_load_work += h * (work - excited);
         }

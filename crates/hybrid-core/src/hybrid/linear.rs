@@ -265,6 +265,9 @@ pub struct Linearization {
     pub ks: DMatrix<f64>,
     /// Inductive generators.
     pub electrical: Vec<ElectricalState>,
+    /// The mechanisms' generalised load in `s` per unit support acceleration,
+    /// `sum_i R_i^T G_i(q0) R_i^T y` ([`ExcitationTarget::Base`]).
+    base_small: DVector<f64>,
 }
 
 /// Which reduced matrix a product is with.
@@ -296,11 +299,15 @@ fn static_beam_load(model: &HybridModel) -> Vec<f64> {
 }
 
 /// The model with only its time-independent excitations (the joint forces of the
-/// equilibrium come from [`HybridModel::add_joint_forces`] at `t = 0`).
+/// equilibrium come from [`HybridModel::add_joint_forces`] at `t = 0`). The supports'
+/// accelerations are inputs of the linear model whatever their time function (a constant
+/// one's static effect is the linear response at zero frequency to
+/// [`Linearization::force_vector`]`(Base)`), so they are left out of the equilibrium.
 pub(crate) fn static_model(model: &HybridModel) -> HybridModel {
     let mut m = model.clone();
-    m.excitations
-        .retain(|e| e.time == fem_beam::TimeFunction::Constant);
+    m.excitations.retain(|e| {
+        e.time == fem_beam::TimeFunction::Constant && e.target != ExcitationTarget::Base
+    });
     m
 }
 
@@ -487,6 +494,7 @@ impl Linearization {
             residual: 0.0,
         };
         let mut electrical = Vec::new();
+        let mut base_small = DVector::zeros(ns);
         for (i, f) in mech.followers.iter_mut().enumerate() {
             let m = &model.mechanisms[i];
             let t = tangents[i];
@@ -554,6 +562,10 @@ impl Linearization {
             // Basis R_i and the small blocks.
             let mut ri = DMatrix::zeros(dof, ns);
             f.basis_into(&mut ri);
+            // The supports' inertial load per unit acceleration, G(q0) R^T y.
+            m.system.gravity_load_jacobian(&q, &mut sws);
+            let y = nalgebra::Vector3::from(m.mount.transverse_in_ground());
+            base_small += ri.transpose() * (&sws.gravity_jacobian * y);
             ms += ri.transpose() * &mi * &ri;
             cs += ri.transpose() * &ci * &ri;
             ks += ri.transpose() * &ki * &ri;
@@ -605,6 +617,7 @@ impl Linearization {
             cs,
             ks,
             electrical,
+            base_small,
         })
     }
 
@@ -816,8 +829,13 @@ fn joint_terms(
 
 impl Linearization {
     /// The generalised force in `z` of a unit excitation at `target`: a unit transverse force
-    /// at a beam point (`n`), or a unit torque/force driving a mechanism joint (`Q_j -= f`,
-    /// so `+P^T R_i^T e_j`).
+    /// at a beam point (`n`), a unit torque/force driving a mechanism joint (`Q_j -= f`,
+    /// so `+P^T R_i^T e_j`), or a unit support acceleration (1 m/s^2): the inertial loads
+    /// `-(A r)` on the beam (`r` the rigid transverse translation, see
+    /// [`ExcitationTarget::Base`]) and `P^T sum_i R_i^T G_i(q0) R_i^T y` from the
+    /// mechanisms, which equals `-(M_R r_z)` for the rigid translation `r_z` of the whole
+    /// system in `z` (beam `w = 1`, the free coordinates as the mechanisms move with their
+    /// grounds).
     pub fn force_vector(&self, target: &ExcitationTarget) -> Vec<f64> {
         let mut f = vec![0.0; self.dim()];
         match target {
@@ -826,6 +844,18 @@ impl Linearization {
                 let r = &self.basis[*mechanism];
                 let s: Vec<f64> = (0..r.ncols()).map(|c| r[(*joint, c)]).collect();
                 self.add_from_small(&s, &mut f);
+            }
+            ExcitationTarget::Base => {
+                if let Some([a, _, _]) = &self.beam {
+                    let mut r = vec![0.0; self.n];
+                    for &(_, d) in &self.nodes {
+                        if let Some(k) = d {
+                            r[k] = 1.0;
+                        }
+                    }
+                    a.mul_add_into(-1.0, &r, &mut f[..self.n]);
+                }
+                self.add_from_small(self.base_small.as_slice(), &mut f);
             }
         }
         f

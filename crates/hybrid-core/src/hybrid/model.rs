@@ -3,7 +3,7 @@
 //! excitations — and the checks that make such a description usable.
 
 use fem_beam::{BeamModel, ShapeAt, TimeFunction};
-use mbs_symbolic::runtime::System;
+use mbs_symbolic::runtime::{System, Workspace};
 use nalgebra::{DMatrix, DVector};
 
 use crate::generator::GeneratorSpec;
@@ -29,6 +29,14 @@ impl Mount {
     pub fn rotate(&self, v: [f64; 2]) -> [f64; 2] {
         let (c, s) = self.rotation();
         [c * v[0] - s * v[1], s * v[0] + c * v[1]]
+    }
+
+    /// The beam's transverse direction `y` in the mechanism's ground frame,
+    /// `R(angle)^T (0, 1, 0) = (sin, cos, 0)`: the direction in which the supports move the
+    /// mechanism's ground under a base excitation.
+    pub fn transverse_in_ground(&self) -> [f64; 3] {
+        let (c, s) = self.rotation();
+        [s, c, 0.0]
     }
 
     /// A mechanism-frame point in the beam frame.
@@ -266,6 +274,15 @@ pub enum ExcitationTarget {
         /// Coordinate index of the joint.
         joint: usize,
     },
+    /// The supports: a prescribed transverse acceleration `a_b(t)` (m/s^2) of everything
+    /// that holds the system — the beam's supports and every mechanism's ground frame move
+    /// together along the beam's `y`. The equations are written in the frame moving with
+    /// the supports: beam DOFs are relative to the supports, mechanism grounds move with
+    /// them, and every mass carries the inertial load `-m a_b y`: `P += -(A r) a_b` on the
+    /// beam (`r` the rigid transverse translation, `w = 1` and rotations 0, in the reduced
+    /// DOFs) and `F^b += -G(q) a_b R^T y` on each mechanism (`G = dF^b/dg`,
+    /// [`System::gravity_load_jacobian`]).
+    Base,
 }
 
 /// An external excitation: `amplitude * time(t)` at `target`.
@@ -275,16 +292,70 @@ pub struct Excitation {
     pub name: String,
     /// Where it acts.
     pub target: ExcitationTarget,
-    /// Amplitude (N, or N m on a revolute joint).
+    /// Amplitude (N, or N m on a revolute joint; m/s^2 for the supports' acceleration).
     pub amplitude: f64,
     /// Time dependence (harmonic, step, piecewise-linear table, constant).
     pub time: TimeFunction,
 }
 
 impl Excitation {
-    /// The force or torque at time `t`.
+    /// The force, torque or support acceleration at time `t`.
     pub fn value(&self, t: f64) -> f64 {
         self.amplitude * self.time.value(t)
+    }
+
+    /// The motion this excitation gives the supports when it is their acceleration
+    /// ([`ExcitationTarget::Base`]): `(u, v)`, displacement (m) and velocity (m/s) at `t`,
+    /// the integrals of `a(t) = amplitude f(t)`:
+    ///
+    /// - harmonic `sin(w t + phi)` (`w > 0`): the zero-mean periodic motion
+    ///   `v = -a cos(w t + phi) / w`, `u = -a sin(w t + phi) / w^2` (the steady motion of a
+    ///   support shaken at that frequency, whatever it did before `t = 0`);
+    /// - constant, step, table (and a harmonic at 0 Hz, a constant): the exact integrals
+    ///   from rest at `t = 0` (`u(0) = v(0) = 0`; the table is piecewise linear, so its
+    ///   integrals are exact piecewise polynomials).
+    ///
+    /// A time function added later gives its own (a random kind: the realisation's
+    /// integral). Allocation-free; `O(points)` for a table.
+    pub fn support_motion(&self, t: f64) -> (f64, f64) {
+        let a = self.amplitude;
+        match &self.time {
+            TimeFunction::Harmonic {
+                frequency_hz,
+                phase,
+            } if *frequency_hz > 0.0 => {
+                let w = 2.0 * std::f64::consts::PI * frequency_hz;
+                let (s, c) = (w * t + phase).sin_cos();
+                (-a * s / (w * w), -a * c / w)
+            }
+            TimeFunction::Harmonic { phase, .. } => {
+                let f = phase.sin();
+                (a * f * t * t / 2.0, a * f * t)
+            }
+            TimeFunction::Constant => (a * t * t / 2.0, a * t),
+            TimeFunction::Step { at } => {
+                let d = (t - at.max(0.0)).max(0.0);
+                (a * d * d / 2.0, a * d)
+            }
+            TimeFunction::Table { points } => {
+                // Exact over each linear piece [t0, t1]: u += v dt + dt^2 (2 f0 + f1) / 6,
+                // v += dt (f0 + f1) / 2, the pieces cut at the table's times.
+                let (mut u, mut v) = (0.0, 0.0);
+                let mut t0 = 0.0;
+                let knots = points.iter().map(|p| p[0]).filter(|&k| k > 0.0 && k < t);
+                for t1 in knots.chain(std::iter::once(t)) {
+                    if t1 <= t0 {
+                        continue;
+                    }
+                    let (f0, f1) = (self.time.value(t0), self.time.value(t1));
+                    let dt = t1 - t0;
+                    u += v * dt + dt * dt * (2.0 * f0 + f1) / 6.0;
+                    v += dt * (f0 + f1) / 2.0;
+                    t0 = t1;
+                }
+                (a * u, a * v)
+            }
+        }
     }
 }
 
@@ -584,6 +655,7 @@ impl HybridModel {
                         });
                     }
                 }
+                ExcitationTarget::Base => {}
             }
         }
         Ok(())
@@ -627,6 +699,110 @@ impl HybridModel {
                 qv[joint] -= e.value(t);
             }
         }
+    }
+
+    /// The unit of an excitation's amplitude at `target`: `N` for a beam force, the force
+    /// unit of the joint's coordinate (`N m` or `N`), `m/s^2` for the supports.
+    pub fn excitation_unit(&self, target: &ExcitationTarget) -> &'static str {
+        match target {
+            ExcitationTarget::Beam(_) => "N",
+            ExcitationTarget::Joint { mechanism, joint } => {
+                self.mechanisms[*mechanism].system.coordinate_units()[*joint].force()
+            }
+            ExcitationTarget::Base => "m/s^2",
+        }
+    }
+
+    /// Whether an excitation moves the supports ([`ExcitationTarget::Base`]).
+    pub fn has_base_excitation(&self) -> bool {
+        self.excitations
+            .iter()
+            .any(|e| e.target == ExcitationTarget::Base)
+    }
+
+    /// The supports' transverse acceleration `a_b(t)` (m/s^2): the sum of the base
+    /// excitations (0 without one).
+    pub fn base_acceleration(&self, t: f64) -> f64 {
+        self.excitations
+            .iter()
+            .filter(|e| e.target == ExcitationTarget::Base)
+            .map(|e| e.value(t))
+            .sum()
+    }
+
+    /// The supports' motion at `t`: `[u, v, a]`, displacement (m), velocity (m/s) and
+    /// acceleration (m/s^2), summed over the base excitations
+    /// ([`Excitation::support_motion`]; zeros without one). The beam's absolute transverse
+    /// displacement is `w_abs = w + u` (the state holds `w` relative to the supports).
+    pub fn support_motion(&self, t: f64) -> [f64; 3] {
+        let mut out = [0.0; 3];
+        for e in &self.excitations {
+            if e.target == ExcitationTarget::Base {
+                let (u, v) = e.support_motion(t);
+                out[0] += u;
+                out[1] += v;
+                out[2] += e.value(t);
+            }
+        }
+        out
+    }
+
+    /// The beam load per unit support acceleration, `-(A r)` (N per m/s^2; `A` the reduced
+    /// mass matrix, `r` the rigid transverse translation: 1 on every free transverse DOF, 0
+    /// on the rotations; locked DOFs are not in the reduced vector). Empty without a beam.
+    /// Allocates: computed once at setup.
+    pub fn base_beam_load(&self) -> Vec<f64> {
+        let Some(beam) = &self.beam else {
+            return Vec::new();
+        };
+        let n = beam.dof_count();
+        let r: Vec<f64> = (0..n)
+            .map(|k| match beam.dofs().node_dof(k) {
+                Some((_, fem_beam::Dof::Transverse)) => 1.0,
+                _ => 0.0,
+            })
+            .collect();
+        let mut out = vec![0.0; n];
+        beam.mass().mul_add_into(-1.0, &r, &mut out);
+        out
+    }
+
+    /// Adds the inertial load of the supports' acceleration at time `t` to mechanism
+    /// `mech`'s `Q^b` (in `ws.q`) at `q`: `Q^b -= G(q) a_b(t) R^T y` (see
+    /// [`ExcitationTarget::Base`]), leaving `G(q)` in `ws.gravity_jacobian`. Nothing (and
+    /// no evaluation) while `a_b(t) = 0`. Allocation-free on the generated and interpreted
+    /// backends.
+    pub fn add_base_load(&self, mech: usize, t: f64, q: &[f64], ws: &mut Workspace) {
+        let a = self.base_acceleration(t);
+        if a == 0.0 {
+            return;
+        }
+        let m = &self.mechanisms[mech];
+        m.system.gravity_load_jacobian(q, ws);
+        let d = m.mount.transverse_in_ground();
+        for r in 0..ws.q.len() {
+            let g = &ws.gravity_jacobian;
+            ws.q[r] -= a * (g[(r, 0)] * d[0] + g[(r, 1)] * d[1] + g[(r, 2)] * d[2]);
+        }
+    }
+
+    /// The power of the supports' inertial loads on mechanism `mech` per unit support
+    /// acceleration at `(q, q')`: `q'^T G(q) R^T y = -y . sum_i m_i v_Ci` (W per m/s^2;
+    /// `v_Ci` relative to the supports). Evaluates `G(q)` into `ws`.
+    pub fn base_power_mechanism(
+        &self,
+        mech: usize,
+        q: &[f64],
+        qd: &[f64],
+        ws: &mut Workspace,
+    ) -> f64 {
+        let m = &self.mechanisms[mech];
+        m.system.gravity_load_jacobian(q, ws);
+        let d = m.mount.transverse_in_ground();
+        let g = &ws.gravity_jacobian;
+        (0..qd.len())
+            .map(|r| qd[r] * (g[(r, 0)] * d[0] + g[(r, 1)] * d[1] + g[(r, 2)] * d[2]))
+            .sum()
     }
 
     /// Adds the beam excitations at time `t` to the beam load vector `p`.

@@ -227,6 +227,12 @@ fn solve_kkt(
         let mut p = vec![0.0; n];
         beam.load_into(t, &mut p);
         model.add_beam_excitations(t, &mut p);
+        let a = model.base_acceleration(t);
+        if a != 0.0 {
+            for (pi, b) in p.iter_mut().zip(model.base_beam_load()) {
+                *pi += a * b;
+            }
+        }
         let q = DVector::from_column_slice(&x[..n]);
         let v = DVector::from_column_slice(&xd[..n]);
         let r = DVector::from_vec(p) - damp * v - stiff * q;
@@ -239,6 +245,7 @@ fn solve_kkt(
         let mut ws = sys.workspace();
         sys.evaluate(q, qd, t, &mut ws);
         model.add_joint_forces(i, t, q, qd, currents, &mut ws.m, &mut ws.q);
+        model.add_base_load(i, t, q, &mut ws);
         kkt.view_mut((c0, c0), (dof, dof)).copy_from(&ws.m);
         for c in 0..dof {
             rhs[c0 + c] = -(ws.f[c] + ws.q[c]);

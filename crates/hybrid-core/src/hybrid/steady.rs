@@ -171,11 +171,12 @@ pub fn rest_state(model: &mut HybridModel, eq: &Equilibrium) -> Result<HybridSta
 }
 
 /// The output's value in a state: a beam point's transverse displacement, or a mechanism
-/// coordinate.
+/// coordinate (the supports, relative to which every state is written, give 0).
 pub fn output_value(output: &ExcitationTarget, state: &HybridState) -> f64 {
     match output {
         ExcitationTarget::Beam(p) => p.value(&state.q),
         ExcitationTarget::Joint { mechanism, joint } => state.mechanisms[*mechanism].q[*joint],
+        ExcitationTarget::Base => 0.0,
     }
 }
 

@@ -5,7 +5,7 @@
 //!   ratios) stay on the beam, so near a toggle the frequency falls far below the bare
 //!   beam's;
 //! - [`HybridModel::bare_beam`]: the beam alone — no mechanism, no attachment, no force
-//!   element; the excitations on beam points kept.
+//!   element; the excitations on beam points and of the supports kept.
 
 use super::model::{ExcitationTarget, ForceKind, HybridModel};
 
@@ -23,7 +23,8 @@ impl HybridModel {
         m
     }
 
-    /// The beam alone: the same beam and the excitations on beam points, without the
+    /// The beam alone: the same beam, the excitations on beam points and the supports'
+    /// motion, without the
     /// mechanisms, attachments, force elements and excitations on joints; `None` when the
     /// system has no beam. Its state is the beam part of this system's state.
     pub fn bare_beam(&self) -> Option<HybridModel> {
@@ -31,7 +32,7 @@ impl HybridModel {
         let excitations = self
             .excitations
             .iter()
-            .filter(|e| matches!(e.target, ExcitationTarget::Beam(_)))
+            .filter(|e| matches!(e.target, ExcitationTarget::Beam(_) | ExcitationTarget::Base))
             .cloned()
             .collect();
         // Valid by construction: the beam-point excitations were checked with this beam, and

@@ -7,6 +7,7 @@
 static GLOBAL: damper_e2e::alloc_counter::CountingAllocator =
     damper_e2e::alloc_counter::CountingAllocator;
 
+mod base;
 mod closed_loop;
 mod common;
 mod damper_oracle;

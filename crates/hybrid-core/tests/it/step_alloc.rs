@@ -6,7 +6,10 @@ use crate::common;
 
 use common::PaperDamper;
 use damper_e2e::alloc_counter::allocations;
-use hybrid_core::hybrid::{Integrator, Method, Stored, initial_state};
+use fem_beam::TimeFunction;
+use hybrid_core::hybrid::{
+    Excitation, ExcitationTarget, Integrator, Method, Stored, initial_state,
+};
 
 /// The scenario's damper with the generator's `inductance` and the scheme `method`.
 fn damper(inductance: f64, method: Method) -> PaperDamper {
@@ -44,16 +47,30 @@ fn damper_step_does_not_allocate() {
 
 /// The general hybrid integrator allocates nothing per step either: the paper's damper
 /// (Newmark, and HHT with an inductive generator) and the damper with two more double bars
-/// on the beam (three mechanisms, three attachments); stored energies at output steps too.
+/// on the beam (three mechanisms, three attachments), and the damper under a harmonic
+/// support acceleration (inertial loads on beam and mechanism, the supports' work);
+/// stored energies at output steps too.
 #[test]
 fn hybrid_step_does_not_allocate() {
-    for (inductance, method, extra) in [
-        (0.0, Method::Newmark, 0usize),
-        (1e-4, HHT, 0),
-        (0.0, Method::Newmark, 2),
+    for (inductance, method, extra, base) in [
+        (0.0, Method::Newmark, 0usize, false),
+        (1e-4, HHT, 0, false),
+        (0.0, Method::Newmark, 2, false),
+        (0.0, Method::Newmark, 0, true),
     ] {
         let d = damper(inductance, method);
         let (mut hm, q0) = d.hybrid();
+        if base {
+            hm.excitations.push(Excitation {
+                name: "support".into(),
+                target: ExcitationTarget::Base,
+                amplitude: 0.5,
+                time: TimeFunction::Harmonic {
+                    frequency_hz: 6.0,
+                    phase: 0.0,
+                },
+            });
+        }
         for x in [0.5, 0.75].into_iter().take(extra) {
             let (more, _) = PaperDamper { x, ..d.clone() }.hybrid();
             let i = hm.mechanisms.len();

@@ -157,3 +157,53 @@ pub(super) fn backward_and_project(
         .map(|i| joint::project(model, i, w[i].0, w[i].1))
         .collect()
 }
+
+/// `G(q) = dF^b/dg = -sum_i m_i J_Ci^T` (`n x 3`, row-major: `out[3 j + k]` is the
+/// derivative of `F^b_j` with respect to gravity component `g_k`). `F^b` is linear in
+/// gravity (it enters as the base acceleration `a_0 = -g`), so a frame moving with
+/// acceleration `a` (ground-frame components) loads the tree with `-G(q) a`: the
+/// equations in the moving frame are the fixed-frame ones with `g` replaced by `g - a`.
+///
+/// By columns, from the subtree sums (leaves to root) of mass `M_j` and first moment
+/// `S_j = sum m_i x_Ci` of the bodies carried by joint `j`:
+///
+/// ```text
+/// row j = -a_j x (S_j - M_j x_Oj)   (turning joint)      -M_j a_j   (sliding joint)
+/// ```
+///
+/// with `a_j` the joint axis in the ground frame (the lever arms of
+/// `kinematics::point_jacobian`, summed over the subtree once instead of per body).
+pub(super) fn gravity_jacobian(b: &mut Builder<'_>, kin: &[BodyKinematics]) -> Vec<Id> {
+    let model = b.model;
+    let n = model.dof();
+    let mut mass: Vec<Id> = Vec::with_capacity(n);
+    let mut first: Vec<V3> = Vec::with_capacity(n);
+    for (i, body) in model.bodies.iter().enumerate() {
+        let m = b.s(&body.mass);
+        let c = b.v(&body.com);
+        let x = super::kinematics::ground_point(&mut b.dag, kin, Some(i), c);
+        mass.push(m);
+        first.push(vec3::scale(&mut b.dag, m, x));
+    }
+    let z = b.dag.zero();
+    let mut out = vec![z; 3 * n];
+    for j in (0..n).rev() {
+        let d = &mut b.dag;
+        let k = &kin[j];
+        let col = if k.slides {
+            vec3::scale(d, mass[j], k.ground_axis)
+        } else {
+            let mx = vec3::scale(d, mass[j], k.ground_pos);
+            let lever = vec3::sub(d, first[j], mx);
+            vec3::cross(d, k.ground_axis, lever)
+        };
+        for c in 0..3 {
+            out[3 * j + c] = d.neg(col[c]);
+        }
+        if let Some(p) = model.bodies[j].parent {
+            mass[p] = d.add(mass[p], mass[j]);
+            first[p] = vec3::add(d, first[p], first[j]);
+        }
+    }
+    out
+}

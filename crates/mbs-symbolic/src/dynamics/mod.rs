@@ -84,6 +84,10 @@ pub struct Symbolic {
     pub f: Vec<Id>,
     /// `Q^b`: force elements, paper sign.
     pub q: Vec<Id>,
+    /// `G(q) = dF^b/dg = -sum_i m_i J_Ci^T`, row-major `n x 3` (`gravity_jacobian[3 j + k]`
+    /// = `dF^b_j/dg_k`): the generalised load of a frame acceleration `a` is `-G a` (see
+    /// `forces::gravity_jacobian`).
+    pub gravity_jacobian: Vec<Id>,
     /// Potential energy `V(q)`: gravity `-sum m_i g . x_Ci` plus the springs of the force
     /// elements, `k (q - rest)^2 / 2` and `k (l - l0)^2 / 2`. The gravity part of `F^b` and the
     /// spring part of `Q^b` are its gradient.
@@ -151,6 +155,7 @@ impl Symbolic {
             }
         }
         let f = best.map(|(_, f)| f).unwrap_or_default();
+        let gravity_jacobian = forces::gravity_jacobian(&mut b, &bodies);
         let elements = elements::force_elements(&mut b, &bodies);
         let potential = energy::potential_energy(&mut b, &bodies, &elements.potentials);
         Symbolic {
@@ -160,6 +165,7 @@ impl Symbolic {
             mass,
             f,
             q: elements.q,
+            gravity_jacobian,
             potential,
             dissipation: elements.dissipation,
             input_power: elements.input,

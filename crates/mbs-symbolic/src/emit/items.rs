@@ -241,6 +241,7 @@ impl Items<'_> {
                 }
                 fn potential_energy(&self, q: &[f64; #nl]) -> f64 { #sname::potential_energy(self, q) }
                 fn element_power(&self, q: &[f64; #nl], qd: &[f64; #nl]) -> [f64; 2] { #sname::element_power(self, q, qd) }
+                fn gravity_load_jacobian(&self, q: &[f64; #nl], g: &mut [[f64; 3]; #nl]) { #sname::gravity_load_jacobian(self, q, g) }
                 fn point_kinematics(&self, k: usize, q: &[f64; #nl], qd: &[f64; #nl], out: &mut #rt::PointKinematics<#nl>) -> bool {
                     match k { #point_arms _ => return false, }
                     #[allow(unreachable_code)]

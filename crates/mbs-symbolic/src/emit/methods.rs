@@ -348,6 +348,23 @@ impl<'a> Methods<'a> {
         }
     }
 
+    /// `gravity_load_jacobian`: `G(q) = dF^b/dg`, `n x 3`.
+    pub fn gravity_load_jacobian(&mut self, sym: &Symbolic) -> TokenStream {
+        let outs: Vec<(Id, Dest)> = sym
+            .gravity_jacobian
+            .iter()
+            .enumerate()
+            .map(|(k, &id)| (id, Dest::Mat("g".into(), k / 3, k % 3)))
+            .collect();
+        let (body, inputs) = self.body("gravity_load_jacobian", &outs);
+        let (q, nl) = (arg(&inputs, "q"), self.nl());
+        quote! {
+            /// `G(q) = dF^b/dg = -sum_i m_i J_Ci^T` (`g[j][k] = dF^b_j/dg_k`): a ground frame
+            /// accelerating by `a` adds the inertial load `-G(q) a` to `F^b`.
+            pub fn gravity_load_jacobian(&self, #q: &[f64; #nl], g: &mut [[f64; 3]; #nl]) { #body }
+        }
+    }
+
     /// `evaluate`: everything of eqs. 11–16 in one body, every intermediate computed once.
     pub fn evaluate(&mut self, sym: &Symbolic, cons: &ConstraintExprs) -> TokenStream {
         let tail = mirror(self.n, "mass");

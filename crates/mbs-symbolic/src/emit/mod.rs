@@ -157,6 +157,7 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
     // them and decide alone.
     let potential = sym.potential;
     let power = [sym.dissipation, sym.input_power];
+    let gravity = std::mem::take(&mut sym.gravity_jacobian);
     sym.potential = sym.dag.zero();
     sym.dissipation = sym.dag.zero();
     sym.input_power = sym.dag.zero();
@@ -183,6 +184,9 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
     let alone = trig::angle_addition(&mut sym.dag, &power);
     sym.dissipation = alone.map(power[0]);
     sym.input_power = alone.map(power[1]);
+    rewrite.names.extend(alone.names);
+    let alone = trig::angle_addition(&mut sym.dag, &gravity);
+    sym.gravity_jacobian = gravity.iter().map(|&g| alone.map(g)).collect();
     rewrite.names.extend(alone.names);
     // The cache of parameter-only subexpressions, over everything any method computes.
     let hoisting = hoist::hoist(&sym.dag, &all_roots(&sym, &cons, &pts));
@@ -215,6 +219,7 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
     methods.extend(m.constraint_bias(&cons));
     methods.extend(m.potential_energy(&sym));
     methods.extend(m.element_power(&sym));
+    methods.extend(m.gravity_load_jacobian(&sym));
     methods.extend(m.evaluate(&sym, &cons));
     for (pt, fname) in pts.iter().zip(&point_fns) {
         methods.extend(m.point(pt, fname));
@@ -274,6 +279,7 @@ fn all_roots(sym: &Symbolic, cons: &ConstraintExprs, pts: &[PointExprs]) -> Vec<
     roots.push(sym.potential);
     roots.push(sym.dissipation);
     roots.push(sym.input_power);
+    roots.extend(&sym.gravity_jacobian);
     for pt in pts {
         roots.extend(pt.p.iter().chain(pt.j.iter().flatten()).chain(&pt.a));
     }

@@ -410,4 +410,20 @@ impl NumericModel {
         }
         v
     }
+
+    /// `G(q) = dF^b/dg = -sum_i m_i J_Ci^T` (`n x 3`): the Jacobian of every body's centre
+    /// of mass from the recursive kinematics, weighted by its mass. A ground frame that
+    /// accelerates by `a` adds `-G(q) a` to `F^b`.
+    ///
+    /// `q` must have [`NumericModel::dof`] entries.
+    pub fn gravity_load_jacobian(&self, q: &[f64]) -> DMatrix<f64> {
+        self.check_len(q, "q");
+        let fr = self.frames(q);
+        let mut jt = DMatrix::zeros(3, self.dof());
+        for (i, b) in self.bodies.iter().enumerate() {
+            let com = fr.point(Some(i), &b.com);
+            self.add_point_jacobian(&fr, Some(i), &com, -b.mass, &[0, 1, 2], 0, &mut jt);
+        }
+        jt.transpose()
+    }
 }

@@ -163,6 +163,16 @@ where
         T::FORCE_ELEMENTS
     }
 
+    fn gravity_load_jacobian(&self, q: &[f64], ws: &mut Workspace) {
+        let mut g = [[0.0; 3]; N];
+        self.mech.gravity_load_jacobian(&array::<N>(q), &mut g);
+        for (r, row) in g.iter().enumerate() {
+            for (c, v) in row.iter().enumerate() {
+                ws.gravity_jacobian[(r, c)] = *v;
+            }
+        }
+    }
+
     fn element_power(&self, q: &[f64], qd: &[f64], _ws: &mut Workspace) -> ElementPower {
         let [dissipated, input] = self.mech.element_power(&array::<N>(q), &array::<N>(qd));
         ElementPower { dissipated, input }

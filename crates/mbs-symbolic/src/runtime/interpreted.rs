@@ -23,6 +23,8 @@ pub struct InterpretedSystem {
     potential: Tape,
     /// Outputs `D`, `P` of the force elements.
     power: Tape,
+    /// `G = dF^b/dg`, row-major `n x 3`.
+    gravity: Tape,
     /// Whether the model has force elements.
     force_elements: bool,
     point_tapes: Vec<Tape>,
@@ -69,6 +71,7 @@ impl InterpretedSystem {
             positions: Tape::new(&sym.dag, &outs[pos_start..pos_end]),
             potential: Tape::new(&sym.dag, &[sym.potential]),
             power: Tape::new(&sym.dag, &[sym.dissipation, sym.input_power]),
+            gravity: Tape::new(&sym.dag, &sym.gravity_jacobian),
             force_elements: !model.forces.is_empty(),
             point_tapes,
             values: model.default_params(),
@@ -144,7 +147,7 @@ impl System for InterpretedSystem {
 
     fn scratch_len(&self) -> usize {
         std::iter::once(&self.all)
-            .chain([&self.positions, &self.potential, &self.power])
+            .chain([&self.positions, &self.potential, &self.power, &self.gravity])
             .chain(&self.point_tapes)
             .map(|t| t.scratch_len() + t.output_len())
             .max()
@@ -179,6 +182,17 @@ impl System for InterpretedSystem {
         let mut v = 0.0;
         self.run(&self.potential, q, &[], 0.0, ws, |out, _| v = out[0]);
         v
+    }
+
+    fn gravity_load_jacobian(&self, q: &[f64], ws: &mut Workspace) {
+        let n = self.n;
+        self.run(&self.gravity, q, &[], 0.0, ws, |out, ws| {
+            for r in 0..n {
+                for c in 0..3 {
+                    ws.gravity_jacobian[(r, c)] = out[3 * r + c];
+                }
+            }
+        });
     }
 
     fn has_force_elements(&self) -> bool {

@@ -100,6 +100,10 @@ pub trait Mechanism<const N: usize, const NC: usize> {
     /// part of `F^b` and the spring part of `Q^b` are its gradient).
     fn potential_energy(&self, q: &[f64; N]) -> f64;
 
+    /// `G(q) = dF^b/dg` (`g[j][k] = dF^b_j/dg_k`): see
+    /// [`super::System::gravity_load_jacobian`].
+    fn gravity_load_jacobian(&self, q: &[f64; N], g: &mut [[f64; 3]; N]);
+
     /// `[D, P]`: the dissipation power and the input power of the force elements at
     /// `(q, q')` (see [`super::System::element_power`]; THEORY.md section 8).
     fn element_power(&self, q: &[f64; N], qd: &[f64; N]) -> [f64; 2];

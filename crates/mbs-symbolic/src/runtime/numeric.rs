@@ -83,6 +83,11 @@ impl System for NumericSystem {
         ElementPower { dissipated, input }
     }
 
+    fn gravity_load_jacobian(&self, q: &[f64], ws: &mut Workspace) {
+        ws.gravity_jacobian
+            .copy_from(&self.numeric.gravity_load_jacobian(q));
+    }
+
     fn has_force_elements(&self) -> bool {
         !self.model.forces.is_empty()
     }

@@ -31,6 +31,9 @@ pub struct Workspace {
     pub point_j: DMatrix<f64>,
     /// Its bias `J' q'` (eq. 50): the point's acceleration when `q'' = 0`.
     pub point_a: Vector3<f64>,
+    /// `G(q) = dF^b/dg = -sum_i m_i J_Ci^T`, `n x 3`, written by
+    /// [`System::gravity_load_jacobian`].
+    pub gravity_jacobian: DMatrix<f64>,
     /// Backend scratch space (the interpreter's tape slots); length
     /// [`System::scratch_len`].
     pub scratch: Vec<f64>,
@@ -49,6 +52,7 @@ impl Workspace {
             point_p: Vector3::zeros(),
             point_j: DMatrix::zeros(3, n),
             point_a: Vector3::zeros(),
+            gravity_jacobian: DMatrix::zeros(n, 3),
             scratch: vec![0.0; scratch],
         }
     }
@@ -218,6 +222,14 @@ pub trait System: Send + Sync {
     /// backends allocate nothing.
     fn element_power(&self, q: &[f64], qd: &[f64], ws: &mut Workspace) -> ElementPower;
 
+    /// `G(q) = dF^b/dg = -sum_i m_i J_Ci^T` (ground-frame gravity components, `J_Ci` the
+    /// Jacobian of body `i`'s centre of mass) into [`Workspace::gravity_jacobian`]. `F^b`
+    /// is linear in gravity (the base acceleration `a_0 = -g`), so in a ground frame that
+    /// accelerates by `a` the equations are the fixed-frame ones plus the inertial load
+    /// `F^b += -G(q) a` (gravity `g` becomes `g - a`). The generated and interpreted
+    /// backends allocate nothing.
+    fn gravity_load_jacobian(&self, q: &[f64], ws: &mut Workspace);
+
     /// Whether the model has force elements: without them [`System::element_power`] is
     /// zero at every state, and a caller may skip it.
     fn has_force_elements(&self) -> bool {
@@ -317,6 +329,9 @@ macro_rules! forward_system {
             }
             fn has_force_elements(&self) -> bool {
                 (**self).has_force_elements()
+            }
+            fn gravity_load_jacobian(&self, q: &[f64], ws: &mut Workspace) {
+                (**self).gravity_load_jacobian(q, ws)
             }
             fn point_kinematics(
                 &self,

@@ -265,12 +265,7 @@ pub(super) fn resolve(args: &Args, lz: &Linearizable, lin: &Linearization) -> Re
         },
     };
     // The force's unit follows its target (a beam force, or a joint torque or force).
-    let force_unit = match &excitation.target {
-        ExcitationTarget::Beam(_) => "N",
-        ExcitationTarget::Joint { mechanism, joint } => {
-            lz.model.mechanisms[*mechanism].system.coordinate_units()[*joint].force()
-        }
-    };
+    let force_unit = lz.model.excitation_unit(&excitation.target);
     Ok(Io {
         output,
         output_label,
@@ -303,6 +298,8 @@ fn output_of(lin: &Linearization, output: &ExcitationTarget, z: &[Complex<f64>])
     match output {
         ExcitationTarget::Beam(p) => p.complex_value(z),
         ExcitationTarget::Joint { mechanism, joint } => lin.mechanism_motion(z)[*mechanism][*joint],
+        // Every response is relative to the supports.
+        ExcitationTarget::Base => Complex::new(0.0, 0.0),
     }
 }
 

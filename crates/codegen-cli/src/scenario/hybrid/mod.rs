@@ -38,7 +38,9 @@
 //! [[excitation]]
 //! name = "shaker"
 //! at = { x = 1.0 }           # transverse beam force, or { mechanism = "left", joint = "crank" }
-//! amplitude = 0.5            # N (N m on a revolute joint)
+//!                            # or "base": the supports' transverse acceleration (every
+//!                            #   mass loaded by -m a_b in the frame moving with them)
+//! amplitude = 0.5            # N (N m on a revolute joint; m/s^2 at "base")
 //! time = { kind = "harmonic", frequency_hz = 6.2, phase = 0.0 }
 //! # or { kind = "step", at = 0.1 }, { kind = "constant" },
 //! # { kind = "table", points = [[0.0, 0.0], [0.1, 1.0]] } or
@@ -156,6 +158,8 @@ pub enum TargetEntry {
         /// Body name whose joint it drives.
         joint: String,
     },
+    /// The supports' transverse acceleration (`at = "base"`; amplitude in m/s^2).
+    Base,
 }
 
 /// One `[[excitation]]`.
@@ -165,7 +169,7 @@ pub struct ExcitationEntry {
     pub name: String,
     /// Where it acts.
     pub target: TargetEntry,
-    /// Amplitude (N or N m).
+    /// Amplitude (N or N m; m/s^2 at the supports).
     pub amplitude: f64,
     /// Time dependence (a table file already read).
     pub time: TimeFunction,

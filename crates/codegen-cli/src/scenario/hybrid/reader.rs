@@ -15,8 +15,8 @@ use toml::de::DeValue;
 
 use super::checks::{OnBeam, de, finite, list, mechanism_ref, split, tables, unique};
 use super::schema::{
-    RawAttachment, RawDamper, RawExcitation, RawForceHead, RawInitial, RawMechanism, RawOutput,
-    RawSpring,
+    RawAt, RawAttachment, RawDamper, RawExcitation, RawForceHead, RawInitial, RawMechanism,
+    RawOutput, RawSpring,
 };
 use super::table::time_function;
 use super::{
@@ -449,7 +449,7 @@ fn excitations(
     let mut excitations = vec![];
     let mut seen = BTreeMap::new();
     for v in tables(doc, "excitation") {
-        let (mut time, rest) = split(&v, &["time"]);
+        let (mut taken, rest) = split(&v, &["time", "at"]);
         let Some(e) = de::<RawExcitation>(doc, rest, "[[excitation]]") else {
             *ok = false;
             continue;
@@ -457,25 +457,15 @@ fn excitations(
         unique(doc, &mut seen, &e.name, "excitation");
         let entity = format!("excitation \"{}\"", e.name.get_ref());
         let amplitude = finite(doc, &e.amplitude, &entity);
-        let at = e.at.get_ref();
-        let target = match (&at.x, &at.mechanism, &at.joint) {
-            (Some(x), None, None) => on_beam
-                .check(doc, x, &entity)
-                .then(|| TargetEntry::Beam { x: *x.get_ref() }),
-            (None, Some(m), Some(j)) => {
-                mechanism_ref(doc, names, m, &entity).map(|mechanism| TargetEntry::Joint {
-                    mechanism,
-                    joint: j.get_ref().clone(),
-                })
-            }
-            _ => {
-                let msg =
-                    "at must be { x = ... } (a beam point) or { mechanism = ..., joint = ... }";
-                doc.push(Kind::InvalidValue, Some(e.at.span()), Some(&entity), msg);
-                None
-            }
+        let Some(at) = taken.remove("at") else {
+            let msg = "missing field `at` (e.g. { x = 1.0 }, { mechanism = ..., joint = ... } or \"base\")";
+            doc.push(Kind::MissingField, Some(v.span()), Some(&entity), msg);
+            *ok = false;
+            continue;
         };
-        let time = match time.remove("time") {
+        let at_span = at.span();
+        let target = excitation_target(doc, at, names, on_beam, &entity);
+        let time = match taken.remove("time") {
             None => {
                 let msg = "missing field `time` (e.g. { kind = \"harmonic\", frequency_hz = 5.0 })";
                 doc.push(Kind::MissingField, Some(v.span()), Some(&entity), msg);
@@ -490,13 +480,55 @@ fn excitations(
                     target,
                     amplitude,
                     time,
-                    at_span: e.at.span(),
+                    at_span,
                 })
             }
             _ => *ok = false,
         }
     }
     excitations
+}
+
+/// An excitation's `at`: `"base"` (the supports), `{ x = ... }` (a beam point) or
+/// `{ mechanism = ..., joint = ... }`; `None` (reported at the value) for anything else.
+fn excitation_target<'a>(
+    doc: &mut Doc<'a>,
+    at: Spanned<DeValue<'a>>,
+    names: &[String],
+    on_beam: &OnBeam,
+    entity: &str,
+) -> Option<TargetEntry> {
+    const FORMS: &str = "at must be \"base\" (the supports), { x = ... } (a beam point) or { mechanism = ..., joint = ... }";
+    let span = at.span();
+    match at.get_ref() {
+        DeValue::String(s) if s == "base" => return Some(TargetEntry::Base),
+        DeValue::Table(_) => {}
+        DeValue::String(s) => {
+            let msg = format!("{FORMS}, not {s:?}");
+            doc.push(Kind::InvalidValue, Some(span), Some(entity), &msg);
+            return None;
+        }
+        _ => {
+            doc.push(Kind::InvalidValue, Some(span), Some(entity), FORMS);
+            return None;
+        }
+    }
+    let at = de::<RawAt>(doc, at, entity)?;
+    match (&at.x, &at.mechanism, &at.joint) {
+        (Some(x), None, None) => on_beam
+            .check(doc, x, entity)
+            .then(|| TargetEntry::Beam { x: *x.get_ref() }),
+        (None, Some(m), Some(j)) => {
+            mechanism_ref(doc, names, m, entity).map(|mechanism| TargetEntry::Joint {
+                mechanism,
+                joint: j.get_ref().clone(),
+            })
+        }
+        _ => {
+            doc.push(Kind::InvalidValue, Some(span), Some(entity), FORMS);
+            None
+        }
+    }
 }
 
 /// `[initial]`: the displacement, the abscissa and where the abscissa is written.

@@ -75,9 +75,10 @@ pub(super) struct RawSpring {
 #[serde(deny_unknown_fields)]
 pub(super) struct RawExcitation {
     pub(super) name: Spanned<String>,
-    pub(super) at: Spanned<RawAt>,
     pub(super) amplitude: Spanned<f64>,
 }
+
+/// The table form of an excitation's `at` (its string form `"base"` is read apart).
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
