@@ -134,6 +134,7 @@ fn stats_prints_one_row_per_function_and_the_sums() {
             "constraint_bias",
             "potential_energy",
             "element_power",
+            "gravity_load_jacobian",
             "evaluate",
             "point_tip",
             "evaluate_with_points",
