@@ -39,8 +39,15 @@ pub struct Account {
     pub dissipated_structure: f64,
     /// Work of the beam's own loads (fem-beam loads), `integral P^T v dt`.
     pub beam_load_work: f64,
-    /// Dissipated by each force element (generator: `(R_a + R_L) i^2`; damper: `c q'^2`).
+    /// Dissipated by each force element (generator: `(R_a + R_L) i^2` and its gear's loss;
+    /// damper: `c q'^2`).
     pub dissipated: Vec<f64>,
+    /// Of [`Account::dissipated`], lost in each generator's gear (0 for other elements),
+    /// `integral tau_g w dt` ([`crate::generator`]).
+    pub gearbox_loss: Vec<f64>,
+    /// Work each generator takes from its joint (0 for other elements), `integral (n k_t i +
+    /// n tau_g) q' dt`: its mechanical input.
+    pub mechanical_input: Vec<f64>,
     /// Work done by each excitation.
     pub excitation_work: Vec<f64>,
     /// Dissipated by each mechanism model's own force elements (its dampers: `c q'^2`,
@@ -696,11 +703,22 @@ impl Integrator {
         // Energy account, part 1 (needs the old state): per force element and excitation,
         // trapezoidal power.
         let acc = &mut state.account;
+        acc.gearbox_loss.resize(model.forces.len(), 0.0);
+        acc.mechanical_input.resize(model.forces.len(), 0.0);
         for (k, f) in model.forces.iter().enumerate() {
-            let old =
-                f.dissipated_power(state.mechanisms[f.mechanism].qd[f.joint], state.currents[k]);
-            let new = f.dissipated_power(self.followers[f.mechanism].qd[f.joint], self.currents[k]);
+            let (w_old, i_old) = (state.mechanisms[f.mechanism].qd[f.joint], state.currents[k]);
+            let (w_new, i_new) = (self.followers[f.mechanism].qd[f.joint], self.currents[k]);
+            let old = f.dissipated_power(w_old, i_old);
+            let new = f.dissipated_power(w_new, i_new);
             acc.dissipated[k] += 0.5 * h * (old + new);
+            if let Some(g) = f.generator() {
+                acc.mechanical_input[k] +=
+                    0.5 * h * (g.mechanical_power(w_old, i_old) + g.mechanical_power(w_new, i_new));
+                if g.has_gear_loss() {
+                    acc.gearbox_loss[k] +=
+                        0.5 * h * (g.gear_loss_power(w_old) + g.gear_loss_power(w_new));
+                }
+            }
         }
         Self::account_model_elements(&mut self.followers, model, state, h);
         let acc = &mut state.account;
