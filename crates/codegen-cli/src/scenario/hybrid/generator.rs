@@ -18,11 +18,14 @@
 //! | `connected` | | boolean (default true) |
 //!
 //! One of `kt` and `ke` (or their aliases) may be left out: an ideal DC machine has
-//! `k_t = k_e` in SI units, so the other takes its value. When both are given they must
-//! agree within [`KT_KE_TOLERANCE`]: a datasheet's constants are rounded and carry
+//! `k_t = k_e` in SI units, so the other takes its value. When both are given and either is
+//! a datasheet quantity (a string with a unit, `torque_constant` or `speed_constant`) they
+//! must agree within [`KT_KE_TOLERANCE`]: a datasheet's constants are rounded and carry
 //! manufacturing tolerances of a few per cent, while a unit mistake is off by a factor (2π,
-//! 60, 1000); beyond it the generator is refused at the EMF constant's line. (Within it both
-//! are used as given: the energy split of a run then carries `(k_t - k_e) ∫ i w dt`.)
+//! 60, 1000); beyond it the generator is refused at the EMF constant's line, after the
+//! fields' own range checks. (Within it both are used as given: the energy split of a run
+//! then carries `(k_t - k_e) ∫ i w dt`.) Plain SI numbers under `kt` and `ke` are used as
+//! given, as always.
 
 use std::ops::Range;
 
@@ -133,6 +136,8 @@ const fn field(name: &'static str, dimension: Dimension, target: GeneratorField)
 #[derive(Default)]
 struct Read {
     values: Vec<(GeneratorField, f64, Range<usize>, &'static str)>,
+    /// The names written as datasheet quantities (a string with a unit, or an alias).
+    datasheet: Vec<&'static str>,
 }
 
 impl Read {
@@ -207,6 +212,11 @@ pub(super) fn generator<'a>(
     for (key, v) in table.iter() {
         let name = key.get_ref().as_ref();
         if let Some(f) = FIELDS.iter().chain([&EFFICIENCY]).find(|f| f.name == name) {
+            if matches!(v.get_ref(), DeValue::String(_))
+                || matches!(f.name, "torque_constant" | "speed_constant")
+            {
+                read.datasheet.push(f.name);
+            }
             match quantity(doc, v, f, entity) {
                 Some(x) => ok &= record(doc, &mut read, f, x, v.span(), entity),
                 None => ok = false,
@@ -235,7 +245,7 @@ pub(super) fn generator<'a>(
                         let msg = format!(
                             "gear_friction: unknown field `{kname}`, expected one of `coulomb`, `viscous`, `smoothing_speed`"
                         );
-                        doc.push(Kind::UnknownField, Some(k.span()), Some(entity), msg);
+                        doc.push(Kind::Syntax, Some(k.span()), Some(entity), msg);
                         ok = false;
                     }
                 }
@@ -251,14 +261,15 @@ pub(super) fn generator<'a>(
                 "unknown field `{name}`, expected one of {}",
                 names.join(", ")
             );
-            doc.push(Kind::UnknownField, Some(key.span()), Some(entity), msg);
+            doc.push(Kind::Syntax, Some(key.span()), Some(entity), msg);
             ok = false;
         }
     }
     if !ok {
         return None;
     }
-    // kt and ke: one may stand for both (k_t = k_e in SI); both must agree.
+    // kt and ke: one may stand for both (k_t = k_e in SI); two are checked by `consistent`
+    // after the ranges.
     let kt = read.get(GeneratorField::Kt).cloned();
     let ke = read.get(GeneratorField::Ke).cloned();
     let (kt, ke) = match (kt, ke) {
@@ -278,24 +289,7 @@ pub(super) fn generator<'a>(
                 .push((GeneratorField::Kt, e.1, e.2.clone(), e.3));
             (e.1, e.1)
         }
-        (Some(t), Some(e)) => {
-            let diff = (t.1 - e.1).abs() / t.1.abs().max(e.1.abs());
-            if diff > KT_KE_TOLERANCE {
-                let msg = format!(
-                    "{} = {:.4e} N m/A and {} = {:.4e} V s/rad disagree by {:.0} % (an ideal DC \
-                     machine has kt = ke in SI units; more than {:.0} % is a unit mistake)",
-                    t.3,
-                    t.1,
-                    e.3,
-                    e.1,
-                    100.0 * diff,
-                    100.0 * KT_KE_TOLERANCE
-                );
-                doc.push(Kind::InvalidValue, Some(e.2), Some(entity), msg);
-                return None;
-            }
-            (t.1, e.1)
-        }
+        (Some(t), Some(e)) => (t.1, e.1),
     };
     let mut missing = false;
     for required in [
@@ -345,5 +339,37 @@ pub(super) fn generator<'a>(
             .map_or(kind_span.clone(), |v| v.2.clone());
         doc.push(Kind::InvalidValue, Some(span), Some(entity), e.to_string());
     }
-    problems.is_empty().then_some(spec)
+    if !problems.is_empty() {
+        return None;
+    }
+    consistent(doc, &read, entity).then_some(spec)
+}
+
+/// Whether a torque constant and an EMF (or speed) constant, both given, agree within
+/// [`KT_KE_TOLERANCE`] — checked when either is a datasheet quantity (a string with a unit,
+/// or `torque_constant`, `speed_constant`): plain SI numbers under `kt` and `ke` keep
+/// meaning what they meant (a study may vary one alone). Reported at the EMF constant.
+fn consistent(doc: &mut Doc<'_>, read: &Read, entity: &str) -> bool {
+    let (Some(t), Some(e)) = (read.get(GeneratorField::Kt), read.get(GeneratorField::Ke)) else {
+        return true;
+    };
+    if t.2 == e.2 || !(read.datasheet.contains(&t.3) || read.datasheet.contains(&e.3)) {
+        return true; // one constant standing for both, or plain SI numbers
+    }
+    let diff = (t.1 - e.1).abs() / t.1.abs().max(e.1.abs());
+    if diff <= KT_KE_TOLERANCE {
+        return true;
+    }
+    let msg = format!(
+        "{} = {:.4e} N m/A and {} = {:.4e} V s/rad disagree by {:.0} % (an ideal DC machine \
+         has kt = ke in SI units; more than {:.0} % is a unit mistake)",
+        t.3,
+        t.1,
+        e.3,
+        e.1,
+        100.0 * diff,
+        100.0 * KT_KE_TOLERANCE
+    );
+    doc.push(Kind::InvalidValue, Some(e.2.clone()), Some(entity), msg);
+    false
 }
