@@ -481,6 +481,7 @@ pub fn evaluate<'a>(
             let mechanical = state.account.mechanical_input[k];
             let q = state.mechanisms[f.mechanism].q[f.joint];
             let magnetic = f.stored_energy(q, state.currents[k]);
+            let conversion = state.account.conversion[k];
             Some(GeneratorReport {
                 name: f.name.clone(),
                 mechanism: model.mechanisms[f.mechanism].name.clone(),
@@ -494,7 +495,8 @@ pub fn evaluate<'a>(
                     gearbox_loss: gearbox,
                     load_energy: harvested,
                     magnetic_change: magnetic,
-                    residual: mechanical - (copper + gearbox + harvested + magnetic),
+                    conversion,
+                    residual: mechanical - (copper + gearbox + harvested + magnetic + conversion),
                 },
                 settings: g.clone(),
             })

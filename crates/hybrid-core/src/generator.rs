@@ -37,6 +37,8 @@
 //! `k_t = k_e` (SI, the ideal machine) `k_t i w = e i = (R_a + R_L) i^2 + d(L i^2 / 2)/dt`,
 //! so `P_m` = copper loss `R_a i^2` + load power `R_L i^2` + gearbox loss + the change of
 //! the magnetic energy (the rotor's kinetic energy `n^2 J_r q'^2 / 2` is the mechanism's).
+//! A machine whose datasheet constants differ (`k_t != k_e`, rounding) loses `(k_t - k_e)
+//! i w` more in the conversion, which the energy account counts as a dissipation of its own.
 //!
 //! Linearised about rest (`w = 0`), `tau_g` is the viscous `(tau_c / w_s + b + b_eta) w`: the
 //! Coulomb part enters with its slope at 0, `tau_c / w_s`, which is the regularised model's

@@ -472,9 +472,11 @@ pub struct EnergySplit {
     pub load_energy: f64,
     /// Change of the magnetic energy `L i^2 / 2` since the start (at rest, no current).
     pub magnetic_change: f64,
-    /// `mechanical_input - (copper_loss + gearbox_loss + load_energy + magnetic_change)`:
-    /// the time integration's truncation, plus `(k_t - k_e) integral i w dt` when the torque
-    /// and EMF constants differ.
+    /// Lost by unequal torque and EMF constants, `integral (k_t - k_e) i w dt` (0 for the
+    /// ideal machine, `k_t = k_e` in SI; in the energy balance as a dissipation).
+    pub conversion: f64,
+    /// `mechanical_input - (copper_loss + gearbox_loss + load_energy + magnetic_change +
+    /// conversion)`: the time integration's truncation.
     pub residual: f64,
 }
 

@@ -48,6 +48,11 @@ pub struct Account {
     /// Work each generator takes from its joint (0 for other elements), `integral (n k_t i +
     /// n tau_g) q' dt`: its mechanical input.
     pub mechanical_input: Vec<f64>,
+    /// Work each generator's unequal constants lose (created where negative),
+    /// `integral (k_t - k_e) n i q' dt`: the torque takes `k_t i w` from the joint, the EMF
+    /// gives the circuit `k_e i w`. Zero for the ideal machine (`k_t = k_e` in SI) and for
+    /// other elements; a dissipation of the energy account.
+    pub conversion: Vec<f64>,
     /// Work done by each excitation.
     pub excitation_work: Vec<f64>,
     /// Dissipated by each mechanism model's own force elements (its dampers: `c q'^2`,
@@ -705,6 +710,7 @@ impl Integrator {
         let acc = &mut state.account;
         acc.gearbox_loss.resize(model.forces.len(), 0.0);
         acc.mechanical_input.resize(model.forces.len(), 0.0);
+        acc.conversion.resize(model.forces.len(), 0.0);
         for (k, f) in model.forces.iter().enumerate() {
             let (w_old, i_old) = (state.mechanisms[f.mechanism].qd[f.joint], state.currents[k]);
             let (w_new, i_new) = (self.followers[f.mechanism].qd[f.joint], self.currents[k]);
@@ -714,6 +720,10 @@ impl Integrator {
             if let Some(g) = f.generator() {
                 acc.mechanical_input[k] +=
                     0.5 * h * (g.mechanical_power(w_old, i_old) + g.mechanical_power(w_new, i_new));
+                if g.kt != g.ke {
+                    let p = |w: f64, i: f64| (g.kt - g.ke) * g.gear_ratio * i * w;
+                    acc.conversion[k] += 0.5 * h * (p(w_old, i_old) + p(w_new, i_new));
+                }
                 if g.has_gear_loss() {
                     acc.gearbox_loss[k] +=
                         0.5 * h * (g.gear_loss_power(w_old) + g.gear_loss_power(w_new));

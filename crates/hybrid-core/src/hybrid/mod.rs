@@ -156,6 +156,7 @@ pub fn initial_state(
             dissipated: vec![0.0; nf],
             gearbox_loss: vec![0.0; nf],
             mechanical_input: vec![0.0; nf],
+            conversion: vec![0.0; nf],
             excitation_work: vec![0.0; model.excitations.len()],
             dissipated_model: vec![0.0; model.mechanisms.len()],
             model_input_work: vec![0.0; model.mechanisms.len()],

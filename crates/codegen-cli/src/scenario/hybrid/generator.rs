@@ -24,7 +24,7 @@
 //! manufacturing tolerances of a few per cent, while a unit mistake is off by a factor (2π,
 //! 60, 1000); beyond it the generator is refused at the EMF constant's line, after the
 //! fields' own range checks. (Within it both are used as given: the energy split of a run
-//! then carries `(k_t - k_e) ∫ i w dt`.) Plain SI numbers under `kt` and `ke` are used as
+//! reports `(k_t - k_e) ∫ i w dt` as the machine's conversion loss.) Plain SI numbers under `kt` and `ke` are used as
 //! given, as always.
 
 use std::ops::Range;
