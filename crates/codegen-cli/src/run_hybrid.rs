@@ -34,8 +34,8 @@ use crate::Error;
 use crate::budget::Estimate;
 use crate::report::digest::Decimator;
 use crate::report::hybrid::{
-    AttachmentReport, Columns, ComparisonReport, ExcitationReport, GeneratorReport, HybridEnergy,
-    HybridSummary, MechanismReport, RepartitionReport, amplifications,
+    AttachmentReport, Columns, ComparisonReport, EnergySplit, ExcitationReport, GeneratorReport,
+    HybridEnergy, HybridSummary, MechanismReport, RepartitionReport, amplifications,
 };
 use crate::report::plot::{plot_damping_vs_amplitude_svg, plot_displacements_svg};
 use crate::report::rows::{CsvRows, RowSink};
@@ -495,7 +495,14 @@ pub fn evaluate<'a>(
         .filter_map(|(k, f)| {
             let g = f.generator()?;
             let d = state.account.dissipated[k];
-            let harvested = g.load_part(d);
+            let gearbox = state.account.gearbox_loss[k];
+            let electrical = state.account.circuit_dissipated(k);
+            let harvested = g.load_part(electrical);
+            let copper = electrical * g.armature_resistance / g.resistance();
+            let mechanical = state.account.mechanical_input[k];
+            let q = state.mechanisms[f.mechanism].q[f.joint];
+            let magnetic = f.stored_energy(q, state.currents[k]);
+            let conversion = state.account.conversion[k];
             Some(GeneratorReport {
                 name: f.name.clone(),
                 mechanism: model.mechanisms[f.mechanism].name.clone(),
@@ -503,6 +510,15 @@ pub fn evaluate<'a>(
                 harvested_in_load: harvested,
                 mean_load_power: if t_end > 0.0 { harvested / t_end } else { 0.0 },
                 peak_current: tracks.peak_current[k],
+                energy_split: EnergySplit {
+                    mechanical_input: mechanical,
+                    copper_loss: copper,
+                    gearbox_loss: gearbox,
+                    load_energy: harvested,
+                    magnetic_change: magnetic,
+                    conversion,
+                    residual: mechanical - (copper + gearbox + harvested + magnetic + conversion),
+                },
                 settings: g.clone(),
             })
         })

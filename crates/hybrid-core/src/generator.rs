@@ -6,6 +6,43 @@
 //! `L = 0`, `tau = -c_g q'` with `c_g = n^2 k_t k_e / (R_a + R_L)`. The rotor inertia adds
 //! `n^2 J_r` to the joint's diagonal entry of `M^b`. Dissipated power `(R_a + R_L) i^2`, of
 //! which `R_L i^2` is harvested in the load.
+//!
+//! # Gearbox loss
+//!
+//! The gearbox loss is a friction torque on the motor side of the gear (motor speed
+//! `w = n q'`), opposing the motor's motion:
+//!
+//! ```text
+//! tau_g(w) = tau_c tanh(w / w_s) + (b + b_eta) w,        b_eta = (1/eta - 1) k_t k_e / (R_a + R_L)
+//! ```
+//!
+//! - `tau_c` the Coulomb friction, regularised by the smooth sign `tanh(w / w_s)` (`w_s` the
+//!   smoothing speed, default [`DEFAULT_SMOOTHING_SPEED`]: below it the friction grows
+//!   linearly, far above it it is `tau_c sign(w)`);
+//! - `b` the viscous friction;
+//! - `b_eta` the efficiency `eta` of the gear as the loss of quasi-static generation: with
+//!   `L = 0` the current is `i = k_e w / (R_a + R_L)`, the motor's electromagnetic torque
+//!   `k_t i`, and the joint must supply `k_t i / eta`: the difference `(1/eta - 1) k_t i =
+//!   b_eta w` is lost in the gear. Taken as a viscous term (at the quasi-static current, also
+//!   with inductance), the loss is linear, smooth, never negative whatever the direction of
+//!   the power flow (a load-dependent friction `(1/eta - 1) |k_t i| sign(w)` would be
+//!   negative while the inductance drives the rotor, and has no slope at rest), and `eta` is
+//!   exactly the gear's efficiency of quasi-static generation: the joint's damping becomes
+//!   `c_g / eta`. An open circuit carries no load, so `b_eta = 0` there.
+//!
+//! It adds `+n tau_g(n q')` to `Q^b` (paper sign, like `c q'`), and the power it takes from
+//! the joint, `n tau_g q' = tau_g w = tau_c w tanh(w/w_s) + (b + b_eta) w^2 >= 0`, is
+//! dissipated (the energy account's gearbox term). The power the generator takes from the
+//! joint (its mechanical input) is `P_m = (n k_t i + n tau_g) q' = k_t i w + tau_g w`; with
+//! `k_t = k_e` (SI, the ideal machine) `k_t i w = e i = (R_a + R_L) i^2 + d(L i^2 / 2)/dt`,
+//! so `P_m` = copper loss `R_a i^2` + load power `R_L i^2` + gearbox loss + the change of
+//! the magnetic energy (the rotor's kinetic energy `n^2 J_r q'^2 / 2` is the mechanism's).
+//! A machine whose datasheet constants differ (`k_t != k_e`, rounding) loses `(k_t - k_e)
+//! i w` more in the conversion, which the energy account counts as a dissipation of its own.
+//!
+//! Linearised about rest (`w = 0`), `tau_g` is the viscous `(tau_c / w_s + b + b_eta) w`: the
+//! Coulomb part enters with its slope at 0, `tau_c / w_s`, which is the regularised model's
+//! small-amplitude behaviour (amplitudes well above `w_s` see less, `tau_c / |w|`).
 
 use serde::{Deserialize, Serialize};
 
@@ -34,10 +71,62 @@ pub struct GeneratorSpec {
     /// rotor still turns with the mechanism.
     #[serde(default = "yes")]
     pub connected: bool,
+    /// Efficiency `eta` of the gear in quasi-static generation, `0 < eta <= 1` (1: no
+    /// efficiency loss; see the module documentation).
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub gear_efficiency: f64,
+    /// Coulomb and viscous friction of the gear on the motor side.
+    #[serde(default, skip_serializing_if = "GearFriction::is_none")]
+    pub gear_friction: GearFriction,
+}
+
+/// Friction of the gear on the motor side (see the module documentation):
+/// `tau_c tanh(w / w_s) + b w` at motor speed `w`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GearFriction {
+    /// Coulomb friction torque `tau_c`, N m (motor side).
+    #[serde(default)]
+    pub coulomb: f64,
+    /// Viscous friction `b`, N m s/rad (motor side).
+    #[serde(default)]
+    pub viscous: f64,
+    /// Smoothing speed `w_s` of the Coulomb friction's sign, rad/s (motor side).
+    #[serde(default = "default_smoothing_speed")]
+    pub smoothing_speed: f64,
+}
+
+/// The default smoothing speed `w_s` of the gear's Coulomb friction: 1 rad/s at the motor
+/// (about 10 rpm, a few thousandths of a small motor's rated speed).
+pub const DEFAULT_SMOOTHING_SPEED: f64 = 1.0;
+
+fn default_smoothing_speed() -> f64 {
+    DEFAULT_SMOOTHING_SPEED
+}
+
+impl Default for GearFriction {
+    fn default() -> Self {
+        GearFriction {
+            coulomb: 0.0,
+            viscous: 0.0,
+            smoothing_speed: DEFAULT_SMOOTHING_SPEED,
+        }
+    }
+}
+
+impl GearFriction {
+    /// Whether there is no friction (zero Coulomb and viscous parts, default smoothing).
+    pub fn is_none(&self) -> bool {
+        *self == GearFriction::default()
+    }
 }
 
 fn one() -> f64 {
     1.0
+}
+
+fn is_one(x: &f64) -> bool {
+    *x == 1.0
 }
 
 fn yes() -> bool {
@@ -76,6 +165,69 @@ impl GeneratorSpec {
         self.gear_ratio.powi(2) * self.rotor_inertia
     }
 
+    /// Whether the gear loses energy (efficiency below 1, or friction): without it the
+    /// generator's equations and energy account are exactly those without a gearbox model.
+    pub fn has_gear_loss(&self) -> bool {
+        self.gear_efficiency != 1.0
+            || self.gear_friction.coulomb != 0.0
+            || self.gear_friction.viscous != 0.0
+    }
+
+    /// The viscous equivalent of the gear's efficiency on the motor side,
+    /// `b_eta = (1/eta - 1) k_t k_e / (R_a + R_L)` (0 when disconnected).
+    pub fn efficiency_damping(&self) -> f64 {
+        if self.connected && self.gear_efficiency != 1.0 {
+            (1.0 / self.gear_efficiency - 1.0) * self.kt * self.ke / self.resistance()
+        } else {
+            0.0
+        }
+    }
+
+    /// The gear's friction torque on the motor side at motor speed `w`,
+    /// `tau_c tanh(w / w_s) + (b + b_eta) w` (N m).
+    pub fn gear_torque(&self, motor_speed: f64) -> f64 {
+        let f = &self.gear_friction;
+        let coulomb = if f.coulomb != 0.0 {
+            f.coulomb * (motor_speed / f.smoothing_speed).tanh()
+        } else {
+            0.0
+        };
+        coulomb + (f.viscous + self.efficiency_damping()) * motor_speed
+    }
+
+    /// The gear's loss power at joint speed `q'`, `tau_g(n q') n q' >= 0` (W).
+    pub fn gear_loss_power(&self, joint_speed: f64) -> f64 {
+        if !self.has_gear_loss() {
+            return 0.0;
+        }
+        let w = self.gear_ratio * joint_speed;
+        self.gear_torque(w) * w
+    }
+
+    /// The gear's viscous slope at rest on the joint, `n^2 (tau_c / w_s + b + b_eta)`
+    /// (N m s/rad): the linearisation of `n tau_g(n q')` about `q' = 0`.
+    pub fn gear_damping_at_rest(&self) -> f64 {
+        let f = &self.gear_friction;
+        self.gear_ratio.powi(2)
+            * (f.coulomb / f.smoothing_speed + f.viscous + self.efficiency_damping())
+    }
+
+    /// The generator's whole contribution to `Q^b` of its joint at joint speed `q'` and
+    /// current `i` (paper sign): `n k_t i + n tau_g(n q')`.
+    pub fn joint_term(&self, joint_speed: f64, current: f64) -> f64 {
+        let mut q = self.q_term(current);
+        if self.has_gear_loss() {
+            q += self.gear_ratio * self.gear_torque(self.gear_ratio * joint_speed);
+        }
+        q
+    }
+
+    /// The power the generator takes from its joint, `(n k_t i + n tau_g) q'` (W): the
+    /// mechanical input of the energy split (module documentation).
+    pub fn mechanical_power(&self, joint_speed: f64, current: f64) -> f64 {
+        self.joint_term(joint_speed, current) * joint_speed
+    }
+
     /// Whether the current is a state of its own (inductance > 0 and connected).
     pub fn has_current_state(&self) -> bool {
         self.connected && self.inductance > 0.0
@@ -83,17 +235,23 @@ impl GeneratorSpec {
 
     /// Adds the generator to the mechanism's equations on joint `joint` — the one place it
     /// is added: the reflected rotor inertia `n^2 J_r` on the diagonal of `M^b` (eq. 11) and
-    /// the torque for `current`, paper sign `+n k_t i`, to `Q^b` (eq. 13). With zero
-    /// inductance and the quasi-static current this is the viscous damper `c_g q'`.
+    /// the torque for `current` and joint speed `joint_speed`, paper sign
+    /// `+n k_t i + n tau_g(n q')` ([`GeneratorSpec::joint_term`]), to `Q^b` (eq. 13). With
+    /// zero inductance, the quasi-static current and no gear loss this is the viscous damper
+    /// `c_g q'`.
     pub fn add_to_equations(
         &self,
         joint: usize,
+        joint_speed: f64,
         current: f64,
         m: &mut nalgebra::DMatrix<f64>,
         q: &mut nalgebra::DVector<f64>,
     ) {
         m[(joint, joint)] += self.reflected_inertia();
         q[joint] += self.q_term(current);
+        if self.has_gear_loss() {
+            q[joint] += self.gear_ratio * self.gear_torque(self.gear_ratio * joint_speed);
+        }
     }
 
     /// The current when the inductance is zero: `i = k_e n q' / (R_a + R_L)`.
@@ -188,11 +346,19 @@ pub enum GeneratorField {
     GearRatio,
     /// `rotor_inertia`.
     RotorInertia,
+    /// `gear_efficiency`.
+    GearEfficiency,
+    /// `gear_friction.coulomb`.
+    GearCoulomb,
+    /// `gear_friction.viscous`.
+    GearViscous,
+    /// `gear_friction.smoothing_speed`.
+    GearSmoothing,
 }
 
 impl GeneratorField {
     /// Every field, in the order of a generator description.
-    pub const ALL: [GeneratorField; 7] = [
+    pub const ALL: [GeneratorField; 11] = [
         GeneratorField::Kt,
         GeneratorField::Ke,
         GeneratorField::ArmatureResistance,
@@ -200,6 +366,10 @@ impl GeneratorField {
         GeneratorField::Inductance,
         GeneratorField::GearRatio,
         GeneratorField::RotorInertia,
+        GeneratorField::GearEfficiency,
+        GeneratorField::GearCoulomb,
+        GeneratorField::GearViscous,
+        GeneratorField::GearSmoothing,
     ];
 
     /// The physical range `[min, max]` of the field (SI, [`GeneratorField::unit`]): every
@@ -218,6 +388,11 @@ impl GeneratorField {
     /// - `gear_ratio` in `[1e-3, 1e4]`: multi-stage reducers reach a few thousand, step-up
     ///   gears (ratio below 1) a few hundredths.
     /// - `rotor_inertia` in `[0, 1e4]` kg m^2: a megawatt generator's rotor is about `1e3`.
+    /// - `gear_efficiency` in `[1e-2, 1]`: real gears have 0.4 to 0.98; below 0.01 the
+    ///   gear would multiply the damping by more than 100.
+    /// - `gear_friction.coulomb` in `[0, 1e4]` N m and `gear_friction.viscous` in
+    ///   `[0, 1e4]` N m s/rad (motor side): a micromotor's gear has about `1e-3` N m.
+    /// - `gear_friction.smoothing_speed` in `[1e-6, 1e6]` rad/s (motor side).
     pub fn range(self) -> (f64, f64) {
         match self {
             GeneratorField::Kt | GeneratorField::Ke => (1e-6, 1e4),
@@ -226,6 +401,9 @@ impl GeneratorField {
             GeneratorField::Inductance => (0.0, 1e3),
             GeneratorField::GearRatio => (1e-3, 1e4),
             GeneratorField::RotorInertia => (0.0, 1e4),
+            GeneratorField::GearEfficiency => (1e-2, 1.0),
+            GeneratorField::GearCoulomb | GeneratorField::GearViscous => (0.0, 1e4),
+            GeneratorField::GearSmoothing => (1e-6, 1e6),
         }
     }
 
@@ -236,8 +414,11 @@ impl GeneratorField {
             GeneratorField::Ke => " V s/rad",
             GeneratorField::ArmatureResistance | GeneratorField::LoadResistance => " ohm",
             GeneratorField::Inductance => " H",
-            GeneratorField::GearRatio => "",
+            GeneratorField::GearRatio | GeneratorField::GearEfficiency => "",
             GeneratorField::RotorInertia => " kg m^2",
+            GeneratorField::GearCoulomb => " N m",
+            GeneratorField::GearViscous => " N m s/rad",
+            GeneratorField::GearSmoothing => " rad/s",
         }
     }
 
@@ -251,6 +432,10 @@ impl GeneratorField {
             GeneratorField::Inductance => "inductance",
             GeneratorField::GearRatio => "gear_ratio",
             GeneratorField::RotorInertia => "rotor_inertia",
+            GeneratorField::GearEfficiency => "gear_efficiency",
+            GeneratorField::GearCoulomb => "gear_friction.coulomb",
+            GeneratorField::GearViscous => "gear_friction.viscous",
+            GeneratorField::GearSmoothing => "gear_friction.smoothing_speed",
         }
     }
 
@@ -264,6 +449,10 @@ impl GeneratorField {
             GeneratorField::Inductance => g.inductance,
             GeneratorField::GearRatio => g.gear_ratio,
             GeneratorField::RotorInertia => g.rotor_inertia,
+            GeneratorField::GearEfficiency => g.gear_efficiency,
+            GeneratorField::GearCoulomb => g.gear_friction.coulomb,
+            GeneratorField::GearViscous => g.gear_friction.viscous,
+            GeneratorField::GearSmoothing => g.gear_friction.smoothing_speed,
         }
     }
 }
@@ -296,17 +485,21 @@ pub enum DerivedQuantity {
     ReflectedInertia,
     /// `L / (R_a + R_L)`, the circuit's time constant.
     TimeConstant,
+    /// `n^2 (tau_c / w_s + b + b_eta)`, the gear's damping at rest on the joint
+    /// ([`GeneratorSpec::gear_damping_at_rest`]).
+    GearDamping,
 }
 
 impl DerivedQuantity {
     /// Every derived quantity, in the order they are checked.
-    pub const ALL: [DerivedQuantity; 6] = [
+    pub const ALL: [DerivedQuantity; 7] = [
         DerivedQuantity::GearRatioSquared,
         DerivedQuantity::Damping,
         DerivedQuantity::CurrentPerSpeed,
         DerivedQuantity::TorquePerCurrent,
         DerivedQuantity::ReflectedInertia,
         DerivedQuantity::TimeConstant,
+        DerivedQuantity::GearDamping,
     ];
 
     /// The formula, in the field names of a generator description.
@@ -322,6 +515,10 @@ impl DerivedQuantity {
             DerivedQuantity::TorquePerCurrent => "gear_ratio * kt",
             DerivedQuantity::ReflectedInertia => "gear_ratio^2 * rotor_inertia",
             DerivedQuantity::TimeConstant => "inductance / (armature_resistance + load_resistance)",
+            DerivedQuantity::GearDamping => {
+                "gear_ratio^2 * (coulomb / smoothing_speed + viscous + (1/gear_efficiency - 1) \
+                 * kt * ke / (armature_resistance + load_resistance))"
+            }
         }
     }
 
@@ -329,7 +526,7 @@ impl DerivedQuantity {
     pub fn unit(self) -> &'static str {
         match self {
             DerivedQuantity::GearRatioSquared => "",
-            DerivedQuantity::Damping => " N m s/rad",
+            DerivedQuantity::Damping | DerivedQuantity::GearDamping => " N m s/rad",
             DerivedQuantity::CurrentPerSpeed => " A s/rad",
             DerivedQuantity::TorquePerCurrent => " N m/A",
             DerivedQuantity::ReflectedInertia => " kg m^2",
@@ -347,6 +544,7 @@ impl DerivedQuantity {
             DerivedQuantity::TorquePerCurrent => g.gear_ratio * g.kt,
             DerivedQuantity::ReflectedInertia => g.reflected_inertia(),
             DerivedQuantity::TimeConstant => g.inductance / g.resistance(),
+            DerivedQuantity::GearDamping => g.gear_damping_at_rest(),
         }
     }
 
@@ -356,7 +554,8 @@ impl DerivedQuantity {
         match self {
             DerivedQuantity::Damping
             | DerivedQuantity::CurrentPerSpeed
-            | DerivedQuantity::ReflectedInertia => Some(MAX_COEFFICIENT),
+            | DerivedQuantity::ReflectedInertia
+            | DerivedQuantity::GearDamping => Some(MAX_COEFFICIENT),
             DerivedQuantity::GearRatioSquared
             | DerivedQuantity::TorquePerCurrent
             | DerivedQuantity::TimeConstant => None,
@@ -375,6 +574,17 @@ impl DerivedQuantity {
             DerivedQuantity::TorquePerCurrent => &[GearRatio, Kt],
             DerivedQuantity::ReflectedInertia => &[GearRatio, RotorInertia],
             DerivedQuantity::TimeConstant => &[Inductance, ArmatureResistance, LoadResistance],
+            DerivedQuantity::GearDamping => &[
+                GearRatio,
+                GearCoulomb,
+                GearSmoothing,
+                GearViscous,
+                GearEfficiency,
+                Kt,
+                Ke,
+                ArmatureResistance,
+                LoadResistance,
+            ],
         }
     }
 
@@ -481,6 +691,8 @@ mod tests {
             gear_ratio: 5.0,
             rotor_inertia: 1e-6,
             connected: true,
+            gear_efficiency: 1.0,
+            gear_friction: GearFriction::default(),
         };
         let c = 25.0 * 0.0235 * 0.0235 / 5.0;
         assert!((g.damping_coefficient() - c).abs() < 1e-18);
@@ -517,6 +729,73 @@ mod tests {
             gear_ratio: 5.0,
             rotor_inertia: 1e-6,
             connected: true,
+            gear_efficiency: 1.0,
+            gear_friction: GearFriction::default(),
+        }
+    }
+
+    /// The gear model (module documentation): with `L = 0` the efficiency makes the joint's
+    /// damping exactly `c_g / eta`; the loss power is never negative; the slope at rest is the
+    /// joint term's derivative (central difference); without gear loss nothing changes.
+    #[test]
+    fn the_gear_loss_is_dissipative_and_its_slope_at_rest_is_the_derivative() {
+        let eta = 0.8;
+        let g = GeneratorSpec {
+            gear_efficiency: eta,
+            ..paper()
+        };
+        for w in [-3.0, -0.1, 0.02, 1.7] {
+            let q = g.joint_term(w, g.quasi_static_current(w));
+            let expected = paper().damping_coefficient() / eta * w;
+            assert!(
+                (q - expected).abs() <= 1e-15 * expected.abs(),
+                "{q} vs {expected}"
+            );
+        }
+        let g = GeneratorSpec {
+            gear_efficiency: eta,
+            gear_friction: GearFriction {
+                coulomb: 5e-4,
+                viscous: 2e-6,
+                smoothing_speed: 0.5,
+            },
+            inductance: 1e-3,
+            ..paper()
+        };
+        assert!(g.has_gear_loss() && !paper().has_gear_loss());
+        for k in -200..=200 {
+            let w = k as f64 * 0.05;
+            assert!(g.gear_loss_power(w) >= 0.0, "{w}");
+            // Loss = gear part of the joint term times the joint speed.
+            let gear = g.joint_term(w, 0.3) - g.q_term(0.3);
+            assert!(
+                (gear * w - g.gear_loss_power(w)).abs()
+                    <= 1e-15 * g.gear_loss_power(w).max(1e-300) + 1e-18
+            );
+        }
+        let h = 1e-7;
+        let slope = (g.joint_term(h, 0.0) - g.joint_term(-h, 0.0)) / (2.0 * h);
+        let n2 = 25.0;
+        let b_eta = (1.0 / eta - 1.0) * 0.0235 * 0.0235 / 5.0;
+        let exact = n2 * (5e-4 / 0.5 + 2e-6 + b_eta);
+        assert!((g.gear_damping_at_rest() - exact).abs() <= 1e-15 * exact);
+        assert!((slope - exact).abs() <= 1e-6 * exact, "{slope} vs {exact}");
+        // Open circuit: no load, no efficiency loss; the friction stays.
+        let open = GeneratorSpec {
+            connected: false,
+            ..g.clone()
+        };
+        assert_eq!(open.efficiency_damping(), 0.0);
+        assert_eq!(open.gear_damping_at_rest(), n2 * (5e-4 / 0.5 + 2e-6));
+        // Out of range: an efficiency of 0 or above 1.
+        for bad in [0.0, 1.01] {
+            let p = GeneratorSpec {
+                gear_efficiency: bad,
+                ..paper()
+            }
+            .problems();
+            assert_eq!(p.len(), 1);
+            assert_eq!(p[0].field(), Some(GeneratorField::GearEfficiency));
         }
     }
 
@@ -655,6 +934,10 @@ mod tests {
             GeneratorField::Inductance => &mut g.inductance,
             GeneratorField::GearRatio => &mut g.gear_ratio,
             GeneratorField::RotorInertia => &mut g.rotor_inertia,
+            GeneratorField::GearEfficiency => &mut g.gear_efficiency,
+            GeneratorField::GearCoulomb => &mut g.gear_friction.coulomb,
+            GeneratorField::GearViscous => &mut g.gear_friction.viscous,
+            GeneratorField::GearSmoothing => &mut g.gear_friction.smoothing_speed,
         };
         *slot = value;
     }

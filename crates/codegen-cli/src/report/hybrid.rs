@@ -19,7 +19,7 @@
 //! - per force element `F`: `F.dissipated [J]`; a generator also `F.current [A]`,
 //!   `F.power [W]` (`(R_a + R_L) i^2`), `F.load_power [W]` (`R_L i^2`, the power harvested
 //!   in the load) and `F.harvested [J]` (the load's share `R_L / (R_a + R_L)` of the
-//!   dissipated energy);
+//!   energy dissipated in the circuit; `F.dissipated` also holds the gear's loss);
 //! - per excitation `E`: `E.value [N|N m|m/s^2]` and `E.work [J]` (a base excitation's
 //!   work is that of the inertial loads `-m a_b y` on every mass, in the frame moving
 //!   with the supports);
@@ -229,7 +229,7 @@ impl Columns {
                 c.push(i);
                 c.push(g.resistance() * i * i);
                 c.push(g.load_resistance * i * i);
-                c.push(g.load_part(d));
+                c.push(g.load_part(state.account.circuit_dissipated(k)));
             }
         }
         for (k, e) in model.excitations.iter().enumerate() {
@@ -465,7 +465,7 @@ pub struct GeneratorReport {
     pub name: String,
     /// Its mechanism.
     pub mechanism: String,
-    /// Energy dissipated in its circuit, `(R_a + R_L) i^2` integrated (J).
+    /// Energy dissipated in its circuit, `(R_a + R_L) i^2` integrated, and in its gear (J).
     pub dissipated: f64,
     /// Of which in the load, `R_L i^2` integrated (J).
     pub harvested_in_load: f64,
@@ -473,8 +473,33 @@ pub struct GeneratorReport {
     pub mean_load_power: f64,
     /// Largest |current| at the output steps (A).
     pub peak_current: f64,
+    /// Where the energy it took from its joint went.
+    pub energy_split: EnergySplit,
     /// Its parameters as run (overrides applied; a comparison run's with the circuit open).
     pub settings: hybrid_core::generator::GeneratorSpec,
+}
+
+/// The energy split of one generator over a run (J; `hybrid_core::generator`): the work it
+/// took from its joint went into the armature's copper, the gear, the load and the magnetic
+/// field. The rotor's kinetic energy is counted with its mechanism's.
+#[derive(Clone, Debug, Serialize)]
+pub struct EnergySplit {
+    /// Mechanical input, `integral (n k_t i + n tau_g) q' dt`.
+    pub mechanical_input: f64,
+    /// Copper loss of the armature, `integral R_a i^2 dt`.
+    pub copper_loss: f64,
+    /// Loss in the gear, `integral tau_g w dt` (efficiency and friction).
+    pub gearbox_loss: f64,
+    /// Energy delivered to the load, `integral R_L i^2 dt` (= `harvested_in_load`).
+    pub load_energy: f64,
+    /// Change of the magnetic energy `L i^2 / 2` since the start (at rest, no current).
+    pub magnetic_change: f64,
+    /// Lost by unequal torque and EMF constants, `integral (k_t - k_e) i w dt` (0 for the
+    /// ideal machine, `k_t = k_e` in SI; in the energy balance as a dissipation).
+    pub conversion: f64,
+    /// `mechanical_input - (copper_loss + gearbox_loss + load_energy + magnetic_change +
+    /// conversion)`: the time integration's truncation.
+    pub residual: f64,
 }
 
 /// One excitation of a hybrid run.

@@ -83,7 +83,8 @@ pub struct SteadyPower {
     pub excitations: Vec<(String, f64)>,
     /// Mean power dissipated by the structure's damping (W).
     pub structure: f64,
-    /// Mean power dissipated by every force element (generators, dampers) (W).
+    /// Mean power dissipated by every force element (generators with their gears and
+    /// conversion losses, dampers) (W).
     pub elements: f64,
 }
 
@@ -94,6 +95,8 @@ pub struct SteadyGeneratorPower {
     pub name: String,
     /// Mean power dissipated in its circuit, `(R_a + R_L) i^2` (W).
     pub mean_power_dissipated: f64,
+    /// Mean power lost in its gear (W).
+    pub mean_power_gearbox: f64,
     /// Mean power into its load, `R_L i^2` (W).
     pub mean_power_load: f64,
 }
@@ -120,11 +123,14 @@ pub struct SteadyPowerTracker {
     periods: usize,
 }
 
-/// The quantities tracked, in order: each force element's dissipation, each excitation's
-/// work, the structure's dissipation.
+/// The quantities tracked, in order: each force element's dissipation, of it each
+/// generator's gear loss, each generator's conversion loss (unequal constants), each
+/// excitation's work, the structure's dissipation.
 fn read(state: &HybridState, out: &mut Vec<f64>) {
     out.clear();
     out.extend_from_slice(&state.account.dissipated);
+    out.extend_from_slice(&state.account.gearbox_loss);
+    out.extend_from_slice(&state.account.conversion);
     out.extend_from_slice(&state.account.excitation_work);
     out.push(state.account.dissipated_structure);
 }
@@ -137,7 +143,7 @@ impl SteadyPowerTracker {
         if !(row_dt > 0.0 && period / row_dt >= MIN_ROWS_PER_PERIOD) {
             return None;
         }
-        let n = model.forces.len() + model.excitations.len() + 1;
+        let n = 3 * model.forces.len() + model.excitations.len() + 1;
         Some(SteadyPowerTracker {
             period,
             started: false,
@@ -240,10 +246,11 @@ impl SteadyPowerTracker {
             .enumerate()
             .filter_map(|(k, f)| {
                 let g = f.generator()?;
-                let d = means[k];
+                let (d, gear) = (means[k] - means[nf + k], means[nf + k]);
                 Some(SteadyGeneratorPower {
                     name: f.name.clone(),
                     mean_power_dissipated: d,
+                    mean_power_gearbox: gear,
                     mean_power_load: g.load_part(d),
                 })
             })
@@ -260,11 +267,12 @@ impl SteadyPowerTracker {
             excitations: model
                 .excitations
                 .iter()
-                .zip(&means[nf..nf + ne])
+                .zip(&means[3 * nf..3 * nf + ne])
                 .map(|(e, p)| (e.name.clone(), *p))
                 .collect(),
-            structure: means[nf + ne],
-            elements: means[..nf].iter().sum(),
+            structure: means[3 * nf + ne],
+            // Every element's dissipation (gear losses included) and the conversion losses.
+            elements: means[..nf].iter().sum::<f64>() + means[2 * nf..3 * nf].iter().sum::<f64>(),
         })
     }
 }

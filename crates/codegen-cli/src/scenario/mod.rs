@@ -25,6 +25,7 @@ pub mod integrator;
 pub mod mechanism;
 pub mod overrides;
 pub mod preset;
+pub mod units;
 
 use std::ops::Range;
 use std::path::Path;

@@ -16,6 +16,7 @@ mod eval_cli;
 mod frf;
 mod fuzz;
 mod generate_cli;
+mod generator_datasheet;
 mod hybrid_cli;
 mod linear_vs_time_domain;
 mod linearize_cli;

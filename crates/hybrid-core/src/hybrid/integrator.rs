@@ -39,8 +39,20 @@ pub struct Account {
     pub dissipated_structure: f64,
     /// Work of the beam's own loads (fem-beam loads), `integral P^T v dt`.
     pub beam_load_work: f64,
-    /// Dissipated by each force element (generator: `(R_a + R_L) i^2`; damper: `c q'^2`).
+    /// Dissipated by each force element (generator: `(R_a + R_L) i^2` and its gear's loss;
+    /// damper: `c q'^2`).
     pub dissipated: Vec<f64>,
+    /// Of [`Account::dissipated`], lost in each generator's gear (0 for other elements),
+    /// `integral tau_g w dt` ([`crate::generator`]).
+    pub gearbox_loss: Vec<f64>,
+    /// Work each generator takes from its joint (0 for other elements), `integral (n k_t i +
+    /// n tau_g) q' dt`: its mechanical input.
+    pub mechanical_input: Vec<f64>,
+    /// Work each generator's unequal constants lose (created where negative),
+    /// `integral (k_t - k_e) n i q' dt`: the torque takes `k_t i w` from the joint, the EMF
+    /// gives the circuit `k_e i w`. Zero for the ideal machine (`k_t = k_e` in SI) and for
+    /// other elements; a dissipation of the energy account.
+    pub conversion: Vec<f64>,
     /// Work done by each excitation.
     pub excitation_work: Vec<f64>,
     /// Dissipated by each mechanism model's own force elements (its dampers: `c q'^2`,
@@ -50,6 +62,14 @@ pub struct Account {
     /// Work put in by each mechanism model's force elements without potential (constant
     /// joint forces, external forces and torques), `integral P dt`, one entry per mechanism.
     pub model_input_work: Vec<f64>,
+}
+
+impl Account {
+    /// Of force element `k`'s dissipation, the part in its circuit (a generator's
+    /// `(R_a + R_L) i^2` integrated, without its gear's loss; all of it for other elements).
+    pub fn circuit_dissipated(&self, k: usize) -> f64 {
+        self.dissipated[k] - self.gearbox_loss[k]
+    }
 }
 
 /// The state of a run.
@@ -740,11 +760,27 @@ impl Integrator {
         // Energy account, part 1 (needs the old state): per force element and excitation,
         // trapezoidal power.
         let acc = &mut state.account;
+        acc.gearbox_loss.resize(model.forces.len(), 0.0);
+        acc.mechanical_input.resize(model.forces.len(), 0.0);
+        acc.conversion.resize(model.forces.len(), 0.0);
         for (k, f) in model.forces.iter().enumerate() {
-            let old =
-                f.dissipated_power(state.mechanisms[f.mechanism].qd[f.joint], state.currents[k]);
-            let new = f.dissipated_power(self.followers[f.mechanism].qd[f.joint], self.currents[k]);
+            let (w_old, i_old) = (state.mechanisms[f.mechanism].qd[f.joint], state.currents[k]);
+            let (w_new, i_new) = (self.followers[f.mechanism].qd[f.joint], self.currents[k]);
+            let old = f.dissipated_power(w_old, i_old);
+            let new = f.dissipated_power(w_new, i_new);
             acc.dissipated[k] += 0.5 * h * (old + new);
+            if let Some(g) = f.generator() {
+                acc.mechanical_input[k] +=
+                    0.5 * h * (g.mechanical_power(w_old, i_old) + g.mechanical_power(w_new, i_new));
+                if g.kt != g.ke {
+                    let p = |w: f64, i: f64| (g.kt - g.ke) * g.gear_ratio * i * w;
+                    acc.conversion[k] += 0.5 * h * (p(w_old, i_old) + p(w_new, i_new));
+                }
+                if g.has_gear_loss() {
+                    acc.gearbox_loss[k] +=
+                        0.5 * h * (g.gear_loss_power(w_old) + g.gear_loss_power(w_new));
+                }
+            }
         }
         Self::account_model_elements(&mut self.followers, model, state, h);
         if self.base {

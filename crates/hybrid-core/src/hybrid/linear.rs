@@ -53,13 +53,16 @@
 //! ```
 //!
 //! (THEORY.md section 7: `Q_j += n k_t i`, `L i' + R i = k_e n q_j'`). A generator without
-//! inductance is the damper `n^2 k_t k_e / R` on its joint, inside `C_i`.
+//! inductance is the damper `n^2 k_t k_e / R` on its joint, inside `C_i`. A generator's
+//! gear loss is the damper `n^2 (tau_c / w_s + b + b_eta)` on its joint (the smooth Coulomb
+//! friction by its slope at rest; [`crate::generator`]).
 //!
 //! The mechanism models' own force elements are inside `K_i`, `C_i`, exactly (symbolic
 //! derivatives, see [`mbs_symbolic::runtime::TangentSystem`]); one without a tangent at the
 //! equilibrium (a point spring-damper whose points coincide) is refused with
 //! [`LinearError::ForceElement`]. The scenario's force elements' contributions are linear in
-//! `(q, q', i)`, so they are taken exactly
+//! `(q, q', i)` (but for the gears' Coulomb friction, taken by its slope at rest), so they
+//! are taken exactly
 //! as differences of [`HybridModel::add_joint_forces`] at unit changes (no truncation: the
 //! difference of an affine function is its slope, up to one rounding).
 
@@ -537,6 +540,19 @@ impl Linearization {
                 for r in 0..dof {
                     ki[(r, c)] += qv[r] - base.1[r];
                     ci[(r, c)] += qd[r] - base.1[r];
+                }
+            }
+            // The gears' smooth Coulomb friction is the one term that is not affine: its
+            // difference at a unit speed, n tau_c tanh(n / w_s), is replaced by its slope at
+            // rest, n^2 tau_c / w_s (crate::generator).
+            for force in model.forces.iter().filter(|f| f.mechanism == i) {
+                if let Some(g) = force.generator()
+                    && g.gear_friction.coulomb != 0.0
+                {
+                    let (n, fr) = (g.gear_ratio, &g.gear_friction);
+                    let j = force.joint;
+                    ci[(j, j)] += n * n * fr.coulomb / fr.smoothing_speed
+                        - n * fr.coulomb * (n / fr.smoothing_speed).tanh();
                 }
             }
             // Constraint curvature: loops, then the attachment points.

@@ -154,6 +154,9 @@ pub fn initial_state(
         current_rates: vec![0.0; nf],
         account: Account {
             dissipated: vec![0.0; nf],
+            gearbox_loss: vec![0.0; nf],
+            mechanical_input: vec![0.0; nf],
+            conversion: vec![0.0; nf],
             excitation_work: vec![0.0; model.excitations.len()],
             dissipated_model: vec![0.0; model.mechanisms.len()],
             model_input_work: vec![0.0; model.mechanisms.len()],

@@ -234,16 +234,20 @@ impl JointForce {
     ) {
         let j = self.joint;
         match &self.kind {
-            ForceKind::Generator(g) => g.add_to_equations(j, current, m, qv),
+            ForceKind::Generator(g) => g.add_to_equations(j, qd, current, m, qv),
             ForceKind::Damper { c } => qv[j] += c * qd,
             ForceKind::Spring { k, q0 } => qv[j] += k * (q - q0),
         }
     }
 
-    /// Power dissipated at joint speed `qd` and current `current` (W): `(R_a + R_L) i^2` for
-    /// a generator, `c q'^2` for a damper, 0 for a spring.
+    /// Power dissipated at joint speed `qd` and current `current` (W): `(R_a + R_L) i^2` plus
+    /// the gear's loss ([`GeneratorSpec::gear_loss_power`]) for a generator, `c q'^2` for a
+    /// damper, 0 for a spring.
     pub fn dissipated_power(&self, qd: f64, current: f64) -> f64 {
         match &self.kind {
+            ForceKind::Generator(g) if g.has_gear_loss() => {
+                g.resistance() * current * current + g.gear_loss_power(qd)
+            }
             ForceKind::Generator(g) => g.resistance() * current * current,
             ForceKind::Damper { c } => c * qd * qd,
             ForceKind::Spring { .. } => 0.0,

@@ -87,11 +87,18 @@ pub fn input_work(account: &Account) -> f64 {
 }
 
 /// Energy dissipated since the start: the structure's Rayleigh damping, the scenario's force
-/// elements and the mechanism models' own dampers (J).
+/// elements, the mechanism models' own dampers and the generators' conversion mismatch
+/// ([`Account::conversion`], zero for ideal machines) (J).
 pub fn dissipated(account: &Account) -> f64 {
-    account.dissipated_structure
+    let d = account.dissipated_structure
         + account.dissipated.iter().sum::<f64>()
-        + account.dissipated_model.iter().sum::<f64>()
+        + account.dissipated_model.iter().sum::<f64>();
+    // Added only when there is a mismatch: the ideal machines' balance stays bit for bit.
+    if account.conversion.iter().any(|&c| c != 0.0) {
+        d + account.conversion.iter().sum::<f64>()
+    } else {
+        d
+    }
 }
 
 /// The energy-balance error `(E_0 + W) - (E + D)` (J) of a state with stored energies

@@ -130,8 +130,10 @@ pub struct SteadyState {
     /// Time step used (s).
     pub dt: f64,
     /// Mean power dissipated in each force element over the last period (W), in the order
-    /// of [`HybridModel::forces`] (a generator: `(R_a + R_L) i^2`).
+    /// of [`HybridModel::forces`] (a generator: `(R_a + R_L) i^2` and its gear's loss).
     pub mean_power_dissipated: Vec<f64>,
+    /// Of it, the mean power lost in each generator's gear (W; 0 for other elements).
+    pub mean_power_gearbox: Vec<f64>,
     /// Mean input power of each excitation over the last period (W), in the order of
     /// [`HybridModel::excitations`].
     pub mean_input_power: Vec<f64>,
@@ -289,6 +291,7 @@ pub fn steady_state(
                 .collect()
         };
         let mean_power_dissipated = mean(&state.account.dissipated, &account_before.dissipated);
+        let mean_power_gearbox = mean(&state.account.gearbox_loss, &account_before.gearbox_loss);
         let mean_input_power = mean(
             &state.account.excitation_work,
             &account_before.excitation_work,
@@ -311,6 +314,7 @@ pub fn steady_state(
             change: f64::MAX,
             dt: h,
             mean_power_dissipated,
+            mean_power_gearbox,
             mean_input_power,
             mean_power_structure,
         };

@@ -338,3 +338,55 @@ fn a_force_element_without_tangent_is_refused_by_name() {
         "{text}"
     );
 }
+
+/// The gear's loss linearises as its damping at rest on the generator's joint,
+/// `n^2 (tau_c / w_s + b + b_eta)` (the smooth Coulomb friction by its slope at 0; see
+/// `hybrid_core::generator`): the reduced matrices of the damper with a lossy gear equal
+/// those of the damper without it plus a scenario damper of that coefficient on the same
+/// joint — with and without inductance.
+#[test]
+fn the_gear_loss_linearises_as_its_damping_at_rest_on_the_joint() {
+    for inductance in [0.0, 2e-3] {
+        let (mut geared, _) = paper_damper(20, true, true, inductance);
+        let (mut plain, _) = paper_damper(20, true, true, inductance);
+        let k = geared
+            .forces
+            .iter()
+            .position(|f| f.generator().is_some())
+            .unwrap();
+        let ForceKind::Generator(g) = &mut geared.forces[k].kind else {
+            unreachable!()
+        };
+        g.gear_efficiency = 0.8;
+        g.gear_friction = hybrid_core::generator::GearFriction {
+            coulomb: 5e-4,
+            viscous: 2e-6,
+            smoothing_speed: 0.5,
+        };
+        let c = g.gear_damping_at_rest();
+        let (mechanism, joint) = (plain.forces[k].mechanism, plain.forces[k].joint);
+        plain.forces.push(JointForce {
+            name: "gear".into(),
+            mechanism,
+            joint,
+            kind: ForceKind::Damper { c },
+        });
+        let (a, b) = (linearize(&geared, &[]), linearize(&plain, &[]));
+        for which in [Matrix::Mass, Matrix::Damping, Matrix::Stiffness] {
+            let (x, y) = (a.small(which), b.small(which));
+            let diff = (x - y).amax();
+            println!(
+                "L = {inductance}: {which:?}: |diff| {diff:e} of {:e}",
+                y.amax()
+            );
+            assert!(diff <= 1e-13 * y.amax(), "{which:?}: {diff:e}");
+        }
+        // The gear's damping is not negligible next to the generator's own.
+        assert!(c > paper_generator_damping(), "{c}");
+    }
+}
+
+/// `c_g` of the paper's generator, `n^2 k_t k_e / (R_a + R_L)`.
+fn paper_generator_damping() -> f64 {
+    25.0 * 0.0235 * 0.0235 / 5.0
+}

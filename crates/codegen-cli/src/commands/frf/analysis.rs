@@ -404,7 +404,9 @@ pub(super) fn nonlinear_rows(
                         .iter()
                         .map(|g| {
                             let spec = model.forces[g.force].generator().expect("a generator");
-                            spec.load_part(s.mean_power_dissipated[g.force])
+                            spec.load_part(
+                                s.mean_power_dissipated[g.force] - s.mean_power_gearbox[g.force],
+                            )
                         })
                         .collect()
                 } else {

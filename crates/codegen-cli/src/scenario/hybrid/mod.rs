@@ -33,7 +33,8 @@
 //! name = "gen_left"
 //! mechanism = "left"
 //! joint = "crank"            # a body name: the force acts on its joint's coordinate
-//! kind = "generator"         # + the damper kind's [generator] fields (kt, ke, ...)
+//! kind = "generator"         # + the damper kind's [generator] fields (kt, ke, ...; numbers
+//!                            #   in SI or datasheet quantities: see `generator.rs`)
 //!                            # | "damper" with c | "spring" with k and q0
 //! [[excitation]]
 //! name = "shaker"
@@ -65,10 +66,12 @@
 //! with file:line:column and the entity.
 //!
 //! The reader's files: `schema.rs` (the tables as written, serde), `reader.rs` (one
-//! function per section), `checks.rs` (the value checks the sections share) and `table.rs`
-//! (time functions and time tables); this module holds the entries the setup stage reads.
+//! function per section), `checks.rs` (the value checks the sections share), `table.rs`
+//! (time functions and time tables) and `generator.rs` (the generator's fields, with
+//! datasheet units); this module holds the entries the setup stage reads.
 
 mod checks;
+pub mod generator;
 mod reader;
 mod schema;
 mod table;

@@ -8,7 +8,6 @@ use std::path::{Path, PathBuf};
 
 use diagnostic::Kind;
 use fem_beam::{Beam, BeamSpec};
-use hybrid_core::generator::GeneratorSpec;
 use hybrid_core::hybrid::{AttachmentKind, ForceKind, Placement};
 use toml::Spanned;
 use toml::de::DeValue;
@@ -394,18 +393,9 @@ fn force_kind<'a>(
     entity: &str,
 ) -> Option<ForceKind> {
     match f.kind.get_ref().as_str() {
-        "generator" => de::<GeneratorSpec>(doc, rest.clone(), entity).and_then(|g| {
-            let problems = g.problems();
-            for e in &problems {
-                // At the field it is about when that is written, at `kind` otherwise.
-                let span = e
-                    .field()
-                    .and_then(|field| rest.get_ref().get(field.name()))
-                    .map_or(f.kind.span(), |v| v.span());
-                doc.push(Kind::InvalidValue, Some(span), Some(entity), e.to_string());
-            }
-            problems.is_empty().then_some(ForceKind::Generator(g))
-        }),
+        "generator" => {
+            super::generator::generator(doc, &rest, f.kind.span(), entity).map(ForceKind::Generator)
+        }
         "damper" => de::<RawDamper>(doc, rest, entity).and_then(|d| {
             let c = *d.c.get_ref();
             if c.is_finite() && c >= 0.0 {

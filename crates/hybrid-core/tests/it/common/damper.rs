@@ -70,6 +70,8 @@ impl Default for PaperDamper {
                 gear_ratio: 5.0,
                 rotor_inertia: 1e-6,
                 connected: true,
+                gear_efficiency: 1.0,
+                gear_friction: Default::default(),
             },
             initial_displacement: 1e-3,
             method: Method::Newmark,

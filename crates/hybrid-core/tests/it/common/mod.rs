@@ -74,6 +74,8 @@ pub fn generator(inductance: f64, connected: bool) -> GeneratorSpec {
         gear_ratio: 5.0,
         rotor_inertia: 1e-6,
         connected,
+        gear_efficiency: 1.0,
+        gear_friction: Default::default(),
     }
 }
 

@@ -253,7 +253,13 @@ impl<M: System> MechanismLink<M> {
     ) -> ([[f64; 2]; 2], [f64; 2], [f64; 2]) {
         let ws = &mut *self.ws.borrow_mut();
         self.mechanism.evaluate(q, qd, t, ws);
-        generator.add_to_equations(self.generator_joint, current, &mut ws.m, &mut ws.q);
+        generator.add_to_equations(
+            self.generator_joint,
+            qd[self.generator_joint],
+            current,
+            &mut ws.m,
+            &mut ws.q,
+        );
         // Column-major 2 x 2.
         let m = &ws.m.as_slice()[..4];
         let (f, qv) = (&ws.f.as_slice()[..2], &ws.q.as_slice()[..2]);
