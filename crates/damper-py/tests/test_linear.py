@@ -52,6 +52,9 @@ def test_reduced_matrices_give_the_modes(monkeypatch: pytest.MonkeyPatch, root: 
     lin = damper.Scenario.load("scenarios/damper.toml").linearize(modes=3, method="dense")
     m, c, k = lin.M_R, lin.C_R, lin.K_R
     n = m.shape[0]
+    # nalgebra's column-major buffer, viewed in Fortran order (no copy).
+    for a in (m, c, k):
+        assert a.flags["F_CONTIGUOUS"] and type(a.base.base).__name__ == "PySliceContainer"
     assert m.shape == c.shape == k.shape == (n, n)
     np.testing.assert_allclose(m, m.T, rtol=0, atol=1e-12 * np.abs(m).max())
     np.testing.assert_allclose(k, k.T, rtol=0, atol=1e-9 * np.abs(k).max())
