@@ -65,16 +65,41 @@ def test_reduced_matrices_give_the_modes(monkeypatch: pytest.MonkeyPatch, root: 
         assert abs(nearest - mode.eigenvalue) <= 1e-7 * abs(mode.eigenvalue), (mode, nearest)
 
 
-def test_frf_equals_the_cli(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, root: Path) -> None:
+FRF_CASES = [(str(p.relative_to(p.parents[1])), "0.5") for p in BEAM_SCENARIOS] + [
+    ("scenarios/damper.toml", "1.0"),
+    ("scenarios/pendulum_absorber.toml", "absorber/theta"),
+]
+
+
+@pytest.mark.parametrize("scenario,output", FRF_CASES)
+def test_frf_equals_the_cli(scenario: str, output: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, root: Path) -> None:
     monkeypatch.chdir(root)
-    for scenario, output in [("scenarios/damper.toml", "1.0"), ("scenarios/pendulum_absorber.toml", "absorber/theta")]:
-        out = tmp_path / Path(scenario).stem
-        cli("frf", scenario, "--output", output, "--from", "1", "--to", "20", "--points", "40", "--log", "-o", str(out))
-        cols = damper.Scenario.load(scenario).frf(output, 1.0, 20.0, points=40, log=True)
-        cells = read_csv(out / "frf.csv")
-        assert list(cols) == list(cells)
-        for name, values in cols.items():
-            assert_cells_equal(cells[name], values, f"{scenario} {name}")
+    out = tmp_path / Path(scenario).stem
+    cli("frf", scenario, "--output", output, "--from", "1", "--to", "20", "--points", "40", "--log", "-o", str(out))
+    cols = damper.Scenario.load(scenario).frf(output, 1.0, 20.0, points=40, log=True)
+    cells = read_csv(out / "frf.csv")
+    assert list(cols) == list(cells)
+    for name, values in cols.items():
+        assert_cells_equal(cells[name], values, f"{scenario} {name}")
+
+
+@pytest.mark.parametrize("scenario", SCENARIOS, ids=lambda p: p.stem)
+def test_sweep_of_every_scenario_equals_the_cli(scenario: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, root: Path) -> None:
+    """The same linear sweep on every bundled scenario (a mechanism scenario's points fail:
+    their errors are compared)."""
+    monkeypatch.chdir(root)
+    rel = str(scenario.relative_to(root))
+    cli("sweep", rel, "--set", "integrator.t_end=1,2", "-o", str(tmp_path), "--quiet")
+    res = damper.Scenario.load(rel).sweep({"integrator.t_end": [1, 2]})
+    cells = read_csv(tmp_path / "sweep.csv")
+    assert list(res) == list(cells)
+    for name, values in res.items():
+        if name == "error":
+            assert [v or "" for v in values] == cells[name]
+        elif name in ("integrator.t_end", "index"):
+            assert [float(v) for v in values] == [float(c) for c in cells[name]]
+        else:
+            assert_cells_equal(cells[name], values, name)
 
 
 def test_sweep_equals_the_cli(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, root: Path) -> None:
@@ -105,13 +130,14 @@ def test_time_domain_sweep_keeps_the_summary_figures(monkeypatch: pytest.MonkeyP
     assert res["peak_amplitude [m]"][1] == run.summary["peak_amplitude"]
 
 
-def test_optimize_equals_the_cli(monkeypatch: pytest.MonkeyPatch, root: Path) -> None:
+@pytest.mark.parametrize("scenario", ["scenarios/damper.toml", "scenarios/aluminium_cantilever.toml"])
+def test_optimize_equals_the_cli(scenario: str, monkeypatch: pytest.MonkeyPatch, root: Path) -> None:
     monkeypatch.chdir(root)
     expected = json.loads(
-        cli("optimize", "scenarios/damper.toml", "--vary", "mechanism.half_angle_deg=3:25",
+        cli("optimize", scenario, "--vary", "mechanism.half_angle_deg=3:25",
             "--maximize", "zeta1", "--constraint", "reach>=0.002", "--json").stdout
     )
-    got = damper.Scenario.load("scenarios/damper.toml").optimize(
+    got = damper.Scenario.load(scenario).optimize(
         {"mechanism.half_angle_deg": (3, 25)}, maximize="zeta1", constraints=["reach>=0.002"]
     )
     assert got == expected
