@@ -1,4 +1,4 @@
-"""Ctrl-C during a long `simulate`: SIGINT to a Python process running it raises
+"""Ctrl-C during a long `simulate` (and a long time-domain sweep): SIGINT to a Python process running it raises
 `KeyboardInterrupt` within a second. Deterministic: the test waits until the run's worker
 thread (named `damper-worker`) exists in the child, rather than sleeping a fixed time."""
 
@@ -13,13 +13,18 @@ from pathlib import Path
 
 import pytest
 
+JOBS = {
+    "simulate": "sc.simulate(compare=[], allow_long=True)",
+    "time-domain sweep": "sc.sweep({'mechanism.half_angle_deg': [20, 30, 40, 50]}, time_domain=True, allow_long=True)",
+}
+
 CHILD = """
 import sys, time, damper
 sc = damper.Scenario.load(sys.argv[1], set={"integrator.t_end": 1000.0, "output.every": 100000})
 print("started", flush=True)
 t0 = time.perf_counter()
 try:
-    sc.simulate(compare=[], allow_long=True)
+    JOB
 except KeyboardInterrupt:
     print(f"interrupted after {time.perf_counter() - t0:.3f} s", flush=True)
     sys.exit(3)
@@ -38,9 +43,10 @@ def worker_running(pid: int) -> bool:
 
 
 @pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="needs /proc")
-def test_sigint_during_simulate_raises_keyboard_interrupt_within_a_second(root: Path) -> None:
+@pytest.mark.parametrize("job", list(JOBS))
+def test_sigint_during_a_long_call_raises_keyboard_interrupt_within_a_second(job: str, root: Path) -> None:
     child = subprocess.Popen(
-        [sys.executable, "-c", CHILD, str(root / "scenarios" / "damper.toml")],
+        [sys.executable, "-c", CHILD.replace("JOB", JOBS[job]), str(root / "scenarios" / "damper.toml")],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

@@ -794,7 +794,8 @@ pub fn run(args: Args) -> Result<(), Error> {
 /// `t_end`'s applied in that order ([`sweep_point::evaluate`]); the results in the order of
 /// `indices` (never in completion order), a failed or panicking point recorded as its
 /// one-line error. `done` is called after every point. [`Error::Interrupted`] when
-/// [`crate::interrupt::request_stop`] was called (the points not started are skipped).
+/// [`crate::interrupt::request_stop`] was called (the points not started then fail at once,
+/// [`sweep_point::evaluate`]).
 pub fn evaluate_points(
     path: &Path,
     text: &str,
@@ -807,14 +808,6 @@ pub fn evaluate_points(
     done: &(dyn Fn() + Sync),
 ) -> Result<Vec<PointResult>, Error> {
     let evaluate = |index: usize| {
-        if crate::interrupt::stop_requested() {
-            return PointResult {
-                index,
-                figures: vec![],
-                error: Some("interrupted".into()),
-                time_domain_error: None,
-            };
-        }
         let mut overrides = fixed.to_vec();
         overrides.extend(grid.overrides(index));
         overrides.extend(t_end.cloned());
