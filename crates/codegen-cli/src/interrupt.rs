@@ -19,12 +19,37 @@
 //! [`install`] is called once by the binary; the library functions only mark their commit
 //! sections ([`commit_section`]) and register their temporary files ([`Leftovers`]), so
 //! library users without [`install`] keep the default behaviour.
+//!
+//! A library user that handles signals itself (the Python package: Ctrl-C is Python's
+//! `KeyboardInterrupt`) asks the runs in progress to stop with [`request_stop`]: the
+//! time-domain runs poll [`stop_requested`] at every output step, the sweeps before every
+//! point, and fail with [`crate::Error::Interrupted`]; nothing is half-written (runs held
+//! in memory write nothing at all). [`clear_stop`] re-arms the flag before the next call.
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use signal_hook::consts::{SIGINT, SIGTERM};
+
+/// Set by [`request_stop`]: the runs in progress stop at their next output step.
+static STOP: AtomicBool = AtomicBool::new(false);
+
+/// Asks every run in progress in this process to stop at its next output step (it fails
+/// with [`crate::Error::Interrupted`]); stays set until [`clear_stop`].
+pub fn request_stop() {
+    STOP.store(true, Ordering::SeqCst);
+}
+
+/// Whether [`request_stop`] was called since the last [`clear_stop`].
+pub fn stop_requested() -> bool {
+    STOP.load(Ordering::Relaxed)
+}
+
+/// Re-arms the flag of [`request_stop`] (before a new call of the library).
+pub fn clear_stop() {
+    STOP.store(false, Ordering::SeqCst);
+}
 
 /// Held while output files are being committed.
 static COMMIT: Mutex<()> = Mutex::new(());

@@ -129,6 +129,9 @@ pub enum Error {
     /// Invalid `--set PATH=VALUES` or `--shard` options of a sweep.
     #[error(transparent)]
     Sweep(#[from] commands::sweep::SpecError),
+    /// The run was asked to stop ([`interrupt::request_stop`]); nothing was written.
+    #[error("interrupted")]
+    Interrupted,
     /// Writing to standard output failed (a closed pipe: `BrokenPipe`).
     #[error("cannot write to standard output: {0}")]
     Stdout(std::io::Error),

@@ -303,8 +303,9 @@ pub fn analyse_with_max_force(
     Ok((report, max_force))
 }
 
-/// [`analyse_model`], keeping the linearisation with the generator.
-fn analyse_linearization(
+/// [`analyse_model`], keeping the linearisation with the generator (its reduced matrices
+/// `M_R`, `C_R`, `K_R`: [`Linearization::dense`]).
+pub fn analyse_linearization(
     file: &str,
     input: &Linearizable,
     k: usize,

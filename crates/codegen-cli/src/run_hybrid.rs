@@ -38,12 +38,12 @@ use crate::report::hybrid::{
     HybridEnergy, HybridSummary, MechanismReport, RepartitionReport, amplifications,
 };
 use crate::report::plot::{plot_damping_vs_amplitude_svg, plot_displacements_svg};
-use crate::report::rows::{CsvRows, RowSink};
+use crate::report::rows::{ColumnRows, CsvRows, RowSink};
 use crate::report::steady_power::SteadyPowerTracker;
 use crate::report::summary::json_bytes;
 use crate::report::{OutputFile, ReportError, StreamFile, commit, csv_error};
-use crate::scenario::HybridScenario;
 use crate::scenario::OverrideRecord;
+use crate::scenario::{Comparison, HybridScenario};
 use crate::setup::{Built, comparison};
 
 fn progress_bar(show: bool) -> ProgressBar {
@@ -81,6 +81,126 @@ pub struct HybridRun<'a> {
 /// Where the rows of a hybrid run go: the columns and a row sink.
 pub type Rows<'r> = (&'r mut Columns, &'r mut dyn RowSink);
 
+/// Every run of a hybrid scenario: the run as described, then each comparison run of
+/// `[output] compare`, each one's rows going to the sink `open` makes for it (`None`: the run
+/// as described) under its columns' header; `fail` names the destination in an error of
+/// that run's sink. Returns the runs (the comparisons with their key) and their sinks, in
+/// that order.
+fn runs<'a, S: RowSink>(
+    sc: &'a HybridScenario,
+    built: &Built,
+    overrides: Vec<OverrideRecord>,
+    progress: bool,
+    open: &mut Open<'_, S>,
+    fail: &dyn Fn(Option<Comparison>, Error) -> Error,
+) -> Result<Runs<'a, S>, Error> {
+    let file = sc.path.display().to_string();
+    let model = &built.model;
+    let mut columns = Columns::new(model, &built.state).with_model_elements(model, &built.models);
+    let mut sink = open(None, columns.header())?;
+    let run = evaluate(
+        sc,
+        built,
+        &[],
+        Some((&mut columns, &mut sink)),
+        overrides,
+        progress,
+    )
+    .map_err(|e| fail(None, e))?;
+    let mut sinks = vec![sink];
+    let mut compared = vec![];
+    for &c in &sc.compare {
+        let Some((variant, probes)) = comparison(&file, built, c)? else {
+            continue;
+        };
+        let mut columns = Columns::new(&variant.model, &variant.state)
+            .with_probes(&probes)
+            .with_model_elements(&variant.model, &variant.models);
+        let mut sink = open(Some(c), columns.header())?;
+        let r = evaluate(
+            sc,
+            &variant,
+            &probes,
+            Some((&mut columns, &mut sink)),
+            vec![],
+            progress,
+        )
+        .map_err(|e| fail(Some(c), e))?;
+        sinks.push(sink);
+        compared.push((c, r));
+    }
+    Ok(Runs {
+        run,
+        compared,
+        sinks,
+    })
+}
+
+/// What opens the row sink of a run (`None`: the run as described) under its header.
+type Open<'o, S> = dyn FnMut(Option<Comparison>, &[String]) -> Result<S, Error> + 'o;
+
+/// What [`runs`] gives: the run as described, the comparison runs, every run's sink.
+struct Runs<'a, S> {
+    run: HybridRun<'a>,
+    compared: Vec<(Comparison, HybridRun<'a>)>,
+    sinks: Vec<S>,
+}
+
+/// The runs of a hybrid scenario held in memory, no file written ([`in_memory`]).
+#[derive(Debug)]
+pub struct InMemory {
+    /// `summary.json`, byte for byte as `damper simulate` writes it (its `comparisons`
+    /// block included).
+    pub summary: Vec<u8>,
+    /// The columns of `time_history.csv`.
+    pub rows: ColumnRows,
+    /// Per comparison run of `[output] compare`: its key and the columns of
+    /// `time_history_<key>.csv`.
+    pub comparisons: Vec<(&'static str, ColumnRows)>,
+}
+
+/// Runs a hybrid scenario as `damper simulate` does, its time histories kept in memory
+/// ([`ColumnRows`], the same header as the CSVs) and its summary as `summary.json` holds it;
+/// no file is written and no plot drawn. Above the limits of [`crate::budget`] unless
+/// `allow_long`; [`Error::Interrupted`] when [`crate::interrupt::request_stop`] is called
+/// during the runs.
+pub fn in_memory(
+    sc: &HybridScenario,
+    allow_long: bool,
+    overrides: Vec<OverrideRecord>,
+) -> Result<InMemory, Error> {
+    let file = sc.path.display().to_string();
+    let built = crate::setup::build(sc)?;
+    let columns = Columns::new(&built.model, &built.state);
+    Estimate::hybrid(sc, columns.header().len(), built.model.attachments.len())
+        .check(&file, allow_long)?;
+    let Runs {
+        mut run,
+        compared,
+        sinks,
+    } = runs(
+        sc,
+        &built,
+        overrides,
+        false,
+        &mut |_, header| Ok(ColumnRows::new(header)),
+        &|_, e| e,
+    )?;
+    let keys: Vec<&'static str> = compared.iter().map(|(c, _)| c.key()).collect();
+    for (c, r) in compared {
+        run.summary
+            .comparisons
+            .insert(c.key(), ComparisonReport::of(c.legend(), r.summary));
+    }
+    let mut sinks = sinks.into_iter();
+    let rows = sinks.next().expect("the run as described has its rows");
+    Ok(InMemory {
+        summary: json_bytes(&run.summary).map_err(ReportError::from)?,
+        rows,
+        comparisons: keys.into_iter().zip(sinks).collect(),
+    })
+}
+
 /// Runs `damper simulate` on a hybrid scenario and writes its files into `out`;
 /// `overrides`: the `--set` options applied, recorded in the summary.
 pub fn simulate(
@@ -93,56 +213,44 @@ pub fn simulate(
     let file = sc.path.display().to_string();
     let built = crate::setup::build(sc)?;
     let model = &built.model;
-    let mut columns = Columns::new(model, &built.state).with_model_elements(model, &built.models);
+    let columns = Columns::new(model, &built.state).with_model_elements(model, &built.models);
     // The run as described and each comparison run.
     Estimate::hybrid(sc, columns.header().len(), model.attachments.len())
         .check(&file, allow_long)?;
-    // The time history streams to `<name>.tmp-<pid>` as the run goes and is committed with
-    // the other files at the end (or removed when the run fails): memory stays flat.
-    let csv_path = out.join("time_history.csv");
-    let stream = StreamFile::create(&csv_path).map_err(ReportError::from)?;
-    let mut csv = CsvRows::new(stream, columns.header()).map_err(|e| csv_error(&csv_path, e))?;
-    let mut run = evaluate(
+    // The time histories stream to `<name>.tmp-<pid>` as the runs go and are committed with
+    // the other files at the end (or removed when a run fails): memory stays flat.
+    let path_of = |c: Option<Comparison>| match c {
+        None => out.join("time_history.csv"),
+        Some(c) => out.join(format!("time_history_{}.csv", c.key())),
+    };
+    let Runs {
+        mut run,
+        compared,
+        sinks,
+    } = runs(
         sc,
         &built,
-        &[],
-        Some((&mut columns, &mut csv)),
         overrides,
         progress,
-    )
-    // The only CSV error of `evaluate` is its row sink's: this file (a full disk).
-    .map_err(|e| match e {
-        Error::Report(ReportError::Csv(e)) => csv_error(&csv_path, e).into(),
-        e => e,
-    })?;
-    let mut streams = vec![csv.into_inner().map_err(|e| csv_error(&csv_path, e))?];
-    // The comparison runs, each with its own time history and summary block.
-    let mut compared = vec![];
-    for &c in &sc.compare {
-        let Some((variant, probes)) = comparison(&file, &built, c)? else {
-            continue;
-        };
-        let mut columns = Columns::new(&variant.model, &variant.state)
-            .with_probes(&probes)
-            .with_model_elements(&variant.model, &variant.models);
-        let path = out.join(format!("time_history_{}.csv", c.key()));
-        let stream = StreamFile::create(&path).map_err(ReportError::from)?;
-        let mut csv = CsvRows::new(stream, columns.header()).map_err(|e| csv_error(&path, e))?;
-        let r = evaluate(
-            sc,
-            &variant,
-            &probes,
-            Some((&mut columns, &mut csv)),
-            vec![],
-            progress,
-        )
-        .map_err(|e| match e {
-            Error::Report(ReportError::Csv(e)) => csv_error(&path, e).into(),
+        &mut |c, header| {
+            let path = path_of(c);
+            let stream = StreamFile::create(&path).map_err(ReportError::from)?;
+            Ok(CsvRows::new(stream, header).map_err(|e| csv_error(&path, e))?)
+        },
+        // The only CSV error of `evaluate` is its row sink's: this file (a full disk).
+        &|c, e| match e {
+            Error::Report(ReportError::Csv(e)) => csv_error(&path_of(c), e).into(),
             e => e,
-        })?;
-        streams.push(csv.into_inner().map_err(|e| csv_error(&path, e))?);
-        compared.push((c, r));
-    }
+        },
+    )?;
+    let paths = std::iter::once(None)
+        .chain(compared.iter().map(|(c, _)| Some(*c)))
+        .map(path_of);
+    let streams = sinks
+        .into_iter()
+        .zip(paths)
+        .map(|(csv, path)| csv.into_inner().map_err(|e| csv_error(&path, e)))
+        .collect::<Result<Vec<_>, _>>()?;
     let mut damping_series: Vec<(&str, Vec<(f64, f64)>)> = vec![];
     let cycles = |d: &Option<hybrid_core::decay::DecayEstimate>| -> Vec<(f64, f64)> {
         d.as_ref()
@@ -392,10 +500,13 @@ pub fn evaluate<'a>(
                 s.push(state);
             }
             output_rows += 1;
+            if crate::interrupt::stop_requested() {
+                return Err(Halt::Interrupted);
+            }
             match &mut rows {
-                Some((columns, sink)) => {
-                    sink.write_row(columns.row(model, state, stored, e0, &amplification))
-                }
+                Some((columns, sink)) => sink
+                    .write_row(columns.row(model, state, stored, e0, &amplification))
+                    .map_err(Halt::Csv),
                 None => Ok(()),
             }
         },
@@ -405,7 +516,8 @@ pub fn evaluate<'a>(
     let outcome = match outcome {
         Ok(o) => o,
         Err(RunError::Hybrid(error)) => return Err(Error::Hybrid { file, error }),
-        Err(RunError::Sink(e)) => return Err(ReportError::from(e).into()),
+        Err(RunError::Sink(Halt::Csv(e))) => return Err(ReportError::from(e).into()),
+        Err(RunError::Sink(Halt::Interrupted)) => return Err(Error::Interrupted),
     };
     let fig = &outcome.figures;
     let state = &outcome.state;
@@ -609,6 +721,14 @@ pub fn evaluate<'a>(
         summary,
         displacements: tracks.w.iter().map(Decimator::points).collect(),
     })
+}
+
+/// Why the row sink of [`evaluate`] stopped a run.
+enum Halt {
+    /// A row could not be written.
+    Csv(::csv::Error),
+    /// [`crate::interrupt::request_stop`] was called.
+    Interrupted,
 }
 
 /// The modal filter of the first linearised mode of a built hybrid scenario

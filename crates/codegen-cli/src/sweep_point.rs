@@ -115,6 +115,11 @@ pub fn evaluate(
     overrides: &[Override],
     options: &PointOptions,
 ) -> Result<Evaluated, PointError> {
+    // Asked to stop (`crate::interrupt::request_stop`): the optimiser's and the sweeps'
+    // remaining points fail at once.
+    if crate::interrupt::stop_requested() {
+        return Err(PointError::Run(Box::new(Error::Interrupted)));
+    }
     let loaded = scenario::parse_with(text, path, overrides)?;
     let mut figures = vec![];
     let remap = |e: Error| {

@@ -226,6 +226,15 @@ fn system(args: &Args, model: &Model, overrides: &[usize]) -> Result<Box<dyn Sys
 
 /// Runs `damper eval`.
 pub fn run(args: Args) -> Result<()> {
+    let json = evaluation(&args)?;
+    let text = serde_json::to_string_pretty(&json).map_err(ReportError::from)?;
+    crate::print(&(text + "\n"))?;
+    Ok(())
+}
+
+/// The JSON object `damper eval` prints (see the module documentation) for these
+/// arguments.
+pub fn evaluation(args: &Args) -> Result<Value> {
     let mut model = model::load(&args.model)?;
     let overrides = apply_params(&mut model, &args.params)?;
     // The same physical checks as the model file gets (masses > 0, inertias physical,
@@ -240,7 +249,7 @@ pub fn run(args: Args) -> Result<()> {
     // The symbolic derivation gives the operation counts and the constraint row names for
     // every backend (and the expressions for the interpreter).
     let sym = Symbolic::derive(&model);
-    let sys = system(&args, &model, &overrides)?;
+    let sys = system(args, &model, &overrides)?;
     let out = evaluate(sys.as_ref(), &q, &qd, args.t);
     let flat = |rows: &[Vec<f64>]| -> Vec<f64> { rows.iter().flatten().copied().collect() };
     finite("M", &flat(&out.m))?;
@@ -276,7 +285,5 @@ pub fn run(args: Args) -> Result<()> {
             "M+F": count_json(sym.op_count_mf()),
         },
     });
-    let text = serde_json::to_string_pretty(&json).map_err(ReportError::from)?;
-    crate::print(&(text + "\n"))?;
-    Ok(())
+    Ok(json)
 }

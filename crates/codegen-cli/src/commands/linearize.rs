@@ -53,7 +53,8 @@ pub struct Args {
 #[error("unknown method {0:?}: expected auto, dense or shift-invert")]
 pub struct UnknownMethod(String);
 
-fn parse_method(s: &str) -> Result<EigenMethod, UnknownMethod> {
+/// The eigen-solver named `auto`, `dense` or `shift-invert`.
+pub fn parse_method(s: &str) -> Result<EigenMethod, UnknownMethod> {
     match s {
         "auto" => Ok(EigenMethod::Auto),
         "dense" => Ok(EigenMethod::Dense),

@@ -73,56 +73,37 @@ const MAX_EVALUATIONS: f64 = 1e4;
 /// Runs `damper optimize`.
 pub fn run(args: Args) -> Result<(), Error> {
     let file = args.scenario.display().to_string();
+    // The options are checked before the scenario is read.
     let vary: Vec<Variable> = args
         .vary
         .iter()
         .map(|v| v.parse())
         .collect::<Result<_, _>>()?;
-    let parsed: Vec<Constraint> = args
-        .constraints
-        .iter()
-        .map(|c| c.parse())
-        .collect::<Result<_, _>>()?;
+    for c in &args.constraints {
+        c.parse::<Constraint>()?;
+    }
     let text = scenario::read(&args.scenario)?;
-    // The fixed overrides and the scenario must load before any search.
-    scenario::parse_with(&text, &args.scenario, &args.set)?;
-    let d = vary.len();
-    let evaluations = (MAX_GRID as f64).min((args.grid.max(2) as f64).powi(d as i32))
-        + (MAX_STARTS * (MAX_EVALS + 4 * d)) as f64;
-    budget::refuse_above(
-        &format!("optimize of {file}"),
-        &[Quantity::count("evaluations", evaluations, MAX_EVALUATIONS)],
-        "use fewer variables",
-        args.allow_long,
-    )?;
     let (objective, maximize) = match (&args.maximize, &args.minimize) {
         (Some(f), None) => (figure_name(f), true),
         (None, Some(f)) => (figure_name(f), false),
         _ => return Err(Error::Usage("give one of --maximize or --minimize".into())),
     };
-    let constraints: Vec<Constraint> = parsed
-        .iter()
-        .map(|c| Constraint {
-            figure: figure_name(&c.figure),
-            ..c.clone()
-        })
-        .collect();
+    let started = std::time::Instant::now();
+    let (outcome, constraints) = solve(
+        &args.scenario,
+        &text,
+        &args.set,
+        &args.vary,
+        &objective,
+        maximize,
+        &args.constraints,
+        args.grid,
+        args.allow_long,
+    )?;
     let _lock = match &args.out {
         Some(out) => Some(OutputLock::acquire(out).map_err(ReportError::from)?),
         None => None,
     };
-    let problem = Problem {
-        path: &args.scenario,
-        text: &text,
-        fixed: &args.set,
-        variables: &vary,
-        objective: objective.clone(),
-        maximize,
-        constraints: &constraints,
-        grid: args.grid,
-    };
-    let started = std::time::Instant::now();
-    let outcome = optimize::optimize(&problem).map_err(|e| Error::Usage(format!("{file}: {e}")))?;
     let verified = match args.verify {
         true => Some(verify(&args, &text, &outcome, &constraints)),
         false => None,
@@ -231,6 +212,60 @@ pub fn run(args: Args) -> Result<(), Error> {
         started.elapsed().as_secs_f64()
     ));
     crate::print(&text)
+}
+
+/// The optimum of the scenario `text` (the file `path`) with the `fixed` overrides: `vary`
+/// (`PATH=LO:HI`), the `objective` figure maximised or minimised, under the `constraints`
+/// (`FIGURE>=VALUE`), from a start grid of `grid` points per variable; above the
+/// evaluation limit unless `allow_long`. Returns the outcome and the constraints, their
+/// figure names expanded.
+pub fn solve(
+    path: &std::path::Path,
+    text: &str,
+    fixed: &[Override],
+    vary: &[String],
+    objective: &str,
+    maximize: bool,
+    constraints: &[String],
+    grid: usize,
+    allow_long: bool,
+) -> Result<(optimize::Outcome, Vec<Constraint>), Error> {
+    let file = path.display().to_string();
+    let vary: Vec<Variable> = vary.iter().map(|v| v.parse()).collect::<Result<_, _>>()?;
+    let parsed: Vec<Constraint> = constraints
+        .iter()
+        .map(|c| c.parse())
+        .collect::<Result<_, _>>()?;
+    // The fixed overrides and the scenario must load before any search.
+    scenario::parse_with(text, path, fixed)?;
+    let d = vary.len();
+    let evaluations = (MAX_GRID as f64).min((grid.max(2) as f64).powi(d as i32))
+        + (MAX_STARTS * (MAX_EVALS + 4 * d)) as f64;
+    budget::refuse_above(
+        &format!("optimize of {file}"),
+        &[Quantity::count("evaluations", evaluations, MAX_EVALUATIONS)],
+        "use fewer variables",
+        allow_long,
+    )?;
+    let constraints: Vec<Constraint> = parsed
+        .iter()
+        .map(|c| Constraint {
+            figure: figure_name(&c.figure),
+            ..c.clone()
+        })
+        .collect();
+    let problem = Problem {
+        path,
+        text,
+        fixed,
+        variables: &vary,
+        objective: figure_name(objective),
+        maximize,
+        constraints: &constraints,
+        grid,
+    };
+    let outcome = optimize::optimize(&problem).map_err(|e| Error::Usage(format!("{file}: {e}")))?;
+    Ok((outcome, constraints))
 }
 
 /// What `--json` prints and `optimize.json` holds.

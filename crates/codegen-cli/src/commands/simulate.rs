@@ -136,20 +136,6 @@ fn mechanism(
     overrides: Vec<OverrideRecord>,
 ) -> Result<(), Error> {
     let model = mbs_symbolic::model::load(&sc.model)?;
-    let estimate = Estimate::mechanism(sc, model.dof());
-    estimate.check(&sc.file, allow_long)?;
-    // The adaptive step count is only estimated: the step limit is the guard that holds.
-    let capped = budget::capped_max_steps(sc.settings.max_steps, allow_long);
-    let capped_sc;
-    let was_capped = capped < sc.settings.max_steps;
-    let sc = if was_capped {
-        let mut c = sc.clone();
-        c.settings.max_steps = capped;
-        capped_sc = c;
-        &capped_sc
-    } else {
-        sc
-    };
     let csv_path = out.join(format!("{stem}.csv"));
     let summary_path = out.join(format!("{stem}_summary.json"));
     // The rows stream to the file as the run goes; the header needs the names, so the
@@ -158,44 +144,31 @@ fn mechanism(
     let mut csv: Option<MechanismCsv<StreamFile>> = None;
     let mut csv_failed: Option<::csv::Error> = None;
     let mut plotted = Thinned::default();
-    let mut outcome = run::mechanism(sc, &model, progress, &mut |names, units, row| {
-        plotted.push(row.t, &row.q);
-        if csv_failed.is_some() {
-            return;
-        }
-        let pushed = match (&mut csv, stream.take()) {
-            (Some(w), _) => w.push(row),
-            (None, Some(s)) => {
-                MechanismCsv::to_writer(names, units, s).and_then(|w| csv.insert(w).push(row))
-            }
-            (None, None) => Ok(()), // the header failed: reported below
-        };
-        if let Err(e) = pushed {
-            csv_failed = Some(e);
-        }
-    })?;
     // A run that stopped commits nothing: the streamed CSV's temporary file is removed
-    // when its stream is dropped here.
-    if let Err(error) = std::mem::replace(&mut outcome.result, Ok(())) {
-        let t = outcome
-            .last_row
-            .as_ref()
-            .map_or(outcome.settings.t_start, |r| r.t);
-        return Err(match error {
-            hybrid_core::closed_loop::SimError::TooManySteps { .. } if was_capped => {
-                Error::TooLong(format!(
-                    "{}: simulation stopped at t = {t} (nothing written): {error}, above the estimate ({estimate}); pass --allow-long to lift the limit of {:.0e} steps",
-                    sc.file,
-                    budget::MAX_STEPS
-                ))
+    // when its stream is dropped.
+    let (sc, outcome) = mechanism_run(
+        sc,
+        &model,
+        progress,
+        allow_long,
+        &mut |names, units, row| {
+            plotted.push(row.t, &row.q);
+            if csv_failed.is_some() {
+                return;
             }
-            error => Error::Stopped {
-                file: sc.file.clone(),
-                t,
-                error,
-            },
-        });
-    }
+            let pushed = match (&mut csv, stream.take()) {
+                (Some(w), _) => w.push(row),
+                (None, Some(s)) => {
+                    MechanismCsv::to_writer(names, units, s).and_then(|w| csv.insert(w).push(row))
+                }
+                (None, None) => Ok(()), // the header failed: reported below
+            };
+            if let Err(e) = pushed {
+                csv_failed = Some(e);
+            }
+        },
+    )?;
+    let sc = &sc;
     if let Some(e) = csv_failed {
         return Err(csv_error(&csv_path, e));
     }
@@ -256,6 +229,96 @@ fn mechanism(
         stats.max_residual
     );
     Ok(())
+}
+
+/// Runs a closed-loop mechanism scenario within the step limit of [`crate::budget`] (unless
+/// `allow_long`), every output row to `observer`; a run that stopped is the error (naming
+/// the time reached). Returns the scenario as run (its step limit capped) and the outcome.
+fn mechanism_run(
+    sc: &MechanismScenario,
+    model: &mbs_symbolic::model::Model,
+    progress: bool,
+    allow_long: bool,
+    observer: &mut run::RowObserver<'_>,
+) -> Result<(MechanismScenario, MechanismOutcome), Error> {
+    let estimate = Estimate::mechanism(sc, model.dof());
+    estimate.check(&sc.file, allow_long)?;
+    // The adaptive step count is only estimated: the step limit is the guard that holds.
+    let capped = budget::capped_max_steps(sc.settings.max_steps, allow_long);
+    let was_capped = capped < sc.settings.max_steps;
+    let mut sc = sc.clone();
+    sc.settings.max_steps = capped;
+    let mut outcome = run::mechanism(&sc, model, progress, &mut |names, units, row| {
+        if !crate::interrupt::stop_requested() {
+            observer(names, units, row)
+        }
+    })?;
+    if crate::interrupt::stop_requested() {
+        return Err(Error::Interrupted);
+    }
+    if let Err(error) = std::mem::replace(&mut outcome.result, Ok(())) {
+        let t = outcome
+            .last_row
+            .as_ref()
+            .map_or(outcome.settings.t_start, |r| r.t);
+        return Err(match error {
+            hybrid_core::closed_loop::SimError::TooManySteps { .. } if was_capped => {
+                Error::TooLong(format!(
+                    "{}: simulation stopped at t = {t} (nothing written): {error}, above the estimate ({estimate}); pass --allow-long to lift the limit of {:.0e} steps",
+                    sc.file,
+                    budget::MAX_STEPS
+                ))
+            }
+            error => Error::Stopped {
+                file: sc.file.clone(),
+                t,
+                error,
+            },
+        });
+    }
+    Ok((sc, outcome))
+}
+
+/// A closed-loop mechanism scenario run as `damper simulate` runs it, held in memory (no file
+/// written, no plot drawn): `<stem>_summary.json` byte for byte and the columns of
+/// `<stem>.csv` ([`crate::report::csv::mechanism_header`]). [`Error::Interrupted`] when
+/// [`crate::interrupt::request_stop`] is called during the run.
+pub fn mechanism_in_memory(
+    sc: &MechanismScenario,
+    allow_long: bool,
+    overrides: Vec<OverrideRecord>,
+) -> Result<crate::run_hybrid::InMemory, Error> {
+    use crate::report::rows::{ColumnRows, RowSink};
+    let started = Instant::now();
+    let model = mbs_symbolic::model::load(&sc.model)?;
+    let mut rows: Option<ColumnRows> = None;
+    let mut cells = vec![];
+    let (sc, outcome) = mechanism_run(sc, &model, false, allow_long, &mut |names, units, row| {
+        let sink = rows.get_or_insert_with(|| {
+            ColumnRows::new(&crate::report::csv::mechanism_header(names, units))
+        });
+        crate::report::csv::mechanism_cells(row, &mut cells);
+        let _ = sink.write_row(&cells);
+    })?;
+    let rows = rows.unwrap_or_else(|| {
+        ColumnRows::new(&crate::report::csv::mechanism_header(
+            &outcome.names,
+            &outcome.units,
+        ))
+    });
+    let summary = mechanism_summary(
+        &sc,
+        &model,
+        &outcome,
+        rows.rows() as usize,
+        started.elapsed().as_secs_f64(),
+        overrides,
+    );
+    Ok(crate::run_hybrid::InMemory {
+        summary: json_bytes(&summary).map_err(ReportError::from)?,
+        rows,
+        comparisons: vec![],
+    })
 }
 
 /// Most rows a mechanism plot keeps.

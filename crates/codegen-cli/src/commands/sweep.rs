@@ -743,37 +743,17 @@ pub fn run(args: Args) -> Result<(), Error> {
         allow_long: args.allow_long,
     };
     let bar = progress_bar(!args.quiet, indices.len());
-    let evaluate = |index: usize| {
-        let mut overrides = grid.overrides(index);
-        overrides.extend(t_end.clone());
-        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            sweep_point::evaluate(&args.scenario, &text, &overrides, &options)
-        }))
-        .unwrap_or(Err(sweep_point::PointError::Panicked));
-        bar.inc(1);
-        let line = |e: &dyn std::fmt::Display| e.to_string().replace('\n', "; ");
-        match result {
-            Ok(p) => PointResult {
-                index,
-                figures: p.figures,
-                error: None,
-                time_domain_error: p.time_domain_error.map(|e| line(&e)),
-            },
-            Err(e) => PointResult {
-                index,
-                figures: vec![],
-                error: Some(line(&e)),
-                time_domain_error: None,
-            },
-        }
-    };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| Error::Usage(format!("cannot start the worker threads: {e}")))?;
-    // Collected in index order (never in completion order).
-    let results: Vec<PointResult> =
-        pool.install(|| indices.par_iter().map(|&i| evaluate(i)).collect());
+    let results = evaluate_points(
+        &args.scenario,
+        &text,
+        &[],
+        &grid,
+        &indices,
+        t_end.as_ref(),
+        &options,
+        threads,
+        &|| bar.inc(1),
+    )?;
     bar.finish_and_clear();
     let failed = results.iter().filter(|r| r.error.is_some()).count();
     let td_failed = results
@@ -809,9 +789,78 @@ pub fn run(args: Args) -> Result<(), Error> {
     Ok(())
 }
 
+/// Evaluates the points `indices` of `grid` on `threads` worker threads (0: every core), each
+/// point the scenario `text` (the file `path`) with the `fixed` overrides, the point's and
+/// `t_end`'s applied in that order ([`sweep_point::evaluate`]); the results in the order of
+/// `indices` (never in completion order), a failed or panicking point recorded as its
+/// one-line error. `done` is called after every point. [`Error::Interrupted`] when
+/// [`crate::interrupt::request_stop`] was called (the points not started then fail at once,
+/// [`sweep_point::evaluate`]).
+pub fn evaluate_points(
+    path: &Path,
+    text: &str,
+    fixed: &[Override],
+    grid: &Grid,
+    indices: &[usize],
+    t_end: Option<&Override>,
+    options: &PointOptions,
+    threads: usize,
+    done: &(dyn Fn() + Sync),
+) -> Result<Vec<PointResult>, Error> {
+    let evaluate = |index: usize| {
+        let mut overrides = fixed.to_vec();
+        overrides.extend(grid.overrides(index));
+        overrides.extend(t_end.cloned());
+        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            sweep_point::evaluate(path, text, &overrides, options)
+        }))
+        .unwrap_or(Err(sweep_point::PointError::Panicked));
+        done();
+        let line = |e: &dyn std::fmt::Display| e.to_string().replace('\n', "; ");
+        match result {
+            Ok(p) => PointResult {
+                index,
+                figures: p.figures,
+                error: None,
+                time_domain_error: p.time_domain_error.map(|e| line(&e)),
+            },
+            Err(e) => PointResult {
+                index,
+                figures: vec![],
+                error: Some(line(&e)),
+                time_domain_error: None,
+            },
+        }
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Error::Usage(format!("cannot start the worker threads: {e}")))?;
+    let results: Vec<PointResult> =
+        pool.install(|| indices.par_iter().map(|&i| evaluate(i)).collect());
+    if crate::interrupt::stop_requested() {
+        return Err(Error::Interrupted);
+    }
+    Ok(results)
+}
+
+/// The figure columns of a sweep: every figure's name and unit in order of first
+/// appearance over `rows` (in grid order), as `sweep.csv` has them.
+pub fn figure_heads<'r>(rows: &[&'r PointResult]) -> Vec<(&'r str, &'static str)> {
+    let mut heads: Vec<(&str, &'static str)> = vec![];
+    for r in rows {
+        for f in &r.figures {
+            if !heads.iter().any(|(n, _)| *n == f.name) {
+                heads.push((&f.name, f.unit));
+            }
+        }
+    }
+    heads
+}
+
 /// The worker threads of `--threads`: at most the machine's available parallelism (a note
 /// says so when capped); 0, rayon's default (every core), without it.
-fn threads(asked: Option<usize>) -> usize {
+pub fn threads(asked: Option<usize>) -> usize {
     let machine = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
     match asked {
         Some(t) if t > machine => {
@@ -1165,14 +1214,7 @@ pub fn outputs(
         )));
     }
     // The figure columns: every figure name in order of first appearance, in grid order.
-    let mut heads: Vec<(&str, &str)> = vec![];
-    for r in &rows {
-        for f in &r.figures {
-            if !heads.iter().any(|(n, _)| *n == f.name) {
-                heads.push((&f.name, f.unit));
-            }
-        }
-    }
+    let heads = figure_heads(&rows);
     let value_of = |r: &PointResult, name: &str| {
         r.figures
             .iter()

@@ -46,29 +46,7 @@ impl<W: Write> MechanismCsv<W> {
     ) -> Result<MechanismCsv<W>, csv::Error> {
         assert_eq!(names.len(), units.len(), "one unit per coordinate");
         let mut w = csv::Writer::from_writer(out);
-        let mut header = vec!["t [s]".to_string()];
-        header.extend(
-            names
-                .iter()
-                .zip(units)
-                .map(|(n, u)| format!("{n} [{}]", u.symbol())),
-        );
-        header.extend(
-            names
-                .iter()
-                .zip(units)
-                .map(|(n, u)| format!("{n}_dot [{}]", u.rate())),
-        );
-        header.extend(
-            [
-                "kinetic_energy [J]",
-                "potential_energy [J]",
-                "total_energy [J]",
-                "constraint_residual_norm [m]",
-                "cond_jv [-]",
-            ]
-            .map(String::from),
-        );
+        let header = mechanism_header(names, units);
         w.write_record(&header)?;
         Ok(MechanismCsv {
             w,
@@ -102,6 +80,47 @@ impl<W: Write> MechanismCsv<W> {
     pub fn into_inner(self) -> Result<W, csv::Error> {
         self.w.into_inner().map_err(|e| e.into_error().into())
     }
+}
+
+/// The header of a closed-loop mechanism's time history (see [`MechanismCsv`]).
+pub fn mechanism_header(names: &[String], units: &[CoordinateUnit]) -> Vec<String> {
+    let mut header = vec!["t [s]".to_string()];
+    header.extend(
+        names
+            .iter()
+            .zip(units)
+            .map(|(n, u)| format!("{n} [{}]", u.symbol())),
+    );
+    header.extend(
+        names
+            .iter()
+            .zip(units)
+            .map(|(n, u)| format!("{n}_dot [{}]", u.rate())),
+    );
+    header.extend(
+        [
+            "kinetic_energy [J]",
+            "potential_energy [J]",
+            "total_energy [J]",
+            "constraint_residual_norm [m]",
+            "cond_jv [-]",
+        ]
+        .map(String::from),
+    );
+    header
+}
+
+/// The numbers of one output row under [`mechanism_header`] (NaN where unknown: an empty
+/// cell of the CSV).
+pub fn mechanism_cells(r: &OutputRow, out: &mut Vec<f64>) {
+    out.clear();
+    out.push(r.t);
+    out.extend(r.q.iter().chain(&r.qd));
+    out.push(r.kinetic_energy);
+    out.push(r.potential_energy.unwrap_or(f64::NAN));
+    out.push(r.total_energy().unwrap_or(f64::NAN));
+    out.push(r.residual_norm);
+    out.push(r.cond_jv);
 }
 
 /// A number in shortest round-trip form (scientific notation outside [1e-4, 1e15), no

@@ -96,9 +96,21 @@ pub fn load_with(path: &Path, overrides: &[Override]) -> Result<Loaded, Diagnost
 
 /// [`parse`] after applying the overrides to `text` ([`overrides::apply`]).
 pub fn parse_with(text: &str, path: &Path, overrides: &[Override]) -> Result<Loaded, Diagnostics> {
-    let file = path.display().to_string();
+    let base = path.parent().unwrap_or(Path::new("."));
+    parse_with_in(text, &path.display().to_string(), base, overrides)
+}
+
+/// [`parse_with`] with the file's name and the directory of relative paths given apart
+/// (text that is not read from a file: the Python package's `Scenario.from_str`).
+pub fn parse_with_in(
+    text: &str,
+    file: &str,
+    base: &Path,
+    overrides: &[Override],
+) -> Result<Loaded, Diagnostics> {
+    let file = file.to_string();
     let applied = overrides::apply(text, &file, overrides)?;
-    match parse(&applied.text, path) {
+    match parse_in(&applied.text, &file, base) {
         Ok(scenario) => Ok(Loaded {
             scenario,
             applied,

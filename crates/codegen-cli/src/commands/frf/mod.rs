@@ -67,7 +67,8 @@ use crate::Error;
 use crate::budget::{self, Quantity};
 use crate::report::{OutputLock, ReportError, commit_files};
 use crate::scenario::{self, Scenario};
-use crate::setup::tangents_for;
+use crate::setup::{Linearizable, tangents_for};
+use hybrid_core::hybrid::Linearization;
 
 pub use analysis::{LinearRow, NonlinearRow, Receptance, grid};
 use analysis::{linear_rows, nonlinear_rows, resolve, usage};
@@ -130,8 +131,78 @@ pub struct Args {
     pub allow_long: bool,
 }
 
-/// Runs `damper frf`.
-pub fn run(args: Args) -> Result<(), Error> {
+/// The responses of a loaded scenario as [`run`] computes them before writing its files.
+pub struct Analysis {
+    lz: Linearizable,
+    lin: Linearization,
+    io: analysis::Io,
+    /// The frequencies of the linear response (Hz).
+    pub freqs: Vec<f64>,
+    /// The linear response, one row per frequency.
+    pub linear: Vec<LinearRow>,
+    /// The nonlinear steady states (`--nonlinear`).
+    pub nonlinear: Option<Vec<NonlinearRow>>,
+}
+
+impl Analysis {
+    /// The response's unit per unit force (`m/N`, `rad/N`, ..).
+    pub fn unit(&self) -> String {
+        self.io.unit()
+    }
+
+    /// The columns of `frf.csv` (the same headers), one number per frequency.
+    pub fn columns(&self) -> Vec<(String, Vec<f64>)> {
+        report::linear_columns(&self.io, &self.linear)
+    }
+}
+
+/// The linear (and with `args.nonlinear` the nonlinear) frequency response of `sc` as
+/// `args` asks (its scenario path and output directory unused): what `damper frf` writes.
+pub fn analyse(args: &Args, sc: &Scenario) -> Result<Analysis, Error> {
+    let file = args.scenario.display().to_string();
+    if matches!(sc, Scenario::Mechanism(_)) {
+        return Err(usage(format!(
+            "{file}: `damper frf` needs a `damper` or `hybrid` scenario (a beam to respond)"
+        )));
+    }
+    let lz = tangents_for(sc)?;
+    let linear_error = |what: &str, e: hybrid_core::hybrid::LinearError| {
+        usage(format!("{file}: linearisation {what}: {e}"))
+    };
+    let lin = lz
+        .linearize(&lz.model)
+        .map_err(|e| linear_error("with generator", e))?;
+    let io = resolve(args, &lz, &lin)?;
+    if args.nonlinear.is_some() && io.scenario_excitation.is_none() && args.force.is_none() {
+        return Err(usage(
+            "--nonlinear: the scenario has no harmonic excitation: give the force amplitude at the output point with --force F (N, or N m on a revolute coordinate)",
+        ));
+    }
+    let off_model = lz.model.generators_disconnected();
+    let lin_off = lz
+        .linearize(&off_model)
+        .map_err(|e| linear_error("generator disconnected", e))?;
+    let f_with = lin.force_vector(&io.excitation.target);
+    let f_off = lin_off.force_vector(&io.excitation.target);
+    let freqs = grid(args.from, args.to, args.points, args.log);
+    let linear = linear_rows(&lz.model, &lin, &lin_off, &io, (&f_with, &f_off), &freqs)?;
+    let nonlinear = match args.nonlinear {
+        None => None,
+        Some(m) => Some(nonlinear_rows(args, &lz, &lin, &io, &f_with, m)?),
+    };
+    Ok(Analysis {
+        lz,
+        lin,
+        io,
+        freqs,
+        linear,
+        nonlinear,
+    })
+}
+
+/// Checks the options of `args` that do not need the scenario (the range, the counts, the
+/// limits of [`crate::budget`]).
+pub fn check(args: &Args) -> Result<(), Error> {
     let file = args.scenario.display().to_string();
     // Frequencies a structure can have: 1e-9 Hz (a period of 30 years) to 1e12 Hz; the
     // bounds keep the geometric spacing and the logarithmic axis finite.
@@ -178,6 +249,13 @@ pub fn run(args: Args) -> Result<(), Error> {
         "use fewer --points or --nonlinear frequencies, or a smaller --max-periods or --steps-per-period",
         args.allow_long,
     )?;
+    Ok(())
+}
+
+/// Runs `damper frf`.
+pub fn run(args: Args) -> Result<(), Error> {
+    check(&args)?;
+    let file = args.scenario.display().to_string();
     let loaded = scenario::load_with(&args.scenario, &args.set)?;
     let sc = loaded.scenario.clone();
     let stem = args
@@ -194,38 +272,16 @@ pub fn run(args: Args) -> Result<(), Error> {
             out.display()
         )));
     }
-    if matches!(sc, Scenario::Mechanism(_)) {
-        return Err(usage(format!(
-            "{file}: `damper frf` needs a `damper` or `hybrid` scenario (a beam to respond)"
-        )));
-    }
     // One run at a time into a directory; the files a killed run left are removed here.
     let _lock = OutputLock::acquire(&out).map_err(ReportError::from)?;
-    let lz = tangents_for(&sc)?;
-    let linear_error = |what: &str, e: hybrid_core::hybrid::LinearError| {
-        usage(format!("{file}: linearisation {what}: {e}"))
-    };
-    let lin = lz
-        .linearize(&lz.model)
-        .map_err(|e| linear_error("with generator", e))?;
-    let io = resolve(&args, &lz, &lin)?;
-    if args.nonlinear.is_some() && io.scenario_excitation.is_none() && args.force.is_none() {
-        return Err(usage(
-            "--nonlinear: the scenario has no harmonic excitation: give the force amplitude at the output point with --force F (N, or N m on a revolute coordinate)",
-        ));
-    }
-    let off_model = lz.model.generators_disconnected();
-    let lin_off = lz
-        .linearize(&off_model)
-        .map_err(|e| linear_error("generator disconnected", e))?;
-    let f_with = lin.force_vector(&io.excitation.target);
-    let f_off = lin_off.force_vector(&io.excitation.target);
-    let freqs = grid(args.from, args.to, args.points, args.log);
-    let linear = linear_rows(&lz.model, &lin, &lin_off, &io, (&f_with, &f_off), &freqs)?;
-    let nonlinear = match args.nonlinear {
-        None => None,
-        Some(m) => Some(nonlinear_rows(&args, &lz, &lin, &io, &f_with, m)?),
-    };
+    let Analysis {
+        lz,
+        lin,
+        io,
+        freqs,
+        linear,
+        nonlinear,
+    } = analyse(&args, &sc)?;
     let generators = lz
         .model
         .forces

@@ -81,6 +81,77 @@ impl From<PlotFailed> for Error {
 }
 
 /// A CSV of formatted cells through the one CSV writer.
+/// The columns of `frf.csv`: every linear value under its header (`f [Hz]`, `|H|` and phase
+/// with the generator and disconnected, real and imaginary parts, the admissible loads).
+pub(super) fn linear_columns(io: &Io, linear: &[LinearRow]) -> Vec<(String, Vec<f64>)> {
+    let unit = io.unit();
+    let force_unit = io.force_unit;
+    let column = |name: String, of: &dyn Fn(&LinearRow) -> f64| -> (String, Vec<f64>) {
+        (name, linear.iter().map(of).collect())
+    };
+    let mut columns = vec![
+        column("f [Hz]".into(), &|r| r.f_hz),
+        column(format!("|H| with generator [{unit}]"), &|r| {
+            r.with_generator.magnitude
+        }),
+        column("phase with generator [deg]".into(), &|r| {
+            r.with_generator.phase_deg
+        }),
+        column(format!("|H| generator disconnected [{unit}]"), &|r| {
+            r.generator_disconnected.magnitude
+        }),
+        column("phase generator disconnected [deg]".into(), &|r| {
+            r.generator_disconnected.phase_deg
+        }),
+        column(format!("Re H with generator [{unit}]"), &|r| {
+            r.with_generator.re
+        }),
+        column(format!("Im H with generator [{unit}]"), &|r| {
+            r.with_generator.im
+        }),
+        column(format!("Re H generator disconnected [{unit}]"), &|r| {
+            r.generator_disconnected.re
+        }),
+        column(format!("Im H generator disconnected [{unit}]"), &|r| {
+            r.generator_disconnected.im
+        }),
+    ];
+    for (k, l) in io.limits.iter().enumerate() {
+        let name = if io.limits.len() == 1 {
+            format!("max_force [{force_unit}]")
+        } else {
+            format!("{}.max_force [{force_unit}]", l.name)
+        };
+        columns.push(column(name, &|r| r.max_force[k]));
+    }
+    // Per connected generator: current, terminal voltage and load power per unit force
+    // (`A/N`, `V/N`, `W/N^2`; `W/(N m)^2` for a torque).
+    let per = |what: &str| -> String {
+        if force_unit.contains(' ') {
+            format!("{what}/({force_unit})")
+        } else {
+            format!("{what}/{force_unit}")
+        }
+    };
+    let names: Vec<String> = linear
+        .first()
+        .map(|r| r.generators.iter().map(|g| g.name.clone()).collect())
+        .unwrap_or_default();
+    for (k, name) in names.iter().enumerate() {
+        columns.push(column(format!("{name}.current [{}]", per("A")), &|r| {
+            r.generators[k].current
+        }));
+        columns.push(column(format!("{name}.voltage [{}]", per("V")), &|r| {
+            r.generators[k].voltage
+        }));
+        columns.push(column(
+            format!("{name}.load_power [{}^2]", per("W")),
+            &|r| r.generators[k].load_power,
+        ));
+    }
+    columns
+}
+
 fn csv_bytes(header: &[String], rows: &[Vec<String>]) -> Result<Vec<u8>, ReportError> {
     let mut w = CsvRows::new(Vec::new(), header)?;
     for r in rows {
@@ -103,71 +174,20 @@ pub(super) fn outputs(
 ) -> Result<Vec<OutputFile>, Error> {
     let unit = io.unit();
     let g = |v: f64| format!("{v:e}");
-    let header: Vec<String> = vec![
-        "f [Hz]".into(),
-        format!("|H| with generator [{unit}]"),
-        "phase with generator [deg]".into(),
-        format!("|H| generator disconnected [{unit}]"),
-        "phase generator disconnected [deg]".into(),
-        format!("Re H with generator [{unit}]"),
-        format!("Im H with generator [{unit}]"),
-        format!("Re H generator disconnected [{unit}]"),
-        format!("Im H generator disconnected [{unit}]"),
-    ];
-    let mut header = header;
-    let force_unit = io.force_unit;
-    header.extend(io.limits.iter().map(|l| {
-        if io.limits.len() == 1 {
-            format!("max_force [{force_unit}]")
-        } else {
-            format!("{}.max_force [{force_unit}]", l.name)
-        }
-    }));
-    // Per connected generator: current, terminal voltage and load power per unit force.
-    // `W/N^2`, `W/(N m)^2`.
-    let per = |what: &str| -> String {
-        if force_unit.contains(' ') {
-            format!("{what}/({force_unit})")
-        } else {
-            format!("{what}/{force_unit}")
-        }
-    };
-    let names: Vec<&str> = linear
-        .first()
-        .map(|r| r.generators.iter().map(|g| g.name.as_str()).collect())
-        .unwrap_or_default();
-    for name in &names {
-        header.push(format!("{name}.current [{}]", per("A")));
-        header.push(format!("{name}.voltage [{}]", per("V")));
-        header.push(format!("{name}.load_power [{}]", per("W") + "^2"));
-    }
-    let rows: Vec<Vec<String>> = linear
-        .iter()
-        .map(|r| {
-            let (a, b) = (r.with_generator, r.generator_disconnected);
-            let mut row = vec![
-                g(r.f_hz),
-                g(a.magnitude),
-                g(a.phase_deg),
-                g(b.magnitude),
-                g(b.phase_deg),
-                g(a.re),
-                g(a.im),
-                g(b.re),
-                g(b.im),
-            ];
-            row.extend(r.max_force.iter().map(|&v| g(v)));
-            for p in &r.generators {
-                row.extend([g(p.current), g(p.voltage), g(p.load_power)]);
-            }
-            row
-        })
+    let columns = linear_columns(io, linear);
+    let header: Vec<String> = columns.iter().map(|(h, _)| h.clone()).collect();
+    let rows: Vec<Vec<String>> = (0..linear.len())
+        .map(|i| columns.iter().map(|(_, c)| g(c[i])).collect())
         .collect();
     let mut files = vec![OutputFile {
         path: out.join("frf.csv"),
         bytes: csv_bytes(&header, &rows).map_err(Error::from)?,
     }];
     if let Some(nl) = nonlinear {
+        let names: Vec<&str> = linear
+            .first()
+            .map(|r| r.generators.iter().map(|g| g.name.as_str()).collect())
+            .unwrap_or_default();
         let header: Vec<String> = vec![
             "f [Hz]".into(),
             format!("amplitude [{}]", io.response_unit),

@@ -1,0 +1,355 @@
+"""Design electromagnetic vibration dampers from Python.
+
+The whole ``damper`` tool as a library: scenarios loaded by the tool's one loader (with the
+command line's ``--set`` overrides), simulations whose time histories are numpy arrays (the
+columns of the CSV the command writes, same names, same numbers), the summary as the
+``summary.json`` object, the linearisation with its modes and reduced matrices, frequency
+responses, sweeps, the optimiser, and mechanism models evaluated by the three backends.
+
+Example::
+
+    import damper
+    sc = damper.Scenario.load("scenarios/damper.toml", set={"integrator.t_end": 1.0})
+    run = sc.simulate()
+    t, w = run["t [s]"], run[run.columns[1]]
+    print(run.summary["damping_ratio"])
+
+Errors: ``ScenarioError`` / ``ModelError`` (subclasses of ``ValueError``) carry ``file``,
+``line``, ``column``, ``entity`` and ``message``; a run stopped at the singular (toggle)
+position raises ``SingularPosition`` (``time``, ``distance``); other failures raise
+``DamperError``. Long calls release the GIL and Ctrl-C raises ``KeyboardInterrupt``.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import _damper
+from ._damper import DamperError, ModelError, ScenarioError, SingularPosition
+
+__all__ = [
+    "DamperError",
+    "Linearization",
+    "Mode",
+    "Model",
+    "ModelError",
+    "Run",
+    "Scenario",
+    "ScenarioError",
+    "SingularPosition",
+]
+
+PathLike = Union[str, "os.PathLike[str]"]
+SetValue = Union[bool, int, float, str, Sequence[Any]]
+
+
+class Run:
+    """One simulated run: its time history as columns and its summary.
+
+    ``columns`` are the CSV header's names with their units (``"t [s]"``, ...); ``run[name]``
+    is that column as a 1-D ``numpy.ndarray`` (the numbers the CSV prints, NaN where the CSV
+    cell is empty). ``summary`` is the ``summary.json`` object (for a comparison run, its block
+    of the summary's ``comparisons``); ``comparisons`` maps each comparison run of ``[output]
+    compare`` (``"generator_disconnected"``, ``"bare_beam"``) to its ``Run``.
+    """
+
+    def __init__(
+        self,
+        columns: Sequence[Tuple[str, "np.ndarray"]],
+        summary: Dict[str, Any],
+        comparisons: Optional[Dict[str, "Run"]] = None,
+    ) -> None:
+        self._data: Dict[str, np.ndarray] = dict(columns)
+        self.columns: List[str] = [name for name, _ in columns]
+        self.summary: Dict[str, Any] = summary
+        self.comparisons: Dict[str, Run] = comparisons or {}
+
+    def __getitem__(self, name: str) -> "np.ndarray":
+        try:
+            return self._data[name]
+        except KeyError:
+            raise KeyError(f"no column {name!r}; columns: {', '.join(self.columns)}") from None
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._data
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.columns)
+
+    def __len__(self) -> int:
+        """The number of rows."""
+        return len(self._data[self.columns[0]]) if self.columns else 0
+
+    def to_dict(self) -> Dict[str, "np.ndarray"]:
+        """Every column by name (the arrays themselves, not copies)."""
+        return {name: self._data[name] for name in self.columns}
+
+    def to_pandas(self) -> Any:
+        """The columns as a ``pandas.DataFrame`` (pandas is an optional dependency)."""
+        try:
+            import pandas as pd  # type: ignore[import-untyped,unused-ignore]
+        except ImportError as e:  # pragma: no cover - depends on the environment
+            raise ImportError("Run.to_pandas needs pandas: pip install pandas") from e
+        return pd.DataFrame(self.to_dict(), columns=self.columns)
+
+    def __repr__(self) -> str:
+        return f"Run({len(self)} rows, {len(self.columns)} columns, comparisons={list(self.comparisons)})"
+
+
+class Mode:
+    """One mode of the linearised system, as ``damper linearize --json`` reports it.
+
+    ``beam_shape``: the beam's transverse deflection at every node, an ``(nodes, 3)`` array of
+    ``[x (m), re, im]`` normalised to a largest entry 1; ``mechanism_shape``: an
+    ``(coordinates, 2)`` array ``[re, im]`` of every mechanism coordinate, named in
+    ``mechanism_coordinates`` (``"mechanism/coordinate"``).
+    """
+
+    def __init__(
+        self,
+        report: Dict[str, Any],
+        beam_shape: "np.ndarray",
+        mechanism_shape: "np.ndarray",
+        mechanism_coordinates: List[str],
+    ) -> None:
+        self.index: int = report["index"]
+        self.kind: str = report["kind"]
+        self.eigenvalue: complex = complex(*report["eigenvalue"])
+        self.natural_frequency_hz: float = report["natural_frequency_hz"]
+        self.damped_frequency_hz: float = report["damped_frequency_hz"]
+        self.damping_ratio: float = report["damping_ratio"]
+        self.decay_rate: float = report["decay_rate"]
+        self.backward_error: float = report["backward_error"]
+        self.beam_shape: np.ndarray = beam_shape
+        self.mechanism_shape: np.ndarray = mechanism_shape
+        self.mechanism_coordinates: List[str] = mechanism_coordinates
+
+    def __repr__(self) -> str:
+        return (
+            f"Mode({self.index}, {self.kind}, f_n={self.natural_frequency_hz:.6g} Hz, "
+            f"zeta={self.damping_ratio:.6g})"
+        )
+
+
+def _modes(reports: Optional[List[Dict[str, Any]]], shapes: Optional[List[Any]]) -> Optional[List[Mode]]:
+    if reports is None or shapes is None:
+        return None
+    return [Mode(r, b, m, names) for r, (b, m, names) in zip(reports, shapes)]
+
+
+class Linearization:
+    """The scenario linearised about its static equilibrium (``damper linearize``).
+
+    ``modes`` (generator connected), ``generator_disconnected`` and ``bare_beam`` (``None``
+    where the scenario has no generator, or no beam or mechanism) are lists of ``Mode``;
+    ``equilibrium`` and ``amplification`` are the report's objects; ``M_R``, ``C_R``, ``K_R``
+    the reduced mass, damping and stiffness matrices; ``report`` the whole JSON object of
+    ``damper linearize --json``.
+    """
+
+    def __init__(self, raw: Tuple[Any, ...]) -> None:
+        report, with_gen, off, bare, m, c, k = raw
+        self.report: Dict[str, Any] = report
+        self.modes: List[Mode] = _modes(report["modes"], with_gen) or []
+        self.generator_disconnected: Optional[List[Mode]] = _modes(report.get("generator_disconnected"), off)
+        self.bare_beam: Optional[List[Mode]] = _modes(report.get("bare_beam"), bare)
+        self.equilibrium: Dict[str, Any] = report["equilibrium"]
+        self.amplification: List[Dict[str, Any]] = report["amplification"]
+        self.M_R: np.ndarray = m
+        self.C_R: np.ndarray = c
+        self.K_R: np.ndarray = k
+
+    def __repr__(self) -> str:
+        return f"Linearization({len(self.modes)} modes, {self.M_R.shape[0]} coordinates)"
+
+
+class Scenario:
+    """A scenario (``kind = "damper"``, ``"hybrid"`` or ``"mechanism"``) and its overrides.
+
+    Loaded by the tool's one loader: every problem raises ``ScenarioError`` naming the file,
+    line and column. ``set`` maps ``--set`` paths (``"mechanism.half_angle_deg"``,
+    ``"beam.segment[0].elements"``) to values (``bool``, ``int``, ``float``, a list, or a
+    ``str`` read as the command line reads VALUE: a TOML value, a bare word a string).
+    """
+
+    def __init__(self, text: str, file: str, base_dir: str, sets: Sequence[Tuple[str, Any]] = ()) -> None:
+        self._text = text
+        self._file = file
+        self._base = base_dir
+        self._sets: List[Tuple[str, Any]] = list(sets)
+        self.kind: str = _damper.check(text, file, base_dir, self._sets)
+
+    @classmethod
+    def load(cls, path: PathLike, set: Optional[Mapping[str, SetValue]] = None) -> "Scenario":
+        """Reads and checks the scenario file ``path`` with the overrides ``set``."""
+        file = os.fspath(path)
+        text = _damper.read_scenario(file)
+        base = os.path.dirname(file)
+        return cls(text, file, base, list((set or {}).items()))
+
+    @classmethod
+    def from_str(cls, text: str, kind: str = "toml", base_dir: PathLike = ".", name: str = "<string>") -> "Scenario":
+        """A scenario from its text (``kind``: the format, ``"toml"``); relative paths in it
+        (the mechanism model) are relative to ``base_dir``; messages name it ``name``."""
+        if kind != "toml":
+            raise ValueError(f"kind {kind!r}: scenarios are TOML (kind='toml')")
+        return cls(text, name, os.fspath(base_dir))
+
+    @property
+    def file(self) -> str:
+        """The file name messages give."""
+        return self._file
+
+    @property
+    def sets(self) -> List[Tuple[str, Any]]:
+        """The overrides applied, in order."""
+        return list(self._sets)
+
+    def with_set(self, set: Mapping[str, SetValue]) -> "Scenario":
+        """A copy with the overrides ``set`` applied after this scenario's own."""
+        return Scenario(self._text, self._file, self._base, self._sets + list(set.items()))
+
+    def _src(self) -> Tuple[str, str, str, List[Tuple[str, Any]]]:
+        return (self._text, self._file, self._base, self._sets)
+
+    def simulate(self, compare: Optional[Sequence[str]] = None, allow_long: bool = False) -> Run:
+        """Runs the scenario as ``damper simulate`` does, in memory (no file written).
+
+        ``compare``: the comparison runs (``"generator_disconnected"``, ``"bare_beam"``),
+        replacing the scenario's ``[output] compare``; ``None`` keeps the scenario's.
+        """
+        sc = self if compare is None else self.with_set({"output.compare": list(compare)})
+        summary, columns, comparisons = _damper.simulate(*sc._src(), allow_long)
+        runs = {
+            key: Run(cols, summary.get("comparisons", {}).get(key, {}))
+            for key, cols in comparisons
+        }
+        return Run(columns, summary, runs)
+
+    def linearize(self, modes: int = 5, method: str = "auto") -> Linearization:
+        """The linearisation about the static equilibrium and ``modes`` modes of each variant
+        (``method``: ``"auto"``, ``"dense"`` or ``"shift-invert"``)."""
+        return Linearization(_damper.linearize(*self._src(), modes, method))
+
+    def frf(
+        self,
+        output: Union[str, float],
+        f_from: float,
+        f_to: float,
+        points: int = 400,
+        log: bool = False,
+        excitation: Optional[str] = None,
+        force: Optional[float] = None,
+    ) -> Dict[str, "np.ndarray"]:
+        """The linear frequency response (``damper frf``): the columns of ``frf.csv`` by
+        name (``"f [Hz]"``, ``"|H| with generator [m/N]"``, ...). ``output``: a beam abscissa
+        (m) or ``"MECHANISM/COORDINATE"``."""
+        cols = _damper.frf(*self._src(), str(output), float(f_from), float(f_to), points, log, excitation, force)
+        return dict(cols)
+
+    def sweep(
+        self,
+        axes: Mapping[str, Union[str, Sequence[Any]]],
+        time_domain: bool = False,
+        threads: Optional[int] = None,
+        allow_long: bool = False,
+    ) -> Dict[str, Any]:
+        """A sweep (``damper sweep``) over the grid of ``axes`` (``{path: values}``, the values
+        a list or a VALUES string such as ``"30:60:7"``): the columns of ``sweep.csv`` by
+        name — ``index``, each axis, each figure ``"name [unit]"`` as an array (NaN where a
+        point does not give it), ``error`` (and ``time_domain_error``) as lists of ``str`` or
+        ``None``."""
+        return dict(_damper.sweep_grid(*self._src(), list(axes.items()), time_domain, threads, allow_long))
+
+    def optimize(
+        self,
+        vary: Mapping[str, Tuple[float, float]],
+        maximize: Optional[str] = None,
+        minimize: Optional[str] = None,
+        constraints: Sequence[str] = (),
+        grid: int = 5,
+        allow_long: bool = False,
+    ) -> Dict[str, Any]:
+        """The best design (``damper optimize --json``): ``vary`` maps paths to bounds
+        ``(lo, hi)``, one of ``maximize`` / ``minimize`` names the figure (``"zeta1"``, ...),
+        ``constraints`` as ``"reach>=0.002"``. Returns the JSON object (``optimum``,
+        ``objective``, ``constraints``, ``kkt_residual``, ``history``, ...)."""
+        if maximize is not None and minimize is None:
+            objective, up = maximize, True
+        elif minimize is not None and maximize is None:
+            objective, up = minimize, False
+        else:
+            raise ValueError("give one of maximize or minimize")
+        specs = [f"{p}={_num(lo)}:{_num(hi)}" for p, (lo, hi) in vary.items()]
+        return dict(_damper.optimize(*self._src(), specs, objective, up, list(constraints), grid, allow_long))
+
+    # `random` (issue: random excitation) is bound here when `damper random` lands.
+
+    def __repr__(self) -> str:
+        return f"Scenario({self._file!r}, kind={self.kind!r}, sets={self._sets!r})"
+
+
+def _num(x: float) -> str:
+    return repr(float(x))
+
+
+class Model:
+    """A mechanism model file (``.toml`` or ``.json``), as ``damper eval`` and
+    ``damper generate`` read it."""
+
+    def __init__(self, path: PathLike) -> None:
+        self.path: str = os.fspath(path)
+        name, coordinates, parameters = _damper.model_info(self.path)
+        self.name: str = name
+        self.coordinates: List[str] = coordinates
+        self.parameters: Dict[str, float] = {p[0]: p[1] for p in parameters}
+        self.derived_parameters: List[str] = [p[0] for p in parameters if p[2]]
+        self.runtime_parameters: List[str] = [p[0] for p in parameters if p[3]]
+
+    @classmethod
+    def load(cls, path: PathLike) -> "Model":
+        """Reads and checks the model file (``ModelError`` naming file, line and column)."""
+        return cls(path)
+
+    def evaluate(
+        self,
+        q: Sequence[float],
+        qd: Sequence[float],
+        t: float = 0.0,
+        backend: str = "interp",
+        params: Optional[Mapping[str, float]] = None,
+    ) -> Dict[str, Any]:
+        """Every equation at one state (``damper eval``): ``M``, ``F``, ``Q``, ``h``, ``J``,
+        ``A`` as arrays, ``constraint_names``, ``points`` (name → ``p``, ``J``, ``A``
+        arrays) and ``op_count``. ``backend``: ``"interp"``, ``"numeric"`` or
+        ``"generated"``; ``params``: parameter overrides by name."""
+        pairs = [f"{k}={float(v)!r}" for k, v in (params or {}).items()]
+        out = dict(_damper.model_eval(self.path, [float(x) for x in q], [float(x) for x in qd], float(t), backend, pairs))
+        for key in ("q", "qd", "M", "F", "Q", "h", "J", "A"):
+            out[key] = np.asarray(out[key], dtype=float)
+        n = len(self.coordinates)
+        out["M"] = out["M"].reshape(n, n)
+        out["J"] = out["J"].reshape(-1, n)
+        out["points"] = {
+            name: {"p": np.asarray(p["p"], dtype=float), "J": np.asarray(p["J"], dtype=float).reshape(3, n), "A": np.asarray(p["A"], dtype=float)}
+            for name, p in out["points"].items()
+        }
+        return out
+
+    def generate_rust(self, struct_name: Optional[str] = None) -> str:
+        """The Rust module ``damper generate`` writes for this model."""
+        source, _ = _damper.model_generate(self.path, struct_name)
+        return source
+
+    def op_counts(self) -> Dict[str, Dict[str, int]]:
+        """The operation count of every generated function (``damper generate --stats``):
+        name → ``adds``, ``muls``, ``divs``, ``funcs``, ``negs``, ``total``."""
+        _, stats = _damper.model_generate(self.path, None)
+        keys = ("adds", "muls", "divs", "funcs", "negs", "total")
+        return {name: dict(zip(keys, counts)) for name, counts in stats}
+
+    def __repr__(self) -> str:
+        return f"Model({self.path!r}, name={self.name!r}, coordinates={self.coordinates!r})"

@@ -1,0 +1,106 @@
+"""Type stub of the native module ``damper._damper`` (checked by ``mypy.stubtest``)."""
+
+from typing import Any, List, Optional, Sequence, Tuple
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = [
+    "DamperError",
+    "ModelError",
+    "ScenarioError",
+    "SingularPosition",
+    "check",
+    "frf",
+    "linearize",
+    "model_eval",
+    "model_generate",
+    "model_info",
+    "optimize",
+    "read_scenario",
+    "simulate",
+    "sweep_grid",
+]
+
+_Sets = Sequence[Tuple[str, Any]]
+_Columns = List[Tuple[str, npt.NDArray[np.float64]]]
+_Shapes = List[Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], List[str]]]
+
+class ScenarioError(ValueError):
+    file: Optional[str]
+    line: Optional[int]
+    column: Optional[int]
+    entity: Optional[str]
+    message: Optional[str]
+
+class ModelError(ValueError):
+    file: Optional[str]
+    line: Optional[int]
+    column: Optional[int]
+    entity: Optional[str]
+    message: Optional[str]
+
+class DamperError(Exception): ...
+
+class SingularPosition(DamperError):
+    time: float
+    distance: float
+    reach: Optional[float]
+    mechanism: str
+
+def read_scenario(path: str) -> str: ...
+def check(text: str, file: str, base: str, sets: _Sets) -> str: ...
+def simulate(
+    text: str, file: str, base: str, sets: _Sets, allow_long: bool
+) -> Tuple[Any, _Columns, List[Tuple[str, _Columns]]]: ...
+def linearize(
+    text: str, file: str, base: str, sets: _Sets, modes: int, method: str
+) -> Tuple[
+    Any,
+    _Shapes,
+    Optional[_Shapes],
+    Optional[_Shapes],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+]: ...
+def frf(
+    text: str,
+    file: str,
+    base: str,
+    sets: _Sets,
+    output: str,
+    f_from: float,
+    f_to: float,
+    points: int,
+    log: bool,
+    excitation: Optional[str],
+    force: Optional[float],
+) -> _Columns: ...
+def sweep_grid(
+    text: str,
+    file: str,
+    base: str,
+    sets: _Sets,
+    axes: Sequence[Tuple[str, Any]],
+    time_domain: bool,
+    threads: Optional[int],
+    allow_long: bool,
+) -> List[Tuple[str, Any]]: ...
+def optimize(
+    text: str,
+    file: str,
+    base: str,
+    sets: _Sets,
+    vary: Sequence[str],
+    objective: str,
+    maximize: bool,
+    constraints: Sequence[str],
+    grid: int,
+    allow_long: bool,
+) -> Any: ...
+def model_info(path: str) -> Tuple[str, List[str], List[Tuple[str, float, bool, bool]]]: ...
+def model_eval(
+    path: str, q: Sequence[float], qd: Sequence[float], t: float, backend: str, params: Sequence[str]
+) -> Any: ...
+def model_generate(path: str, struct_name: Optional[str]) -> Tuple[str, List[Tuple[str, List[int]]]]: ...

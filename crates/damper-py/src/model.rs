@@ -1,0 +1,106 @@
+//! The mechanism model functions: what `damper eval` and `damper generate` compute, for a
+//! model file.
+
+use std::path::PathBuf;
+
+use codegen_cli::Error;
+use codegen_cli::commands::eval;
+use mbs_symbolic::emit::{EmitOptions, generate};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+use crate::convert::json;
+use crate::errors::{Input, to_py};
+
+fn load(py: Python<'_>, path: &std::path::Path) -> PyResult<mbs_symbolic::model::Model> {
+    mbs_symbolic::model::load(path).map_err(|d| to_py(py, Error::Input(d), Input::Model))
+}
+
+/// A model's name, its coordinate names and its parameters `(name, value, derived,
+/// runtime)`.
+#[pyfunction]
+#[allow(clippy::type_complexity)]
+pub fn model_info(
+    py: Python<'_>,
+    path: PathBuf,
+) -> PyResult<(String, Vec<String>, Vec<(String, f64, bool, bool)>)> {
+    let model = load(py, &path)?;
+    let params = model
+        .parameters
+        .iter()
+        .map(|p| (p.name.clone(), p.value, p.derived, p.runtime))
+        .collect();
+    Ok((
+        model.name.clone(),
+        mbs_symbolic::runtime::coordinate_names(&model),
+        params,
+    ))
+}
+
+/// The JSON object `damper eval` prints for this state, backend and parameter overrides
+/// (`NAME=VALUE`).
+#[pyfunction]
+pub fn model_eval<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+    q: Vec<f64>,
+    qd: Vec<f64>,
+    t: f64,
+    backend: &str,
+    params: Vec<String>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let backend = match backend {
+        "interp" => eval::Backend::Interp,
+        "numeric" => eval::Backend::Numeric,
+        "generated" => eval::Backend::Generated,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "backend {other:?}: expected \"interp\", \"numeric\" or \"generated\""
+            )));
+        }
+    };
+    let args = eval::Args {
+        model: path,
+        q,
+        qd,
+        t,
+        params,
+        backend,
+    };
+    let value = py
+        .detach(|| eval::evaluation(&args))
+        .map_err(|e| to_py(py, e, Input::Model))?;
+    let text = serde_json::to_vec(&value)
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+    json(py, &text)
+}
+
+/// The generated Rust source of a model (`damper generate`), and the operation count of
+/// every generated function `(name, adds, muls, divs, funcs, negs, total)`.
+#[pyfunction]
+#[allow(clippy::type_complexity)]
+pub fn model_generate(
+    py: Python<'_>,
+    path: PathBuf,
+    struct_name: Option<String>,
+) -> PyResult<(String, Vec<(String, [usize; 6])>)> {
+    let model = load(py, &path)?;
+    let opts = EmitOptions {
+        struct_name,
+        ..EmitOptions::default()
+    };
+    let generated = py
+        .detach(|| generate(&model, &opts))
+        .map_err(|e| to_py(py, Error::Emit(e), Input::Model))?;
+    let stats = generated
+        .stats
+        .iter()
+        .map(|(n, c)| {
+            (
+                n.clone(),
+                [c.adds, c.muls, c.divs, c.funcs, c.negs, c.total()],
+            )
+        })
+        .collect();
+    Ok((generated.source, stats))
+}

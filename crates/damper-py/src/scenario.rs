@@ -1,0 +1,434 @@
+//! The scenario functions: every call receives the scenario as its text, the file name its
+//! messages name, the directory of its relative paths and its `set` overrides, and loads it
+//! through the one loader ([`codegen_cli::scenario::parse_with_in`]) — exactly what the
+//! command line does with a file and its `--set` options.
+
+use std::path::{Path, PathBuf};
+
+use codegen_cli::Error;
+use codegen_cli::commands::frf as frf_command;
+use codegen_cli::commands::sweep;
+use codegen_cli::scenario::{self, Loaded, Override, Scenario};
+use hybrid_core::hybrid::{EigenMethod, Matrix};
+use numpy::{PyArray1, PyArray2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyList;
+
+use crate::convert::{array1, array2, axis_spec, json, matrix, overrides};
+use crate::errors::{Input, diagnostics, to_py};
+use crate::watch::interruptible;
+
+/// A scenario as the Python side holds it.
+struct Source {
+    text: String,
+    file: String,
+    base: PathBuf,
+    overrides: Vec<Override>,
+}
+
+impl Source {
+    fn new(
+        text: String,
+        file: String,
+        base: String,
+        sets: Vec<(String, Bound<'_, PyAny>)>,
+    ) -> PyResult<Source> {
+        Ok(Source {
+            text,
+            file,
+            base: PathBuf::from(base),
+            overrides: overrides(&sets)?,
+        })
+    }
+
+    fn load(&self) -> Result<Loaded, Error> {
+        Ok(scenario::parse_with_in(
+            &self.text,
+            &self.file,
+            &self.base,
+            &self.overrides,
+        )?)
+    }
+
+    /// The path that names the file and whose directory is the base of relative paths
+    /// (what the sweep and the optimiser take).
+    fn path(&self) -> PathBuf {
+        let name = Path::new(&self.file)
+            .file_name()
+            .map_or_else(|| PathBuf::from(&self.file), PathBuf::from);
+        self.base.join(name)
+    }
+}
+
+/// A later error of a loaded scenario about the file and the options the user wrote.
+fn remapped(loaded: &Loaded, e: Error) -> Error {
+    match e {
+        Error::Input(d) => Error::Input(loaded.remap(d)),
+        e => e,
+    }
+}
+
+/// The text of a scenario file (`ScenarioError` when it cannot be read).
+#[pyfunction]
+pub fn read_scenario(py: Python<'_>, path: PathBuf) -> PyResult<String> {
+    scenario::read(&path).map_err(|d| diagnostics(py, &d, Input::Scenario))
+}
+
+/// Loads and checks a scenario; returns its kind (`"hybrid"` for a damper scenario, or
+/// `"mechanism"`).
+#[pyfunction]
+pub fn check(
+    py: Python<'_>,
+    text: String,
+    file: String,
+    base: String,
+    sets: Vec<(String, Bound<'_, PyAny>)>,
+) -> PyResult<&'static str> {
+    let src = Source::new(text, file, base, sets)?;
+    let loaded = src.load().map_err(|e| to_py(py, e, Input::Scenario))?;
+    Ok(match loaded.scenario {
+        Scenario::Hybrid(_) => "hybrid",
+        Scenario::Mechanism(_) => "mechanism",
+    })
+}
+
+/// Named columns: a list of `(name, array)`.
+type Columns<'py> = Vec<(String, Bound<'py, PyArray1<f64>>)>;
+
+fn columns(py: Python<'_>, rows: codegen_cli::report::rows::ColumnRows) -> Columns<'_> {
+    rows.into_columns()
+        .into_iter()
+        .map(|(n, c)| (n, array1(py, c)))
+        .collect()
+}
+
+/// Runs a scenario as `damper simulate` does, in memory: `(summary.json bytes, columns of
+/// the time history, [(comparison key, its columns)])`.
+#[pyfunction]
+#[allow(clippy::type_complexity)]
+pub fn simulate<'py>(
+    py: Python<'py>,
+    text: String,
+    file: String,
+    base: String,
+    sets: Vec<(String, Bound<'py, PyAny>)>,
+    allow_long: bool,
+) -> PyResult<(Bound<'py, PyAny>, Columns<'py>, Vec<(String, Columns<'py>)>)> {
+    let src = Source::new(text, file, base, sets)?;
+    let out = interruptible(py, || {
+        let loaded = src.load()?;
+        let records = loaded.applied.records();
+        match &loaded.scenario {
+            Scenario::Hybrid(sc) => codegen_cli::run_hybrid::in_memory(sc, allow_long, records),
+            Scenario::Mechanism(sc) => {
+                codegen_cli::commands::simulate::mechanism_in_memory(sc, allow_long, records)
+            }
+        }
+        .map_err(|e| remapped(&loaded, e))
+    })?
+    .map_err(|e| to_py(py, e, Input::Scenario))?;
+    let summary = json(py, &out.summary)?;
+    let comparisons = out
+        .comparisons
+        .into_iter()
+        .map(|(k, rows)| (k.to_string(), columns(py, rows)))
+        .collect();
+    Ok((summary, columns(py, out.rows), comparisons))
+}
+
+/// One mode's shapes: the beam's `(nodes, 3)` array `[x, re, im]` and the mechanisms'
+/// `(coordinates, 2)` array `[re, im]`, with the coordinates' `mechanism/coordinate` names.
+type Shapes<'py> = (
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Vec<String>,
+);
+
+fn shapes<'py>(
+    py: Python<'py>,
+    modes: &[codegen_cli::linear::ModeReport],
+) -> PyResult<Vec<Shapes<'py>>> {
+    modes
+        .iter()
+        .map(|m| {
+            let beam: Vec<f64> = m.beam_shape.iter().flatten().copied().collect();
+            let coords = m.mechanism_shape.iter().flat_map(|s| {
+                s.coordinates
+                    .iter()
+                    .map(move |(c, z)| (format!("{}/{c}", s.mechanism), *z))
+            });
+            let (names, values): (Vec<String>, Vec<[f64; 2]>) = coords.unzip();
+            let n = values.len();
+            let mech: Vec<f64> = values.into_iter().flatten().collect();
+            Ok((
+                array2(py, beam, m.beam_shape.len(), 3)?,
+                array2(py, mech, n, 2)?,
+                names,
+            ))
+        })
+        .collect()
+}
+
+/// The linearisation as `damper linearize --json` reports it (`modes` modes of each
+/// variant, eigen-solver `method`): `(report JSON, shapes of the modes with the generator,
+/// disconnected, of the bare beam, M_R, C_R, K_R)`.
+#[pyfunction]
+#[allow(clippy::type_complexity)]
+pub fn linearize<'py>(
+    py: Python<'py>,
+    text: String,
+    file: String,
+    base: String,
+    sets: Vec<(String, Bound<'py, PyAny>)>,
+    modes: usize,
+    method: String,
+) -> PyResult<(
+    Bound<'py, PyAny>,
+    Vec<Shapes<'py>>,
+    Option<Vec<Shapes<'py>>>,
+    Option<Vec<Shapes<'py>>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+)> {
+    if modes == 0 {
+        return Err(PyValueError::new_err("modes must be at least 1"));
+    }
+    let method: EigenMethod = codegen_cli::commands::linearize::parse_method(&method)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let src = Source::new(text, file, base, sets)?;
+    let (report, lin) = interruptible(py, || {
+        let loaded = src.load()?;
+        let input =
+            codegen_cli::setup::tangents_for(&loaded.scenario).map_err(|e| remapped(&loaded, e))?;
+        let (mut report, lin) =
+            codegen_cli::linear::analyse_linearization(&src.file, &input, modes, method)
+                .map_err(|e| remapped(&loaded, e))?;
+        report.overrides = loaded.applied.records();
+        Ok((report, lin))
+    })?
+    .map_err(|e| to_py(py, e, Input::Scenario))?;
+    let bytes = serde_json::to_vec(&report)
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+    let with = shapes(py, &report.modes)?;
+    let off = report
+        .generator_disconnected
+        .as_deref()
+        .map(|m| shapes(py, m))
+        .transpose()?;
+    let bare = report
+        .bare_beam
+        .as_deref()
+        .map(|m| shapes(py, m))
+        .transpose()?;
+    Ok((
+        json(py, &bytes)?,
+        with,
+        off,
+        bare,
+        matrix(py, lin.dense(Matrix::Mass))?,
+        matrix(py, lin.dense(Matrix::Damping))?,
+        matrix(py, lin.dense(Matrix::Stiffness))?,
+    ))
+}
+
+/// The linear frequency response as `damper frf` writes `frf.csv`: its columns, under the
+/// same headers.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub fn frf<'py>(
+    py: Python<'py>,
+    text: String,
+    file: String,
+    base: String,
+    sets: Vec<(String, Bound<'py, PyAny>)>,
+    output: String,
+    f_from: f64,
+    f_to: f64,
+    points: usize,
+    log: bool,
+    excitation: Option<String>,
+    force: Option<f64>,
+) -> PyResult<Columns<'py>> {
+    let src = Source::new(text, file, base, sets)?;
+    let args = frf_command::Args {
+        scenario: PathBuf::from(&src.file),
+        output,
+        from: f_from,
+        to: f_to,
+        points,
+        log,
+        nonlinear: None,
+        excitation,
+        force,
+        set: vec![],
+        steps_per_period: 200,
+        tolerance: 1e-3,
+        max_periods: 1000,
+        out: None,
+        quiet: true,
+        allow_long: false,
+    };
+    let cols = interruptible(py, || {
+        frf_command::check(&args)?;
+        let loaded = src.load()?;
+        let analysis =
+            frf_command::analyse(&args, &loaded.scenario).map_err(|e| remapped(&loaded, e))?;
+        Ok(analysis.columns())
+    })?
+    .map_err(|e| to_py(py, e, Input::Scenario))?;
+    Ok(cols.into_iter().map(|(n, c)| (n, array1(py, c))).collect())
+}
+
+/// A sweep as `damper sweep` computes it (`axes`: `(path, values)` pairs, the values a list
+/// or a VALUES string): the columns of `sweep.csv` in order — `index`, each axis (a list of
+/// its values), each figure `name [unit]` (NaN where the point does not give it), `error`
+/// and, in the time domain, `time_domain_error` (lists of `str` or `None`).
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub fn sweep_grid<'py>(
+    py: Python<'py>,
+    text: String,
+    file: String,
+    base: String,
+    sets: Vec<(String, Bound<'py, PyAny>)>,
+    axes: Vec<(String, Bound<'py, PyAny>)>,
+    time_domain: bool,
+    threads: Option<usize>,
+    allow_long: bool,
+) -> PyResult<Vec<(String, Bound<'py, PyAny>)>> {
+    if threads == Some(0) {
+        return Err(PyValueError::new_err("threads must be at least 1"));
+    }
+    let src = Source::new(text, file, base, sets)?;
+    let specs: Vec<String> = axes
+        .iter()
+        .map(|(p, v)| axis_spec(p, v))
+        .collect::<PyResult<_>>()?;
+    let path = src.path();
+    let (grid, results) = interruptible(py, || {
+        // The scenario and the fixed overrides must load before any point.
+        src.load()?;
+        let grid = sweep::Grid::parse(&specs)?;
+        codegen_cli::budget::refuse_above(
+            &format!("sweep of {}", src.file),
+            &[codegen_cli::budget::Quantity::count(
+                "grid points",
+                grid.len() as f64,
+                codegen_cli::budget::MAX_SWEEP_POINTS,
+            )],
+            "use fewer values per axis",
+            allow_long,
+        )?;
+        let indices: Vec<usize> = (0..grid.len()).collect();
+        let options = codegen_cli::sweep_point::PointOptions {
+            time_domain,
+            allow_long,
+        };
+        let results = sweep::evaluate_points(
+            &path,
+            &src.text,
+            &src.overrides,
+            &grid,
+            &indices,
+            None,
+            &options,
+            sweep::threads(threads),
+            &|| {},
+        )?;
+        Ok((grid, results))
+    })?
+    .map_err(|e| to_py(py, e, Input::Scenario))?;
+    let rows: Vec<&sweep::PointResult> = results.iter().collect();
+    let heads = sweep::figure_heads(&rows);
+    let mut out: Vec<(String, Bound<'py, PyAny>)> = vec![];
+    let index: Vec<f64> = results.iter().map(|r| r.index as f64).collect();
+    out.push((
+        "index".into(),
+        array1(py, index).call_method1("astype", ("int64",))?,
+    ));
+    for (k, axis) in grid.axes.iter().enumerate() {
+        let values = PyList::empty(py);
+        for r in &results {
+            let v = grid.point(r.index)[k];
+            values.append(toml_to_py(py, v)?)?;
+        }
+        out.push((axis.path.clone(), values.into_any()));
+    }
+    for (name, unit) in &heads {
+        let column: Vec<f64> = results
+            .iter()
+            .map(|r| {
+                r.figures
+                    .iter()
+                    .find(|f| f.name == *name)
+                    .and_then(|f| f.value)
+                    .unwrap_or(f64::NAN)
+            })
+            .collect();
+        out.push((format!("{name} [{unit}]"), array1(py, column).into_any()));
+    }
+    let errors =
+        |of: &dyn Fn(&sweep::PointResult) -> Option<String>| -> PyResult<Bound<'py, PyAny>> {
+            let list = PyList::empty(py);
+            for r in &results {
+                list.append(of(r))?;
+            }
+            Ok(list.into_any())
+        };
+    out.push(("error".into(), errors(&|r| r.error.clone())?));
+    if time_domain {
+        out.push((
+            "time_domain_error".into(),
+            errors(&|r| r.time_domain_error.clone())?,
+        ));
+    }
+    Ok(out)
+}
+
+/// A TOML value as the Python value it reads as.
+fn toml_to_py<'py>(py: Python<'py>, v: &toml_edit::Value) -> PyResult<Bound<'py, PyAny>> {
+    let text = serde_json::to_vec(&codegen_cli::scenario::overrides::json_value(v))
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+    json(py, &text)
+}
+
+/// The best design as `damper optimize --json` prints it (the optimum, the objective, every
+/// constraint, the KKT residual, the history), as a JSON object.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub fn optimize<'py>(
+    py: Python<'py>,
+    text: String,
+    file: String,
+    base: String,
+    sets: Vec<(String, Bound<'py, PyAny>)>,
+    vary: Vec<String>,
+    objective: String,
+    maximize: bool,
+    constraints: Vec<String>,
+    grid: usize,
+    allow_long: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    let src = Source::new(text, file, base, sets)?;
+    let path = src.path();
+    let outcome = interruptible(py, || {
+        codegen_cli::commands::optimize::solve(
+            &path,
+            &src.text,
+            &src.overrides,
+            &vary,
+            &objective,
+            maximize,
+            &constraints,
+            grid,
+            allow_long,
+        )
+        .map(|(outcome, _)| outcome)
+    })?
+    .map_err(|e| to_py(py, e, Input::Scenario))?;
+    let bytes = serde_json::to_vec(&outcome)
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+    json(py, &bytes)
+}

@@ -1,0 +1,76 @@
+//! Long calls without the GIL, interruptible by Ctrl-C.
+//!
+//! The work runs on a scoped worker thread while the calling thread, the GIL released,
+//! waits for it in slices of [`SLICE`]; between slices it takes the GIL for
+//! `Python::check_signals` (which runs Python's signal handlers: on the main thread a
+//! SIGINT raises `KeyboardInterrupt` there). When a handler raises, the library is asked to
+//! stop ([`codegen_cli::interrupt::request_stop`]: the runs poll it at every output step,
+//! the sweeps before every point), the worker is waited for (it stops within one output
+//! step), and the handler's exception is returned. Results are held in memory until the
+//! call returns, so nothing is half-written.
+
+use std::sync::mpsc;
+use std::time::Duration;
+
+use codegen_cli::Error;
+use pyo3::prelude::*;
+
+/// The worker thread's name.
+pub const WORKER: &str = "damper-worker";
+
+/// How often the waiting thread looks at Python's signals.
+const SLICE: Duration = Duration::from_millis(25);
+
+/// Runs `job` without the GIL on a worker thread, watching for Python signals (see the
+/// module documentation). `Ok(Err(e))`: the job's own error; `Err`: a signal handler's
+/// exception (the job was stopped) or a panic of the job.
+pub fn interruptible<T, F>(py: Python<'_>, job: F) -> PyResult<Result<T, Error>>
+where
+    T: Send,
+    F: FnOnce() -> Result<T, Error> + Send,
+{
+    codegen_cli::interrupt::clear_stop();
+    let mut raised: Option<PyErr> = None;
+    let joined = py.detach(|| {
+        std::thread::scope(|s| {
+            let (tx, rx) = mpsc::channel::<()>();
+            // Named, so that a test (or a profiler) can see the run in progress.
+            let worker = std::thread::Builder::new()
+                .name(WORKER.into())
+                .spawn_scoped(s, move || {
+                    let out = job();
+                    let _ = tx.send(());
+                    out
+                })
+                .map_err(|e| {
+                    pyo3::exceptions::PyRuntimeError::new_err(format!(
+                        "cannot start the worker thread: {e}"
+                    ))
+                })?;
+            // Bounded by the job: it ends by itself, or within an output step of a stop.
+            loop {
+                match rx.recv_timeout(SLICE) {
+                    Ok(()) | Err(mpsc::RecvTimeoutError::Disconnected) => break,
+                    Err(mpsc::RecvTimeoutError::Timeout) => {}
+                }
+                if raised.is_none()
+                    && let Err(e) = Python::attach(|py| py.check_signals())
+                {
+                    raised = Some(e);
+                    codegen_cli::interrupt::request_stop();
+                }
+            }
+            Ok::<_, PyErr>(worker.join())
+        })
+    })?;
+    codegen_cli::interrupt::clear_stop();
+    if let Some(e) = raised {
+        return Err(e);
+    }
+    match joined {
+        Ok(out) => Ok(out),
+        Err(_) => Err(pyo3::exceptions::PyRuntimeError::new_err(
+            "the computation panicked (a bug: please report it)",
+        )),
+    }
+}

@@ -1,0 +1,145 @@
+"""`Scenario.linearize`, `frf`, `sweep` and `optimize` against the command line, and the
+reduced matrices against the modes (an independent eigen-solve of the quadratic pencil)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import damper
+from conftest import SCENARIOS, assert_cells_equal, cli, load_json, read_csv
+
+BEAM_SCENARIOS = [p for p in SCENARIOS if 'kind = "mechanism"' not in p.read_text()]
+
+
+@pytest.mark.parametrize("scenario", BEAM_SCENARIOS, ids=lambda p: p.stem)
+def test_linearize_equals_the_cli(scenario: Path, monkeypatch: pytest.MonkeyPatch, root: Path) -> None:
+    monkeypatch.chdir(root)
+    rel = str(scenario.relative_to(root))
+    expected = json.loads(cli("linearize", rel, "--json", "--modes", "4").stdout)
+    lin = damper.Scenario.load(rel).linearize(modes=4)
+    assert lin.report == expected
+    assert lin.equilibrium == expected["equilibrium"]
+    assert lin.amplification == expected["amplification"]
+    for modes, reports in [
+        (lin.modes, expected["modes"]),
+        (lin.generator_disconnected, expected.get("generator_disconnected")),
+        (lin.bare_beam, expected.get("bare_beam")),
+    ]:
+        if reports is None:
+            assert modes is None
+            continue
+        assert modes is not None and len(modes) == len(reports)
+        for m, r in zip(modes, reports):
+            assert m.natural_frequency_hz == r["natural_frequency_hz"]
+            assert m.damped_frequency_hz == r["damped_frequency_hz"]
+            assert m.damping_ratio == r["damping_ratio"]
+            assert m.decay_rate == r["decay_rate"]
+            np.testing.assert_array_equal(m.beam_shape, np.array(r["beam_shape"]).reshape(-1, 3))
+            coords = [(s["mechanism"], c, z) for s in r["mechanism_shape"] for c, z in s["coordinates"]]
+            assert m.mechanism_coordinates == [f"{a}/{c}" for a, c, _ in coords]
+            np.testing.assert_array_equal(m.mechanism_shape, np.array([z for _, _, z in coords]).reshape(-1, 2))
+
+
+def test_reduced_matrices_give_the_modes(monkeypatch: pytest.MonkeyPatch, root: Path) -> None:
+    """The eigenvalues of the pencil lambda^2 M_R + lambda C_R + K_R (numpy's dense solve of
+    the companion form) are the modes' eigenvalues."""
+    monkeypatch.chdir(root)
+    # The damper's generator has no inductance: the pencil is the whole linear system.
+    lin = damper.Scenario.load("scenarios/damper.toml").linearize(modes=3, method="dense")
+    m, c, k = lin.M_R, lin.C_R, lin.K_R
+    n = m.shape[0]
+    # nalgebra's column-major buffer, viewed in Fortran order (no copy).
+    for a in (m, c, k):
+        assert a.flags["F_CONTIGUOUS"] and type(a.base.base).__name__ == "PySliceContainer"
+    assert m.shape == c.shape == k.shape == (n, n)
+    np.testing.assert_allclose(m, m.T, rtol=0, atol=1e-12 * np.abs(m).max())
+    np.testing.assert_allclose(k, k.T, rtol=0, atol=1e-9 * np.abs(k).max())
+    a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(m, k), -np.linalg.solve(m, c)]])
+    lam = np.linalg.eigvals(a)
+    for mode in lin.modes:
+        nearest = lam[np.argmin(np.abs(lam - mode.eigenvalue))]
+        assert abs(nearest - mode.eigenvalue) <= 1e-7 * abs(mode.eigenvalue), (mode, nearest)
+
+
+FRF_CASES = [(str(p.relative_to(p.parents[1])), "0.5") for p in BEAM_SCENARIOS] + [
+    ("scenarios/damper.toml", "1.0"),
+    ("scenarios/pendulum_absorber.toml", "absorber/theta"),
+]
+
+
+@pytest.mark.parametrize("scenario,output", FRF_CASES)
+def test_frf_equals_the_cli(scenario: str, output: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, root: Path) -> None:
+    monkeypatch.chdir(root)
+    out = tmp_path / Path(scenario).stem
+    cli("frf", scenario, "--output", output, "--from", "1", "--to", "20", "--points", "40", "--log", "-o", str(out))
+    cols = damper.Scenario.load(scenario).frf(output, 1.0, 20.0, points=40, log=True)
+    cells = read_csv(out / "frf.csv")
+    assert list(cols) == list(cells)
+    for name, values in cols.items():
+        assert_cells_equal(cells[name], values, f"{scenario} {name}")
+
+
+@pytest.mark.parametrize("scenario", SCENARIOS, ids=lambda p: p.stem)
+def test_sweep_of_every_scenario_equals_the_cli(scenario: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, root: Path) -> None:
+    """The same linear sweep on every bundled scenario (a mechanism scenario's points fail:
+    their errors are compared)."""
+    monkeypatch.chdir(root)
+    rel = str(scenario.relative_to(root))
+    cli("sweep", rel, "--set", "integrator.t_end=1,2", "-o", str(tmp_path), "--quiet")
+    res = damper.Scenario.load(rel).sweep({"integrator.t_end": [1, 2]})
+    cells = read_csv(tmp_path / "sweep.csv")
+    assert list(res) == list(cells)
+    for name, values in res.items():
+        if name == "error":
+            assert [v or "" for v in values] == cells[name]
+        elif name in ("integrator.t_end", "index"):
+            assert [float(v) for v in values] == [float(c) for c in cells[name]]
+        else:
+            assert_cells_equal(cells[name], values, name)
+
+
+def test_sweep_equals_the_cli(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, root: Path) -> None:
+    monkeypatch.chdir(root)
+    cli("sweep", "scenarios/damper.toml", "--set", "mechanism.half_angle_deg=30,40,50", "--set",
+        "generator.load_resistance=2,8", "-o", str(tmp_path), "--quiet")
+    res = damper.Scenario.load("scenarios/damper.toml").sweep(
+        {"mechanism.half_angle_deg": [30, 40, 50], "generator.load_resistance": [2, 8]}, threads=2
+    )
+    cells = read_csv(tmp_path / "sweep.csv")
+    assert list(res) == list(cells)
+    for name, values in res.items():
+        if name in ("error", "time_domain_error"):
+            assert [v or "" for v in values] == cells[name]
+        elif name in ("mechanism.half_angle_deg", "generator.load_resistance", "index"):
+            assert [float(v) for v in values] == [float(c) for c in cells[name]]
+        else:
+            assert_cells_equal(cells[name], values, name)
+
+
+def test_time_domain_sweep_keeps_the_summary_figures(monkeypatch: pytest.MonkeyPatch, root: Path) -> None:
+    monkeypatch.chdir(root)
+    sc = damper.Scenario.load("scenarios/damper.toml", set={"integrator.t_end": 0.5})
+    res = sc.sweep({"mechanism.half_angle_deg": "40,50"}, time_domain=True)
+    assert res["time_domain_error"] == [None, None]
+    # The figure of the point equals the summary of the same run.
+    run = sc.with_set({"mechanism.half_angle_deg": 50}).simulate()
+    assert res["peak_amplitude [m]"][1] == run.summary["peak_amplitude"]
+
+
+@pytest.mark.parametrize("scenario", ["scenarios/damper.toml", "scenarios/aluminium_cantilever.toml"])
+def test_optimize_equals_the_cli(scenario: str, monkeypatch: pytest.MonkeyPatch, root: Path) -> None:
+    monkeypatch.chdir(root)
+    expected = json.loads(
+        cli("optimize", scenario, "--vary", "mechanism.half_angle_deg=3:25",
+            "--maximize", "zeta1", "--constraint", "reach>=0.002", "--json").stdout
+    )
+    got = damper.Scenario.load(scenario).optimize(
+        {"mechanism.half_angle_deg": (3, 25)}, maximize="zeta1", constraints=["reach>=0.002"]
+    )
+    assert got == expected
+    with pytest.raises(ValueError, match="one of"):
+        damper.Scenario.load("scenarios/damper.toml").optimize({"mechanism.half_angle_deg": (20, 70)})
