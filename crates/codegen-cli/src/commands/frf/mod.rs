@@ -69,6 +69,7 @@ use crate::report::{OutputLock, ReportError, commit_files};
 use crate::scenario::{self, Scenario};
 use crate::setup::tangents_for;
 
+pub(crate) use analysis::parse_output;
 pub use analysis::{LinearRow, NonlinearRow, Receptance, grid};
 use analysis::{linear_rows, nonlinear_rows, resolve, usage};
 use report::outputs;

@@ -76,7 +76,9 @@ pub(super) struct RawSpring {
 pub(super) struct RawExcitation {
     pub(super) name: Spanned<String>,
     pub(super) at: Spanned<RawAt>,
-    pub(super) amplitude: Spanned<f64>,
+    /// Absent for a random `time` (its PSD carries the level), required otherwise.
+    #[serde(default)]
+    pub(super) amplitude: Option<Spanned<f64>>,
 }
 
 #[derive(Deserialize)]
