@@ -48,6 +48,7 @@ pub struct Samples {
     dt: f64,
     values: Arc<[f64]>,
     seed: u64,
+    psd_mean_square: f64,
 }
 
 impl Samples {
@@ -83,6 +84,11 @@ impl Samples {
     /// The samples over one period.
     pub fn values(&self) -> &[f64] {
         &self.values
+    }
+
+    /// `∫ G df` of the PSD it realises.
+    pub fn psd_mean_square(&self) -> f64 {
+        self.psd_mean_square
     }
 
     /// The mean square over one period.
@@ -248,6 +254,7 @@ pub fn realise(
         dt,
         values: c.iter().map(|v| v.re).collect(),
         seed,
+        psd_mean_square: psd_integral(time, 0.0, f64::INFINITY),
     })
 }
 
