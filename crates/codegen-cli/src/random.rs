@@ -259,9 +259,15 @@ pub fn analyse(file: &str, sc: &Scenario, opts: &RandomOptions) -> Result<Random
     };
     // Modes: the modal basis and the quadrature's breakpoints.
     let k = opts.modes.min(lin.dim()).max(1);
-    let found = modes(&lin, k, EigenMethod::Auto).map_err(linear_error(file))?;
+    // Dense: every mode at once (the complete basis below), the first `k` for the cuts.
+    let all = if method == RandomMethod::Dense {
+        modes(&lin, lin.dim(), EigenMethod::Dense).map_err(linear_error(file))?
+    } else {
+        modes(&lin, k, EigenMethod::Auto).map_err(linear_error(file))?
+    };
+    let found = &all[..k.min(all.len())];
     let mut breakpoints = vec![];
-    for m in &found {
+    for m in found {
         let (fd, half) = (
             m.damped_frequency_hz,
             m.damping_ratio * m.natural_frequency_hz,
@@ -475,7 +481,6 @@ pub fn analyse(file: &str, sc: &Scenario, opts: &RandomOptions) -> Result<Random
             // The complete basis of every mode (the dense eigen-solver): the same solution as
             // on z itself, but the Schur form of the modal state matrix resolves the slow
             // modes to their own rounding, not to the fastest ones'.
-            let all = modes(&lin, lin.dim(), EigenMethod::Dense).map_err(linear_error(file))?;
             let basis = StateSpace::modal_basis(&lin, &all, &forces).map_err(linear_error(file))?;
             let complete = basis.ncols() == lin.dim();
             variances = solve(complete.then_some(basis), &mut report)?;

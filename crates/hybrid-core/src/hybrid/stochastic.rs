@@ -515,25 +515,41 @@ impl StateSpace {
         tol: f64,
         max_intervals: usize,
     ) -> Result<Quadrature, LinearError> {
+        // On the complex Schur form A = U T U^H: (i w - A)^-1 B = U (i w - T)^-1 U^H B, one
+        // triangular solve (O(N^2)) per input and frequency.
         let n = self.a.nrows();
-        let ac = self.a.map(|v| C64::new(v, 0.0));
-        let bc = self.b.map(|v| C64::new(v, 0.0));
+        let cap = 30 * n.max(10);
+        let schur = nalgebra::Schur::try_new(self.a.map(|v| C64::new(v, 0.0)), f64::EPSILON, cap)
+            .ok_or(LinearError::NoEigenConvergence {
+                what: "complex Schur form of the state matrix",
+                iterations: cap,
+                size: n,
+            })?;
+        let (u, t) = schur.unpack();
+        let ub = u.adjoint() * self.b.map(|v| C64::new(v, 0.0));
+        let cu: Vec<DVector<C64>> = rows
+            .iter()
+            .map(|c| u.transpose() * c.map(|v| C64::new(v, 0.0)))
+            .collect();
+        let mut y = DVector::<C64>::zeros(n);
         let mut eval = |f: f64, out: &mut [f64]| -> Result<usize, LinearError> {
             out.fill(0.0);
             let omega = 2.0 * std::f64::consts::PI * f;
-            let s = DMatrix::from_diagonal_element(n, n, C64::new(0.0, omega)) - &ac;
-            let Some(x) = s.lu().solve(&bc) else {
-                return Err(LinearError::NotStable {
-                    eigenvalue: [0.0, omega],
-                });
-            };
+            let iw = C64::new(0.0, omega);
             for (k, g) in psds.iter().enumerate() {
                 let g = g(f);
                 if g == 0.0 {
                     continue;
                 }
-                for (c, out) in rows.iter().zip(out.iter_mut()) {
-                    let h: C64 = c.iter().zip(x.column(k).iter()).map(|(c, x)| x * *c).sum();
+                for i in (0..n).rev() {
+                    let mut s = ub[(i, k)];
+                    for l in i + 1..n {
+                        s += t[(i, l)] * y[l];
+                    }
+                    y[i] = s / (iw - t[(i, i)]);
+                }
+                for (c, out) in cu.iter().zip(out.iter_mut()) {
+                    let h: C64 = c.iter().zip(y.iter()).map(|(c, y)| c * y).sum();
                     *out += h.norm_sqr() * g;
                 }
             }
