@@ -170,7 +170,10 @@ mod tests {
         let dt = 1e-3;
         for i in 0..=100_000 {
             let t = i as f64 * dt;
-            s.push(t, [3.0 + 2.0 * (2.0 * std::f64::consts::PI * 50.0 * t).sin()].into_iter());
+            s.push(
+                t,
+                [3.0 + 2.0 * (2.0 * std::f64::consts::PI * 50.0 * t).sin()].into_iter(),
+            );
         }
         assert_eq!(s.samples(), 90_001);
         let [r, se] = s.rms(0, true);

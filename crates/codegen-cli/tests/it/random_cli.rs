@@ -144,7 +144,10 @@ fn time_domain_realisation_agrees_with_the_closed_forms() {
         );
     };
     let outputs = r["outputs"].as_array().unwrap();
-    let theta = outputs.iter().find(|o| o["name"] == "absorber/theta").unwrap();
+    let theta = outputs
+        .iter()
+        .find(|o| o["name"] == "absorber/theta")
+        .unwrap();
     within(
         "theta",
         theta["rms"].as_f64().unwrap(),
@@ -247,8 +250,14 @@ fn psd_table_file_matches_the_band_limited_white_noise() {
         .iter()
         .zip(w["outputs"].as_array().unwrap())
     {
-        let (a, b) = (a["rms"].as_f64().unwrap().powi(2), b["rms"].as_f64().unwrap().powi(2));
-        assert!(a <= b * (1.0 + 1e-9) && a >= b * (1.0 - oob - 1e-6), "{a} vs {b}");
+        let (a, b) = (
+            a["rms"].as_f64().unwrap().powi(2),
+            b["rms"].as_f64().unwrap().powi(2),
+        );
+        assert!(
+            a <= b * (1.0 + 1e-9) && a >= b * (1.0 - oob - 1e-6),
+            "{a} vs {b}"
+        );
     }
 }
 
@@ -269,7 +278,10 @@ fn bad_random_input_is_one_line() {
         .unwrap()
         .replace("amplitude = 0.05                # N\n", "");
     let p = scenario_file("noamp", &harmonic);
-    assert_bad_input(&["simulate", &p], &["noamp.toml:", "missing field `amplitude`"]);
+    assert_bad_input(
+        &["simulate", &p],
+        &["noamp.toml:", "missing field `amplitude`"],
+    );
     assert_bad_input(
         &["random", "scenarios/forced_damper.toml"],
         &["no random excitation"],

@@ -521,10 +521,10 @@ impl StateSpace {
         let cap = 30 * n.max(10);
         let schur = nalgebra::Schur::try_new(self.a.map(|v| C64::new(v, 0.0)), f64::EPSILON, cap)
             .ok_or(LinearError::NoEigenConvergence {
-                what: "complex Schur form of the state matrix",
-                iterations: cap,
-                size: n,
-            })?;
+            what: "complex Schur form of the state matrix",
+            iterations: cap,
+            size: n,
+        })?;
         let (u, t) = schur.unpack();
         let ub = u.adjoint() * self.b.map(|v| C64::new(v, 0.0));
         let cu: Vec<DVector<C64>> = rows
