@@ -491,7 +491,7 @@ pub fn analyse(file: &str, sc: &Scenario, opts: &RandomOptions) -> Result<Random
                 .map_err(linear_error(file))?;
             let vh = solve(Some(half), &mut report)?;
             let basis =
-                StateSpace::modal_basis(&lin, &found, &forces).map_err(linear_error(file))?;
+                StateSpace::modal_basis(&lin, found, &forces).map_err(linear_error(file))?;
             variances = solve(Some(basis), &mut report)?;
             report.truncation = Some(
                 variances

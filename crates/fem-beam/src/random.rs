@@ -38,8 +38,9 @@ use crate::spec::TimeFunction;
 /// so that two excitations are independent).
 pub const DEFAULT_SEED: u64 = 20_260_101;
 
-/// The largest realisation grid (`2^27` samples, 1 GiB: a run beyond it is refused).
-pub const MAX_SAMPLES: usize = 1 << 27;
+/// The largest realisation grid (`2^25` samples: 512 MiB of complex FFT buffer, past the
+/// runs' step limit of 2e7; a longer run is refused).
+pub const MAX_SAMPLES: usize = 1 << 25;
 
 /// A realisation of a random kind on a uniform, periodic grid (see the module
 /// documentation).
@@ -229,6 +230,9 @@ pub fn realise(
         });
     }
     let m = (needed as usize).next_power_of_two().max(4);
+    if m > MAX_SAMPLES {
+        return Err(RealiseError::TooLong { samples: m });
+    }
     let df = 1.0 / (m as f64 * dt);
     let nyquist = 0.5 / dt;
     let limit = nyquist - 0.5 * df;

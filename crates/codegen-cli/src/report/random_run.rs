@@ -176,10 +176,12 @@ mod tests {
             );
         }
         assert_eq!(s.samples(), 90_001);
+        // Each batch holds 225 periods and one sample more (its start): the moments are
+        // exact to about 1 / 4500 of the sine's swing per batch.
         let [r, se] = s.rms(0, true);
-        assert!((r - 2f64.sqrt()).abs() < 1e-6, "{r}");
-        assert!(se < 1e-6);
+        assert!((r - 2f64.sqrt()).abs() < 2e-5, "{r}");
+        assert!(se < 2e-5, "{se}");
         let [ms, _] = s.second_moment(0, false);
-        assert!((ms - 11.0).abs() < 1e-6, "{ms}");
+        assert!((ms - 11.0).abs() < 2e-4, "{ms}");
     }
 }

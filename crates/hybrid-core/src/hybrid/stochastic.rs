@@ -566,6 +566,10 @@ impl StateSpace {
     }
 }
 
+/// The integrand of [`integrate_psd`]: writes every output's value at `f` (Hz), returns the
+/// solves it made.
+pub type Integrand<'a> = dyn FnMut(f64, &mut [f64]) -> Result<usize, LinearError> + 'a;
+
 /// `∫ integrand(f) df` over `[f_lo, f_hi]` (`f_hi` may be infinite) for `no` outputs at
 /// once, `eval(f, out)` writing the integrand of every output at `f` (Hz) and returning the
 /// solves it made: adaptive Gauss–Kronrod quadrature on the intervals between `breakpoints`
@@ -573,7 +577,7 @@ impl StateSpace {
 /// intervals (then the result as it stands, its error estimates above the tolerance: an
 /// integrand whose rounding noise is above the tolerance stops there).
 pub fn integrate_psd(
-    eval: &mut dyn FnMut(f64, &mut [f64]) -> Result<usize, LinearError>,
+    eval: &mut Integrand<'_>,
     no: usize,
     (f_lo, f_hi): (f64, f64),
     breakpoints: &[f64],

@@ -38,12 +38,15 @@
 //! [[excitation]]
 //! name = "shaker"
 //! at = { x = 1.0 }           # transverse beam force, or { mechanism = "left", joint = "crank" }
-//! amplitude = 0.5            # N (N m on a revolute joint)
+//! amplitude = 0.5            # N (N m on a revolute joint); not with a random time
 //! time = { kind = "harmonic", frequency_hz = 6.2, phase = 0.0 }
 //! # or { kind = "step", at = 0.1 }, { kind = "constant" },
 //! # { kind = "table", points = [[0.0, 0.0], [0.1, 1.0]] } or
 //! # { kind = "table", file = "force.csv" } (t,value rows, piecewise linear, relative to the
-//! #   scenario file; an optional header line)
+//! #   scenario file; an optional header line), or random (no amplitude: the PSD carries the
+//! #   level; see `damper random`): { kind = "white_noise", psd = 1e-4, band = [0.5, 500.0] },
+//! #   { kind = "psd", table = [[f, G], ...] } or { kind = "psd", file = "psd.csv" } (f,G rows),
+//! #   each with an optional seed = N of the time-domain realisation
 //! [initial]                  # optional: the beam in the static shape of a point load at x,
 //! displacement = 0.001       #   scaled to this displacement there (m); at rest otherwise
 //! x = 1.0
