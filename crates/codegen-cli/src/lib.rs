@@ -33,6 +33,7 @@ pub mod interrupt;
 pub mod linear;
 pub mod optimize;
 pub mod progress;
+pub mod random;
 pub mod report;
 pub mod run;
 pub mod run_hybrid;

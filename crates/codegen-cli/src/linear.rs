@@ -246,7 +246,10 @@ fn linearise(
 
 /// A loaded scenario built for linearisation and linearised about its static equilibrium
 /// (the generators as the scenario says).
-fn linearise_scenario(file: &str, sc: &Scenario) -> Result<(Linearizable, Linearization), Error> {
+pub(crate) fn linearise_scenario(
+    file: &str,
+    sc: &Scenario,
+) -> Result<(Linearizable, Linearization), Error> {
     let input = tangents_for(sc)?;
     let lin = linearise(file, &input.model, &input.tangent_refs())?;
     Ok((input, lin))

@@ -10,7 +10,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use codegen_cli::commands::{
-    eval, frf, generate, linearize, merge, modes, optimize, simulate, sweep,
+    eval, frf, generate, linearize, merge, modes, optimize, random, simulate, sweep,
 };
 
 /// Design and verification of electromagnetic vibration dampers (beam + mechanism + generator)
@@ -70,6 +70,11 @@ enum Command {
     /// Multi-start (a coarse grid, then COBYLA from its best feasible points) over numeric
     /// scenario fields; the optimum, its active constraints and the KKT residual.
     Optimize(optimize::Args),
+    /// Stationary random response under the scenario's white-noise or PSD excitations
+    ///
+    /// RMS of beam points and mechanism coordinates, generator currents and rotor speeds,
+    /// mean generator and load power: Lyapunov equation (dense or modal) or PSD integration.
+    Random(random::Args),
 }
 
 /// The longest error line printed (characters): past it the remaining problems are counted,
@@ -127,6 +132,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Merge(args) => merge::run(args)?,
         Command::Frf(args) => frf::run(args)?,
         Command::Optimize(args) => optimize::run(args)?,
+        Command::Random(args) => random::run(args)?,
     }
     Ok(())
 }

@@ -23,11 +23,14 @@
 //! plot need is kept row by row in memory independent of `t_end` (running peaks and sums,
 //! the online decay estimate, the plot's min/max decimation: [`crate::report::digest`]).
 
+use crate::report::random_run::{
+    BATCHES, BatchStats, GeneratorEstimate, RandomRunReport, RealisationReport, RmsEstimate,
+};
 use std::collections::BTreeMap;
 use std::path::Path;
 
 use hybrid_core::decay::DecayTracker;
-use hybrid_core::hybrid::{BeamPoint, Integrator, RunError, RunOptions, run};
+use hybrid_core::hybrid::{BeamPoint, HybridModel, Integrator, RunError, RunOptions, run};
 use indicatif::ProgressBar;
 
 use crate::Error;
@@ -439,6 +442,13 @@ pub fn evaluate<'a>(
     let (mut z, mut zd) = (vec![0.0; model.beam_dofs()], vec![0.0; model.beam_dofs()]);
     let mut e0 = None;
     let mut output_rows: u64 = 0;
+    // Under random excitation: the stationary statistics (report::random_run), their names.
+    let random_signals = random_signal_names(model);
+    let mut random_stats = model
+        .excitations
+        .iter()
+        .any(|e| matches!(e.time, fem_beam::TimeFunction::Sampled(_)))
+        .then(|| BatchStats::new(random_signals.len(), sc.integrator.t_end));
     let mut amplification = Vec::with_capacity(na);
     let bar = progress_bar(progress);
     let outcome = run(
@@ -498,6 +508,9 @@ pub fn evaluate<'a>(
             }
             if let Some(s) = &mut steady {
                 s.push(state);
+            }
+            if let Some(st) = &mut random_stats {
+                st.push(state.t, random_signals_of(model, state));
             }
             output_rows += 1;
             if crate::interrupt::stop_requested() {
@@ -714,6 +727,7 @@ pub fn evaluate<'a>(
                 cond_after: r.condition.1,
             })
             .collect(),
+        random: random_stats.map(|st| random_report(model, &random_signals, &st)),
         comparisons: BTreeMap::new(),
     };
 
@@ -729,6 +743,126 @@ enum Halt {
     Csv(::csv::Error),
     /// [`crate::interrupt::request_stop`] was called.
     Interrupted,
+}
+
+/// The signals of a run under random excitation, as `damper random` names them, with
+/// their units and whether they are centred: every attachment's `w` and `w'`, every
+/// mechanism coordinate and rate, every generator's current (not centred) and rotor speed.
+fn random_signal_names(model: &HybridModel) -> Vec<(String, String, bool)> {
+    let mut out = vec![];
+    for a in &model.attachments {
+        out.push((format!("w(x={})", a.beam.x), "m".to_string(), true));
+        out.push((format!("w(x={})'", a.beam.x), "m/s".to_string(), true));
+    }
+    for m in &model.mechanisms {
+        let units = m.system.coordinate_units();
+        for (j, n) in m.system.coordinate_names().iter().enumerate() {
+            let u = units[j].symbol();
+            out.push((format!("{}/{n}", m.name), u.to_string(), true));
+            out.push((format!("{}/{n}'", m.name), format!("{u}/s"), true));
+        }
+    }
+    for f in model.forces.iter().filter(|f| f.generator().is_some()) {
+        out.push((format!("{}.current", f.name), "A".to_string(), false));
+        out.push((format!("{}.rotor_speed", f.name), "rad/s".to_string(), true));
+    }
+    out
+}
+
+/// The values of [`random_signal_names`] in a state.
+fn random_signals_of<'s>(
+    model: &'s HybridModel,
+    state: &'s hybrid_core::hybrid::HybridState,
+) -> impl Iterator<Item = f64> + 's {
+    let beam = model
+        .attachments
+        .iter()
+        .flat_map(move |a| [a.beam.value(&state.q), a.beam.value(&state.v)]);
+    let mech = state
+        .mechanisms
+        .iter()
+        .flat_map(|m| m.q.iter().zip(&m.qd).flat_map(|(q, qd)| [*q, *qd]));
+    let gens = model.forces.iter().enumerate().filter_map(move |(k, f)| {
+        let g = f.generator()?;
+        Some([
+            state.currents[k],
+            g.gear_ratio * state.mechanisms[f.mechanism].qd[f.joint],
+        ])
+    });
+    beam.chain(mech).chain(gens.flatten())
+}
+
+/// The `random` block of the summary from the run's batch sums.
+fn random_report(
+    model: &HybridModel,
+    names: &[(String, String, bool)],
+    st: &BatchStats,
+) -> RandomRunReport {
+    let realisations = model
+        .excitations
+        .iter()
+        .filter_map(|e| match &e.time {
+            fem_beam::TimeFunction::Sampled(s) => Some(RealisationReport {
+                excitation: e.name.clone(),
+                seed: s.seed(),
+                period: s.period(),
+                mean_square: s.mean_square(),
+                psd_mean_square: s.psd_mean_square(),
+            }),
+            _ => None,
+        })
+        .collect();
+    let ngen = model
+        .forces
+        .iter()
+        .filter(|f| f.generator().is_some())
+        .count();
+    let nout = names.len() - 2 * ngen;
+    let mut outputs: Vec<RmsEstimate> = names[..nout]
+        .iter()
+        .enumerate()
+        .map(|(k, (name, unit, centred))| {
+            let [rms, standard_error] = st.rms(k, *centred);
+            RmsEstimate {
+                name: name.clone(),
+                unit: unit.clone(),
+                rms,
+                standard_error,
+            }
+        })
+        .collect();
+    let mut generators = vec![];
+    for (j, f) in model
+        .forces
+        .iter()
+        .filter(|f| f.generator().is_some())
+        .enumerate()
+    {
+        let g = f.generator().expect("filtered on generators");
+        let (ki, ks) = (nout + 2 * j, nout + 2 * j + 1);
+        let [ms, se] = st.second_moment(ki, false);
+        let [rms, standard_error] = st.rms(ks, true);
+        outputs.push(RmsEstimate {
+            name: names[ks].0.clone(),
+            unit: names[ks].1.clone(),
+            rms,
+            standard_error,
+        });
+        generators.push(GeneratorEstimate {
+            name: f.name.clone(),
+            rms_current: st.rms(ki, false),
+            mean_power_dissipated: [g.resistance() * ms, g.resistance() * se],
+            mean_power_load: [g.load_resistance * ms, g.load_resistance * se],
+        });
+    }
+    RandomRunReport {
+        realisations,
+        from: st.from(),
+        batches: BATCHES,
+        samples: st.samples(),
+        outputs,
+        generators,
+    }
 }
 
 /// The modal filter of the first linearised mode of a built hybrid scenario

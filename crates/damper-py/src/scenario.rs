@@ -394,6 +394,48 @@ fn toml_to_py<'py>(py: Python<'py>, v: &toml_edit::Value) -> PyResult<Bound<'py,
     json(py, &text)
 }
 
+/// The linear stationary response to the scenario's random excitations as `damper random
+/// --json` prints it (`outputs`, `generators`, `method`, ...), as a JSON object.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub fn random<'py>(
+    py: Python<'py>,
+    text: String,
+    file: String,
+    base: String,
+    sets: Vec<(String, Bound<'py, PyAny>)>,
+    outputs: Vec<String>,
+    method: String,
+    modes: usize,
+) -> PyResult<Bound<'py, PyAny>> {
+    let method = codegen_cli::random::RandomMethod::parse(&method).ok_or_else(|| {
+        PyValueError::new_err(format!(
+            "method {method:?}: expected auto, dense, modal or quadrature"
+        ))
+    })?;
+    if modes == 0 {
+        return Err(PyValueError::new_err("modes must be at least 1"));
+    }
+    let src = Source::new(text, file, base, sets)?;
+    let report = interruptible(py, || {
+        let loaded = src.load()?;
+        codegen_cli::random::analyse(
+            &src.file,
+            &loaded.scenario,
+            &codegen_cli::random::RandomOptions {
+                method,
+                modes,
+                outputs: outputs.clone(),
+            },
+        )
+        .map_err(|e| remapped(&loaded, e))
+    })?
+    .map_err(|e| to_py(py, e, Input::Scenario))?;
+    let bytes = serde_json::to_vec(&report)
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+    json(py, &bytes)
+}
+
 /// The best design as `damper optimize --json` prints it (the optimum, the objective, every
 /// constraint, the KKT residual, the history), as a JSON object.
 #[pyfunction]

@@ -143,3 +143,16 @@ def test_optimize_equals_the_cli(scenario: str, monkeypatch: pytest.MonkeyPatch,
     assert got == expected
     with pytest.raises(ValueError, match="one of"):
         damper.Scenario.load("scenarios/damper.toml").optimize({"mechanism.half_angle_deg": (20, 70)})
+
+
+@pytest.mark.parametrize("scenario", ["scenarios/random_damper.toml", "scenarios/random_base_damper.toml"])
+@pytest.mark.parametrize("method", ["dense", "modal"])
+def test_random_equals_the_cli(scenario: str, method: str, monkeypatch: pytest.MonkeyPatch, root: Path) -> None:
+    monkeypatch.chdir(root)
+    expected = json.loads(cli("random", scenario, "--method", method, "--json").stdout)
+    got = damper.Scenario.load(scenario).random(method=method)
+    assert got == expected
+    tip = damper.Scenario.load(scenario).random(outputs=["1.0"], method=method)
+    assert [o["name"] for o in tip["outputs"]][:2] == ["w(x=1)", "w(x=1)'"]
+    with pytest.raises(ValueError, match="expected auto"):
+        damper.Scenario.load(scenario).random(method="fast")

@@ -305,6 +305,14 @@ fn check_representable(
 }
 
 fn check_time(errors: &mut Vec<InputError>, entity: Entity, time: &TimeFunction) {
+    if time.is_random() {
+        errors.push(InputError::Choice {
+            entity,
+            field: "time",
+            message: "a random kind (white_noise, psd) drives an [[excitation]], not a beam load",
+        });
+        return;
+    }
     for e in time.problems() {
         errors.push(match e {
             TimeFunctionError::NotFinite { field, value } => InputError::NotFinite {
@@ -326,6 +334,14 @@ fn check_time(errors: &mut Vec<InputError>, entity: Entity, time: &TimeFunction)
                 entity,
                 field: "time",
                 message: "table times must increase strictly",
+            },
+            // Random kinds are refused above.
+            TimeFunctionError::EmptyBand { .. }
+            | TimeFunctionError::ShortPsdTable
+            | TimeFunctionError::FrequenciesNotIncreasing { .. } => InputError::Choice {
+                entity,
+                field: "time",
+                message: "not a load's time function",
             },
         });
     }

@@ -101,6 +101,7 @@ pub mod element;
 mod error;
 mod modal;
 mod model;
+pub mod random;
 mod source;
 mod spec;
 

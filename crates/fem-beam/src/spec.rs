@@ -27,6 +27,8 @@
 //! x = 1.0
 //! force = -10.0
 //! time = { kind = "harmonic", frequency_hz = 6.5, phase = 0.0 }   # or { kind = "step", at = 0.1 }
+//! # random kinds (see `random`): { kind = "white_noise", psd = 1e-4, band = [1.0, 50.0] }
+//! # or { kind = "psd", table = [[1.0, 1e-4], [50.0, 1e-5]] }, optional seed = 7
 //!
 //! [[distributed_load]]     # uniform transverse load on a segment, N/m (consistent nodal loads)
 //! segment = 0
@@ -282,6 +284,31 @@ pub enum TimeFunction {
         /// `[t (s), value]` points.
         points: Vec<[f64; 2]>,
     },
+    /// Band-limited Gaussian white noise: one-sided PSD `G = psd` per Hz (N²/Hz for a
+    /// force) on `band = [f1, f2]` (Hz), zero outside ([`crate::random`]). The level is in
+    /// the PSD: the excitation has no amplitude.
+    WhiteNoise {
+        /// One-sided PSD `G` per Hz (the excitation's unit squared per Hz).
+        psd: f64,
+        /// `[f1, f2]` (Hz), `0 <= f1 < f2`.
+        band: [f64; 2],
+        /// Seed of the time-domain realisation (a fixed default when omitted).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        seed: Option<u64>,
+    },
+    /// A Gaussian random signal of one-sided PSD `G(f)` per Hz, piecewise linear through
+    /// `table = [[f (Hz), G], ...]` (frequencies strictly increasing), zero outside.
+    Psd {
+        /// `[f (Hz), G (unit²/Hz)]` points.
+        table: Vec<[f64; 2]>,
+        /// Seed of the time-domain realisation (a fixed default when omitted).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        seed: Option<u64>,
+    },
+    /// A realisation of a random kind sampled on a uniform grid, periodic
+    /// ([`crate::random::realise`], made by the setup stage of a run; never read from a file).
+    #[serde(skip)]
+    Sampled(crate::random::Samples),
 }
 
 /// Why a [`TimeFunction`] cannot be used.
@@ -306,6 +333,29 @@ pub enum TimeFunctionError {
     /// A table without points.
     #[error("a table needs at least one [t, value] point")]
     EmptyTable,
+    /// A white-noise band whose upper end is not above its lower end.
+    #[error("time.band = [{f1}, {f2}]: the upper frequency must be above the lower one")]
+    EmptyBand {
+        /// Lower end (Hz).
+        f1: f64,
+        /// Upper end (Hz).
+        f2: f64,
+    },
+    /// A PSD table with fewer than two points.
+    #[error("a PSD table needs at least two [f, G] points")]
+    ShortPsdTable,
+    /// A PSD table whose frequencies do not increase strictly.
+    #[error(
+        "PSD table frequencies must increase strictly: point {index} (f = {f}) does not come after f = {previous}"
+    )]
+    FrequenciesNotIncreasing {
+        /// Index of the offending point (0-based).
+        index: usize,
+        /// Its frequency.
+        f: f64,
+        /// The frequency of the point before it.
+        previous: f64,
+    },
     /// A table whose times do not increase strictly.
     #[error(
         "table times must increase strictly: point {index} (t = {t}) does not come after t = {previous}"
@@ -337,6 +387,40 @@ impl TimeFunction {
                 }
             }
             TimeFunction::Table { points } => table_value(points, t),
+            // Not realised yet (the linear analyses read the PSD): no deterministic value.
+            TimeFunction::WhiteNoise { .. } | TimeFunction::Psd { .. } => 0.0,
+            TimeFunction::Sampled(s) => s.value(t),
+        }
+    }
+
+    /// Whether this is a random kind (`white_noise`, `psd`, or a realisation of one).
+    pub fn is_random(&self) -> bool {
+        matches!(
+            self,
+            TimeFunction::WhiteNoise { .. } | TimeFunction::Psd { .. } | TimeFunction::Sampled(_)
+        )
+    }
+
+    /// The one-sided PSD `G(f)` per Hz at `f` (Hz) of a random kind (zero outside its band or
+    /// table; piecewise linear in a table); `None` for the deterministic kinds and for a
+    /// realisation.
+    pub fn psd(&self, f: f64) -> Option<f64> {
+        match self {
+            TimeFunction::WhiteNoise { psd, band, .. } => Some(if f >= band[0] && f <= band[1] {
+                *psd
+            } else {
+                0.0
+            }),
+            TimeFunction::Psd { table, .. } => Some(crate::random::table_psd(table, f)),
+            _ => None,
+        }
+    }
+
+    /// The written seed of a random kind.
+    pub fn seed(&self) -> Option<u64> {
+        match self {
+            TimeFunction::WhiteNoise { seed, .. } | TimeFunction::Psd { seed, .. } => *seed,
+            _ => None,
         }
     }
 
@@ -395,6 +479,58 @@ impl TimeFunction {
                     });
                 }
             }
+            TimeFunction::WhiteNoise { psd, band, .. } => {
+                if !psd.is_finite() {
+                    out.push(TimeFunctionError::NotFinite {
+                        field: "time.psd",
+                        value: *psd,
+                    });
+                } else if *psd < 0.0 {
+                    out.push(TimeFunctionError::Negative {
+                        field: "time.psd",
+                        value: *psd,
+                    });
+                }
+                if let Some(&v) = band.iter().find(|v| !v.is_finite()) {
+                    out.push(TimeFunctionError::NotFinite {
+                        field: "time.band",
+                        value: v,
+                    });
+                } else if band[0] < 0.0 {
+                    out.push(TimeFunctionError::Negative {
+                        field: "time.band",
+                        value: band[0],
+                    });
+                } else if band[1] <= band[0] {
+                    out.push(TimeFunctionError::EmptyBand {
+                        f1: band[0],
+                        f2: band[1],
+                    });
+                }
+            }
+            TimeFunction::Psd { table, .. } => {
+                if table.len() < 2 {
+                    out.push(TimeFunctionError::ShortPsdTable);
+                }
+                if let Some(&v) = table.iter().flatten().find(|v| !v.is_finite()) {
+                    out.push(TimeFunctionError::NotFinite {
+                        field: "time.table",
+                        value: v,
+                    });
+                } else if let Some(&[f, g]) = table.iter().find(|p| p[0] < 0.0 || p[1] < 0.0) {
+                    out.push(TimeFunctionError::Negative {
+                        field: "time.table",
+                        value: if f < 0.0 { f } else { g },
+                    });
+                } else if let Some(k) = (1..table.len()).find(|&k| table[k][0] <= table[k - 1][0]) {
+                    out.push(TimeFunctionError::FrequenciesNotIncreasing {
+                        index: k,
+                        f: table[k][0],
+                        previous: table[k - 1][0],
+                    });
+                }
+            }
+            TimeFunction::Sampled(_) => {}
         }
         out
     }

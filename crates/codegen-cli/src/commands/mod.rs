@@ -7,5 +7,6 @@ pub mod linearize;
 pub mod merge;
 pub mod modes;
 pub mod optimize;
+pub mod random;
 pub mod simulate;
 pub mod sweep;

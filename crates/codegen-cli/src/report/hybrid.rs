@@ -359,6 +359,10 @@ pub struct HybridSummary<'a> {
     pub energy_balance_rel_error: f64,
     /// Changes of independent coordinates.
     pub repartitions: Vec<RepartitionReport>,
+    /// Under random excitation: the realisations' seeds and the stationary RMS values and
+    /// mean powers with their standard errors ([`super::random_run`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub random: Option<super::random_run::RandomRunReport>,
     /// The comparison runs (`[output] compare`), by key.
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub comparisons: BTreeMap<&'static str, ComparisonReport>,

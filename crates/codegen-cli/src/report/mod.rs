@@ -9,6 +9,7 @@ pub mod hybrid;
 pub mod lock;
 pub mod map;
 pub mod plot;
+pub mod random_run;
 pub mod rows;
 pub mod steady_power;
 pub mod stream;

@@ -35,7 +35,8 @@ pub struct Built {
 /// attachments (points on ground, over-constraint, beam points), builds the hybrid model
 /// and its initial state. Every problem is reported at once.
 pub fn build(sc: &HybridScenario) -> Result<Built, Diagnostics> {
-    let (model, models) = build_model(sc)?;
+    let (mut model, models) = build_model(sc)?;
+    realise_random(sc, &mut model)?;
     let n = model.beam_dofs();
     let q0 = match (sc.initial, &model.beam) {
         (Some((d, x)), Some(b)) => {
@@ -87,6 +88,41 @@ pub fn build(sc: &HybridScenario) -> Result<Built, Diagnostics> {
         state,
         models,
     })
+}
+
+/// Replaces every random excitation's time function by its seeded realisation on the run's
+/// time grid ([`fem_beam::random::realise`]: the step `dt`, covering `t_end`), drawn from
+/// the written seed or [`fem_beam::random::DEFAULT_SEED`] plus the excitation's index: once,
+/// before the run, so that a step only interpolates.
+fn realise_random(sc: &HybridScenario, model: &mut HybridModel) -> Result<(), Diagnostics> {
+    let ig = &sc.integrator;
+    for (k, e) in model.excitations.iter_mut().enumerate() {
+        if !matches!(
+            e.time,
+            fem_beam::TimeFunction::WhiteNoise { .. } | fem_beam::TimeFunction::Psd { .. }
+        ) {
+            continue;
+        }
+        let seed = e
+            .time
+            .seed()
+            .unwrap_or(fem_beam::random::DEFAULT_SEED + k as u64);
+        let samples = fem_beam::random::realise(&e.time, ig.dt, ig.t_end, seed).map_err(|err| {
+            let span = sc
+                .excitations
+                .iter()
+                .find(|x| x.name == e.name)
+                .map(|x| &x.at_span);
+            sc.at(
+                Kind::InvalidValue,
+                span,
+                &format!("excitation \"{}\"", e.name),
+                format!("time: {err}"),
+            )
+        })?;
+        e.time = fem_beam::TimeFunction::Sampled(samples);
+    }
+    Ok(())
 }
 
 /// The hybrid system of the scenario and its mechanism models (in the order of the

@@ -24,6 +24,7 @@ mod modes_cli;
 mod optimize_cli;
 mod output_dir_cli;
 mod preset;
+mod random_cli;
 mod readme_cli;
 mod scenario_loader;
 mod simulate_cli;

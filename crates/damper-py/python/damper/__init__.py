@@ -286,7 +286,19 @@ class Scenario:
         specs = [f"{p}={_num(lo)}:{_num(hi)}" for p, (lo, hi) in vary.items()]
         return dict(_damper.optimize(*self._src(), specs, objective, up, list(constraints), grid, allow_long))
 
-    # `random` (issue: random excitation) is bound here when `damper random` lands.
+    def random(
+        self,
+        outputs: Sequence[str] = (),
+        method: str = "auto",
+        modes: int = 20,
+    ) -> Dict[str, Any]:
+        """The linear stationary response to the scenario's random excitations
+        (``damper random --json``): ``outputs`` as ``--output`` names them (default: every
+        attachment and mechanism coordinate), ``method`` one of ``"auto"``, ``"dense"``,
+        ``"modal"``, ``"quadrature"``, ``modes`` the modal basis. Returns the JSON object
+        (``outputs``: ``{name, unit, rms}``, ``generators``: ``{name, rms_current,
+        rms_rotor_speed, mean_power_dissipated, mean_power_load}``, ``method``, ...)."""
+        return dict(_damper.random(*self._src(), list(outputs), method, modes))
 
     def __repr__(self) -> str:
         return f"Scenario({self._file!r}, kind={self.kind!r}, sets={self._sets!r})"

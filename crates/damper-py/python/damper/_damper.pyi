@@ -17,6 +17,7 @@ __all__ = [
     "model_generate",
     "model_info",
     "optimize",
+    "random",
     "read_scenario",
     "simulate",
     "sweep_grid",
@@ -98,6 +99,15 @@ def optimize(
     constraints: Sequence[str],
     grid: int,
     allow_long: bool,
+) -> Any: ...
+def random(
+    text: str,
+    file: str,
+    base: str,
+    sets: _Sets,
+    outputs: Sequence[str],
+    method: str,
+    modes: int,
 ) -> Any: ...
 def model_info(path: str) -> Tuple[str, List[str], List[Tuple[str, float, bool, bool]]]: ...
 def model_eval(

@@ -190,6 +190,24 @@ pub enum LinearError {
         /// The entry.
         value: f64,
     },
+    /// The (projected) mass matrix of a first-order form is singular.
+    #[error(
+        "the mass matrix of the first-order form (size {size}) is singular: a coordinate without mass (give the mechanism's bodies mass or inertia)"
+    )]
+    SingularMass {
+        /// Its size.
+        size: usize,
+    },
+    /// A stationary random response asked of a system that is not asymptotically stable.
+    #[error(
+        "the linearised system has the eigenvalue {}{:+}i, not in the open left half-plane: no stationary random response (a rigid or undamped motion, or an unstable equilibrium)",
+        eigenvalue[0],
+        eigenvalue[1]
+    )]
+    NotStable {
+        /// The eigenvalue (1/s): real and imaginary parts.
+        eigenvalue: [f64; 2],
+    },
     /// An iterative eigenvalue computation reached its iteration cap.
     #[error(
         "the {what} did not converge within {iterations} iterations (size {size}): the linearised system is too ill-scaled for its eigenvalues to be computed"

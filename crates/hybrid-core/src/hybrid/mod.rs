@@ -77,6 +77,7 @@ mod placement;
 pub mod reference;
 mod run;
 mod steady;
+mod stochastic;
 mod variants;
 
 pub use eigen::{EigenMethod, Mode, ModeKind, modes};
@@ -99,6 +100,7 @@ pub use steady::{
     SteadyError, SteadyOptions, SteadyState, output_value, rest_state, steady_state, steady_states,
     warped_frequency,
 };
+pub use stochastic::{PsdInput, Quadrature, StateOutput, StateSpace, lyapunov, psd_variances};
 
 use crate::partition::choose_partition;
 use follow::Follower;

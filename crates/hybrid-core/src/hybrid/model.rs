@@ -319,8 +319,11 @@ impl Excitation {
     ///   from rest at `t = 0` (`u(0) = v(0) = 0`; the table is piecewise linear, so its
     ///   integrals are exact piecewise polynomials).
     ///
-    /// A time function added later gives its own (a random kind: the realisation's
-    /// integral). Allocation-free; `O(points)` for a table.
+    /// - a random kind's realisation ([`fem_beam::TimeFunction::Sampled`]): its zero-mean
+    ///   periodic integrals (exact at the realisation's grid, linear between); an unrealised
+    ///   random kind (never run) has none: `(0, 0)`.
+    ///
+    /// Allocation-free; `O(points)` for a table.
     pub fn support_motion(&self, t: f64) -> (f64, f64) {
         let a = self.amplitude;
         match &self.time {
@@ -359,6 +362,11 @@ impl Excitation {
                 }
                 (a * u, a * v)
             }
+            TimeFunction::Sampled(s) => {
+                let (u, v) = s.integrals(t);
+                (a * u, a * v)
+            }
+            TimeFunction::WhiteNoise { .. } | TimeFunction::Psd { .. } => (0.0, 0.0),
         }
     }
 }

@@ -154,16 +154,19 @@ pub(super) fn usage(msg: impl Into<String>) -> Error {
     Error::Usage(msg.into())
 }
 
-/// Resolves `--output`, `--excitation` and `--force` against the model (`lin`: its
-/// linearisation with the generator, whose equilibrium gives the remaining reaches).
-pub(super) fn resolve(args: &Args, lz: &Linearizable, lin: &Linearization) -> Result<Io, Error> {
-    let model = &lz.model;
-    let (output, output_label, response_unit) = match args.output.split_once('/') {
+/// An output named as `--output` takes it (frf, random): a beam abscissa in m (`1.0`: the
+/// transverse displacement there) or `MECHANISM/COORDINATE`; its target (the same
+/// generalised vector as a force there), label and unit.
+pub(crate) fn parse_output(
+    model: &HybridModel,
+    output: &str,
+) -> Result<(ExcitationTarget, String, &'static str), Error> {
+    Ok(match output.split_once('/') {
         None => {
-            let x: f64 = args.output.trim().parse().map_err(|_| {
+            let x: f64 = output.trim().parse().map_err(|_| {
                 usage(format!(
                     "--output {:?}: give a beam abscissa in m (1.0) or MECHANISM/COORDINATE",
-                    args.output
+                    output
                 ))
             })?;
             let beam = model
@@ -204,7 +207,14 @@ pub(super) fn resolve(args: &Args, lz: &Linearizable, lin: &Linearization) -> Re
                 unit.symbol(),
             )
         }
-    };
+    })
+}
+
+/// Resolves `--output`, `--excitation` and `--force` against the model (`lin`: its
+/// linearisation with the generator, whose equilibrium gives the remaining reaches).
+pub(super) fn resolve(args: &Args, lz: &Linearizable, lin: &Linearization) -> Result<Io, Error> {
+    let model = &lz.model;
+    let (output, output_label, response_unit) = parse_output(model, &args.output)?;
     let harmonic = |e: &Excitation| matches!(e.time, TimeFunction::Harmonic { .. });
     let chosen = match &args.excitation {
         Some(name) => Some(

@@ -70,6 +70,7 @@ use crate::scenario::{self, Scenario};
 use crate::setup::{Linearizable, tangents_for};
 use hybrid_core::hybrid::Linearization;
 
+pub(crate) use analysis::parse_output;
 pub use analysis::{LinearRow, NonlinearRow, Receptance, grid};
 use analysis::{linear_rows, nonlinear_rows, resolve, usage};
 use report::outputs;

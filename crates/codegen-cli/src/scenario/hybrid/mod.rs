@@ -41,12 +41,15 @@
 //! at = { x = 1.0 }           # transverse beam force, or { mechanism = "left", joint = "crank" }
 //!                            # or "base": the supports' transverse acceleration (every
 //!                            #   mass loaded by -m a_b in the frame moving with them)
-//! amplitude = 0.5            # N (N m on a revolute joint; m/s^2 at "base")
+//! amplitude = 0.5            # N (N m on a revolute joint; m/s^2 at "base"); not with a random time
 //! time = { kind = "harmonic", frequency_hz = 6.2, phase = 0.0 }
 //! # or { kind = "step", at = 0.1 }, { kind = "constant" },
 //! # { kind = "table", points = [[0.0, 0.0], [0.1, 1.0]] } or
 //! # { kind = "table", file = "force.csv" } (t,value rows, piecewise linear, relative to the
-//! #   scenario file; an optional header line)
+//! #   scenario file; an optional header line), or random (no amplitude: the PSD carries the
+//! #   level; see `damper random`): { kind = "white_noise", psd = 1e-4, band = [0.5, 500.0] },
+//! #   { kind = "psd", table = [[f, G], ...] } or { kind = "psd", file = "psd.csv" } (f,G rows),
+//! #   each with an optional seed = N of the time-domain realisation
 //! [initial]                  # optional: the beam in the static shape of a point load at x,
 //! displacement = 0.001       #   scaled to this displacement there (m); at rest otherwise
 //! x = 1.0

@@ -446,7 +446,6 @@ fn excitations(
         };
         unique(doc, &mut seen, &e.name, "excitation");
         let entity = format!("excitation \"{}\"", e.name.get_ref());
-        let amplitude = finite(doc, &e.amplitude, &entity);
         let Some(at) = taken.remove("at") else {
             let msg = "missing field `at` (e.g. { x = 1.0 }, { mechanism = ..., joint = ... } or \"base\")";
             doc.push(Kind::MissingField, Some(v.span()), Some(&entity), msg);
@@ -462,6 +461,23 @@ fn excitations(
                 None
             }
             Some(t) => time_function(doc, t, &entity),
+        };
+        // A random time carries its level in the PSD; every other kind needs an amplitude.
+        let amplitude = match (&e.amplitude, &time) {
+            (Some(a), Some(t)) if t.is_random() => {
+                let msg = "a random time (white_noise, psd) carries its level in the PSD: remove `amplitude`";
+                doc.push(Kind::InvalidValue, Some(a.span()), Some(&entity), msg);
+                f64::NAN
+            }
+            (Some(a), _) => finite(doc, a, &entity),
+            (None, Some(t)) if t.is_random() => 1.0,
+            (None, Some(_)) => {
+                let msg =
+                    "missing field `amplitude` (N, or N m on a revolute joint; m/s^2 at \"base\")";
+                doc.push(Kind::MissingField, Some(v.span()), Some(&entity), msg);
+                f64::NAN
+            }
+            (None, None) => f64::NAN,
         };
         match (target, time) {
             (Some(target), Some(time)) if amplitude.is_finite() => {

@@ -75,7 +75,9 @@ pub(super) struct RawSpring {
 #[serde(deny_unknown_fields)]
 pub(super) struct RawExcitation {
     pub(super) name: Spanned<String>,
-    pub(super) amplitude: Spanned<f64>,
+    /// Absent for a random `time` (its PSD carries the level), required otherwise.
+    #[serde(default)]
+    pub(super) amplitude: Option<Spanned<f64>>,
 }
 
 /// The table form of an excitation's `at` (its string form `"base"` is read apart).

@@ -12,7 +12,8 @@ use super::checks::{de, split};
 use crate::scenario::Doc;
 
 /// An excitation's `time`: a [`TimeFunction`] as fem-beam reads it, or
-/// `{ kind = "table", file = "..." }` read from a CSV file of `t,value` rows.
+/// `{ kind = "table", file = "..." }` read from a CSV file of `t,value` rows, or
+/// `{ kind = "psd", file = "...", seed = ... }` from a CSV file of `f,G` rows.
 pub(super) fn time_function<'a>(
     doc: &mut Doc<'a>,
     t: Spanned<DeValue<'a>>,
@@ -23,18 +24,29 @@ pub(super) fn time_function<'a>(
         Some(f) => {
             let span = f.span();
             let name = de::<String>(doc, f, entity)?;
-            let (kind, extra) = split(&rest, &["kind"]);
-            let is_table = kind
-                .get("kind")
-                .is_some_and(|k| matches!(k.get_ref(), DeValue::String(s) if s == "table"));
+            let (mut kind, extra) = split(&rest, &["kind"]);
+            let kind = kind.remove("kind").and_then(|k| match k.get_ref() {
+                DeValue::String(s) => Some(s.to_string()),
+                _ => None,
+            });
+            let (mut seed, extra) = split(&extra, &["seed"]);
             let extra_empty = matches!(extra.get_ref(), DeValue::Table(t) if t.is_empty());
-            if !is_table || !extra_empty {
-                let msg = "time: `file` goes with kind = \"table\" and nothing else";
+            let seed_ok = seed.is_empty() || kind.as_deref() == Some("psd");
+            if !matches!(kind.as_deref(), Some("table" | "psd")) || !extra_empty || !seed_ok {
+                let msg = "time: `file` goes with kind = \"table\" (and nothing else) or kind = \"psd\" (and an optional seed)";
                 doc.push(Kind::InvalidValue, Some(span), Some(entity), msg);
                 return None;
             }
+            let seed = match seed.remove("seed") {
+                Some(s) => Some(de::<u64>(doc, s, entity)?),
+                None => None,
+            };
             let path = doc.base().join(&name);
             match read_table(&path) {
+                Ok(points) if kind.as_deref() == Some("psd") => TimeFunction::Psd {
+                    table: points,
+                    seed,
+                },
                 Ok(points) => TimeFunction::Table { points },
                 Err(d) => {
                     doc.diags.0.extend(d.0);

@@ -1,0 +1,187 @@
+//! The stationary figures of a run under random excitation (issue #20): the seed of every
+//! realisation, and over the stationary part of the run the RMS of the outputs `damper
+//! random` reports (every attachment's beam displacement and velocity, every mechanism
+//! coordinate and rate, every generator's current and rotor speed) and each generator's mean
+//! dissipated and load power, each with its standard error.
+//!
+//! **Stationary part**: the run from [`TRANSIENT_FRACTION`] of `t_end` on (the scenario's
+//! `t_end` should leave several decay time constants `1 / (zeta_1 omega_1)` of the first mode
+//! before that: `random_damper.toml` skips 6.5 s, 10 of them).
+//!
+//! **Standard error by batch means**: the stationary part is cut into [`BATCHES`] batches of
+//! equal duration; per batch the variance of each output about the batch's own mean (the
+//! coordinates' equilibrium is not zero) and the mean square of each current; the figure is
+//! the mean over the batches and its standard error is the batches' standard deviation over
+//! `sqrt(BATCHES)` (batches much longer than the correlation time are nearly independent).
+//! The RMS's error is the variance's over `2 RMS`. Memory is flat: sums per batch and output.
+
+use serde::Serialize;
+
+/// Share of the run skipped as the transient.
+pub const TRANSIENT_FRACTION: f64 = 0.1;
+/// Batches of the batch-means standard error.
+pub const BATCHES: usize = 20;
+
+/// A realisation's seed and level.
+#[derive(Clone, Debug, Serialize)]
+pub struct RealisationReport {
+    /// The excitation.
+    pub excitation: String,
+    /// The seed drawn from.
+    pub seed: u64,
+    /// Period of the realisation (s), at least the run.
+    pub period: f64,
+    /// Mean square of the realisation over its period.
+    pub mean_square: f64,
+    /// `∫ G df` of the written PSD.
+    pub psd_mean_square: f64,
+}
+
+/// One output's RMS with its standard error.
+#[derive(Clone, Debug, Serialize)]
+pub struct RmsEstimate {
+    /// As `damper random` names it.
+    pub name: String,
+    /// SI unit.
+    pub unit: String,
+    /// RMS about its mean over the stationary part.
+    pub rms: f64,
+    /// Its standard error.
+    pub standard_error: f64,
+}
+
+/// One generator's figures over the stationary part.
+#[derive(Clone, Debug, Serialize)]
+pub struct GeneratorEstimate {
+    /// The force element.
+    pub name: String,
+    /// RMS current (A) and its standard error.
+    pub rms_current: [f64; 2],
+    /// Mean power dissipated in `R_a + R_L` (W) and its standard error.
+    pub mean_power_dissipated: [f64; 2],
+    /// Mean power in the load (W) and its standard error.
+    pub mean_power_load: [f64; 2],
+}
+
+/// The `random` block of a run's summary.
+#[derive(Clone, Debug, Serialize)]
+pub struct RandomRunReport {
+    /// Every random excitation's realisation.
+    pub realisations: Vec<RealisationReport>,
+    /// Start of the stationary part (s).
+    pub from: f64,
+    /// Batches of the standard errors.
+    pub batches: usize,
+    /// Samples (output rows) in the stationary part.
+    pub samples: u64,
+    /// The outputs.
+    pub outputs: Vec<RmsEstimate>,
+    /// The generators (and their rotor speeds among the outputs).
+    pub generators: Vec<GeneratorEstimate>,
+}
+
+/// Streaming sums per batch of `n` signals.
+#[derive(Clone, Debug)]
+pub struct BatchStats {
+    from: f64,
+    width: f64,
+    /// Per batch: count, then per signal (sum, sum of squares).
+    count: Vec<u64>,
+    sums: Vec<Vec<[f64; 2]>>,
+}
+
+impl BatchStats {
+    /// Sums of `n` signals over `[TRANSIENT_FRACTION t_end, t_end]`.
+    pub fn new(n: usize, t_end: f64) -> Self {
+        let from = TRANSIENT_FRACTION * t_end;
+        BatchStats {
+            from,
+            width: (t_end - from) / BATCHES as f64,
+            count: vec![0; BATCHES],
+            sums: vec![vec![[0.0; 2]; n]; BATCHES],
+        }
+    }
+
+    /// Start of the stationary part.
+    pub fn from(&self) -> f64 {
+        self.from
+    }
+
+    /// Adds the sample `x` (one value per signal) at `t` (ignored in the transient).
+    pub fn push(&mut self, t: f64, x: impl Iterator<Item = f64>) {
+        if t < self.from || self.width <= 0.0 {
+            return;
+        }
+        let b = (((t - self.from) / self.width) as usize).min(BATCHES - 1);
+        self.count[b] += 1;
+        for (s, v) in self.sums[b].iter_mut().zip(x) {
+            s[0] += v;
+            s[1] += v * v;
+        }
+    }
+
+    /// Samples in the stationary part.
+    pub fn samples(&self) -> u64 {
+        self.count.iter().sum()
+    }
+
+    /// Signal `k`'s variance about the batch means (`centred`) or mean square, and its
+    /// standard error (module documentation); `[0, 0]` without samples.
+    pub fn second_moment(&self, k: usize, centred: bool) -> [f64; 2] {
+        let per: Vec<f64> = self
+            .count
+            .iter()
+            .zip(&self.sums)
+            .filter(|(c, _)| **c > 0)
+            .map(|(&c, s)| {
+                let (m, ms) = (s[k][0] / c as f64, s[k][1] / c as f64);
+                if centred { (ms - m * m).max(0.0) } else { ms }
+            })
+            .collect();
+        let nb = per.len() as f64;
+        if nb == 0.0 {
+            return [0.0, 0.0];
+        }
+        let mean = per.iter().sum::<f64>() / nb;
+        let var = if nb > 1.0 {
+            per.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (nb - 1.0)
+        } else {
+            0.0
+        };
+        [mean, (var / nb).sqrt()]
+    }
+
+    /// Signal `k`'s RMS (centred or not) and its standard error.
+    pub fn rms(&self, k: usize, centred: bool) -> [f64; 2] {
+        let [v, se] = self.second_moment(k, centred);
+        let r = v.sqrt();
+        [r, if r > 0.0 { se / (2.0 * r) } else { 0.0 }]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn batch_means_of_a_known_signal() {
+        // x = 3 + 2 sin(2 pi 50 t) sampled finely: centred RMS sqrt(2), mean square 9 + 2.
+        let mut s = BatchStats::new(1, 100.0);
+        let dt = 1e-3;
+        for i in 0..=100_000 {
+            let t = i as f64 * dt;
+            s.push(
+                t,
+                [3.0 + 2.0 * (2.0 * std::f64::consts::PI * 50.0 * t).sin()].into_iter(),
+            );
+        }
+        assert_eq!(s.samples(), 90_001);
+        // Each batch holds 225 periods and one sample more (its start): the moments are
+        // exact to about 1 / 4500 of the sine's swing per batch.
+        let [r, se] = s.rms(0, true);
+        assert!((r - 2f64.sqrt()).abs() < 2e-5, "{r}");
+        assert!(se < 2e-5, "{se}");
+        let [ms, _] = s.second_moment(0, false);
+        assert!((ms - 11.0).abs() < 2e-4, "{ms}");
+    }
+}
