@@ -231,8 +231,9 @@ fn evaluate(p: &Problem<'_>, x: &[f64], stage: &str) -> Evaluation {
         sweep_point::evaluate(p.path, p.text, &overrides, &PointOptions::default())
     }))
     .unwrap_or(Err(PointError::Panicked));
-    // A receptance peak objective (`peak:X:F1:F2`) or the harvested power (`power`),
-    // computed beside the sweep figures.
+    // A receptance peak objective (`peak:X:F1:F2`), the harvested power (`power`) or the
+    // RMS response under the scenario's random excitation (`rms:OUTPUT`), computed beside
+    // the sweep figures.
     let extra =
         |compute: &dyn Fn(&str, &crate::scenario::Scenario) -> Result<f64, crate::Error>| {
             let file = p.path.display().to_string();
@@ -245,9 +246,15 @@ fn evaluate(p: &Problem<'_>, x: &[f64], stage: &str) -> Evaluation {
             crate::linear::receptance_peak(file, sc, &spec).map(|(_, h)| h)
         })),
         None if p.objective == "power" => Some(extra(&crate::linear::harvested_power)),
-        None => None,
+        None => p.objective.strip_prefix("rms:").map(|output| {
+            extra(&|file, sc| crate::random::output_rms(file, sc, output).map(|(v, _)| v))
+        }),
     };
-    let unit = if p.objective == "power" { "W" } else { "m" };
+    let unit = match p.objective.as_str() {
+        "power" => "W",
+        o if o.starts_with("rms:") && o.contains('/') => "rad|m",
+        _ => "m",
+    };
     let point = match (point, peak) {
         (Ok(mut e), Some(Ok(v))) => {
             e.figures.push(Figure {

@@ -60,6 +60,26 @@ impl RandomMethod {
     }
 }
 
+/// The RMS of one output (`--output` names: a beam abscissa, `MECHANISM/COORDINATE`) under
+/// the scenario's random excitations, by the automatic method with a 20-mode basis where it
+/// is modal: the optimiser's `rms:OUTPUT` objective (the H2 design). `(rms, unit)`.
+pub fn output_rms(file: &str, sc: &Scenario, output: &str) -> Result<(f64, String), Error> {
+    let report = analyse(
+        file,
+        sc,
+        &RandomOptions {
+            method: RandomMethod::Auto,
+            modes: 20,
+            outputs: vec![output.to_string()],
+        },
+    )?;
+    let first = report
+        .outputs
+        .first()
+        .ok_or_else(|| Error::Usage(format!("{file}: rms:{output}: no such output")))?;
+    Ok((first.rms, first.unit.clone()))
+}
+
 /// Largest first-order state count solved densely by [`RandomMethod::Auto`].
 pub const DENSE_STATES: usize = 600;
 

@@ -33,10 +33,11 @@ pub struct Args {
     /// A design variable and its bounds: `PATH=LO:HI` (repeatable).
     #[arg(long = "vary", value_name = "PATH=LO:HI", required = true)]
     pub vary: Vec<String>,
-    /// Maximise this figure (`zeta1`, `f1`, `reach`, `amplification` or any `linear.*`).
+    /// Maximise this figure (`zeta1`, `f1`, `reach`, `amplification`, any `linear.*`,
+    /// `peak:X:F1:F2`, `power` or `rms:OUTPUT`).
     #[arg(long, value_name = "FIGURE")]
     pub maximize: Option<String>,
-    /// Minimise this figure.
+    /// Minimise this figure (the same names).
     #[arg(long, value_name = "FIGURE")]
     pub minimize: Option<String>,
     /// A constraint `FIGURE>=VALUE` or `FIGURE<=VALUE` (repeatable; e.g. `reach>=0.002`).
