@@ -359,3 +359,56 @@ fn bad_random_input_is_one_line() {
         &["--method \"fast\""],
     );
 }
+
+/// The classical closed form of base excitation (Crandall & Mark 1963, the mean power a
+/// white-noise input puts into a linear system: `P = W b^T M^-1 b / 2` for a generalised
+/// force `b w(t)` of intensity `W = G / 2`; for the supports' acceleration `b = -M r`, so
+/// `P = G r^T M r / 4`, the mass moving with the supports times `G / 4`, `pi S0 m` in the
+/// two-sided form), independent of the damping and the stiffness: the bundled damper on
+/// white-noise supports (the generator without inductance is part of `C_R`), its total
+/// mean dissipation `E[v^T C_R v]` from the Lyapunov covariance of the whole first-order
+/// form, at three load resistances, against `G b^T M_R^-1 b / 4` with `b` the linear input
+/// of the supports (`-(M_R r)`, checked in hybrid-core's base tests).
+#[test]
+fn base_white_noise_input_power_is_the_moving_mass_closed_form() {
+    use hybrid_core::hybrid::{ExcitationTarget, Matrix, StateSpace};
+    let g = 5e-5; // scenarios/random_base_damper.toml, (m/s^2)^2/Hz
+    let mut powers = vec![];
+    for r_load in ["1.0", "3.5", "20.0"] {
+        let text = std::fs::read_to_string(root().join("scenarios/random_base_damper.toml"))
+            .unwrap()
+            .replacen(
+                "load_resistance = 3.5",
+                &format!("load_resistance = {r_load}"),
+                1,
+            );
+        let p = scenario_file(&format!("base_power_{r_load}"), &text);
+        let sc = codegen_cli::scenario::load(std::path::Path::new(&p)).unwrap();
+        let lz = codegen_cli::setup::tangents_for(&sc).unwrap();
+        let lin = lz.linearize(&lz.model).unwrap();
+        assert!(lin.electrical.is_empty(), "a generator without inductance");
+        let b = lin.force_vector(&ExcitationTarget::Base);
+        let m = lin.dense(Matrix::Mass);
+        let c = lin.dense(Matrix::Damping);
+        let bv = nalgebra::DVector::from_column_slice(&b);
+        let closed = g / 4.0 * bv.dot(&m.clone().lu().solve(&bv).unwrap());
+        let ss = StateSpace::new(&lin, &[b], None).unwrap();
+        let (cov, residual) = ss.covariance(&[g / 2.0]).unwrap();
+        let n = m.nrows();
+        let vv = cov.view((n, n), (n, n));
+        let dissipated: f64 = (0..n)
+            .flat_map(|i| (0..n).map(move |j| (i, j)))
+            .map(|(i, j)| c[(i, j)] * vv[(j, i)])
+            .sum();
+        let rel = dissipated / closed - 1.0;
+        println!(
+            "R_L = {r_load} ohm: E[v^T C v] = {dissipated:.9e} W, G b^T M^-1 b / 4 = {closed:.9e} W ({rel:.1e}), Lyapunov residual {residual:.1e}"
+        );
+        // The whole first-order form carries the stiff beam's omega_max^2 / omega_1^2 in
+        // its rounding (the random helper measured 6e-7 against the modal solution).
+        assert!(rel.abs() < 1e-5, "{rel}");
+        powers.push(dissipated);
+    }
+    // Independent of the damping: the generator's share changes, the total does not.
+    assert!((powers[0] / powers[2] - 1.0).abs() < 2e-5, "{powers:?}");
+}
