@@ -279,28 +279,20 @@ pub fn realise(
     }
     // The integrals: each coefficient over i w_k and (i w_k)^2.
     let omega = |k: usize| 2.0 * std::f64::consts::PI * k as f64 * df;
-    let mut c1: Vec<Complex<f64>> = c
-        .iter()
-        .enumerate()
-        .map(|(k, ck)| {
-            if k == 0 || k >= m / 2 {
-                Complex::new(0.0, 0.0)
-            } else {
-                ck / Complex::new(0.0, omega(k))
-            }
-        })
-        .collect();
-    let mut c2: Vec<Complex<f64>> = c1
-        .iter()
-        .enumerate()
-        .map(|(k, ck)| {
-            if k == 0 || k >= m / 2 {
-                Complex::new(0.0, 0.0)
-            } else {
-                ck / Complex::new(0.0, omega(k))
-            }
-        })
-        .collect();
+    let integrate = |c: &[Complex<f64>]| -> Vec<Complex<f64>> {
+        c.iter()
+            .enumerate()
+            .map(|(k, ck)| {
+                if k == 0 || k >= m / 2 {
+                    Complex::new(0.0, 0.0)
+                } else {
+                    ck / Complex::new(0.0, omega(k))
+                }
+            })
+            .collect()
+    };
+    let mut c1 = integrate(&c);
+    let mut c2 = integrate(&c1);
     let fft = FftPlanner::new().plan_fft_inverse(m);
     fft.process(&mut c);
     fft.process(&mut c1);
