@@ -79,6 +79,17 @@ pub fn json<'py>(py: Python<'py>, text: &[u8]) -> PyResult<Bound<'py, PyAny>> {
         .call_method1("loads", (std::str::from_utf8(text).unwrap_or_default(),))
 }
 
+/// A serialisable value as the Python objects of its JSON form (the same content as the
+/// command's `--json` output).
+pub fn to_python<'py, T: serde::Serialize + ?Sized>(
+    py: Python<'py>,
+    value: &T,
+) -> PyResult<Bound<'py, PyAny>> {
+    let text = serde_json::to_vec(value)
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
+    json(py, &text)
+}
+
 /// A buffer moved into a 1-D array.
 pub fn array1(py: Python<'_>, v: Vec<f64>) -> Bound<'_, PyArray1<f64>> {
     PyArray1::from_vec(py, v)

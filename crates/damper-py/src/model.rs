@@ -9,7 +9,7 @@ use mbs_symbolic::emit::{EmitOptions, generate};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
-use crate::convert::json;
+use crate::convert::to_python;
 use crate::errors::{Input, to_py};
 
 fn load(py: Python<'_>, path: &std::path::Path) -> PyResult<mbs_symbolic::model::Model> {
@@ -70,9 +70,7 @@ pub fn model_eval<'py>(
     let value = py
         .detach(|| eval::evaluation(&args))
         .map_err(|e| to_py(py, e, Input::Model))?;
-    let text = serde_json::to_vec(&value)
-        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
-    json(py, &text)
+    to_python(py, &value)
 }
 
 /// The generated Rust source of a model (`damper generate`), and the operation count of

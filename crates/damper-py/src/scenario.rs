@@ -15,7 +15,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyList;
 
-use crate::convert::{array1, array2, axis_spec, json, matrix, overrides};
+use crate::convert::{array1, array2, axis_spec, json, matrix, overrides, to_python};
 use crate::errors::{Input, diagnostics, to_py};
 use crate::watch::interruptible;
 
@@ -209,8 +209,6 @@ pub fn linearize<'py>(
         Ok((report, lin))
     })?
     .map_err(|e| to_py(py, e, Input::Scenario))?;
-    let bytes = serde_json::to_vec(&report)
-        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
     let with = shapes(py, &report.modes)?;
     let off = report
         .generator_disconnected
@@ -223,7 +221,7 @@ pub fn linearize<'py>(
         .map(|m| shapes(py, m))
         .transpose()?;
     Ok((
-        json(py, &bytes)?,
+        to_python(py, &report)?,
         with,
         off,
         bare,
@@ -389,9 +387,7 @@ pub fn sweep_grid<'py>(
 
 /// A TOML value as the Python value it reads as.
 fn toml_to_py<'py>(py: Python<'py>, v: &toml_edit::Value) -> PyResult<Bound<'py, PyAny>> {
-    let text = serde_json::to_vec(&codegen_cli::scenario::overrides::json_value(v))
-        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
-    json(py, &text)
+    to_python(py, &codegen_cli::scenario::overrides::json_value(v))
 }
 
 /// The linear stationary response to the scenario's random excitations as `damper random
@@ -431,9 +427,7 @@ pub fn random<'py>(
         .map_err(|e| remapped(&loaded, e))
     })?
     .map_err(|e| to_py(py, e, Input::Scenario))?;
-    let bytes = serde_json::to_vec(&report)
-        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
-    json(py, &bytes)
+    to_python(py, &report)
 }
 
 /// The best design as `damper optimize --json` prints it (the optimum, the objective, every
@@ -470,7 +464,5 @@ pub fn optimize<'py>(
         .map(|(outcome, _)| outcome)
     })?
     .map_err(|e| to_py(py, e, Input::Scenario))?;
-    let bytes = serde_json::to_vec(&outcome)
-        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))?;
-    json(py, &bytes)
+    to_python(py, &outcome)
 }

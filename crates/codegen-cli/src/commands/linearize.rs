@@ -88,17 +88,7 @@ pub fn run(args: Args) -> Result<(), Error> {
 /// Refuses eigen-solves estimated above the limits unless `--allow-long` (module
 /// documentation).
 fn check_work(file: &str, input: &Linearizable, args: &Args) -> Result<(), Error> {
-    let model = &input.model;
-    let beam = model.beam.as_ref().map_or(0, |b| b.dofs().reduced_len());
-    let coordinates: usize = input.tangents.iter().map(|t| t.dof()).sum();
-    let generators = model
-        .forces
-        .iter()
-        .filter(|f| f.generator().is_some())
-        .count();
-    let states = (beam + coordinates)
-        .saturating_mul(2)
-        .saturating_add(generators);
+    let states = input.first_order_states();
     let dense = match args.method {
         EigenMethod::Auto => states <= 600,
         EigenMethod::Dense => true,

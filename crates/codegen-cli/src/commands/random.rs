@@ -67,17 +67,7 @@ pub fn run(args: Args) -> Result<(), Error> {
     };
     let input = tangents_for(&loaded.scenario).map_err(remap)?;
     // The work, before the linearisation's solves.
-    let model = &input.model;
-    let beam = model.beam.as_ref().map_or(0, |b| b.dofs().reduced_len());
-    let coordinates: usize = input.tangents.iter().map(|t| t.dof()).sum();
-    let generators = model
-        .forces
-        .iter()
-        .filter(|f| f.generator().is_some())
-        .count();
-    let states = (beam + coordinates)
-        .saturating_mul(2)
-        .saturating_add(generators);
+    let states = input.first_order_states();
     let dense = match method {
         RandomMethod::Auto => states <= DENSE_STATES,
         RandomMethod::Dense => true,

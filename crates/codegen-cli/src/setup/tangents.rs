@@ -122,6 +122,27 @@ fn tangent(model: &Model, params: &[(String, f64)]) -> Result<TangentSystem, Err
 }
 
 impl Linearizable {
+    /// An upper bound of the first-order states of its linearisation, known before it is
+    /// made (the work estimates of `linearize` and `random`): twice the beam's reduced DOFs
+    /// and every mechanism coordinate, plus one current per generator.
+    pub fn first_order_states(&self) -> usize {
+        let beam = self
+            .model
+            .beam
+            .as_ref()
+            .map_or(0, |b| b.dofs().reduced_len());
+        let coordinates: usize = self.tangents.iter().map(|t| t.dof()).sum();
+        let generators = self
+            .model
+            .forces
+            .iter()
+            .filter(|f| f.generator().is_some())
+            .count();
+        (beam + coordinates)
+            .saturating_mul(2)
+            .saturating_add(generators)
+    }
+
     /// The tangent models as the slice [`Linearization::new`] takes.
     pub fn tangent_refs(&self) -> Vec<&TangentSystem> {
         self.tangents.iter().collect()

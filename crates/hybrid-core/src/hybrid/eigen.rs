@@ -205,21 +205,7 @@ impl Operator<'_> {
 /// in increasing `|lambda|`.
 pub fn modes(lin: &Linearization, k: usize, method: EigenMethod) -> Result<Vec<Mode>, LinearError> {
     let d = lin.dim();
-    let mut pencil = None;
-    let mut last = None;
-    // sigma = 0 unless K_R is singular; then small negative shifts.
-    for sigma in [0.0, -1.0, -10.0, -100.0] {
-        match Pencil::new(lin, C64::new(sigma, 0.0)) {
-            Ok(p) => {
-                pencil = Some(p);
-                break;
-            }
-            Err(e) => last = Some(e),
-        }
-    }
-    let Some(pencil) = pencil else {
-        return Err(last.expect("at least one shift was tried"));
-    };
+    let pencil = Pencil::near_zero(lin)?;
     let omega = low_frequency(lin, &pencil);
     let op = Operator {
         lin,

@@ -154,6 +154,20 @@ pub struct Pencil {
 }
 
 impl Pencil {
+    /// The pencil at `sigma = 0` (the reduced stiffness), or at the first of the small
+    /// negative shifts -1, -10, -100 where that is singular (a rigid-body mode): the shift
+    /// of the shift-invert eigen-solver and of the modal basis's static responses.
+    pub fn near_zero(lin: &Linearization) -> Result<Pencil, LinearError> {
+        let mut last = None;
+        for sigma in [0.0, -1.0, -10.0, -100.0] {
+            match Pencil::new(lin, C64::new(sigma, 0.0)) {
+                Ok(p) => return Ok(p),
+                Err(e) => last = Some(e),
+            }
+        }
+        Err(last.expect("a shift was tried"))
+    }
+
     /// Factorises `S(sigma)`.
     pub fn new(lin: &Linearization, sigma: C64) -> Result<Pencil, LinearError> {
         let (n, nb, ns) = (lin.beam_dofs(), lin.attachments(), lin.small_dim());

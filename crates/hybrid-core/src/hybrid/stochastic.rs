@@ -220,20 +220,7 @@ impl StateSpace {
         for s in &shapes {
             candidates.push((s.iter().map(|c| c.re).collect(), norm(s)));
         }
-        let mut last = None;
-        let mut pencil = None;
-        for sigma in [0.0, -1.0, -10.0, -100.0] {
-            match Pencil::new(lin, C64::new(sigma, 0.0)) {
-                Ok(p) => {
-                    pencil = Some(p);
-                    break;
-                }
-                Err(e) => last = Some(e),
-            }
-        }
-        let Some(pencil) = pencil else {
-            return Err(last.expect("a shift was tried"));
-        };
+        let pencil = Pencil::near_zero(lin)?;
         for f in inputs {
             let mut x: Vec<C64> = f.iter().map(|&v| C64::new(v, 0.0)).collect();
             pencil.solve_in_place(&mut x);
