@@ -462,28 +462,29 @@ fn inverse_vector(h: &DMatrix<C64>, t: C64) -> DVector<C64> {
     x
 }
 
+/// The pencil at a shift `mu` near the eigenvalue `l`, for inverse iteration. For a
+/// quadratic (rational) eigenproblem repeated solves with `S(mu)` converge to the null
+/// vector of the matrix `S(mu)`, which differs from the eigenvector by `O(|mu - l|)`: the
+/// offset is kept at 1e-10 of `|l|` (backward errors 1e-16 measured), larger only when the
+/// beam part alone is singular there (a mode with nodes at every attachment, whose
+/// factorisation then fails).
+pub(crate) fn pencil_near(lin: &Linearization, l: C64) -> Result<Pencil, LinearError> {
+    let scale = if l.norm() > 0.0 { l.norm() } else { 1.0 };
+    let mut last = None;
+    for offset in [1e-10, 1e-8, 1e-6, 1e-4] {
+        match Pencil::new(lin, l + C64::new(offset * scale, 0.0)) {
+            Ok(p) => return Ok(p),
+            Err(e) => last = Some(e),
+        }
+    }
+    Err(last.expect("a shift was tried"))
+}
+
 /// The mode at eigenvalue estimate `l`: inverse iteration with the pencil `S(l(1+eps))`,
 /// normalisation, classification and residual.
 fn refine(lin: &Linearization, l: C64) -> Result<Mode, LinearError> {
     let d = lin.dim();
-    // Inverse iteration with the pencil at a shift mu near l. For a quadratic (rational)
-    // eigenproblem repeated solves with S(mu) converge to the null vector of the matrix
-    // S(mu), which differs from the eigenvector by O(|mu - l|): the offset is kept at 1e-10
-    // of |l| (backward errors 1e-16 measured), larger only when the beam part alone is
-    // singular there (a mode with nodes at every attachment, whose factorisation then fails).
-    let scale = if l.norm() > 0.0 { l.norm() } else { 1.0 };
-    let mut pencil = None;
-    for offset in [1e-10, 1e-8, 1e-6, 1e-4] {
-        match Pencil::new(lin, l + C64::new(offset * scale, 0.0)) {
-            Ok(p) => {
-                pencil = Some(p);
-                break;
-            }
-            Err(e) if offset == 1e-4 => return Err(e),
-            Err(_) => {}
-        }
-    }
-    let p = pencil.expect("a shift was factorised or the error returned");
+    let p = pencil_near(lin, l)?;
     // Start: M_R times a fixed vector (a force pattern exciting every coordinate).
     let start: Vec<f64> = (0..d).map(|i| 1.0 + (i % 5) as f64 * 0.2).collect();
     let mut t = vec![0.0; d];
@@ -548,44 +549,11 @@ fn refine(lin: &Linearization, l: C64) -> Result<Mode, LinearError> {
     })
 }
 
-/// `(K_R z, C_R z, M_R z)` for a complex `z`.
-fn products(lin: &Linearization, z: &[C64]) -> (Vec<C64>, Vec<C64>, Vec<C64>) {
-    let d = lin.dim();
-    let re: Vec<f64> = z.iter().map(|x| x.re).collect();
-    let im: Vec<f64> = z.iter().map(|x| x.im).collect();
-    let prod = |which: Matrix| -> Vec<C64> {
-        let (mut a, mut b) = (vec![0.0; d], vec![0.0; d]);
-        lin.mul(which, &re, &mut a);
-        lin.mul(which, &im, &mut b);
-        a.iter().zip(&b).map(|(&x, &y)| C64::new(x, y)).collect()
-    };
-    (
-        prod(Matrix::Stiffness),
-        prod(Matrix::Damping),
-        prod(Matrix::Mass),
-    )
-}
-
 /// The normwise backward error of the pair (Tisseur 2000): `|S(l) z|_inf / ((|K_R| +
 /// |l| |C_R| + |l|^2 |M_R|) |z|_inf)`, with the electrical term in `S` and the matrix norms
 /// bounded by [`Linearization::norm_bound`].
 fn residual(lin: &Linearization, l: C64, z: &[C64]) -> f64 {
-    let d = lin.dim();
-    let (kz, cz, mz) = products(lin, z);
-    let mut r: Vec<C64> = (0..d).map(|i| kz[i] + l * cz[i] + l * l * mz[i]).collect();
-    let ns = lin.small_dim();
-    let mut s = vec![C64::new(0.0, 0.0); ns];
-    lin.to_small(z, &mut s);
-    let mut f = vec![C64::new(0.0, 0.0); ns];
-    for e in &lin.electrical {
-        let gz: C64 = e.emf.iter().zip(&s).map(|(a, b)| *b * *a).sum();
-        let c = l * gz / (C64::new(e.resistance, 0.0) + l * e.inductance);
-        for (fi, b) in f.iter_mut().zip(e.torque.iter()) {
-            *fi += c * *b;
-        }
-    }
-    lin.add_from_small(&f, &mut r);
-    let _ = (&cz, &mz, &kz);
+    let r = lin.pencil_mul(l, z);
     let inf = |v: &[C64]| v.iter().fold(0.0f64, |m, x| m.max(x.norm()));
     let scale = (lin.norm_bound(Matrix::Stiffness)
         + l.norm() * lin.norm_bound(Matrix::Damping)

@@ -208,6 +208,27 @@ pub enum LinearError {
         /// The eigenvalue (1/s): real and imaginary parts.
         eigenvalue: [f64; 2],
     },
+    /// An eigenvalue whose derivative was asked is not simple (its left and right vectors
+    /// are orthogonal through the pencil's derivative): it has no derivative.
+    #[error(
+        "the eigenvalue {}{:+}i is not simple (a multiple or defective eigenvalue): it has no derivative with respect to a parameter",
+        eigenvalue[0],
+        eigenvalue[1]
+    )]
+    NotSimple {
+        /// The eigenvalue (1/s): real and imaginary parts.
+        eigenvalue: [f64; 2],
+    },
+    /// Two linearisations of a pencil derivative differ in their layout (beam DOFs,
+    /// attachments or the mechanisms' free coordinates): the parameter changes the
+    /// coordinates themselves, so their matrices cannot be differenced.
+    #[error(
+        "the linearisations at p - h and p + h have different coordinates ({what}): the parameter changes the model's layout"
+    )]
+    LayoutChanged {
+        /// What differs.
+        what: &'static str,
+    },
     /// An iterative eigenvalue computation reached its iteration cap.
     #[error(
         "the {what} did not converge within {iterations} iterations (size {size}): the linearised system is too ill-scaled for its eigenvalues to be computed"

@@ -283,3 +283,84 @@ impl Pencil {
         }
     }
 }
+
+impl Linearization {
+    /// `sum_x c_x X z` over `X = K_R, C_R, M_R` with complex coefficients `[k, c, m]`, plus
+    /// `sum_e e(e) P^T b_e (g_e^T P z)` for the electrical states: the products of the pencil
+    /// and of its derivative with a complex vector.
+    fn combination(
+        &self,
+        z: &[C64],
+        [k, c, m]: [C64; 3],
+        electrical: impl Fn(&super::linear::ElectricalState) -> C64,
+    ) -> Vec<C64> {
+        use super::linear::Matrix;
+        let d = self.dim();
+        let re: Vec<f64> = z.iter().map(|x| x.re).collect();
+        let im: Vec<f64> = z.iter().map(|x| x.im).collect();
+        let mut out = vec![C64::new(0.0, 0.0); d];
+        let (mut a, mut b) = (vec![0.0; d], vec![0.0; d]);
+        for (which, coef) in [
+            (Matrix::Stiffness, k),
+            (Matrix::Damping, c),
+            (Matrix::Mass, m),
+        ] {
+            if coef == C64::new(0.0, 0.0) {
+                continue;
+            }
+            self.mul(which, &re, &mut a);
+            self.mul(which, &im, &mut b);
+            for ((o, &x), &y) in out.iter_mut().zip(&a).zip(&b) {
+                *o += coef * C64::new(x, y);
+            }
+        }
+        if !self.electrical.is_empty() {
+            let ns = self.small_dim();
+            let mut s = vec![C64::new(0.0, 0.0); ns];
+            self.to_small(z, &mut s);
+            let mut f = vec![C64::new(0.0, 0.0); ns];
+            for e in &self.electrical {
+                let gz: C64 = e.emf.iter().zip(&s).map(|(a, b)| *b * *a).sum();
+                let coef = electrical(e) * gz;
+                for (fi, b) in f.iter_mut().zip(e.torque.iter()) {
+                    *fi += coef * *b;
+                }
+            }
+            self.add_from_small(&f, &mut out);
+        }
+        out
+    }
+
+    /// `S(sigma) z` (see the module documentation) for a complex `z`.
+    pub fn pencil_mul(&self, sigma: C64, z: &[C64]) -> Vec<C64> {
+        let one = C64::new(1.0, 0.0);
+        self.combination(z, [one, sigma, sigma * sigma], |e| {
+            sigma / (C64::new(e.resistance, 0.0) + sigma * e.inductance)
+        })
+    }
+
+    /// `S'(sigma) z`, the derivative of the pencil with respect to `sigma`:
+    /// `(C_R + 2 sigma M_R + sum_e P^T b_e g_e^T P R_e / (R_e + sigma L_e)^2) z`.
+    pub fn pencil_rate_mul(&self, sigma: C64, z: &[C64]) -> Vec<C64> {
+        let (zero, one) = (C64::new(0.0, 0.0), C64::new(1.0, 0.0));
+        self.combination(z, [zero, one, sigma * 2.0], |e| {
+            let den = C64::new(e.resistance, 0.0) + sigma * e.inductance;
+            C64::new(e.resistance, 0.0) / (den * den)
+        })
+    }
+
+    /// The linearisation whose pencil is the transpose of this one's, `S(sigma)^T`: the
+    /// small blocks transposed, every electrical state's torque and EMF rows swapped (the
+    /// beam's matrices are symmetric). Only its pencil (products, [`Pencil`]) is
+    /// meaningful: the left null vectors of `S` are the null vectors of its pencil.
+    pub fn transposed(&self) -> Linearization {
+        let mut t = self.clone();
+        t.ms.transpose_mut();
+        t.cs.transpose_mut();
+        t.ks.transpose_mut();
+        for e in &mut t.electrical {
+            std::mem::swap(&mut e.torque, &mut e.emf);
+        }
+        t
+    }
+}

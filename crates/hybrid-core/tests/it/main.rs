@@ -19,5 +19,6 @@ mod hybrid_reference;
 mod linear_vs_time_domain;
 mod linearize;
 mod oracle;
+mod sensitivity;
 mod step_alloc;
 mod variants;

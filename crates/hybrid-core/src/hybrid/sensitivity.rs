@@ -1,0 +1,179 @@
+//! Sensitivities of the linearised system to a parameter `p` (issue #22): the derivatives
+//! of its eigenvalues and of its harmonic responses, exact given the derivative of the
+//! pencil.
+//!
+//! # The pencil and its derivatives
+//!
+//! With the pencil of [`super::pencil`],
+//!
+//! ```text
+//! S(sigma) = K_R + sigma C_R + sigma^2 M_R + sigma sum_e P^T b_e g_e^T P / (R_e + sigma L_e)
+//! S'(sigma) = C_R + 2 sigma M_R + sum_e P^T b_e g_e^T P R_e / (R_e + sigma L_e)^2
+//! ```
+//!
+//! ([`Linearization::pencil_mul`], [`Linearization::pencil_rate_mul`]). The derivative
+//! `dS/dp` with respect to a model parameter is taken from the two linearisations at
+//! `p - h` and `p + h` ([`pencil_difference`]): `(S_+(sigma) v - S_-(sigma) v) / 2h` applied
+//! to the one vector the formulas below need (the model's dependence on a scenario field
+//! goes through its builder and its static equilibrium, which have no derivative of their
+//! own: this is the semi-analytic method, Adelman & Haftka 1986 — the expensive
+//! eigen-solution, frequency search or Lyapunov solution is done once, at `p`).
+//!
+//! # Eigenvalues
+//!
+//! For a simple eigenvalue `lambda` with right and left null vectors, `S(lambda) phi = 0`
+//! and `psi^T S(lambda) = 0`, differentiating `S(lambda(p), p) phi(p) = 0` and multiplying
+//! by `psi^T` gives
+//!
+//! ```text
+//! d lambda / dp = - psi^T (dS/dp)(lambda) phi / psi^T S'(lambda) phi
+//! ```
+//!
+//! which is `psi^H (dA - lambda dB) phi / psi^H B phi` of the first-order form `A y =
+//! lambda B y` written on the pencil (its left and right vectors restricted to the
+//! positions), without forming the first-order matrices. `psi` is the null vector of the
+//! transposed pencil ([`Linearization::transposed`]), found by inverse iteration at a shift
+//! near `lambda` ([`super::eigen`]), started from `phi` (exact for a symmetric pencil).
+//!
+//! # Harmonic responses
+//!
+//! `S(i omega) z = f` gives `dz/dp = S(i omega)^-1 (df/dp - (dS/dp)(i omega) z)`: one more
+//! solve with the factorised pencil ([`response_derivative`]).
+
+use nalgebra::Complex;
+
+use super::eigen::{Mode, pencil_near};
+use super::linear::{LinearError, Linearization};
+use super::pencil::Pencil;
+
+type C64 = Complex<f64>;
+
+/// Inverse-iteration steps for the left vector.
+const LEFT_STEPS: usize = 3;
+
+/// The unconjugated product `a^T b`.
+fn dot(a: &[C64], b: &[C64]) -> C64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// `(S_+(sigma) v - S_-(sigma) v) / 2h`: the derivative of the pencil at `sigma` with
+/// respect to a parameter, applied to `v`, from the linearisations at `p + h` (`plus`) and
+/// `p - h` (`minus`). Refused when the two have different coordinates.
+pub fn pencil_difference(
+    plus: &Linearization,
+    minus: &Linearization,
+    h: f64,
+    sigma: C64,
+    v: &[C64],
+) -> Result<Vec<C64>, LinearError> {
+    same_layout(plus, minus)?;
+    let (a, b) = (plus.pencil_mul(sigma, v), minus.pencil_mul(sigma, v));
+    Ok(a.iter().zip(&b).map(|(x, y)| (x - y) / (2.0 * h)).collect())
+}
+
+/// Refuses two linearisations whose coordinates differ.
+pub fn same_layout(a: &Linearization, b: &Linearization) -> Result<(), LinearError> {
+    let what = if a.beam_dofs() != b.beam_dofs() {
+        Some("beam DOFs")
+    } else if a.attachments() != b.attachments() {
+        Some("attachments")
+    } else if a.equilibrium.free != b.equilibrium.free {
+        Some("free coordinates")
+    } else if a.electrical.len() != b.electrical.len() {
+        Some("inductive generators")
+    } else {
+        None
+    };
+    match what {
+        Some(what) => Err(LinearError::LayoutChanged { what }),
+        None => Ok(()),
+    }
+}
+
+/// A simple eigenvalue with its right and left null vectors and the denominator
+/// `psi^T S'(lambda) phi` of its derivative (see the module documentation).
+#[derive(Clone, Debug)]
+pub struct EigenSensitivity {
+    lambda: C64,
+    right: Vec<C64>,
+    left: Vec<C64>,
+    denominator: C64,
+}
+
+impl EigenSensitivity {
+    /// The sensitivity of `mode`, a mode of `lin` ([`super::modes`]).
+    pub fn new(lin: &Linearization, mode: &Mode) -> Result<EigenSensitivity, LinearError> {
+        let lambda = mode.lambda();
+        let right = mode.shape_complex();
+        let transposed = lin.transposed();
+        let pencil = pencil_near(&transposed, lambda)?;
+        let mut left = right.clone();
+        for _ in 0..LEFT_STEPS {
+            pencil.solve_in_place(&mut left);
+            let norm = left.iter().map(|x| x.norm_sqr()).sum::<f64>().sqrt();
+            if norm > 0.0 && norm.is_finite() {
+                left.iter_mut().for_each(|x| *x /= norm);
+            }
+        }
+        let rate = lin.pencil_rate_mul(lambda, &right);
+        let denominator = dot(&left, &rate);
+        let norm = |v: &[C64]| v.iter().map(|x| x.norm_sqr()).sum::<f64>().sqrt();
+        // |psi| = 1: the denominator against the sizes it is made of.
+        if !(denominator.norm() > 1e-12 * norm(&rate)) {
+            return Err(LinearError::NotSimple {
+                eigenvalue: mode.eigenvalue,
+            });
+        }
+        Ok(EigenSensitivity {
+            lambda,
+            right,
+            left,
+            denominator,
+        })
+    }
+
+    /// The eigenvalue.
+    pub fn lambda(&self) -> C64 {
+        self.lambda
+    }
+
+    /// The right null vector `phi` (the mode's shape).
+    pub fn right(&self) -> &[C64] {
+        &self.right
+    }
+
+    /// The left null vector `psi` (unit 2-norm).
+    pub fn left(&self) -> &[C64] {
+        &self.left
+    }
+
+    /// `d lambda / dp` for `dS_phi = (dS/dp)(lambda) phi` (e.g. [`pencil_difference`] at
+    /// [`EigenSensitivity::lambda`] applied to [`EigenSensitivity::right`]).
+    pub fn derivative(&self, ds_phi: &[C64]) -> C64 {
+        -dot(&self.left, ds_phi) / self.denominator
+    }
+
+    /// `d lambda / dp` from the linearisations at `p + h` and `p - h`.
+    pub fn derivative_between(
+        &self,
+        plus: &Linearization,
+        minus: &Linearization,
+        h: f64,
+    ) -> Result<C64, LinearError> {
+        let ds_phi = pencil_difference(plus, minus, h, self.lambda, &self.right)?;
+        Ok(self.derivative(&ds_phi))
+    }
+}
+
+/// `dz/dp = S(sigma)^-1 (df - dS_z)` for the response `z` of `S(sigma) z = f`, with
+/// `dS_z = (dS/dp)(sigma) z` and `df = df/dp` ([`pencil_difference`]); `pencil` is `S(sigma)`
+/// factorised.
+pub fn response_derivative(pencil: &Pencil, ds_z: &[C64], df: &[f64]) -> Vec<C64> {
+    let mut rhs: Vec<C64> = df
+        .iter()
+        .zip(ds_z)
+        .map(|(&f, s)| C64::new(f, 0.0) - s)
+        .collect();
+    pencil.solve_in_place(&mut rhs);
+    rhs
+}
