@@ -119,7 +119,8 @@ impl EigenSensitivity {
         let denominator = dot(&left, &rate);
         let norm = |v: &[C64]| v.iter().map(|x| x.norm_sqr()).sum::<f64>().sqrt();
         // |psi| = 1: the denominator against the sizes it is made of.
-        if !(denominator.norm() > 1e-12 * norm(&rate)) {
+        let simple = denominator.norm() > 1e-12 * norm(&rate);
+        if !simple {
             return Err(LinearError::NotSimple {
                 eigenvalue: mode.eigenvalue,
             });
