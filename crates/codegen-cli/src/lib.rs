@@ -38,6 +38,7 @@ pub mod report;
 pub mod run;
 pub mod run_hybrid;
 pub mod scenario;
+pub mod sensitivity;
 pub mod setup;
 pub mod sweep_point;
 

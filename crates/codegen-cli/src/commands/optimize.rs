@@ -179,6 +179,26 @@ pub fn run(args: Args) -> Result<(), Error> {
             c.margin
         ));
     }
+    for g in &outcome.gradients {
+        let parts: Vec<String> = outcome
+            .optimum
+            .iter()
+            .zip(&g.gradient)
+            .map(|((path, _), d)| format!("d/d {path} = {d:.6e}"))
+            .collect();
+        let method = match g.method {
+            crate::sensitivity::Method::Adjoint => "adjoint",
+            crate::sensitivity::Method::Differences => "differences",
+        };
+        text.push_str(&format!(
+            "  gradient of {}: {} ({method})\n",
+            g.figure,
+            parts.join(", ")
+        ));
+    }
+    if let Some(e) = &outcome.gradient_error {
+        text.push_str(&format!("  no gradients at the optimum: {e}\n"));
+    }
     if let Some(v) = &verified {
         text.push_str(&format!("  time domain ({}): ", v.run));
         match &v.error {

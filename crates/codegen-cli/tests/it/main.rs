@@ -27,6 +27,7 @@ mod preset;
 mod random_cli;
 mod readme_cli;
 mod scenario_loader;
+mod sensitivity;
 mod simulate_cli;
 mod simulate_mechanism_cli;
 mod special_files_cli;

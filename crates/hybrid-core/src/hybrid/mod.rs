@@ -97,7 +97,7 @@ pub use placement::{Placement, PlacementError, TwoBar, initial_deflection, place
 pub use run::{
     RunError, RunFigures, RunOptions, RunOutcome, balance_error, dissipated, input_work, run,
 };
-pub use sensitivity::{EigenSensitivity, pencil_difference, response_derivative, same_layout};
+pub use sensitivity::{EigenSensitivity, pencil_derivative, response_derivative, same_layout};
 pub use steady::{
     SteadyError, SteadyOptions, SteadyState, output_value, rest_state, steady_state, steady_states,
     warped_frequency,

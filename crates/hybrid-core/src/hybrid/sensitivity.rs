@@ -13,7 +13,7 @@
 //!
 //! ([`Linearization::pencil_mul`], [`Linearization::pencil_rate_mul`]). The derivative
 //! `dS/dp` with respect to a model parameter is taken from the two linearisations at
-//! `p - h` and `p + h` ([`pencil_difference`]): `(S_+(sigma) v - S_-(sigma) v) / 2h` applied
+//! `p - h` and `p + h` ([`pencil_derivative`]): `(S_+(sigma) v - S_-(sigma) v) / 2h` applied
 //! to the one vector the formulas below need (the model's dependence on a scenario field
 //! goes through its builder and its static equilibrium, which have no derivative of their
 //! own: this is the semi-analytic method, Adelman & Haftka 1986 — the expensive
@@ -56,19 +56,28 @@ fn dot(a: &[C64], b: &[C64]) -> C64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
-/// `(S_+(sigma) v - S_-(sigma) v) / 2h`: the derivative of the pencil at `sigma` with
-/// respect to a parameter, applied to `v`, from the linearisations at `p + h` (`plus`) and
-/// `p - h` (`minus`). Refused when the two have different coordinates.
-pub fn pencil_difference(
-    plus: &Linearization,
-    minus: &Linearization,
-    h: f64,
-    sigma: C64,
+/// A difference formula for the derivative of the pencil applied to `v`:
+/// `sum_j w_j S_j(sigma_j) v` over `terms = [(w_j, linearisation j, sigma_j)]`, e.g. the
+/// central difference `[(1/2h, lin(p+h), sigma), (-1/2h, lin(p-h), sigma)]` (the shift may
+/// move with the parameter, e.g. an excitation frequency). Refused when the linearisations
+/// have different coordinates.
+pub fn pencil_derivative(
+    terms: &[(f64, &Linearization, C64)],
     v: &[C64],
 ) -> Result<Vec<C64>, LinearError> {
-    same_layout(plus, minus)?;
-    let (a, b) = (plus.pencil_mul(sigma, v), minus.pencil_mul(sigma, v));
-    Ok(a.iter().zip(&b).map(|(x, y)| (x - y) / (2.0 * h)).collect())
+    let mut out = vec![C64::new(0.0, 0.0); v.len()];
+    for (j, &(w, lin, sigma)) in terms.iter().enumerate() {
+        if j > 0 {
+            same_layout(terms[0].1, lin)?;
+        }
+        if lin.dim() != v.len() {
+            return Err(LinearError::LayoutChanged { what: "size" });
+        }
+        for (o, x) in out.iter_mut().zip(lin.pencil_mul(sigma, v)) {
+            *o += x * w;
+        }
+    }
+    Ok(out)
 }
 
 /// Refuses two linearisations whose coordinates differ.
@@ -148,26 +157,23 @@ impl EigenSensitivity {
         &self.left
     }
 
-    /// `d lambda / dp` for `dS_phi = (dS/dp)(lambda) phi` (e.g. [`pencil_difference`] at
-    /// [`EigenSensitivity::lambda`] applied to [`EigenSensitivity::right`]).
+    /// `d lambda / dp` for `dS_phi = (dS/dp)(lambda) phi` (e.g.
+    /// [`EigenSensitivity::lambda`] applied to [`EigenSensitivity::right`], [`pencil_derivative`]).
     pub fn derivative(&self, ds_phi: &[C64]) -> C64 {
         -dot(&self.left, ds_phi) / self.denominator
     }
 
-    /// `d lambda / dp` from the linearisations at `p + h` and `p - h`.
-    pub fn derivative_between(
-        &self,
-        plus: &Linearization,
-        minus: &Linearization,
-        h: f64,
-    ) -> Result<C64, LinearError> {
-        let ds_phi = pencil_difference(plus, minus, h, self.lambda, &self.right)?;
+    /// `d lambda / dp` for the difference formula `terms = [(w_j, linearisation j)]` of the
+    /// pencil's derivative ([`pencil_derivative`] at `lambda`).
+    pub fn derivative_over(&self, terms: &[(f64, &Linearization)]) -> Result<C64, LinearError> {
+        let terms: Vec<_> = terms.iter().map(|&(w, l)| (w, l, self.lambda)).collect();
+        let ds_phi = pencil_derivative(&terms, &self.right)?;
         Ok(self.derivative(&ds_phi))
     }
 }
 
 /// `dz/dp = S(sigma)^-1 (df - dS_z)` for the response `z` of `S(sigma) z = f`, with
-/// `dS_z = (dS/dp)(sigma) z` and `df = df/dp` ([`pencil_difference`]); `pencil` is `S(sigma)`
+/// `dS_z = (dS/dp)(sigma) z` and `df = df/dp` ([`pencil_derivative`]); `pencil` is `S(sigma)`
 /// factorised.
 pub fn response_derivative(pencil: &Pencil, ds_z: &[C64], df: &[f64]) -> Vec<C64> {
     let mut rhs: Vec<C64> = df

@@ -12,7 +12,7 @@ use common::*;
 use hybrid_core::generator::GeneratorSpec;
 use hybrid_core::hybrid::{
     BeamPoint, EigenMethod, EigenSensitivity, EquilibriumOptions, ExcitationTarget, ForceKind,
-    HybridModel, Linearization, Pencil, modes, pencil_difference, response_derivative,
+    HybridModel, Linearization, Pencil, modes, pencil_derivative, response_derivative,
 };
 use nalgebra::Complex;
 
@@ -58,8 +58,9 @@ fn check(name: &str, p: f64, build: &dyn Fn(f64) -> HybridModel, tol: f64) {
     let scale = lin.norm_bound(hybrid_core::hybrid::Matrix::Stiffness);
     let rl = r.iter().map(|x| x.norm()).fold(0.0, f64::max) / scale;
     let h = 1e-6 * p.abs().max(1e-3);
+    let (plus, minus) = (linearize(&build(p + h)), linearize(&build(p - h)));
     let adjoint = sens
-        .derivative_between(&linearize(&build(p + h)), &linearize(&build(p - h)), h)
+        .derivative_over(&[(0.5 / h, &plus), (-0.5 / h, &minus)])
         .unwrap();
     let big = 1e-3 * p.abs().max(1e-3);
     let fd = |s: f64| {
@@ -118,14 +119,9 @@ fn the_adjoint_formula_is_exact_for_an_exact_pencil_derivative() {
     let sens = EigenSensitivity::new(&lin, mode).unwrap();
     // dS/dt (lambda) phi = P^T (K_s - lambda^2 M_s / 2) P phi, exactly (the difference of an
     // affine function).
-    let exact = pencil_difference(
-        &scaled(1.0),
-        &scaled(-1.0),
-        1.0,
-        sens.lambda(),
-        sens.right(),
-    )
-    .unwrap();
+    let l = sens.lambda();
+    let (a, b) = (scaled(1.0), scaled(-1.0));
+    let exact = pencil_derivative(&[(0.5, &a, l), (-0.5, &b, l)], sens.right()).unwrap();
     let adjoint = sens.derivative(&exact);
     let fd = |s: f64| (first_lambda(&scaled(s)) - first_lambda(&scaled(-s))) / (2.0 * s);
     let reference = (fd(1e-3) * 4.0 - fd(2e-3)) / 3.0;
@@ -148,7 +144,8 @@ fn the_response_derivative_equals_central_differences_of_the_responses() {
         let z = lin.harmonic_response(&f, omega).unwrap();
         let sigma = C64::new(0.0, omega);
         let pencil = Pencil::new(&lin, sigma).unwrap();
-        let ds_z = pencil_difference(&plus, &minus, h, sigma, &z).unwrap();
+        let ds_z =
+            pencil_derivative(&[(0.5 / h, &plus, sigma), (-0.5 / h, &minus, sigma)], &z).unwrap();
         let df: Vec<f64> = plus
             .force_vector(&target)
             .iter()
