@@ -246,7 +246,7 @@ fn linearise(
 
 /// A loaded scenario built for linearisation and linearised about its static equilibrium
 /// (the generators as the scenario says).
-pub(crate) fn linearise_scenario(
+pub fn linearise_scenario(
     file: &str,
     sc: &Scenario,
 ) -> Result<(Linearizable, Linearization), Error> {

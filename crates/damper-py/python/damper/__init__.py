@@ -276,7 +276,7 @@ class Scenario:
         """The best design (``damper optimize --json``): ``vary`` maps paths to bounds
         ``(lo, hi)``, one of ``maximize`` / ``minimize`` names the figure (``"zeta1"``, ...),
         ``constraints`` as ``"reach>=0.002"``. Returns the JSON object (``optimum``,
-        ``objective``, ``constraints``, ``kkt_residual``, ``history``, ...)."""
+        ``objective``, ``constraints``, ``kkt_residual``, ``gradients``, ``history``, ...)."""
         if maximize is not None and minimize is None:
             objective, up = maximize, True
         elif minimize is not None and maximize is None:
