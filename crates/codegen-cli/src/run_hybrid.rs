@@ -25,6 +25,7 @@
 
 use crate::report::random_run::{
     BATCHES, BatchStats, GeneratorEstimate, RandomRunReport, RealisationReport, RmsEstimate,
+    stationary_start,
 };
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -272,6 +273,9 @@ pub fn simulate(
             .insert(c.key(), ComparisonReport::of(c.legend(), r.summary));
     }
     let summary = &run.summary;
+    if let Some(w) = summary.random.as_ref().and_then(|r| r.warning.as_ref()) {
+        eprintln!("{file}: warning: {w}");
+    }
     let na = model.attachments.len();
     let mut files = vec![OutputFile {
         path: out.join("summary.json"),
@@ -444,11 +448,18 @@ pub fn evaluate<'a>(
     let mut output_rows: u64 = 0;
     // Under random excitation: the stationary statistics (report::random_run), their names.
     let random_signals = random_signal_names(model);
-    let mut random_stats = model
+    let random_start = model
         .excitations
         .iter()
         .any(|e| matches!(e.time, fem_beam::TimeFunction::Sampled(_)))
-        .then(|| BatchStats::new(random_signals.len(), sc.integrator.t_end));
+        .then(|| {
+            let slowest = slowest_decay_rate(sc, built);
+            let (from, warning) = stationary_start(sc.integrator.t_end, slowest);
+            (from, slowest, warning)
+        });
+    let mut random_stats = random_start
+        .as_ref()
+        .map(|(from, _, _)| BatchStats::new(random_signals.len(), *from, sc.integrator.t_end));
     let mut amplification = Vec::with_capacity(na);
     let bar = progress_bar(progress);
     let outcome = run(
@@ -727,7 +738,13 @@ pub fn evaluate<'a>(
                 cond_after: r.condition.1,
             })
             .collect(),
-        random: random_stats.map(|st| random_report(model, &random_signals, &st)),
+        random: random_stats
+            .zip(random_start)
+            .map(|(st, (_, slowest, warning))| RandomRunReport {
+                slowest_decay_rate: slowest,
+                warning,
+                ..random_report(model, &random_signals, &st)
+            }),
         comparisons: BTreeMap::new(),
     };
 
@@ -858,11 +875,36 @@ fn random_report(
     RandomRunReport {
         realisations,
         from: st.from(),
+        slowest_decay_rate: None,
+        warning: None,
         batches: BATCHES,
         samples: st.samples(),
         outputs,
         generators,
     }
+}
+
+/// Modes read for the slowest decay rate of a run under random excitation.
+const DECAY_MODES: usize = 10;
+
+/// The smallest decay rate `-Re lambda` (1/s) of the first [`DECAY_MODES`] linearised modes
+/// of a built hybrid scenario, `None` without a stable linearisation.
+fn slowest_decay_rate(sc: &HybridScenario, built: &Built) -> Option<f64> {
+    let tangents = crate::setup::hybrid_tangents(sc, &built.models).ok()?;
+    let refs: Vec<_> = tangents.iter().collect();
+    let lin = hybrid_core::hybrid::Linearization::new(
+        &built.model,
+        &refs,
+        hybrid_core::hybrid::EquilibriumOptions::default(),
+    )
+    .ok()?;
+    let k = DECAY_MODES.min(lin.dim());
+    let found = hybrid_core::hybrid::modes(&lin, k, hybrid_core::hybrid::EigenMethod::Auto).ok()?;
+    found
+        .iter()
+        .map(|m| m.decay_rate)
+        .reduce(f64::min)
+        .filter(|r| *r > 0.0)
 }
 
 /// The modal filter of the first linearised mode of a built hybrid scenario

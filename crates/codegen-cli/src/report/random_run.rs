@@ -4,9 +4,12 @@
 //! coordinate and rate, every generator's current and rotor speed) and each generator's mean
 //! dissipated and load power, each with its standard error.
 //!
-//! **Stationary part**: the run from [`TRANSIENT_FRACTION`] of `t_end` on (the scenario's
-//! `t_end` should leave several decay time constants `1 / (zeta_1 omega_1)` of the first mode
-//! before that: `random_damper.toml` skips 6.5 s, 10 of them).
+//! **Stationary part**: the run from [`stationary_start`] on: after [`TRANSIENT_FRACTION`] of
+//! `t_end` and after [`DECAY_TIMES`] time constants `1 / sigma` of the slowest-decaying mode
+//! of the linearised system (`sigma` its decay rate `-Re lambda`; the start's transient has
+//! decayed to `e^-5` = 0.7 % of its amplitude there), but at most half the run: where the
+//! transient needs more, the report carries a warning naming the `t_end` that would do
+//! (`random_damper.toml` skips 6.5 s, 10 time constants of its first mode).
 //!
 //! **Standard error by batch means**: the stationary part is cut into [`BATCHES`] batches of
 //! equal duration; per batch the variance of each output about the batch's own mean (the
@@ -17,8 +20,32 @@
 
 use serde::Serialize;
 
-/// Share of the run skipped as the transient.
+/// Share of the run skipped as the transient, at least.
 pub const TRANSIENT_FRACTION: f64 = 0.1;
+/// Time constants of the slowest mode skipped as the transient.
+pub const DECAY_TIMES: f64 = 5.0;
+/// Largest share of the run skipped as the transient.
+pub const MAX_TRANSIENT_FRACTION: f64 = 0.5;
+
+/// Start of the stationary part of a run to `t_end` (module documentation) for the slowest
+/// decay rate `slowest` (1/s) of the linearised modes (`None`: unknown, the fixed share), and
+/// a warning where the transient needs more than half the run.
+pub fn stationary_start(t_end: f64, slowest: Option<f64>) -> (f64, Option<String>) {
+    let fixed = TRANSIENT_FRACTION * t_end;
+    let Some(rate) = slowest.filter(|r| *r > 0.0 && r.is_finite()) else {
+        return (fixed, None);
+    };
+    let settle = DECAY_TIMES / rate;
+    let cap = MAX_TRANSIENT_FRACTION * t_end;
+    if settle <= cap {
+        return (fixed.max(settle), None);
+    }
+    let warning = format!(
+        "the slowest mode decays at {rate:.4} 1/s: its transient needs {settle:.3} s ({DECAY_TIMES} time constants), more than half the run; the statistics from {cap:.3} s on include part of it (t_end = {:.3} s or more would leave half the run stationary)",
+        settle / MAX_TRANSIENT_FRACTION
+    );
+    (cap, Some(warning))
+}
 /// Batches of the batch-means standard error.
 pub const BATCHES: usize = 20;
 
@@ -68,8 +95,14 @@ pub struct GeneratorEstimate {
 pub struct RandomRunReport {
     /// Every random excitation's realisation.
     pub realisations: Vec<RealisationReport>,
-    /// Start of the stationary part (s).
+    /// Start of the stationary part (s), [`stationary_start`].
     pub from: f64,
+    /// The slowest decay rate of the linearised modes (1/s), where the linearisation gives it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub slowest_decay_rate: Option<f64>,
+    /// Why the statistics may include part of the transient.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub warning: Option<String>,
     /// Batches of the standard errors.
     pub batches: usize,
     /// Samples (output rows) in the stationary part.
@@ -91,9 +124,8 @@ pub struct BatchStats {
 }
 
 impl BatchStats {
-    /// Sums of `n` signals over `[TRANSIENT_FRACTION t_end, t_end]`.
-    pub fn new(n: usize, t_end: f64) -> Self {
-        let from = TRANSIENT_FRACTION * t_end;
+    /// Sums of `n` signals over `[from, t_end]`.
+    pub fn new(n: usize, from: f64, t_end: f64) -> Self {
         BatchStats {
             from,
             width: (t_end - from) / BATCHES as f64,
@@ -166,7 +198,7 @@ mod tests {
     #[test]
     fn batch_means_of_a_known_signal() {
         // x = 3 + 2 sin(2 pi 50 t) sampled finely: centred RMS sqrt(2), mean square 9 + 2.
-        let mut s = BatchStats::new(1, 100.0);
+        let mut s = BatchStats::new(1, 10.0, 100.0);
         let dt = 1e-3;
         for i in 0..=100_000 {
             let t = i as f64 * dt;

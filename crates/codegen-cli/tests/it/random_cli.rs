@@ -134,7 +134,11 @@ fn time_domain_realisation_agrees_with_the_closed_forms() {
     assert_eq!(real["seed"], 3);
     let ms = real["mean_square"].as_f64().unwrap();
     assert!((ms / (G * (400.0 - 0.05)) - 1.0).abs() < 1e-10, "{ms}");
-    assert!((r["from"].as_f64().unwrap() - 30.0).abs() < 1e-9);
+    // The stationary part starts after 5 time constants of the slowest mode, the beam's
+    // first (Rayleigh damping 0.2 %: 0.077 1/s), 65 s, later than the first tenth (30 s).
+    let sigma = r["slowest_decay_rate"].as_f64().unwrap();
+    assert!((sigma - 0.0766).abs() < 1e-3, "{sigma}");
+    assert!((r["from"].as_f64().unwrap() - 5.0 / sigma).abs() < 1e-9);
     let (c, j) = sdof_constants();
     let within = |what: &str, got: f64, se: f64, want: f64| {
         assert!(se > 0.0 && se < 0.1 * want, "{what}: standard error {se}");
@@ -411,4 +415,61 @@ fn base_white_noise_input_power_is_the_moving_mass_closed_form() {
     }
     // Independent of the damping: the generator's share changes, the total does not.
     assert!((powers[0] / powers[2] - 1.0).abs() < 2e-5, "{powers:?}");
+}
+
+/// The stationary part starts after 5 time constants of the slowest linearised mode: on the
+/// bundled damper (slowest decay rate 1.4231 1/s, the second mode's, below the first's 1.524)
+/// a 40 s run skips its first tenth (4 s > 3.5 s), a 5 s run is cut at half (2.5 s < 3.5 s) with a
+/// warning on stderr and in the summary naming the `t_end` that would do (7.03 s).
+#[test]
+fn the_transient_skipped_follows_the_slowest_mode_and_a_short_run_is_warned() {
+    let dir = std::env::temp_dir().join(format!("random_cli_{}_transient", std::process::id()));
+    let scenario = root().join("scenarios/random_damper.toml");
+    let run = |t_end: &str| {
+        let out = dir.join(t_end).display().to_string();
+        let set = format!("integrator.t_end={t_end}");
+        let (code, _, err) = damper(&[
+            "simulate",
+            scenario.to_str().unwrap(),
+            "--set",
+            &set,
+            "-o",
+            &out,
+            "--quiet",
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let s: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(format!("{out}/summary.json")).unwrap())
+                .unwrap();
+        (s["random"].clone(), err)
+    };
+    // The smallest decay rate of the first 10 modes, from `damper linearize`.
+    let (code, out, err) = damper(&[
+        "linearize",
+        scenario.to_str().unwrap(),
+        "--json",
+        "--modes",
+        "10",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let lin: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let sigma = lin["modes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["decay_rate"].as_f64().unwrap())
+        .fold(f64::INFINITY, f64::min);
+    let (r, err) = run("5");
+    assert!((r["slowest_decay_rate"].as_f64().unwrap() - sigma).abs() < 1e-9 * sigma);
+    assert_eq!(r["from"].as_f64(), Some(2.5));
+    let w = r["warning"].as_str().unwrap();
+    let need = format!("t_end = {:.3} s", 2.0 * 5.0 / sigma);
+    assert!(w.contains(&need), "{w} lacks {need}");
+    assert!(err.contains("warning: the slowest mode decays"), "{err}");
+    let (r, err) = run("40");
+    assert_eq!(r["from"].as_f64(), Some(4.0));
+    assert!(
+        r.get("warning").is_none() && !err.contains("warning"),
+        "{err}"
+    );
 }
