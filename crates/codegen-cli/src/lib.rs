@@ -13,8 +13,12 @@
 //!   interpreter) → `hybrid-core` → observer; [`run_hybrid`] for hybrid systems;
 //! - [`report`]: CSV time histories, typed JSON summaries, the SVG plot, and the one atomic
 //!   writer that commits all files of a run together;
-//! - [`commands`]: `generate`, `eval`, `modes`, `simulate`, `sweep`, `merge` (the binary
-//!   parses arguments and calls these); [`sweep_point`] evaluates one point of a sweep.
+//! - [`commands`]: `generate`, `eval`, `modes`, `simulate`, `linearize`, `frf`, `random`,
+//!   `sweep`, `optimize`, `merge` (the binary parses arguments and calls these);
+//!   [`sweep_point`] evaluates one point of a sweep, [`linear`] and [`random`] the linearised
+//!   figures (modes, receptance peak, harvested power, admissible load; stationary random
+//!   response), [`optimize`] the constrained design optimisation and [`sensitivity`] its
+//!   gradients (the adjoint of the linear model).
 //!
 //! Standard output closed early (`damper modes .. | head -1`) is [`Error::Stdout`] with
 //! [`std::io::ErrorKind::BrokenPipe`]; the binary exits quietly with status 141

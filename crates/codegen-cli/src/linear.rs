@@ -463,7 +463,7 @@ impl PeakSpec {
 const PEAK_SCAN: usize = 200;
 
 /// The peak of [`PeakSpec`] for a loaded scenario: `(frequency (Hz), |H|)`. The band is
-/// scanned at [`PEAK_SCAN`] log-spaced frequencies, then the largest sample is refined by
+/// scanned at `PEAK_SCAN` (200) log-spaced frequencies, then the largest sample is refined by
 /// golden-section search between its neighbours, then by bisection on the slope of `|H|`
 /// (the frequency to its rounding, which the adjoint gradient of the peak needs: its error
 /// enters `d|H|/dp` to first order).

@@ -5,7 +5,7 @@
 //! `h(q) = 0` (eqs. 14–16). This module
 //!
 //! - assembles a consistent initial configuration and velocity from a partial
-//!   specification ([`assembly`]: damped Newton / Levenberg–Marquardt with step limiting,
+//!   specification (`assembly`: damped Newton / Levenberg–Marquardt with step limiting,
 //!   the guess selecting the branch; infeasible loops reported with the residual of every
 //!   row);
 //! - chooses the independent coordinates `u` (by the user, or automatically by LU with full

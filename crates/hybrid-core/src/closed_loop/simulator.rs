@@ -21,7 +21,7 @@ use mbs_symbolic::runtime::{System, Workspace};
 
 /// Runs a simulation from a consistent state and collects the output.
 ///
-/// `q0`, `qd0` must satisfy the constraints (use [`super::assembly`] first); the dependent
+/// `q0`, `qd0` must satisfy the constraints (use `closed_loop::assembly` first); the dependent
 /// coordinates are re-projected to rounding level before the start.
 pub fn simulate<S: System + ?Sized>(
     sys: &S,

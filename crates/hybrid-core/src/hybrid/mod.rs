@@ -64,6 +64,17 @@
 //! the condition, the smallest singular value and the remaining reach where known. A
 //! mechanism with free coordinates is re-partitioned (logged) when its `J_d` degrades and a
 //! better block exists.
+//!
+//! # Linearisation, modes, responses and sensitivities
+//!
+//! About the static equilibrium the reduced equations have exact tangents `M_R`, `C_R`, `K_R`
+//! and the inductive generators' currents ([`Linearization`]); their pencil
+//! `S(sigma) = K_R + sigma C_R + sigma^2 M_R + electrical` is solved in `O(n)` ([`Pencil`]) for
+//! the modes ([`modes`]), the harmonic responses and the first-order form of the random
+//! response ([`StateSpace`], [`lyapunov`]). The derivatives of an eigenvalue
+//! (`d lambda = -psi^T dS phi / psi^T S' phi`) and of a harmonic response
+//! (`dz = S^-1 (df - dS z)`) with respect to a parameter, given the pencil's derivative, are
+//! [`EigenSensitivity`] and [`response_derivative`].
 
 mod eigen;
 mod error;

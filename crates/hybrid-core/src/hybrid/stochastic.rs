@@ -452,7 +452,7 @@ pub struct PsdInput<'a> {
 
 /// The variances of `outputs` under independent inputs, `Σ_k ∫ |H_k(f)|² G_k(f) df` over
 /// `[f_lo, f_hi]` (`f_hi` may be infinite), `H_k` from the pencil
-/// ([`Linearization::harmonic_response`]), by [`integrate_psd`].
+/// ([`Linearization::harmonic_response`]), by `integrate_psd`.
 pub fn psd_variances(
     lin: &Linearization,
     inputs: &[PsdInput<'_>],
@@ -492,7 +492,7 @@ pub fn psd_variances(
 impl StateSpace {
     /// The variances of the outputs `rows` (from [`StateSpace::row`]) under the independent
     /// inputs of PSDs `psds` (one per input), `Σ_k ∫ |c^T (i ω − A)^{-1} b_k|² G_k df`, by
-    /// [`integrate_psd`] (one dense complex solve per frequency).
+    /// `integrate_psd` (one dense complex solve per frequency).
     pub fn psd_variances(
         &self,
         psds: &[&dyn Fn(f64) -> f64],

@@ -75,7 +75,7 @@ pub struct LinearRow {
     /// Generator disconnected.
     pub generator_disconnected: Receptance,
     /// The admissible load with the generator, per load limit (in the order of
-    /// [`Io::limits`]): `reach / |H_att|` (force unit), [`LoadLimit::max_force`].
+    /// `Io::limits`): `reach / |H_att|` (force unit), [`LoadLimit::max_force`].
     pub max_force: Vec<f64>,
     /// Every connected generator's response per unit force, with the generator (in the
     /// order of the scenario's force elements).
