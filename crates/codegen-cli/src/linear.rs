@@ -464,7 +464,7 @@ const PEAK_SCAN: usize = 200;
 
 /// The peak of [`PeakSpec`] for a loaded scenario: `(frequency (Hz), |H|)`. The band is
 /// scanned at `PEAK_SCAN` (200) log-spaced frequencies, then the largest sample is refined by
-/// golden-section search between its neighbours, then by bisection on the slope of `|H|`
+/// golden-section search between its neighbours, then by regula falsi on the slope of `|H|`
 /// (the frequency to its rounding, which the adjoint gradient of the peak needs: its error
 /// enters `d|H|/dp` to first order).
 pub fn receptance_peak(file: &str, sc: &Scenario, spec: &PeakSpec) -> Result<(f64, f64), Error> {
@@ -553,7 +553,7 @@ pub fn peak_of(
     // The stationary point itself: |H| is flat at its peak, so the golden section locates it
     // only to the square root of |H|'s rounding (~1e-8 of the frequency); the slope
     // g = d|H|^2/d omega / 2 = Re(conj(H) dH/d omega), dz/d omega = -S^-1 (i S'(i omega) z),
-    // crosses zero linearly there and locates it to its own rounding (bisection, 60 steps).
+    // crosses zero linearly there and locates it to its own rounding.
     let slope = |hz: f64| -> Result<(f64, f64), Error> {
         let sigma = Complex::new(0.0, 2.0 * std::f64::consts::PI * hz);
         let pencil =
@@ -573,16 +573,38 @@ pub fn peak_of(
         Ok(((h.conj() * dh).re, h.norm()))
     };
     let (mut lo, mut hi) = (fm * (1.0 - 1e-6), fm * (1.0 + 1e-6));
-    if lo > f1 && hi < f2 && slope(lo)?.0 > 0.0 && slope(hi)?.0 < 0.0 {
+    let (mut glo, mut ghi) = (slope(lo)?.0, slope(hi)?.0);
+    if lo > f1 && hi < f2 && glo > 0.0 && ghi < 0.0 {
+        // Regula falsi with the Illinois modification (g is nearly linear over the bracket:
+        // a few steps), at most 60, to a bracket at the frequency's rounding.
+        let mut side = 0i8;
         for _ in 0..60 {
-            let mid = 0.5 * (lo + hi);
-            if mid <= lo || mid >= hi {
+            if hi - lo <= 4.0 * f64::EPSILON * hi {
                 break;
             }
-            if slope(mid)?.0 > 0.0 {
-                lo = mid;
+            let mid = (lo * ghi - hi * glo) / (ghi - glo);
+            let mid = if mid > lo && mid < hi {
+                mid
             } else {
+                0.5 * (lo + hi)
+            };
+            let g = slope(mid)?.0;
+            if g > 0.0 {
+                lo = mid;
+                glo = g;
+                if side == 1 {
+                    ghi *= 0.5;
+                }
+                side = 1;
+            } else if g < 0.0 {
                 hi = mid;
+                ghi = g;
+                if side == -1 {
+                    glo *= 0.5;
+                }
+                side = -1;
+            } else {
+                (lo, hi) = (mid, mid);
             }
         }
         let f = 0.5 * (lo + hi);
