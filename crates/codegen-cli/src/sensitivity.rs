@@ -126,9 +126,11 @@ pub fn gradients(p: &Problem<'_>, x: &[f64]) -> Result<Vec<Gradient>, Error> {
         .zip(x)
         .map(|(v, &xi)| stencil(v, xi))
         .collect();
-    // The linearisations at the stencils' points (the point itself where an offset is 0).
+    // The linearisations at the stencils' points (the point itself where an offset is 0),
+    // where a figure has an adjoint.
     let mut shifted_points: Vec<Vec<Option<Point>>> = vec![];
-    for (k, st) in stencils.iter().enumerate() {
+    let any_adjoint = names.iter().any(|n| Adjoint::has(n));
+    for (k, st) in stencils.iter().enumerate().filter(|_| any_adjoint) {
         let mut row = vec![];
         for &(offset, _) in st {
             row.push(if offset == 0.0 {
@@ -253,8 +255,20 @@ type Valued = Result<(f64, Vec<f64>), Error>;
 type Covariance = (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>);
 
 impl Adjoint<'_> {
+    /// Whether the figure `name` may have an adjoint ([`Adjoint::figure`]).
+    fn has(name: &str) -> bool {
+        matches!(
+            name,
+            "linear.zeta1" | "linear.f1" | "linear.decay1" | "linear.max_force" | "power"
+        ) || PeakSpec::parse(name).is_some()
+            || name.starts_with("rms:")
+    }
+
     /// The figure `name`'s value and gradient, `None` where it has no adjoint here.
     fn figure(&self, name: &str) -> Option<Valued> {
+        if self.shifted.is_empty() && !self.p.variables.is_empty() {
+            return None;
+        }
         match name {
             "linear.zeta1" | "linear.f1" | "linear.decay1" => Some(self.eigen(name)),
             "linear.max_force" => Some(self.max_force()),
