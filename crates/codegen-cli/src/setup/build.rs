@@ -10,13 +10,14 @@ use diagnostic::{Diagnostic, Diagnostics, Kind};
 use fem_beam::BeamModel;
 use hybrid_core::hybrid::{
     Attachment, BeamPoint, Excitation, ExcitationTarget, HybridError, HybridModel, HybridState,
-    JointForce, Mount, MountedMechanism, initial_deflection, initial_state, place_two_bar,
+    JointForce, Mount, MountedMechanism, Placement, initial_deflection, initial_state,
+    place_two_bar,
 };
 use mbs_symbolic::model::Model;
 use mbs_symbolic::runtime::{ParamError, System};
 
 use crate::scenario::HybridScenario;
-use crate::scenario::hybrid::{MechanismEntry, TargetEntry, list};
+use crate::scenario::hybrid::{AttachmentEntry, MechanismEntry, TargetEntry, list};
 
 /// A hybrid scenario resolved against its models: the model, its initial state and what
 /// the reports need.
@@ -352,11 +353,9 @@ impl Resolver<'_> {
             .collect()
     }
 
-    /// Every attachment's mechanism point and beam point (`None` where either is missing
-    /// or its mechanism is not loaded). Records, at `point`, `UnknownName` for a point
-    /// the mechanism lacks (listing its points) or `InvalidValue` for a point on the
-    /// ground body; at `x`, `InvalidValue` for a beam point a support locks or one off
-    /// the beam ([`Resolver::on_beam`]).
+    /// Every attachment's mechanism point ([`Resolver::mechanism_point`]) and beam point
+    /// ([`Resolver::attached_beam_point`]): `None` where either is missing or its
+    /// mechanism is not loaded, with the diagnostics of those two.
     fn attachment_points(
         &mut self,
         beam: Option<&BeamModel>,
@@ -366,61 +365,65 @@ impl Resolver<'_> {
         sc.attachments
             .iter()
             .map(|a| {
-                let Some(Loaded { model, system: sys }) = &loaded[a.mechanism] else {
-                    return None;
-                };
+                let l = loaded[a.mechanism].as_ref()?;
                 let entity = named("attachment", &a.name);
-                let point = match sys.point_index(&a.point) {
-                    None => {
-                        self.report(
-                            Kind::UnknownName,
-                            Some(&a.point_span),
-                            &entity,
-                            format!(
-                                "no point {:?} in mechanism \"{}\" (points: {})",
-                                a.point,
-                                sc.mechanisms[a.mechanism].name,
-                                list(sys.point_names())
-                            ),
-                        );
-                        None
-                    }
-                    Some(_)
-                        if model
-                            .point_index(&a.point)
-                            .is_some_and(|i| model.points[i].body.is_none()) =>
-                    {
-                        self.report(
-                            Kind::InvalidValue,
-                            Some(&a.point_span),
-                            &entity,
-                            format!(
-                                "point {:?} is on the ground body: it cannot follow the beam",
-                                a.point
-                            ),
-                        );
-                        None
-                    }
-                    Some(k) => Some(k),
-                };
-                let beam_point = match self.on_beam(beam, a.x, &a.x_span, &entity) {
-                    Some(p) if p.is_locked() => {
-                        self.report(
-                            Kind::InvalidValue,
-                            Some(&a.x_span),
-                            &entity,
-                            format!(
-                                "the beam cannot move transversely at x = {} (a support locks it)",
-                                a.x
-                            ),
-                        );
-                        None
-                    }
-                    p => p,
-                };
+                let point = self.mechanism_point(a, l, &entity);
+                let beam_point = self.attached_beam_point(beam, a, &entity);
                 point.zip(beam_point)
             })
             .collect()
+    }
+
+    /// The index of the point an attachment names in its mechanism's system. Records, at
+    /// `point`, `UnknownName` for a point the mechanism lacks (listing its points) or
+    /// `InvalidValue` for a point on the ground body.
+    fn mechanism_point(&mut self, a: &AttachmentEntry, l: &Loaded, entity: &str) -> Option<usize> {
+        let Loaded { model, system: sys } = l;
+        match sys.point_index(&a.point) {
+            None => {
+                let msg = format!(
+                    "no point {:?} in mechanism \"{}\" (points: {})",
+                    a.point,
+                    self.sc.mechanisms[a.mechanism].name,
+                    list(sys.point_names())
+                );
+                self.report(Kind::UnknownName, Some(&a.point_span), entity, msg);
+                None
+            }
+            Some(_)
+                if model
+                    .point_index(&a.point)
+                    .is_some_and(|i| model.points[i].body.is_none()) =>
+            {
+                let msg = format!(
+                    "point {:?} is on the ground body: it cannot follow the beam",
+                    a.point
+                );
+                self.report(Kind::InvalidValue, Some(&a.point_span), entity, msg);
+                None
+            }
+            Some(k) => Some(k),
+        }
+    }
+
+    /// The beam point an attachment follows. Records, at `x`, `InvalidValue` for a point
+    /// off the beam ([`Resolver::on_beam`]) or one a support locks.
+    fn attached_beam_point(
+        &mut self,
+        beam: Option<&BeamModel>,
+        a: &AttachmentEntry,
+        entity: &str,
+    ) -> Option<BeamPoint> {
+        let p = self.on_beam(beam, a.x, &a.x_span, entity)?;
+        if !p.is_locked() {
+            return Some(p);
+        }
+        let msg = format!(
+            "the beam cannot move transversely at x = {} (a support locks it)",
+            a.x
+        );
+        self.report(Kind::InvalidValue, Some(&a.x_span), entity, msg);
+        None
     }
 
     /// The point of the beam at `x`. Records `InvalidValue` at `span` when there is no
@@ -440,12 +443,9 @@ impl Resolver<'_> {
         p
     }
 
-    /// Every mechanism's mount and reach: a two-bar chain with a `placement` is placed so
-    /// its attached point lies on the beam (origin and initial coordinates replaced; the
-    /// reach kept when its angle is zero), any other as written. Records, at `placement`,
-    /// `Unsupported` for a model that is not a two-bar chain and `InvalidValue` for a
-    /// placement that fails; at the mechanism, `InvalidValue` when its loop rows and the
-    /// rows of its attachments outnumber its coordinates (over-constrained).
+    /// Every mechanism's mount and reach ([`Resolver::place_two_bar_chain`] for one with a
+    /// `placement`, as written otherwise), each loaded mechanism's rows checked
+    /// ([`Resolver::check_rows`]). Records the diagnostics of those two.
     fn place_mechanisms(
         &mut self,
         loaded: &[Option<Loaded>],
@@ -466,48 +466,74 @@ impl Resolver<'_> {
                     origin: m.origin,
                     angle: m.angle,
                 };
-                let mut reach = None;
                 let sys = loaded[i].as_ref().map(|l| l.system.as_ref());
-                if let (Some((a, how)), Some(sys)) = (m.placement, sys) {
-                    if sys.dof() != 2 || sys.rows() != 0 {
-                        self.report(
-                            Kind::Unsupported,
-                            m.placement_span.as_ref(),
-                            &entity,
-                            format!("placement is for a two-bar chain (2 coordinates, no loop rows); this model has {} coordinate(s) and {} loop row(s): give origin and initial instead", sys.dof(), sys.rows()),
-                        );
-                    } else if let Some((point, _)) = &points[a] {
-                        match place_two_bar(sys, *point, how) {
-                            Ok(two) => {
-                                // The beam point (x_b, 0) = origin + R(angle) target.
-                                let r = mount.rotate(two.target);
-                                mount.origin = [sc.attachments[a].x - r[0], -r[1]];
-                                initial_q[i] = two.guess.to_vec();
-                                reach = (m.angle == 0.0).then_some(two.reach);
-                            }
-                            Err(e) => self.report(
-                                Kind::InvalidValue,
-                                m.placement_span.as_ref(),
-                                &entity,
-                                format!("placement: {e}"),
-                            ),
-                        }
-                    }
+                let mut reach = None;
+                if let (Some(placement), Some(sys)) = (m.placement, sys) {
+                    let q = &mut initial_q[i];
+                    reach =
+                        self.place_two_bar_chain(m, sys, placement, points, &mut mount, q, &entity);
                 }
                 if let Some(sys) = sys {
-                    let (loops, dof, attached) = (sys.rows(), sys.dof(), attached[i]);
-                    if loops + attached > dof {
-                        self.report(
-                            Kind::InvalidValue,
-                            Some(&m.span),
-                            &entity,
-                            format!("over-constrained: {} constraint rows ({loops} loop row(s) + {attached} attachment row(s)) for {dof} coordinate(s)", loops + attached),
-                        );
-                    }
+                    self.check_rows(m, sys, attached[i], &entity);
                 }
                 (mount, reach)
             })
             .collect()
+    }
+
+    /// Places a two-bar chain so that its attached point lies on the beam: the mount's
+    /// origin and the initial coordinates `q` replaced, its reach returned when its angle
+    /// is zero (nothing done when the attachment is not resolved). Records, at
+    /// `placement`, `Unsupported` for a model that is not a two-bar chain and
+    /// `InvalidValue` for a placement that fails.
+    fn place_two_bar_chain(
+        &mut self,
+        m: &MechanismEntry,
+        sys: &dyn System,
+        (a, how): (usize, Placement),
+        points: &[Option<AttachedPoint>],
+        mount: &mut Mount,
+        q: &mut Vec<f64>,
+        entity: &str,
+    ) -> Option<f64> {
+        if sys.dof() != 2 || sys.rows() != 0 {
+            self.report(
+                Kind::Unsupported,
+                m.placement_span.as_ref(),
+                entity,
+                format!("placement is for a two-bar chain (2 coordinates, no loop rows); this model has {} coordinate(s) and {} loop row(s): give origin and initial instead", sys.dof(), sys.rows()),
+            );
+            return None;
+        }
+        let (point, _) = points[a].as_ref()?;
+        match place_two_bar(sys, *point, how) {
+            Ok(two) => {
+                // The beam point (x_b, 0) = origin + R(angle) target.
+                let r = mount.rotate(two.target);
+                mount.origin = [self.sc.attachments[a].x - r[0], -r[1]];
+                *q = two.guess.to_vec();
+                (m.angle == 0.0).then_some(two.reach)
+            }
+            Err(e) => {
+                let msg = format!("placement: {e}");
+                self.report(Kind::InvalidValue, m.placement_span.as_ref(), entity, msg);
+                None
+            }
+        }
+    }
+
+    /// Records `InvalidValue` at the mechanism when its loop rows and the `attached` rows
+    /// of its attachments outnumber its coordinates (over-constrained).
+    fn check_rows(&mut self, m: &MechanismEntry, sys: &dyn System, attached: usize, entity: &str) {
+        let (loops, dof) = (sys.rows(), sys.dof());
+        if loops + attached > dof {
+            self.report(
+                Kind::InvalidValue,
+                Some(&m.span),
+                entity,
+                format!("over-constrained: {} constraint rows ({loops} loop row(s) + {attached} attachment row(s)) for {dof} coordinate(s)", loops + attached),
+            );
+        }
     }
 
     /// Checks that every resolved attachment point moves in the plane at its mechanism's
