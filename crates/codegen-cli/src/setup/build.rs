@@ -10,13 +10,14 @@ use diagnostic::{Diagnostic, Diagnostics, Kind};
 use fem_beam::BeamModel;
 use hybrid_core::hybrid::{
     Attachment, BeamPoint, Excitation, ExcitationTarget, HybridError, HybridModel, HybridState,
-    JointForce, Mount, MountedMechanism, initial_deflection, initial_state, place_two_bar,
+    JointForce, Mount, MountedMechanism, Placement, initial_deflection, initial_state,
+    place_two_bar,
 };
 use mbs_symbolic::model::Model;
 use mbs_symbolic::runtime::{ParamError, System};
 
 use crate::scenario::HybridScenario;
-use crate::scenario::hybrid::{TargetEntry, list};
+use crate::scenario::hybrid::{AttachmentEntry, MechanismEntry, TargetEntry, list};
 
 /// A hybrid scenario resolved against its models: the model, its initial state and what
 /// the reports need.
@@ -73,11 +74,7 @@ pub fn build(sc: &HybridScenario) -> Result<Built, Diagnostics> {
                 .map(|m| &m.span),
             _ => None,
         };
-        let d = Diagnostic::new(
-            Kind::InvalidValue,
-            sc.path.display().to_string(),
-            format!("initial state: {e}"),
-        );
+        let d = in_file(sc, format!("initial state: {e}"));
         Diagnostics::from(match span {
             Some(s) => d.at_offset(&sc.index, s.start),
             None => d,
@@ -116,7 +113,7 @@ fn realise_random(sc: &HybridScenario, model: &mut HybridModel) -> Result<(), Di
             sc.at(
                 Kind::InvalidValue,
                 span,
-                &format!("excitation \"{}\"", e.name),
+                &named("excitation", &e.name),
                 format!("time: {err}"),
             )
         })?;
@@ -129,47 +126,161 @@ fn realise_random(sc: &HybridScenario, model: &mut HybridModel) -> Result<(), Di
 /// mechanisms), without the initial state: what a linearisation about the rest position
 /// needs (an initial displacement out of the mechanism's reach does not stop it).
 pub fn build_model(sc: &HybridScenario) -> Result<(HybridModel, Vec<Model>), Diagnostics> {
-    let mut diags: Vec<Diagnostic> = vec![];
-    let beam = match &sc.beam {
-        Some((_, b)) => match BeamModel::new(b) {
-            Ok(m) => Some(m),
-            Err(e) => {
-                let msg = e.to_string().replace('\n', "; ");
-                return Err(sc
-                    .at(Kind::InvalidValue, sc.beam_span.as_ref(), "[beam]", msg)
-                    .into());
-            }
+    let beam = beam_model(sc)?;
+    let mut r = Resolver { sc, diags: vec![] };
+    let loaded = r.load_mechanisms();
+    let mut initial_q = r.initial_coordinates(&loaded);
+    let points = r.attachment_points(beam.as_ref(), &loaded);
+    let mounts = r.place_mechanisms(&loaded, &points, &mut initial_q);
+    r.check_points_move(&loaded, &points, &initial_q);
+    let forces = r.joint_forces(&loaded);
+    let excitations = r.excitations(beam.as_ref(), &loaded);
+    r.finish()?;
+    assemble(
+        sc,
+        Resolved {
+            beam,
+            loaded,
+            mounts,
+            initial_q,
+            points,
+            forces,
+            excitations,
         },
-        None => None,
+    )
+}
+
+/// A mechanism's model and its system (generated code or interpreter), the scenario's
+/// parameter values set.
+struct Loaded {
+    model: Model,
+    system: Box<dyn System>,
+}
+
+/// Where a mechanism stands: its mount and, for a two-bar chain placed without rotation,
+/// its reach.
+type Placed = (Mount, Option<f64>);
+
+/// An attachment resolved: the index of its mechanism point and the beam point it follows.
+type AttachedPoint = (usize, BeamPoint);
+
+/// Everything the stages of [`build_model`] resolved, before the assembly: per mechanism
+/// (loaded model, placement, initial coordinates), per attachment, the forces and the
+/// excitations.
+struct Resolved {
+    beam: Option<BeamModel>,
+    loaded: Vec<Option<Loaded>>,
+    mounts: Vec<Placed>,
+    initial_q: Vec<Vec<f64>>,
+    points: Vec<Option<AttachedPoint>>,
+    forces: Vec<JointForce>,
+    excitations: Vec<Excitation>,
+}
+
+/// The entity a diagnostic names: `what "name"` (e.g. `mechanism "arm"`).
+fn named(what: &str, name: &str) -> String {
+    format!("{what} \"{name}\"")
+}
+
+/// A problem of the scenario file as a whole (no span, no entity).
+fn in_file(sc: &HybridScenario, msg: impl Into<String>) -> Diagnostic {
+    Diagnostic::new(Kind::InvalidValue, sc.path.display().to_string(), msg)
+}
+
+/// The finite-element beam of `[beam]`, if any. A beam the FE model rejects stops
+/// [`build_model`] at once: one `InvalidValue` at `[beam]` (the error's lines joined by
+/// `; `), reported alone, nothing after it being checked.
+fn beam_model(sc: &HybridScenario) -> Result<Option<BeamModel>, Diagnostics> {
+    let Some((_, b)) = &sc.beam else {
+        return Ok(None);
     };
-    // Models and systems.
-    let mut models = vec![];
-    let mut systems: Vec<Option<Box<dyn System>>> = vec![];
-    for m in &sc.mechanisms {
-        let entity = format!("mechanism \"{}\"", m.name);
-        let model = match mbs_symbolic::model::load(&m.model) {
-            Ok(model) => model,
-            Err(d) => {
-                diags.extend(d.0);
-                models.push(None);
-                systems.push(None);
-                continue;
-            }
-        };
-        let mut system = match crate::system_for(&model, None) {
-            Ok(r) => r.system,
-            Err(e) => {
-                diags.push(sc.at(
-                    Kind::Unsupported,
-                    Some(&m.model_span),
-                    &entity,
-                    e.to_string(),
-                ));
-                models.push(None);
-                systems.push(None);
-                continue;
-            }
-        };
+    BeamModel::new(b).map(Some).map_err(|e| {
+        let msg = e.to_string().replace('\n', "; ");
+        sc.at(Kind::InvalidValue, sc.beam_span.as_ref(), "[beam]", msg)
+            .into()
+    })
+}
+
+/// The stages of [`build_model`] after the beam: each resolves one kind of name of the
+/// scenario against the models and adds its problems to those of the stages before, so
+/// that every problem is reported at once ([`Resolver::finish`]).
+struct Resolver<'a> {
+    sc: &'a HybridScenario,
+    diags: Vec<Diagnostic>,
+}
+
+impl Resolver<'_> {
+    /// Records a problem at `span` of the scenario file, about `entity`.
+    fn report(
+        &mut self,
+        kind: Kind,
+        span: Option<&Range<usize>>,
+        entity: &str,
+        msg: impl Into<String>,
+    ) {
+        self.diags.push(self.sc.at(kind, span, entity, msg));
+    }
+
+    /// Every problem the stages recorded, sorted by place, or nothing.
+    fn finish(self) -> Result<(), Diagnostics> {
+        if self.diags.is_empty() {
+            return Ok(());
+        }
+        let mut d = Diagnostics(self.diags);
+        d.sort();
+        Err(d)
+    }
+
+    /// Every mechanism's model loaded and its system built with the written parameters,
+    /// in the order of the mechanisms (`None` where the model could not be loaded or has
+    /// no system). Records the model loader's diagnostics, `Unsupported` at `model` when
+    /// no system can be built, and the parameter diagnostics of
+    /// [`Resolver::set_parameters`].
+    fn load_mechanisms(&mut self) -> Vec<Option<Loaded>> {
+        let sc = self.sc;
+        sc.mechanisms
+            .iter()
+            .map(|m| {
+                let model = match mbs_symbolic::model::load(&m.model) {
+                    Ok(model) => model,
+                    Err(d) => {
+                        self.diags.extend(d.0);
+                        return None;
+                    }
+                };
+                let entity = named("mechanism", &m.name);
+                let mut system = match crate::system_for(&model, None) {
+                    Ok(r) => r.system,
+                    Err(e) => {
+                        self.report(
+                            Kind::Unsupported,
+                            Some(&m.model_span),
+                            &entity,
+                            e.to_string(),
+                        );
+                        return None;
+                    }
+                };
+                self.set_parameters(m, &model, system.as_mut(), &entity);
+                Some(Loaded { model, system })
+            })
+            .collect()
+    }
+
+    /// Sets a mechanism's written parameters on its system and, when every one was
+    /// accepted, checks the resulting values against the model's bounds. Records, at each
+    /// parameter, `UnknownName` for a name the model lacks or `InvalidValue` for a value
+    /// the system refuses; then the model's own checks of the values, at the first
+    /// parameter (or the mechanism when none is written), their entity prefixed by
+    /// `mechanism "…": parameters`.
+    fn set_parameters(
+        &mut self,
+        m: &MechanismEntry,
+        model: &Model,
+        system: &mut dyn System,
+        entity: &str,
+    ) {
+        let sc = self.sc;
         let mut values = model.default_params();
         let mut params_ok = true;
         for (name, value, span) in &m.parameters {
@@ -179,95 +290,104 @@ pub fn build_model(sc: &HybridScenario) -> Result<(HybridModel, Vec<Model>), Dia
                         values[k] = *value;
                     }
                 }
-                Err(e @ ParamError::Unknown { .. }) => {
-                    diags.push(sc.at(
-                        Kind::UnknownName,
-                        Some(span),
-                        &format!("{entity}: parameters"),
-                        e.to_string(),
-                    ));
-                    params_ok = false;
-                }
                 Err(e) => {
-                    diags.push(sc.at(
-                        Kind::InvalidValue,
-                        Some(span),
-                        &format!("{entity}: parameters"),
-                        e.to_string(),
-                    ));
+                    let kind = match &e {
+                        ParamError::Unknown { .. } => Kind::UnknownName,
+                        _ => Kind::InvalidValue,
+                    };
+                    let what = format!("{entity}: parameters");
+                    self.report(kind, Some(span), &what, e.to_string());
                     params_ok = false;
                 }
             }
         }
-        if params_ok {
-            let at = m
-                .parameters
-                .first()
-                .map(|p| p.2.clone())
-                .unwrap_or(m.span.clone());
-            if let Err(d) = mbs_symbolic::model::check_parameter_values(
-                &model,
-                &values,
-                &sc.path.display().to_string(),
-            ) {
-                for mut d in d.0 {
-                    let what = d.entity.take().unwrap_or_default();
-                    d = d
-                        .entity(format!("{entity}: parameters: {what}"))
-                        .at_offset(&sc.index, at.start);
-                    diags.push(d);
+        if !params_ok {
+            return;
+        }
+        let at = m
+            .parameters
+            .first()
+            .map(|p| p.2.clone())
+            .unwrap_or(m.span.clone());
+        let file = sc.path.display().to_string();
+        if let Err(d) = mbs_symbolic::model::check_parameter_values(model, &values, &file) {
+            for mut d in d.0 {
+                let what = d.entity.take().unwrap_or_default();
+                d = d
+                    .entity(format!("{entity}: parameters: {what}"))
+                    .at_offset(&sc.index, at.start);
+                self.diags.push(d);
+            }
+        }
+    }
+
+    /// Every mechanism's initial coordinates from its `initial` entries by name (zero
+    /// where not written; empty for a mechanism not loaded). Records `UnknownName` at an
+    /// entry whose coordinate the model lacks, listing the model's coordinates.
+    fn initial_coordinates(&mut self, loaded: &[Option<Loaded>]) -> Vec<Vec<f64>> {
+        let sc = self.sc;
+        sc.mechanisms
+            .iter()
+            .zip(loaded)
+            .map(|(m, l)| {
+                let Some(Loaded { system: sys, .. }) = l else {
+                    return vec![];
+                };
+                let mut q = vec![0.0; sys.dof()];
+                for (name, value, span) in &m.initial {
+                    match sys.coordinate_index(name) {
+                        Some(k) => q[k] = *value,
+                        None => self.report(
+                            Kind::UnknownName,
+                            Some(span),
+                            &format!("{}: initial", named("mechanism", &m.name)),
+                            format!(
+                                "unknown coordinate {name:?} (the model has {})",
+                                list(sys.coordinate_names())
+                            ),
+                        ),
+                    }
                 }
-            }
-        }
-        models.push(Some(model));
-        systems.push(Some(system));
+                q
+            })
+            .collect()
     }
-    // Initial coordinates by name.
-    let mut initial_q: Vec<Vec<f64>> = vec![];
-    for (m, sys) in sc.mechanisms.iter().zip(&systems) {
-        let Some(sys) = sys else {
-            initial_q.push(vec![]);
-            continue;
-        };
-        let mut q = vec![0.0; sys.dof()];
-        for (name, value, span) in &m.initial {
-            match sys.coordinate_index(name) {
-                Some(k) => q[k] = *value,
-                None => diags.push(sc.at(
-                    Kind::UnknownName,
-                    Some(span),
-                    &format!("mechanism \"{}\": initial", m.name),
-                    format!(
-                        "unknown coordinate {name:?} (the model has {})",
-                        list(sys.coordinate_names())
-                    ),
-                )),
-            }
-        }
-        initial_q.push(q);
+
+    /// Every attachment's mechanism point ([`Resolver::mechanism_point`]) and beam point
+    /// ([`Resolver::attached_beam_point`]): `None` where either is missing or its
+    /// mechanism is not loaded, with the diagnostics of those two.
+    fn attachment_points(
+        &mut self,
+        beam: Option<&BeamModel>,
+        loaded: &[Option<Loaded>],
+    ) -> Vec<Option<AttachedPoint>> {
+        let sc = self.sc;
+        sc.attachments
+            .iter()
+            .map(|a| {
+                let l = loaded[a.mechanism].as_ref()?;
+                let entity = named("attachment", &a.name);
+                let point = self.mechanism_point(a, l, &entity);
+                let beam_point = self.attached_beam_point(beam, a, &entity);
+                point.zip(beam_point)
+            })
+            .collect()
     }
-    // Attachments: points and beam points.
-    let mut points = vec![];
-    for a in &sc.attachments {
-        let entity = format!("attachment \"{}\"", a.name);
-        let (Some(model), Some(sys)) = (&models[a.mechanism], &systems[a.mechanism]) else {
-            points.push(None);
-            continue;
-        };
-        let point = sys.point_index(&a.point);
-        let point = match point {
+
+    /// The index of the point an attachment names in its mechanism's system. Records, at
+    /// `point`, `UnknownName` for a point the mechanism lacks (listing its points) or
+    /// `InvalidValue` for a point on the ground body.
+    fn mechanism_point(&mut self, a: &AttachmentEntry, l: &Loaded, entity: &str) -> Option<usize> {
+        let Loaded { model, system: sys } = l;
+        match sys.point_index(&a.point) {
             None => {
-                diags.push(sc.at(
-                    Kind::UnknownName,
-                    Some(&a.point_span),
-                    &entity,
-                    format!(
-                        "no point {:?} in mechanism \"{}\" (points: {})",
-                        a.point,
-                        sc.mechanisms[a.mechanism].name,
-                        list(sys.point_names())
-                    ),
-                ));
+                let msg = format!(
+                    "no point {:?} in mechanism \"{}\" (points: {})",
+                    a.point,
+                    self.sc.mechanisms[a.mechanism].name,
+                    list(sys.point_names())
+                );
+                self.report(Kind::UnknownName, Some(&a.point_span), entity, msg);
                 None
             }
             Some(_)
@@ -275,206 +395,283 @@ pub fn build_model(sc: &HybridScenario) -> Result<(HybridModel, Vec<Model>), Dia
                     .point_index(&a.point)
                     .is_some_and(|i| model.points[i].body.is_none()) =>
             {
-                diags.push(sc.at(
-                    Kind::InvalidValue,
-                    Some(&a.point_span),
-                    &entity,
-                    format!(
-                        "point {:?} is on the ground body: it cannot follow the beam",
-                        a.point
-                    ),
-                ));
+                let msg = format!(
+                    "point {:?} is on the ground body: it cannot follow the beam",
+                    a.point
+                );
+                self.report(Kind::InvalidValue, Some(&a.point_span), entity, msg);
                 None
             }
             Some(k) => Some(k),
-        };
-        let beam_point = beam.as_ref().and_then(|b| BeamPoint::on(b, a.x));
-        let beam_point = match beam_point {
-            Some(p) if p.is_locked() => {
-                diags.push(sc.at(
-                    Kind::InvalidValue,
-                    Some(&a.x_span),
-                    &entity,
-                    format!(
-                        "the beam cannot move transversely at x = {} (a support locks it)",
-                        a.x
-                    ),
-                ));
-                None
-            }
-            Some(p) => Some(p),
-            None => {
-                diags.push(sc.at(
-                    Kind::InvalidValue,
-                    Some(&a.x_span),
-                    &entity,
-                    format!("x = {} is not a point of the beam", a.x),
-                ));
-                None
-            }
-        };
-        points.push(point.zip(beam_point));
+        }
     }
-    // Placements, reach and over-constraint per mechanism.
-    let mut mounts = vec![];
-    for (i, m) in sc.mechanisms.iter().enumerate() {
-        let entity = format!("mechanism \"{}\"", m.name);
-        let mut mount = Mount {
-            origin: m.origin,
-            angle: m.angle,
-        };
-        let mut reach = None;
-        if let (Some((a, how)), Some(sys)) = (m.placement, &systems[i]) {
-            if sys.dof() != 2 || sys.rows() != 0 {
-                diags.push(sc.at(
-                    Kind::Unsupported,
-                    m.placement_span.as_ref(),
-                    &entity,
-                    format!("placement is for a two-bar chain (2 coordinates, no loop rows); this model has {} coordinate(s) and {} loop row(s): give origin and initial instead", sys.dof(), sys.rows()),
-                ));
-            } else if let Some((point, _)) = &points[a] {
-                match place_two_bar(sys.as_ref(), *point, how) {
-                    Ok(two) => {
-                        // The beam point (x_b, 0) = origin + R(angle) target.
-                        let r = mount.rotate(two.target);
-                        mount.origin = [sc.attachments[a].x - r[0], -r[1]];
-                        initial_q[i] = two.guess.to_vec();
-                        reach = (m.angle == 0.0).then_some(two.reach);
-                    }
-                    Err(e) => diags.push(sc.at(
-                        Kind::InvalidValue,
-                        m.placement_span.as_ref(),
-                        &entity,
-                        format!("placement: {e}"),
-                    )),
+
+    /// The beam point an attachment follows. Records, at `x`, `InvalidValue` for a point
+    /// off the beam ([`Resolver::on_beam`]) or one a support locks.
+    fn attached_beam_point(
+        &mut self,
+        beam: Option<&BeamModel>,
+        a: &AttachmentEntry,
+        entity: &str,
+    ) -> Option<BeamPoint> {
+        let p = self.on_beam(beam, a.x, &a.x_span, entity)?;
+        if !p.is_locked() {
+            return Some(p);
+        }
+        let msg = format!(
+            "the beam cannot move transversely at x = {} (a support locks it)",
+            a.x
+        );
+        self.report(Kind::InvalidValue, Some(&a.x_span), entity, msg);
+        None
+    }
+
+    /// The point of the beam at `x`. Records `InvalidValue` at `span` when there is no
+    /// beam or `x` is not on it.
+    fn on_beam(
+        &mut self,
+        beam: Option<&BeamModel>,
+        x: f64,
+        span: &Range<usize>,
+        entity: &str,
+    ) -> Option<BeamPoint> {
+        let p = beam.and_then(|b| BeamPoint::on(b, x));
+        if p.is_none() {
+            let msg = format!("x = {x} is not a point of the beam");
+            self.report(Kind::InvalidValue, Some(span), entity, msg);
+        }
+        p
+    }
+
+    /// Every mechanism's mount and reach ([`Resolver::place_two_bar_chain`] for one with a
+    /// `placement`, as written otherwise), each loaded mechanism's rows checked
+    /// ([`Resolver::check_rows`]). Records the diagnostics of those two.
+    fn place_mechanisms(
+        &mut self,
+        loaded: &[Option<Loaded>],
+        points: &[Option<AttachedPoint>],
+        initial_q: &mut [Vec<f64>],
+    ) -> Vec<Placed> {
+        let sc = self.sc;
+        let mut attached = vec![0usize; sc.mechanisms.len()];
+        for a in &sc.attachments {
+            attached[a.mechanism] += a.kind.rows();
+        }
+        sc.mechanisms
+            .iter()
+            .enumerate()
+            .map(|(i, m)| {
+                let entity = named("mechanism", &m.name);
+                let mut mount = Mount {
+                    origin: m.origin,
+                    angle: m.angle,
+                };
+                let sys = loaded[i].as_ref().map(|l| l.system.as_ref());
+                let mut reach = None;
+                if let (Some(placement), Some(sys)) = (m.placement, sys) {
+                    let q = &mut initial_q[i];
+                    reach =
+                        self.place_two_bar_chain(m, sys, placement, points, &mut mount, q, &entity);
                 }
-            }
-        }
-        if let Some(sys) = &systems[i] {
-            let attached: usize = sc
-                .attachments
-                .iter()
-                .filter(|a| a.mechanism == i)
-                .map(|a| a.kind.rows())
-                .sum();
-            let (loops, dof) = (sys.rows(), sys.dof());
-            if loops + attached > dof {
-                diags.push(sc.at(
-                    Kind::InvalidValue,
-                    Some(&m.span),
-                    &entity,
-                    format!("over-constrained: {} constraint rows ({loops} loop row(s) + {attached} attachment row(s)) for {dof} coordinate(s)", loops + attached),
-                ));
-            }
-        }
-        mounts.push((mount, reach));
+                if let Some(sys) = sys {
+                    self.check_rows(m, sys, attached[i], &entity);
+                }
+                (mount, reach)
+            })
+            .collect()
     }
-    // Points that do not move at the initial configuration.
-    for (a, p) in sc.attachments.iter().zip(&points) {
-        let (Some((point, _)), Some(sys)) = (p, &systems[a.mechanism]) else {
-            continue;
-        };
-        let q = &initial_q[a.mechanism];
-        if q.len() != sys.dof() {
-            continue;
+
+    /// Places a two-bar chain so that its attached point lies on the beam: the mount's
+    /// origin and the initial coordinates `q` replaced, its reach returned when its angle
+    /// is zero (nothing done when the attachment is not resolved). Records, at
+    /// `placement`, `Unsupported` for a model that is not a two-bar chain and
+    /// `InvalidValue` for a placement that fails.
+    fn place_two_bar_chain(
+        &mut self,
+        m: &MechanismEntry,
+        sys: &dyn System,
+        (a, how): (usize, Placement),
+        points: &[Option<AttachedPoint>],
+        mount: &mut Mount,
+        q: &mut Vec<f64>,
+        entity: &str,
+    ) -> Option<f64> {
+        if sys.dof() != 2 || sys.rows() != 0 {
+            self.report(
+                Kind::Unsupported,
+                m.placement_span.as_ref(),
+                entity,
+                format!("placement is for a two-bar chain (2 coordinates, no loop rows); this model has {} coordinate(s) and {} loop row(s): give origin and initial instead", sys.dof(), sys.rows()),
+            );
+            return None;
         }
-        let mut ws = sys.workspace();
-        sys.point_kinematics(*point, q, &vec![0.0; q.len()], &mut ws);
-        let moves = (0..sys.dof()).any(|c| ws.point_j[(0, c)] != 0.0 || ws.point_j[(1, c)] != 0.0);
-        if !moves {
-            diags.push(sc.at(
+        let (point, _) = points[a].as_ref()?;
+        match place_two_bar(sys, *point, how) {
+            Ok(two) => {
+                // The beam point (x_b, 0) = origin + R(angle) target.
+                let r = mount.rotate(two.target);
+                mount.origin = [self.sc.attachments[a].x - r[0], -r[1]];
+                *q = two.guess.to_vec();
+                (m.angle == 0.0).then_some(two.reach)
+            }
+            Err(e) => {
+                let msg = format!("placement: {e}");
+                self.report(Kind::InvalidValue, m.placement_span.as_ref(), entity, msg);
+                None
+            }
+        }
+    }
+
+    /// Records `InvalidValue` at the mechanism when its loop rows and the `attached` rows
+    /// of its attachments outnumber its coordinates (over-constrained).
+    fn check_rows(&mut self, m: &MechanismEntry, sys: &dyn System, attached: usize, entity: &str) {
+        let (loops, dof) = (sys.rows(), sys.dof());
+        if loops + attached > dof {
+            self.report(
                 Kind::InvalidValue,
-                Some(&a.point_span),
-                &format!("attachment \"{}\"", a.name),
-                format!("point {:?} does not move in the plane at the initial configuration (its Jacobian is zero): it is fixed to ground", a.point),
-            ));
+                Some(&m.span),
+                entity,
+                format!("over-constrained: {} constraint rows ({loops} loop row(s) + {attached} attachment row(s)) for {dof} coordinate(s)", loops + attached),
+            );
         }
     }
-    // Forces and excitations on joints.
-    let joint = |m: usize,
-                 name: &str,
-                 span: &Range<usize>,
-                 entity: &str,
-                 diags: &mut Vec<Diagnostic>|
-     -> Option<usize> {
-        let model = models[m].as_ref()?;
+
+    /// Checks that every resolved attachment point moves in the plane at its mechanism's
+    /// initial configuration (skipped where the coordinates are not all known). Records
+    /// `InvalidValue` at `point` when its Jacobian is zero: the point is fixed to ground.
+    fn check_points_move(
+        &mut self,
+        loaded: &[Option<Loaded>],
+        points: &[Option<AttachedPoint>],
+        initial_q: &[Vec<f64>],
+    ) {
+        let sc = self.sc;
+        for (a, p) in sc.attachments.iter().zip(points) {
+            let (Some((point, _)), Some(Loaded { system: sys, .. })) = (p, &loaded[a.mechanism])
+            else {
+                continue;
+            };
+            let q = &initial_q[a.mechanism];
+            if q.len() != sys.dof() {
+                continue;
+            }
+            let mut ws = sys.workspace();
+            sys.point_kinematics(*point, q, &vec![0.0; q.len()], &mut ws);
+            let moves =
+                (0..sys.dof()).any(|c| ws.point_j[(0, c)] != 0.0 || ws.point_j[(1, c)] != 0.0);
+            if !moves {
+                self.report(
+                    Kind::InvalidValue,
+                    Some(&a.point_span),
+                    &named("attachment", &a.name),
+                    format!("point {:?} does not move in the plane at the initial configuration (its Jacobian is zero): it is fixed to ground", a.point),
+                );
+            }
+        }
+    }
+
+    /// The force elements on joints, each joint resolved by [`Resolver::joint_index`] (a
+    /// force whose joint is unknown or whose mechanism is not loaded is left out).
+    /// Records the `UnknownName` of [`Resolver::joint_index`] at `joint`.
+    fn joint_forces(&mut self, loaded: &[Option<Loaded>]) -> Vec<JointForce> {
+        let sc = self.sc;
+        sc.forces
+            .iter()
+            .filter_map(|f| {
+                let entity = named("force", &f.name);
+                let j = self.joint_index(loaded, f.mechanism, &f.joint, &f.joint_span, &entity)?;
+                Some(JointForce {
+                    name: f.name.clone(),
+                    mechanism: f.mechanism,
+                    joint: j,
+                    kind: f.kind.clone(),
+                })
+            })
+            .collect()
+    }
+
+    /// The excitations with their targets resolved: a beam point
+    /// ([`Resolver::on_beam`]), a joint ([`Resolver::joint_index`]) or the base (one whose
+    /// target is not resolved is left out). Records, at `at`, `InvalidValue` for a beam
+    /// target off the beam and `UnknownName` for an unknown joint.
+    fn excitations(
+        &mut self,
+        beam: Option<&BeamModel>,
+        loaded: &[Option<Loaded>],
+    ) -> Vec<Excitation> {
+        let sc = self.sc;
+        sc.excitations
+            .iter()
+            .filter_map(|e| {
+                let entity = named("excitation", &e.name);
+                let target = match &e.target {
+                    TargetEntry::Beam { x } => self
+                        .on_beam(beam, *x, &e.at_span, &entity)
+                        .map(ExcitationTarget::Beam),
+                    TargetEntry::Joint {
+                        mechanism,
+                        joint: name,
+                    } => self
+                        .joint_index(loaded, *mechanism, name, &e.at_span, &entity)
+                        .map(|j| ExcitationTarget::Joint {
+                            mechanism: *mechanism,
+                            joint: j,
+                        }),
+                    TargetEntry::Base => Some(ExcitationTarget::Base),
+                };
+                target.map(|target| Excitation {
+                    name: e.name.clone(),
+                    target,
+                    amplitude: e.amplitude,
+                    time: e.time.clone(),
+                })
+            })
+            .collect()
+    }
+
+    /// The index of body (joint) `name` of mechanism `m`, `None` when the mechanism is
+    /// not loaded. Records `UnknownName` at `span` for a body the model lacks, listing
+    /// its bodies.
+    fn joint_index(
+        &mut self,
+        loaded: &[Option<Loaded>],
+        m: usize,
+        name: &str,
+        span: &Range<usize>,
+        entity: &str,
+    ) -> Option<usize> {
+        let model = &loaded[m].as_ref()?.model;
         let k = model.body_index(name);
         if k.is_none() {
             let bodies: Vec<String> = model.bodies.iter().map(|b| b.name.clone()).collect();
-            diags.push(sc.at(
-                Kind::UnknownName,
-                Some(span),
-                entity,
-                format!(
-                    "no body {name:?} in mechanism \"{}\" (bodies: {})",
-                    sc.mechanisms[m].name,
-                    list(&bodies)
-                ),
-            ));
+            let msg = format!(
+                "no body {name:?} in mechanism \"{}\" (bodies: {})",
+                self.sc.mechanisms[m].name,
+                list(&bodies)
+            );
+            self.report(Kind::UnknownName, Some(span), entity, msg);
         }
         k
-    };
-    let mut forces = vec![];
-    for f in &sc.forces {
-        let entity = format!("force \"{}\"", f.name);
-        if let Some(j) = joint(f.mechanism, &f.joint, &f.joint_span, &entity, &mut diags) {
-            forces.push(JointForce {
-                name: f.name.clone(),
-                mechanism: f.mechanism,
-                joint: j,
-                kind: f.kind.clone(),
-            });
-        }
     }
-    let mut excitations = vec![];
-    for e in &sc.excitations {
-        let entity = format!("excitation \"{}\"", e.name);
-        let target = match &e.target {
-            TargetEntry::Beam { x } => match beam.as_ref().and_then(|b| BeamPoint::on(b, *x)) {
-                Some(p) => Some(ExcitationTarget::Beam(p)),
-                None => {
-                    diags.push(sc.at(
-                        Kind::InvalidValue,
-                        Some(&e.at_span),
-                        &entity,
-                        format!("x = {x} is not a point of the beam"),
-                    ));
-                    None
-                }
-            },
-            TargetEntry::Joint {
-                mechanism,
-                joint: name,
-            } => joint(*mechanism, name, &e.at_span, &entity, &mut diags).map(|j| {
-                ExcitationTarget::Joint {
-                    mechanism: *mechanism,
-                    joint: j,
-                }
-            }),
-            TargetEntry::Base => Some(ExcitationTarget::Base),
-        };
-        if let Some(target) = target {
-            excitations.push(Excitation {
-                name: e.name.clone(),
-                target,
-                amplitude: e.amplitude,
-                time: e.time.clone(),
-            });
-        }
-    }
-    if !diags.is_empty() {
-        let mut d = Diagnostics(diags);
-        d.sort();
-        return Err(d);
-    }
-    // Everything resolved: the model.
-    let models: Vec<Model> = models.into_iter().flatten().collect();
+}
+
+/// The hybrid model from what every stage resolved (called only when no stage recorded
+/// a problem, so every mechanism is loaded and every attachment resolved), with the
+/// mechanism models in the order of the mechanisms. Emits an `InvalidValue` of the file
+/// when [`HybridModel::new`] refuses the assembly.
+fn assemble(sc: &HybridScenario, r: Resolved) -> Result<(HybridModel, Vec<Model>), Diagnostics> {
+    let (models, systems): (Vec<Model>, Vec<Box<dyn System>>) = r
+        .loaded
+        .into_iter()
+        .flatten()
+        .map(|l| (l.model, l.system))
+        .unzip();
     let mechanisms = sc
         .mechanisms
         .iter()
-        .zip(systems.into_iter().flatten())
-        .zip(mounts)
-        .zip(initial_q)
+        .zip(systems)
+        .zip(r.mounts)
+        .zip(r.initial_q)
         .map(|(((m, system), (mount, reach)), q)| MountedMechanism {
             name: m.name.clone(),
             system,
@@ -487,7 +684,7 @@ pub fn build_model(sc: &HybridScenario) -> Result<(HybridModel, Vec<Model>), Dia
     let attachments = sc
         .attachments
         .iter()
-        .zip(points.into_iter().flatten())
+        .zip(r.points.into_iter().flatten())
         .map(|(a, (point, beam))| Attachment {
             name: a.name.clone(),
             mechanism: a.mechanism,
@@ -496,13 +693,7 @@ pub fn build_model(sc: &HybridScenario) -> Result<(HybridModel, Vec<Model>), Dia
             beam,
         })
         .collect();
-    let model =
-        HybridModel::new(beam, mechanisms, attachments, forces, excitations).map_err(|e| {
-            Diagnostics::from(Diagnostic::new(
-                Kind::InvalidValue,
-                sc.path.display().to_string(),
-                e.to_string(),
-            ))
-        })?;
+    let model = HybridModel::new(r.beam, mechanisms, attachments, r.forces, r.excitations)
+        .map_err(|e| Diagnostics::from(in_file(sc, e.to_string())))?;
     Ok((model, models))
 }
