@@ -231,10 +231,13 @@ pub fn linearize<'py>(
     ))
 }
 
-/// The linear frequency response as `damper frf` writes `frf.csv`: its columns, under the
-/// same headers.
+/// The frequency response as `damper frf` writes it: the columns of `frf.csv` under the
+/// same headers and, with `nonlinear` (`--nonlinear M`), those of `frf_nonlinear.csv`:
+/// numbers as float arrays (NaN for an empty cell), `periods` an int64 array, `settled` a
+/// bool array, `error` a list of `str` or `None`. The runs release the GIL and stop at
+/// Ctrl-C ([`interruptible`]); the limits of `damper frf` apply unless `allow_long`.
 #[pyfunction]
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
 pub fn frf<'py>(
     py: Python<'py>,
     text: String,
@@ -248,7 +251,12 @@ pub fn frf<'py>(
     log: bool,
     excitation: Option<String>,
     force: Option<f64>,
-) -> PyResult<Columns<'py>> {
+    nonlinear: Option<usize>,
+    steps_per_period: usize,
+    tolerance: f64,
+    max_periods: usize,
+    allow_long: bool,
+) -> PyResult<(Columns<'py>, Option<Vec<(String, Bound<'py, PyAny>)>>)> {
     let src = Source::new(text, file, base, sets)?;
     let args = frf_command::Args {
         scenario: PathBuf::from(&src.file),
@@ -257,26 +265,59 @@ pub fn frf<'py>(
         to: f_to,
         points,
         log,
-        nonlinear: None,
+        nonlinear,
         excitation,
         force,
         set: vec![],
-        steps_per_period: 200,
-        tolerance: 1e-3,
-        max_periods: 1000,
+        steps_per_period,
+        tolerance,
+        max_periods,
         out: None,
         quiet: true,
-        allow_long: false,
+        allow_long,
     };
-    let cols = interruptible(py, || {
+    let (cols, nl) = interruptible(py, || {
         frf_command::check(&args)?;
         let loaded = src.load()?;
         let analysis =
             frf_command::analyse(&args, &loaded.scenario).map_err(|e| remapped(&loaded, e))?;
-        Ok(analysis.columns())
+        Ok((analysis.columns(), analysis.nonlinear_columns()))
     })?
     .map_err(|e| to_py(py, e, Input::Scenario))?;
-    Ok(cols.into_iter().map(|(n, c)| (n, array1(py, c))).collect())
+    let nl = nl
+        .map(|cols| {
+            cols.into_iter()
+                .map(|(n, c)| Ok((n, nonlinear_column(py, c)?)))
+                .collect::<PyResult<Vec<_>>>()
+        })
+        .transpose()?;
+    Ok((
+        cols.into_iter().map(|(n, c)| (n, array1(py, c))).collect(),
+        nl,
+    ))
+}
+
+/// A column of `frf_nonlinear.csv` as Python holds it (see [`frf`]).
+fn nonlinear_column(
+    py: Python<'_>,
+    column: frf_command::NonlinearColumn,
+) -> PyResult<Bound<'_, PyAny>> {
+    use frf_command::NonlinearColumn as C;
+    Ok(match column {
+        C::Numbers(v) => {
+            array1(py, v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect()).into_any()
+        }
+        C::Counts(v) => {
+            PyArray1::from_vec(py, v.into_iter().map(|n| n as i64).collect::<Vec<i64>>()).into_any()
+        }
+        C::Flags(v) => PyArray1::from_vec(py, v).into_any(),
+        C::Texts(v) => PyList::new(py, v)?.into_any(),
+        _ => {
+            return Err(pyo3::exceptions::PyRuntimeError::new_err(
+                "an unknown column kind of frf_nonlinear.csv (a bug: please report it)",
+            ));
+        }
+    })
 }
 
 /// A sweep as `damper sweep` computes it (`axes`: `(path, values)` pairs, the values a list

@@ -1,5 +1,5 @@
-"""Ctrl-C during a long `simulate` (and a long time-domain sweep): SIGINT to a Python process running it raises
-`KeyboardInterrupt` within a second. Deterministic: the test waits until the run's worker
+"""Ctrl-C during a long `simulate` (a long time-domain sweep, a nonlinear frequency
+response): SIGINT to a Python process running it raises `KeyboardInterrupt` within a second. Deterministic: the test waits until the run's worker
 thread (named `damper-worker`) exists in the child, rather than sleeping a fixed time."""
 
 from __future__ import annotations
@@ -16,6 +16,8 @@ import pytest
 JOBS = {
     "simulate": "sc.simulate(compare=[], allow_long=True)",
     "time-domain sweep": "sc.sweep({'mechanism.half_angle_deg': [20, 30, 40, 50]}, time_domain=True, allow_long=True)",
+    # Runs that cannot settle (tolerance 1e-15) for a million periods each.
+    "nonlinear frf": "sc.frf(1.0, 5.0, 7.0, points=2, force=0.05, nonlinear=4, tolerance=1e-15, max_periods=10**6, allow_long=True)",
 }
 
 CHILD = """

@@ -243,12 +243,32 @@ class Scenario:
         log: bool = False,
         excitation: Optional[str] = None,
         force: Optional[float] = None,
-    ) -> Dict[str, "np.ndarray"]:
-        """The linear frequency response (``damper frf``): the columns of ``frf.csv`` by
-        name (``"f [Hz]"``, ``"|H| with generator [m/N]"``, ...). ``output``: a beam abscissa
-        (m) or ``"MECHANISM/COORDINATE"``."""
-        cols = _damper.frf(*self._src(), str(output), float(f_from), float(f_to), points, log, excitation, force)
-        return dict(cols)
+        nonlinear: Optional[int] = None,
+        steps_per_period: int = 200,
+        tolerance: float = 1e-3,
+        max_periods: int = 1000,
+        allow_long: bool = False,
+    ) -> Dict[str, Any]:
+        """The frequency response (``damper frf``): the columns of ``frf.csv`` by name
+        (``"f [Hz]"``, ``"|H| with generator [m/N]"``, ...) as arrays. ``output``: a beam
+        abscissa (m) or ``"MECHANISM/COORDINATE"``.
+
+        ``nonlinear=M`` (``--nonlinear M``) adds the nonlinear steady states from time-domain
+        runs at ``M`` frequencies (``steps_per_period``, ``tolerance``, ``max_periods`` as the
+        command's options) under the key ``"nonlinear"``: the columns of
+        ``frf_nonlinear.csv`` by name, the numbers as float arrays (NaN where the CSV cell is
+        empty), ``"periods"`` an int array, ``"settled"`` a bool array, ``"error"`` a list of
+        ``str`` or ``None``. The runs release the GIL and Ctrl-C stops them
+        (``KeyboardInterrupt``); above the command's limits they are refused
+        (``DamperError``) unless ``allow_long``."""
+        cols, nl = _damper.frf(
+            *self._src(), str(output), float(f_from), float(f_to), points, log, excitation, force,
+            nonlinear, steps_per_period, float(tolerance), max_periods, allow_long,
+        )
+        result: Dict[str, Any] = dict(cols)
+        if nl is not None:
+            result["nonlinear"] = dict(nl)
+        return result
 
     def sweep(
         self,

@@ -77,7 +77,12 @@ def frf(
     log: bool,
     excitation: Optional[str],
     force: Optional[float],
-) -> _Columns: ...
+    nonlinear: Optional[int],
+    steps_per_period: int,
+    tolerance: float,
+    max_periods: int,
+    allow_long: bool,
+) -> Tuple[_Columns, Optional[List[Tuple[str, Any]]]]: ...
 def sweep_grid(
     text: str,
     file: str,

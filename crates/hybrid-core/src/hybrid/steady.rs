@@ -44,8 +44,9 @@
 //! per-period change is `2 pi zeta` times the remaining transient, and the change alone
 //! would stop far too early. A change below `tol / 1000` settles without the ratio test
 //! (the transient has reached the integrator's own precision, where the ratios are noise).
-//! A run that does not settle within `max_periods` reports `settled = false` with the last
-//! period's values — never a NaN.
+//! A run that does not settle within `max_periods` (or is asked to stop,
+//! [`SteadyOptions::stop`]) reports `settled = false` with the last period's values — never
+//! a NaN.
 //!
 //! **Power**: over the last period (the `N` steps ending at its last sample, exactly one
 //! period `T`) the energy account's increments divided by `T`: the mean power dissipated in
@@ -77,7 +78,7 @@ use super::method::Method;
 use super::model::{ExcitationTarget, HybridModel};
 
 /// Settings of the steady-state runs.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug)]
 pub struct SteadyOptions {
     /// Index of the harmonic excitation in [`HybridModel::excitations`].
     pub excitation: usize,
@@ -92,6 +93,10 @@ pub struct SteadyOptions {
     pub min_periods: usize,
     /// Periods run at most.
     pub max_periods: usize,
+    /// Polled before every period: when it returns `true` the run ends there with the
+    /// values of the last period run (`settled = false`), as at `max_periods` (a caller
+    /// that asks the runs to stop, such as an interrupted Python call, discards them).
+    pub stop: Option<fn() -> bool>,
 }
 
 impl Default for SteadyOptions {
@@ -103,6 +108,7 @@ impl Default for SteadyOptions {
             tolerance: 1e-3,
             min_periods: 10,
             max_periods: 1000,
+            stop: None,
         }
     }
 }
@@ -268,6 +274,9 @@ pub fn steady_state(
     let mut account_before = state.account.clone();
     let mut t_before = state.t;
     for k in 0..max_periods {
+        if k > 0 && options.stop.is_some_and(|stop| stop()) {
+            break;
+        }
         for (j, yj) in y.iter_mut().enumerate() {
             if k > 0 || j > 0 {
                 integrator

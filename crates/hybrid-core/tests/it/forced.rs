@@ -227,3 +227,47 @@ fn paper_damper_small_amplitude_is_linear_and_large_amplitude_is_not() {
         "near the toggle the response is not linear: {ea:e}"
     );
 }
+
+#[test]
+fn a_stop_ends_every_run_after_its_first_period_and_no_stop_changes_nothing() {
+    let bm = beam(10, &[(0.0, "clamped")], Some(0.01));
+    let tip = BeamPoint::on(&bm, 1.0).unwrap();
+    let model = HybridModel::new(Some(bm), vec![], vec![], vec![], vec![]).unwrap();
+    let lin = linearize(&model);
+    let model = with_shaker(model, &tip, 0.5);
+    let options = SteadyOptions {
+        steps_per_period: 32,
+        max_periods: 200,
+        ..SteadyOptions::default()
+    };
+    let freqs = [2.0, 5.0];
+    let free = run_all(&model, &lin, &tip, &freqs, &options);
+    let never = run_all(
+        &model,
+        &lin,
+        &tip,
+        &freqs,
+        &SteadyOptions {
+            stop: Some(|| false),
+            ..options
+        },
+    );
+    assert_eq!(free, never);
+    assert!(free.iter().all(|s| s.periods > 1));
+    let stopped = run_all(
+        &model,
+        &lin,
+        &tip,
+        &freqs,
+        &SteadyOptions {
+            stop: Some(|| true),
+            ..options
+        },
+    );
+    for s in &stopped {
+        assert!(
+            s.periods == 1 && !s.settled && s.amplitude.is_finite(),
+            "{s:?}"
+        );
+    }
+}

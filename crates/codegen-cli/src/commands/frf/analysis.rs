@@ -385,6 +385,8 @@ pub(super) fn nonlinear_rows(
         tolerance: args.tolerance,
         min_periods: 10,
         max_periods: args.max_periods,
+        // A library caller's stop (Ctrl-C in Python) ends every run at its next period.
+        stop: Some(crate::interrupt::stop_requested),
     };
     let freqs = grid(args.from, args.to, m, args.log);
     let bar = crate::progress::bar_or_hidden(
@@ -394,6 +396,9 @@ pub(super) fn nonlinear_rows(
     );
     let results = steady_states(&model, &start, &io.output, &freqs, &options, &|| bar.inc(1));
     bar.finish_and_clear();
+    if crate::interrupt::stop_requested() {
+        return Err(Error::Interrupted);
+    }
     let force = io.excitation.amplitude.abs();
     let mut rows = Vec::with_capacity(m);
     for (&f, r) in freqs.iter().zip(results) {

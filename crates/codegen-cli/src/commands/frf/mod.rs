@@ -73,6 +73,7 @@ use hybrid_core::hybrid::Linearization;
 pub(crate) use analysis::parse_output;
 pub use analysis::{LinearRow, NonlinearRow, Receptance, grid};
 use analysis::{linear_rows, nonlinear_rows, resolve, usage};
+pub use report::NonlinearColumn;
 use report::outputs;
 
 /// Arguments of `damper frf`.
@@ -154,6 +155,15 @@ impl Analysis {
     /// The columns of `frf.csv` (the same headers), one number per frequency.
     pub fn columns(&self) -> Vec<(String, Vec<f64>)> {
         report::linear_columns(&self.io, &self.linear)
+    }
+
+    /// With `--nonlinear`, the columns of `frf_nonlinear.csv` (the same headers, the same
+    /// values; built by the code that writes the file), one cell per frequency, typed as
+    /// the cells read ([`NonlinearColumn`]: numbers with `None` for an empty cell, `periods` as
+    /// counts, `settled` as flags, `error` as text).
+    pub fn nonlinear_columns(&self) -> Option<Vec<(String, NonlinearColumn)>> {
+        let nl = self.nonlinear.as_deref()?;
+        Some(report::nonlinear_columns(&self.io, &self.linear, nl))
     }
 }
 

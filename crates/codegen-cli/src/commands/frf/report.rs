@@ -80,7 +80,6 @@ impl From<PlotFailed> for Error {
     }
 }
 
-/// A CSV of formatted cells through the one CSV writer.
 /// The columns of `frf.csv`: every linear value under its header (`f [Hz]`, `|H|` and phase
 /// with the generator and disconnected, real and imaginary parts, the admissible loads).
 pub(super) fn linear_columns(io: &Io, linear: &[LinearRow]) -> Vec<(String, Vec<f64>)> {
@@ -152,10 +151,103 @@ pub(super) fn linear_columns(io: &Io, linear: &[LinearRow]) -> Vec<(String, Vec<
     columns
 }
 
-fn csv_bytes(header: &[String], rows: &[Vec<String>]) -> Result<Vec<u8>, ReportError> {
-    let mut w = CsvRows::new(Vec::new(), header)?;
-    for r in rows {
-        w.write_text_row(r)?;
+/// A number as the CSVs print it.
+fn number(v: f64) -> String {
+    format!("{v:e}")
+}
+
+/// A column of `frf_nonlinear.csv`, typed as its cells read.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum NonlinearColumn {
+    /// Numbers (`{:e}`); `None`, an empty cell: the run stopped (or did not settle, for
+    /// the measured load powers).
+    Numbers(Vec<Option<f64>>),
+    /// Counts (`periods`).
+    Counts(Vec<usize>),
+    /// Yes or no (`settled`: `true` / `false`).
+    Flags(Vec<bool>),
+    /// Text (`error`: why the run stopped; `None`, an empty cell: it did not).
+    Texts(Vec<Option<String>>),
+}
+
+impl NonlinearColumn {
+    /// Row `i`'s cell as the CSV prints it.
+    fn cell(&self, i: usize) -> String {
+        match self {
+            NonlinearColumn::Numbers(v) => v[i].map_or_else(String::new, number),
+            NonlinearColumn::Counts(v) => v[i].to_string(),
+            NonlinearColumn::Flags(v) => v[i].to_string(),
+            NonlinearColumn::Texts(v) => v[i].clone().unwrap_or_default(),
+        }
+    }
+}
+
+/// The columns of `frf_nonlinear.csv`: the frequency, the measured amplitude, `|H|` and
+/// phase, the linear ones at the same frequency, periods, settled, distortion, time step,
+/// per connected generator the measured and linear load powers, and the error.
+pub(super) fn nonlinear_columns(
+    io: &Io,
+    linear: &[LinearRow],
+    nl: &[NonlinearRow],
+) -> Vec<(String, NonlinearColumn)> {
+    let unit = io.unit();
+    let numbers = |name: String, of: &dyn Fn(&NonlinearRow) -> Option<f64>| {
+        (name, NonlinearColumn::Numbers(nl.iter().map(of).collect()))
+    };
+    let mut columns = vec![
+        numbers("f [Hz]".into(), &|r| Some(r.f_hz)),
+        numbers(format!("amplitude [{}]", io.response_unit), &|r| {
+            r.amplitude
+        }),
+        numbers(format!("|H| [{unit}]"), &|r| r.magnitude),
+        numbers("phase [deg]".into(), &|r| r.phase_deg),
+        numbers(format!("|H| linear [{unit}]"), &|r| {
+            Some(r.linear.magnitude)
+        }),
+        numbers("phase linear [deg]".into(), &|r| Some(r.linear.phase_deg)),
+        (
+            "periods".into(),
+            NonlinearColumn::Counts(nl.iter().map(|r| r.periods).collect()),
+        ),
+        (
+            "settled".into(),
+            NonlinearColumn::Flags(nl.iter().map(|r| r.settled).collect()),
+        ),
+        numbers("distortion [-]".into(), &|r| r.distortion),
+        numbers("dt [s]".into(), &|r| Some(r.dt)),
+    ];
+    let names: Vec<&str> = linear
+        .first()
+        .map(|r| r.generators.iter().map(|g| g.name.as_str()).collect())
+        .unwrap_or_default();
+    for (k, name) in names.iter().enumerate() {
+        columns.push(numbers(format!("{name}.load_power [W]"), &|r| {
+            r.load_power.get(k).copied()
+        }));
+        columns.push(numbers(format!("{name}.load_power linear [W]"), &|r| {
+            Some(r.load_power_linear[k])
+        }));
+    }
+    columns.push((
+        "error".into(),
+        NonlinearColumn::Texts(nl.iter().map(|r| r.error.clone()).collect()),
+    ));
+    columns
+}
+
+/// The CSV of `columns` (`rows` rows, row `i` of a column printed by `cell`) through the
+/// one CSV writer.
+fn columns_bytes<C>(
+    columns: &[(String, C)],
+    rows: usize,
+    cell: impl Fn(&C, usize) -> String,
+) -> Result<Vec<u8>, ReportError> {
+    let header: Vec<String> = columns.iter().map(|(h, _)| h.clone()).collect();
+    let mut w = CsvRows::new(Vec::new(), &header)?;
+    for i in 0..rows {
+        let row: Vec<String> = columns.iter().map(|(_, c)| cell(c, i)).collect();
+        w.write_text_row(&row)?;
     }
     Ok(w.into_inner()?)
 }
@@ -173,66 +265,17 @@ pub(super) fn outputs(
     warnings: &[String],
 ) -> Result<Vec<OutputFile>, Error> {
     let unit = io.unit();
-    let g = |v: f64| format!("{v:e}");
     let columns = linear_columns(io, linear);
-    let header: Vec<String> = columns.iter().map(|(h, _)| h.clone()).collect();
-    let rows: Vec<Vec<String>> = (0..linear.len())
-        .map(|i| columns.iter().map(|(_, c)| g(c[i])).collect())
-        .collect();
     let mut files = vec![OutputFile {
         path: out.join("frf.csv"),
-        bytes: csv_bytes(&header, &rows).map_err(Error::from)?,
+        bytes: columns_bytes(&columns, linear.len(), |c: &Vec<f64>, i| number(c[i]))
+            .map_err(Error::from)?,
     }];
     if let Some(nl) = nonlinear {
-        let names: Vec<&str> = linear
-            .first()
-            .map(|r| r.generators.iter().map(|g| g.name.as_str()).collect())
-            .unwrap_or_default();
-        let header: Vec<String> = vec![
-            "f [Hz]".into(),
-            format!("amplitude [{}]", io.response_unit),
-            format!("|H| [{unit}]"),
-            "phase [deg]".into(),
-            format!("|H| linear [{unit}]"),
-            "phase linear [deg]".into(),
-            "periods".into(),
-            "settled".into(),
-            "distortion [-]".into(),
-            "dt [s]".into(),
-        ];
-        let mut header = header;
-        for name in &names {
-            header.push(format!("{name}.load_power [W]"));
-            header.push(format!("{name}.load_power linear [W]"));
-        }
-        header.push("error".into());
-        let opt = |v: Option<f64>| v.map_or_else(String::new, g);
-        let rows: Vec<Vec<String>> =
-            nl.iter()
-                .map(|r| {
-                    vec![
-                        g(r.f_hz),
-                        opt(r.amplitude),
-                        opt(r.magnitude),
-                        opt(r.phase_deg),
-                        g(r.linear.magnitude),
-                        g(r.linear.phase_deg),
-                        r.periods.to_string(),
-                        r.settled.to_string(),
-                        opt(r.distortion),
-                        g(r.dt),
-                    ]
-                    .into_iter()
-                    .chain((0..names.len()).flat_map(|k| {
-                        [opt(r.load_power.get(k).copied()), g(r.load_power_linear[k])]
-                    }))
-                    .chain([r.error.clone().unwrap_or_default()])
-                    .collect()
-                })
-                .collect();
+        let columns = nonlinear_columns(io, linear, nl);
         files.push(OutputFile {
             path: out.join("frf_nonlinear.csv"),
-            bytes: csv_bytes(&header, &rows).map_err(Error::from)?,
+            bytes: columns_bytes(&columns, nl.len(), NonlinearColumn::cell).map_err(Error::from)?,
         });
     }
     let json = FrfJson {
