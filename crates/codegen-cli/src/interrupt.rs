@@ -22,8 +22,10 @@
 //!
 //! A library user that handles signals itself (the Python package: Ctrl-C is Python's
 //! `KeyboardInterrupt`) asks the runs in progress to stop with [`request_stop`]: the
-//! time-domain runs poll [`stop_requested`] at every output step, the sweeps before every
-//! point, and fail with [`crate::Error::Interrupted`]; nothing is half-written (runs held
+//! hybrid time-domain runs poll [`stop_requested`] at every output step, the closed-loop
+//! mechanism runs before every step (`Simulator::set_stop`), the steady states of the
+//! nonlinear frequency response every period, the sweeps before every point, and fail with
+//! [`crate::Error::Interrupted`]; nothing is half-written (runs held
 //! in memory write nothing at all). [`clear_stop`] re-arms the flag before the next call.
 
 use std::path::{Path, PathBuf};

@@ -102,6 +102,8 @@ pub fn mechanism(
             file: sc.file.clone(),
             error,
         })?;
+    // An interrupt (SIGINT, SIGTERM, Ctrl-C in Python) ends the run at its next step.
+    sim.set_stop(crate::interrupt::stop_requested);
     let names = sys.coordinate_names().to_vec();
     let units = sys.coordinate_units().to_vec();
     let bar = progress_bar(progress, &settings);

@@ -161,6 +161,7 @@ impl<S: System + ?Sized> Simulator<'_, S> {
         let mut last_rejected = false;
         let mut last_cause = String::from("error estimate");
         while self.t < t_end {
+            self.check_stop()?;
             if self.stats.steps_accepted + self.stats.steps_rejected >= self.settings.max_steps {
                 return Err(SimError::TooManySteps {
                     t: self.t,

@@ -251,6 +251,12 @@ pub enum SimError {
         /// The limit.
         max_steps: usize,
     },
+    /// The stop polled before every step asked to stop ([`super::Simulator::set_stop`]).
+    #[error("stopped on request at t = {t:.9} s")]
+    Stopped {
+        /// Time.
+        t: f64,
+    },
 }
 
 impl SimError {

@@ -55,6 +55,7 @@ impl<S: System + ?Sized> Simulator<'_, S> {
         let mut s = 0;
         let mut retried = false;
         while s < nsteps {
+            self.check_stop()?;
             let t = self.t;
             let attempt = (|| -> Result<DVector<f64>, StageError> {
                 self.rhs(t + 0.5 * h, &(&*y + &*k1 * (0.5 * h)), &mut k2)?;

@@ -81,6 +81,8 @@ pub struct Simulator<'s, S: System + ?Sized> {
     pub(super) changes: Vec<PartitionChange>,
     pub(super) next_output: usize,
     pub(super) output_count: usize,
+    /// Polled before every step: `true` ends the run with [`SimError::Stopped`].
+    pub(super) stop: Option<fn() -> bool>,
 }
 
 /// `name = value` of every coordinate, for error messages.
@@ -189,7 +191,22 @@ impl<'s, S: System + ?Sized> Simulator<'s, S> {
             changes: vec![],
             next_output: 0,
             output_count: 0,
+            stop: None,
             settings,
+        }
+    }
+
+    /// Polls `stop` before every step: when it returns `true` the run ends with
+    /// [`SimError::Stopped`] (e.g. an interrupt asked by the user).
+    pub fn set_stop(&mut self, stop: fn() -> bool) {
+        self.stop = Some(stop);
+    }
+
+    /// [`SimError::Stopped`] when the stop polled says so.
+    pub(super) fn check_stop(&self) -> Result<(), SimError> {
+        match self.stop {
+            Some(stop) if stop() => Err(SimError::Stopped { t: self.t }),
+            _ => Ok(()),
         }
     }
 

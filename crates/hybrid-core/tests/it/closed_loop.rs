@@ -299,6 +299,56 @@ fn four_bar_conserves_energy_over_five_seconds() {
     assert!(hi - lo > 1.0, "crank range {lo}..{hi}");
 }
 
+/// Steps polled by [`counted_stop`] (one test uses it: a `fn` pointer cannot capture).
+static POLLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// A stop that asks to stop at its 51st poll.
+fn counted_stop() -> bool {
+    POLLS.fetch_add(1, std::sync::atomic::Ordering::SeqCst) >= 50
+}
+
+/// The stop polled before every step (`Simulator::set_stop`, what an interrupt uses): one
+/// that never fires leaves the run identical, one that fires at its 51st poll ends the run
+/// there with `SimError::Stopped` after exactly 50 steps (both integrators), before `t_end`.
+#[test]
+fn a_stop_polled_before_every_step_ends_the_run_there() {
+    let sys = four_bar();
+    let (q0, qd0) = four_bar_release(&sys);
+    for settings in [
+        Settings::dopri5(5.0, 1e-11, 1e-13, 0.01),
+        Settings::rk4(5.0, 2e-3, 0.01),
+    ] {
+        let run = |stop: Option<fn() -> bool>| {
+            let mut sim = Simulator::new(&sys, settings.clone(), &q0, &qd0).unwrap();
+            if let Some(s) = stop {
+                sim.set_stop(s);
+            }
+            let mut rows = 0;
+            let r = sim.run(&mut |e| {
+                if let hybrid_core::closed_loop::Event::Output(_) = e {
+                    rows += 1;
+                }
+            });
+            (r, rows, sim.stats().clone())
+        };
+        let (plain, rows, stats) = run(None);
+        plain.unwrap();
+        let (never, rows_never, stats_never) = run(Some(|| false));
+        never.unwrap();
+        assert_eq!((rows, &stats), (rows_never, &stats_never));
+        POLLS.store(0, std::sync::atomic::Ordering::SeqCst);
+        let (stopped, _, stats_stopped) = run(Some(counted_stop));
+        match stopped {
+            Err(SimError::Stopped { t }) => assert!(t > 0.0 && t < 5.0, "{t}"),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(
+            stats_stopped.steps_accepted + stats_stopped.steps_rejected,
+            50
+        );
+    }
+}
+
 /// Fixed-step RK4 converges at order 4 under step halving: the largest error of all
 /// coordinates and velocities (velocities weighted 1/10 s) over 1 s, sampled every 0.04 s
 /// on step points, against a tight Dormand–Prince reference (rtol 1e-13), falls by 2^4 per
