@@ -188,12 +188,13 @@ pub struct Outcome {
     pub objective: (String, f64),
     /// Every constraint at the optimum.
     pub constraints: Vec<ConstraintReport>,
-    /// The KKT residual (see the module documentation).
-    pub kkt_residual: f64,
+    /// The KKT residual (see the module documentation); `None` without the gradients
+    /// (`gradient_error` says why).
+    pub kkt_residual: Option<f64>,
     /// The gradients of the objective and of every constraint's figure at the optimum
     /// ([`crate::sensitivity::gradients`]), in the variables' units.
     pub gradients: Vec<crate::sensitivity::Gradient>,
-    /// Why the gradients could not be computed (the KKT residual is then NaN).
+    /// Why the gradients could not be computed (no KKT residual then).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gradient_error: Option<String>,
     /// Whether the first mode is overdamped at the optimum (its damping ratio reads 1).
@@ -566,8 +567,11 @@ pub fn optimize(p: &Problem<'_>) -> Result<Outcome, OptimizeError> {
         }
     }
     let (kkt, multipliers) = match grad_f {
-        Some(g) => kkt_residual(&g, &columns),
-        None => (f64::NAN, vec![]),
+        Some(g) => {
+            let (r, m) = kkt_residual(&g, &columns);
+            (Some(r), m)
+        }
+        None => (None, vec![]),
     };
     let mut mult_of = vec![None; p.constraints.len()];
     for (w, m) in which.iter().zip(&multipliers) {

@@ -224,9 +224,11 @@ pub fn run(args: Args) -> Result<(), Error> {
             }
         }
     }
+    let kkt = outcome
+        .kkt_residual
+        .map_or_else(|| "n/a".to_string(), |r| format!("{r:.1e}"));
     text.push_str(&format!(
-        "  KKT residual {:.1e}; {} of {} local search(es) ended here; {} evaluations in {:.1} s\n",
-        outcome.kkt_residual,
+        "  KKT residual {kkt}; {} of {} local search(es) ended here; {} evaluations in {:.1} s\n",
         outcome.starts_agreeing,
         outcome.starts,
         outcome.history.len(),

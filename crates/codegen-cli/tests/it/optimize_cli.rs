@@ -384,3 +384,34 @@ fn the_power_objective_is_the_time_domain_steady_state_power() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A variable the difference formula cannot move (an element count: the loader refuses
+/// 10.002) leaves the optimum without gradients: the report says why and gives no KKT
+/// residual (`null` in the JSON, `n/a` in the text), never a NaN.
+#[test]
+fn an_optimum_without_gradients_says_why_and_has_no_kkt_residual() {
+    let args = [
+        "optimize",
+        "scenarios/damper.toml",
+        "--vary",
+        "beam.segment[0].elements=10:30",
+        "--maximize",
+        "zeta1",
+        "--grid",
+        "3",
+    ];
+    let (code, out, err) = damper(&[&args[..], &["--json"]].concat());
+    assert_eq!(code, 0, "{err}");
+    let j: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert!(j["kkt_residual"].is_null(), "{}", j["kkt_residual"]);
+    let why = j["gradient_error"].as_str().unwrap();
+    assert!(why.contains("expected usize"), "{why}");
+    assert_eq!(j["gradients"].as_array().map(Vec::len), Some(0));
+    let (code, out, err) = damper(&args);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("no gradients at the optimum:"), "{out}");
+    assert!(
+        out.contains("KKT residual n/a") && !out.contains("NaN"),
+        "{out}"
+    );
+}
