@@ -286,12 +286,14 @@ pub fn analyse_model(
 /// [`analyse`] and the admissible load at the first mode's natural frequency (with the
 /// generator) for the scenario's first excitation, [`max_force_at`]: one more complex
 /// solve (the sweep figure `linear.max_force`).
+/// Also returns the system built for linearisation and its linearisation with the
+/// generator(s), for further figures of the same point.
 pub fn analyse_with_max_force(
     file: &str,
     sc: &Scenario,
     k: usize,
     method: EigenMethod,
-) -> Result<(LinearReport, Option<MaxForce>), Error> {
+) -> Result<(LinearReport, Option<MaxForce>, Linearizable, Linearization), Error> {
     let input = tangents_for(sc)?;
     let (report, lin) = analyse_linearization(file, &input, k, method)?;
     let max_force = match report.modes.first() {
@@ -303,7 +305,7 @@ pub fn analyse_with_max_force(
         })?,
         None => None,
     };
-    Ok((report, max_force))
+    Ok((report, max_force, input, lin))
 }
 
 /// [`analyse_model`], keeping the linearisation with the generator (its reduced matrices

@@ -240,66 +240,48 @@ pub fn overrides_at<'a>(
 /// Evaluates the figures of the problem at `x`.
 pub fn evaluate(p: &Problem<'_>, x: &[f64], stage: &str) -> Evaluation {
     let overrides = overrides_at(p.fixed, p.variables.iter().map(|v| v.path.as_str()).zip(x));
-    let point = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        sweep_point::evaluate(p.path, p.text, &overrides, &PointOptions::default())
-    }))
-    .unwrap_or(Err(PointError::Panicked));
-    // The receptance peak (`peak:X:F1:F2`), the harvested power (`power`) and the RMS
-    // response under the scenario's random excitation (`rms:OUTPUT`), as the objective or a
-    // constraint, computed beside the sweep figures.
-    let extra =
-        |compute: &dyn Fn(&str, &crate::scenario::Scenario) -> Result<f64, crate::Error>| {
-            let file = p.path.display().to_string();
-            crate::scenario::parse_with(p.text, p.path, &overrides)
-                .map_err(crate::Error::from)
-                .and_then(|loaded| compute(&file, &loaded.scenario))
-        };
-    let extra_figure = |name: &str| -> Option<(&'static str, Result<f64, crate::Error>)> {
-        match crate::linear::PeakSpec::parse(name) {
-            Some(spec) => Some((
-                "m",
-                extra(&|file, sc| crate::linear::receptance_peak(file, sc, &spec).map(|(_, h)| h)),
-            )),
-            None if name == "power" => Some(("W", extra(&crate::linear::harvested_power))),
-            None => name.strip_prefix("rms:").map(|output| {
-                let unit = if output.contains('/') { "rad|m" } else { "m" };
-                (
-                    unit,
-                    extra(&|file, sc| crate::random::output_rms(file, sc, output).map(|(v, _)| v)),
-                )
-            }),
-        }
-    };
     let mut names: Vec<&str> = vec![p.objective.as_str()];
     for c in p.constraints {
         if !names.contains(&c.figure.as_str()) {
             names.push(&c.figure);
         }
     }
-    let point = match point {
-        Ok(mut e) => {
-            let mut failed = None;
-            for name in names {
-                match extra_figure(name) {
-                    Some((unit, Ok(v))) => e.figures.push(Figure {
-                        name: name.to_string(),
-                        unit,
-                        value: Some(v),
-                    }),
-                    Some((_, Err(err))) => {
-                        failed = Some(err);
-                        break;
-                    }
-                    None => {}
+    // The receptance peak (`peak:X:F1:F2`), the harvested power (`power`) and the RMS
+    // response under the scenario's random excitation (`rms:OUTPUT`), as the objective or a
+    // constraint, computed beside the sweep figures from the same linearisation.
+    let extra = |file: &str,
+                 input: &crate::setup::Linearizable,
+                 lin: &hybrid_core::hybrid::Linearization|
+     -> Result<Vec<Figure>, crate::Error> {
+        let model = &input.model;
+        let mut figures = vec![];
+        for &name in &names {
+            let (unit, value) = match crate::linear::PeakSpec::parse(name) {
+                Some(spec) => ("m", crate::linear::peak_of(file, model, lin, &spec)?.1),
+                None if name == "power" => {
+                    let responses = crate::linear::harmonic_responses(file, model, lin)?;
+                    ("W", crate::linear::load_power(model, lin, &responses))
                 }
-            }
-            match failed {
-                Some(err) => Err(PointError::Run(Box::new(err))),
-                None => Ok(e),
-            }
+                None => match name.strip_prefix("rms:") {
+                    Some(output) => {
+                        let (v, unit) = crate::random::output_rms_of(file, input, lin, output)?;
+                        (if unit == "rad" { "rad" } else { "m" }, v)
+                    }
+                    None => continue,
+                },
+            };
+            figures.push(Figure {
+                name: name.to_string(),
+                unit,
+                value: Some(value),
+            });
         }
-        Err(e) => Err(e),
+        Ok(figures)
     };
+    let point = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        sweep_point::evaluate_with(p.path, p.text, &overrides, &PointOptions::default(), &extra)
+    }))
+    .unwrap_or(Err(PointError::Panicked));
     let figure = |figures: &[Figure], name: &str| {
         figures
             .iter()

@@ -32,6 +32,7 @@ use serde::Serialize;
 use crate::Error;
 use crate::commands::frf::parse_output;
 use crate::scenario::Scenario;
+use crate::setup::Linearizable;
 
 /// How the white-noise response is computed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -64,9 +65,21 @@ impl RandomMethod {
 /// the scenario's random excitations, by the automatic method with a 20-mode basis where it
 /// is modal: the optimiser's `rms:OUTPUT` objective (the H2 design). `(rms, unit)`.
 pub fn output_rms(file: &str, sc: &Scenario, output: &str) -> Result<(f64, String), Error> {
-    let report = analyse(
+    let (input, lin) = crate::linear::linearise_scenario(file, sc)?;
+    output_rms_of(file, &input, &lin, output)
+}
+
+/// [`output_rms`] of a linearised system.
+pub fn output_rms_of(
+    file: &str,
+    input: &Linearizable,
+    lin: &Linearization,
+    output: &str,
+) -> Result<(f64, String), Error> {
+    let report = analyse_linearised(
         file,
-        sc,
+        input,
+        lin,
         &RandomOptions {
             method: RandomMethod::Auto,
             modes: 20,
@@ -195,8 +208,18 @@ pub fn states(lin: &Linearization) -> usize {
 
 /// The stationary random response of a loaded scenario (module documentation).
 pub fn analyse(file: &str, sc: &Scenario, opts: &RandomOptions) -> Result<RandomReport, Error> {
-    let usage = |m: String| Error::Usage(format!("{file}: {m}"));
     let (input, lin) = crate::linear::linearise_scenario(file, sc)?;
+    analyse_linearised(file, &input, &lin, opts)
+}
+
+/// [`analyse`] of a linearised system.
+pub fn analyse_linearised(
+    file: &str,
+    input: &Linearizable,
+    lin: &Linearization,
+    opts: &RandomOptions,
+) -> Result<RandomReport, Error> {
+    let usage = |m: String| Error::Usage(format!("{file}: {m}"));
     let model = &input.model;
     let random: Vec<_> = model
         .excitations
@@ -259,7 +282,7 @@ pub fn analyse(file: &str, sc: &Scenario, opts: &RandomOptions) -> Result<Random
             joint: f.joint,
         });
         let current = match lin.electrical.iter().position(|e| e.force == k) {
-            Some(e) if g.connected => StateOutput::current(&lin, e),
+            Some(e) if g.connected => StateOutput::current(lin, e),
             _ => {
                 let scale = if g.connected {
                     g.ke * g.gear_ratio / g.resistance()
@@ -284,7 +307,7 @@ pub fn analyse(file: &str, sc: &Scenario, opts: &RandomOptions) -> Result<Random
         outputs.push(s.clone());
     }
     let no = outputs.len();
-    let nstates = states(&lin);
+    let nstates = states(lin);
     let method = match opts.method {
         RandomMethod::Auto if nstates <= DENSE_STATES => RandomMethod::Dense,
         RandomMethod::Auto => RandomMethod::Modal,
@@ -294,9 +317,9 @@ pub fn analyse(file: &str, sc: &Scenario, opts: &RandomOptions) -> Result<Random
     let k = opts.modes.min(lin.dim()).max(1);
     // Dense: every mode at once (the complete basis below), the first `k` for the cuts.
     let all = if method == RandomMethod::Dense {
-        modes(&lin, lin.dim(), EigenMethod::Dense).map_err(linear_error(file))?
+        modes(lin, lin.dim(), EigenMethod::Dense).map_err(linear_error(file))?
     } else {
-        modes(&lin, k, EigenMethod::Auto).map_err(linear_error(file))?
+        modes(lin, k, EigenMethod::Auto).map_err(linear_error(file))?
     };
     let found = &all[..k.min(all.len())];
     let mut breakpoints = vec![];
@@ -419,7 +442,7 @@ pub fn analyse(file: &str, sc: &Scenario, opts: &RandomOptions) -> Result<Random
                 })
                 .collect();
             let q = psd_variances(
-                &lin,
+                lin,
                 &inputs,
                 &outputs,
                 (0.0, f64::INFINITY),
@@ -442,7 +465,7 @@ pub fn analyse(file: &str, sc: &Scenario, opts: &RandomOptions) -> Result<Random
                 })
                 .collect();
             let q = psd_variances(
-                &lin,
+                lin,
                 &inputs,
                 &outputs,
                 (lo, hi),
@@ -461,7 +484,7 @@ pub fn analyse(file: &str, sc: &Scenario, opts: &RandomOptions) -> Result<Random
         let solve = |basis: Option<nalgebra::DMatrix<f64>>,
                      report: &mut RandomReport|
          -> Result<Vec<f64>, Error> {
-            let ss = StateSpace::new(&lin, &forces, basis).map_err(linear_error(file))?;
+            let ss = StateSpace::new(lin, &forces, basis).map_err(linear_error(file))?;
             let rows: Vec<_> = outputs.iter().map(|o| ss.row(o)).collect();
             let mut v = vec![0.0; no];
             if has_white {
@@ -514,17 +537,16 @@ pub fn analyse(file: &str, sc: &Scenario, opts: &RandomOptions) -> Result<Random
             // The complete basis of every mode (the dense eigen-solver): the same solution as
             // on z itself, but the Schur form of the modal state matrix resolves the slow
             // modes to their own rounding, not to the fastest ones'.
-            let basis = StateSpace::modal_basis(&lin, &all, &forces).map_err(linear_error(file))?;
+            let basis = StateSpace::modal_basis(lin, &all, &forces).map_err(linear_error(file))?;
             let complete = basis.ncols() == lin.dim();
             variances = solve(complete.then_some(basis), &mut report)?;
             report.basis = None;
             methods.push("lyapunov dense");
         } else {
-            let half = StateSpace::modal_basis(&lin, &found[..found.len().div_ceil(2)], &forces)
+            let half = StateSpace::modal_basis(lin, &found[..found.len().div_ceil(2)], &forces)
                 .map_err(linear_error(file))?;
             let vh = solve(Some(half), &mut report)?;
-            let basis =
-                StateSpace::modal_basis(&lin, found, &forces).map_err(linear_error(file))?;
+            let basis = StateSpace::modal_basis(lin, found, &forces).map_err(linear_error(file))?;
             variances = solve(Some(basis), &mut report)?;
             report.truncation = Some(
                 variances

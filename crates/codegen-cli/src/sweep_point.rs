@@ -34,6 +34,8 @@ use hybrid_core::hybrid::EigenMethod;
 use crate::Error;
 use crate::budget::{self, Quantity};
 use crate::scenario::{self, Loaded, Override, Scenario};
+use crate::setup::Linearizable;
+use hybrid_core::hybrid::Linearization;
 
 /// A named figure of a sweep point.
 #[derive(Clone, Debug, PartialEq)]
@@ -115,6 +117,23 @@ pub fn evaluate(
     overrides: &[Override],
     options: &PointOptions,
 ) -> Result<Evaluated, PointError> {
+    evaluate_with(path, text, overrides, options, &|_, _, _| Ok(vec![]))
+}
+
+/// Figures computed from a point's linearisation beside the sweep's: `(file, the system
+/// built for linearisation, its linearisation with the generator(s))` to figures.
+pub type Extra<'a> = dyn Fn(&str, &Linearizable, &Linearization) -> Result<Vec<Figure>, Error> + 'a;
+
+/// [`evaluate`] with the figures of `extra` after the linearised ones (the optimiser's
+/// receptance peak, harvested power and RMS response), from the same linearisation (not
+/// called for a mechanism scenario). An error of `extra` is an error of the point.
+pub fn evaluate_with(
+    path: &Path,
+    text: &str,
+    overrides: &[Override],
+    options: &PointOptions,
+    extra: &Extra<'_>,
+) -> Result<Evaluated, PointError> {
     // Asked to stop (`crate::interrupt::request_stop`): the optimiser's and the sweeps'
     // remaining points fail at once.
     if crate::interrupt::stop_requested() {
@@ -128,7 +147,10 @@ pub fn evaluate(
             e => e,
         })
     };
-    linearised(path, &loaded, &mut figures).map_err(remap)?;
+    if let Some((input, lin)) = linearised(path, &loaded, &mut figures).map_err(remap)? {
+        let file = path.display().to_string();
+        figures.extend(extra(&file, &input, &lin).map_err(remap)?);
+    }
     finite(&figures)?;
     let mut time_domain_error = None;
     if options.time_domain {
@@ -171,13 +193,18 @@ fn finite(figures: &[Figure]) -> Result<(), PointError> {
     }
 }
 
-/// The linearised figures of a loaded scenario (see the module documentation).
-fn linearised(path: &Path, loaded: &Loaded, figures: &mut Vec<Figure>) -> Result<(), Error> {
+/// The linearised figures of a loaded scenario (see the module documentation), and the
+/// system and its linearisation they come from (`None` for a mechanism scenario).
+fn linearised(
+    path: &Path,
+    loaded: &Loaded,
+    figures: &mut Vec<Figure>,
+) -> Result<Option<(Linearizable, Linearization)>, Error> {
     if let Scenario::Mechanism(_) = loaded.scenario {
-        return Ok(());
+        return Ok(None);
     }
     let file = path.display().to_string();
-    let (r, max_force) =
+    let (r, max_force, input, lin) =
         crate::linear::analyse_with_max_force(&file, &loaded.scenario, 1, EigenMethod::Auto)?;
     let first = |modes: &Option<Vec<crate::linear::ModeReport>>| {
         modes
@@ -237,7 +264,7 @@ fn linearised(path: &Path, loaded: &Loaded, figures: &mut Vec<Figure>) -> Result
                 .reduce(f64::max),
         ),
     ]);
-    Ok(())
+    Ok(Some((input, lin)))
 }
 
 /// The figures of the time-domain run of a loaded scenario.
