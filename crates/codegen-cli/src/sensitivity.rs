@@ -129,7 +129,7 @@ pub fn gradients(p: &Problem<'_>, x: &[f64]) -> Result<Vec<Gradient>, Error> {
     // The linearisations at the stencils' points (the point itself where an offset is 0),
     // where a figure has an adjoint.
     let mut shifted_points: Vec<Vec<Option<Point>>> = vec![];
-    let any_adjoint = names.iter().any(|n| Adjoint::has(n));
+    let any_adjoint = names.iter().any(|n| AdjointFigure::parse(n).is_some());
     for (k, st) in stencils.iter().enumerate().filter(|_| any_adjoint) {
         let mut row = vec![];
         for &(offset, _) in st {
@@ -254,33 +254,50 @@ type Valued = Result<(f64, Vec<f64>), Error>;
 /// The first-order form's `A`, the noise's covariance `Q` and an output row `c` (a column).
 type Covariance = (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>);
 
-impl Adjoint<'_> {
-    /// Whether the figure `name` may have an adjoint ([`Adjoint::figure`]).
-    fn has(name: &str) -> bool {
-        matches!(
-            name,
-            "linear.zeta1" | "linear.f1" | "linear.decay1" | "linear.max_force" | "power"
-        ) || PeakSpec::parse(name).is_some()
-            || name.starts_with("rms:")
-    }
+/// A figure that has an adjoint (module documentation).
+enum AdjointFigure<'n> {
+    /// `linear.zeta1`, `linear.f1` or `linear.decay1`.
+    Eigen(&'n str),
+    /// `linear.max_force`.
+    MaxForce,
+    /// `power`.
+    Power,
+    /// `peak:X:F1:F2`.
+    Peak(PeakSpec),
+    /// `rms:OUTPUT` (white noise only: see [`Adjoint::rms`]).
+    Rms(&'n str),
+}
 
+impl<'n> AdjointFigure<'n> {
+    /// The figure `name`, if it has an adjoint.
+    fn parse(name: &'n str) -> Option<AdjointFigure<'n>> {
+        Some(match name {
+            "linear.zeta1" | "linear.f1" | "linear.decay1" => AdjointFigure::Eigen(name),
+            "linear.max_force" => AdjointFigure::MaxForce,
+            "power" => AdjointFigure::Power,
+            _ => match PeakSpec::parse(name) {
+                Some(spec) => AdjointFigure::Peak(spec),
+                None => AdjointFigure::Rms(name.strip_prefix("rms:")?),
+            },
+        })
+    }
+}
+
+/// `z + t dz`: the response moved along its tangent.
+fn along(z: &[C64], dz: &[C64], t: f64) -> Vec<C64> {
+    z.iter().zip(dz).map(|(a, b)| a + b * t).collect()
+}
+
+impl Adjoint<'_> {
     /// The figure `name`'s value and gradient, `None` where it has no adjoint here.
     fn figure(&self, name: &str) -> Option<Valued> {
-        if self.shifted.is_empty() && !self.p.variables.is_empty() {
-            return None;
-        }
-        match name {
-            "linear.zeta1" | "linear.f1" | "linear.decay1" => Some(self.eigen(name)),
-            "linear.max_force" => Some(self.max_force()),
-            "power" => Some(self.power()),
-            _ => {
-                if let Some(spec) = PeakSpec::parse(name) {
-                    Some(self.peak(&spec))
-                } else {
-                    name.strip_prefix("rms:").and_then(|o| self.rms(o))
-                }
-            }
-        }
+        Some(match AdjointFigure::parse(name)? {
+            AdjointFigure::Eigen(name) => self.eigen(name),
+            AdjointFigure::MaxForce => self.max_force(),
+            AdjointFigure::Power => self.power(),
+            AdjointFigure::Peak(spec) => self.peak(&spec),
+            AdjointFigure::Rms(output) => self.rms(output)?,
+        })
     }
 
     fn file(&self) -> String {
@@ -332,14 +349,15 @@ impl Adjoint<'_> {
     }
 
     /// `dz = S(sigma)^-1 (df - dS z)` for the response `z` of `S(sigma) z = f` along
-    /// variable `k`'s stencil, the shift at each point `sigma(point)` and the force `force`.
+    /// variable `k`'s stencil, the shift at each point `sigma(point)` and the force
+    /// `forces[j]` at its point `j`.
     fn response_tangent(
         &self,
         pencil: &Pencil,
         z: &[C64],
         k: usize,
         sigma: &dyn Fn(&Shifted<'_>) -> C64,
-        force: &dyn Fn(&Shifted<'_>) -> Result<Vec<f64>, Error>,
+        forces: &[Vec<f64>],
     ) -> Result<Vec<C64>, Error> {
         let st = &self.shifted[k];
         let terms: Vec<(f64, &Linearization, C64)> = st
@@ -348,15 +366,14 @@ impl Adjoint<'_> {
             .collect();
         let ds_z = pencil_derivative(&terms, z).map_err(linear_error(self.p))?;
         let mut df = vec![0.0; z.len()];
-        for s in st {
-            let f = force(s)?;
+        for (s, f) in st.iter().zip(forces) {
             if f.len() != df.len() {
                 return Err(Error::Linear {
                     file: self.file(),
                     error: LinearError::LayoutChanged { what: "size" },
                 });
             }
-            df.iter_mut().zip(&f).for_each(|(d, f)| *d += s.weight * f);
+            df.iter_mut().zip(f).for_each(|(d, f)| *d += s.weight * f);
         }
         Ok(response_derivative(pencil, &ds_z, &df))
     }
@@ -375,17 +392,20 @@ impl Adjoint<'_> {
         let mut z: Vec<C64> = f.iter().map(|&v| C64::new(v, 0.0)).collect();
         pencil.solve_in_place(&mut z);
         let mut gradient = vec![];
-        for k in 0..self.shifted.len() {
-            let dz = self.response_tangent(&pencil, &z, k, &|_| sigma, &|s| {
-                Ok(crate::linear::peak_input(&file, &s.point.input.model, &s.point.lin, spec)?.1)
-            })?;
-            let mut g = 0.0;
-            for s in &self.shifted[k] {
-                let (point, _) =
-                    crate::linear::peak_input(&file, &s.point.input.model, &s.point.lin, spec)?;
-                let zs: Vec<C64> = z.iter().zip(&dz).map(|(a, b)| a + b * s.offset).collect();
-                g += s.weight * point.complex_value(&zs).norm();
-            }
+        for (k, st) in self.shifted.iter().enumerate() {
+            // The output point and the force at each point of the stencil.
+            let (points, forces): (Vec<_>, Vec<_>) = st
+                .iter()
+                .map(|s| crate::linear::peak_input(&file, &s.point.input.model, &s.point.lin, spec))
+                .collect::<Result<Vec<_>, _>>()?
+                .into_iter()
+                .unzip();
+            let dz = self.response_tangent(&pencil, &z, k, &|_| sigma, &forces)?;
+            let g = st
+                .iter()
+                .zip(&points)
+                .map(|(s, point)| s.weight * point.complex_value(&along(&z, &dz, s.offset)).norm())
+                .sum();
             gradient.push(g);
         }
         Ok((value, gradient))
@@ -417,12 +437,16 @@ impl Adjoint<'_> {
                 let sigma = |s: &Shifted<'_>| {
                     C64::new(0.0, harmonic(s, e).map_or(r.omega, |(omega, _)| omega))
                 };
-                let force = |s: &Shifted<'_>| -> Result<Vec<f64>, Error> {
-                    let ex = s.point.input.model.excitations.get(e);
-                    let ex = ex.ok_or_else(|| usage("the excitations change with the variable"))?;
-                    Ok(s.point.lin.force_vector(&ex.target))
-                };
-                tangents.push(self.response_tangent(pencil, &r.z, k, &sigma, &force)?);
+                let forces = self.shifted[k]
+                    .iter()
+                    .map(|s| {
+                        let ex = s.point.input.model.excitations.get(e);
+                        let ex =
+                            ex.ok_or_else(|| usage("the excitations change with the variable"))?;
+                        Ok(s.point.lin.force_vector(&ex.target))
+                    })
+                    .collect::<Result<Vec<_>, Error>>()?;
+                tangents.push(self.response_tangent(pencil, &r.z, k, &sigma, &forces)?);
             }
             let mut g = 0.0;
             for s in &self.shifted[k] {
@@ -435,7 +459,7 @@ impl Adjoint<'_> {
                         Ok(HarmonicResponse {
                             omega,
                             scale,
-                            z: r.z.iter().zip(dz).map(|(a, b)| a + b * s.offset).collect(),
+                            z: along(&r.z, dz, s.offset),
                         })
                     })
                     .collect::<Result<Vec<_>, Error>>()?;
@@ -473,19 +497,18 @@ impl Adjoint<'_> {
         let mut gradient = vec![];
         for (k, dl) in dl.iter().enumerate() {
             let domega = (l.conj() * dl).re / omega;
-            let dz = self.response_tangent(
-                &pencil,
-                &z,
-                k,
-                &|s| C64::new(0.0, omega + s.offset * domega),
-                &|s| {
+            let forces = self.shifted[k]
+                .iter()
+                .map(|s| {
                     let ex = s.point.input.model.excitations.first().ok_or_else(none)?;
                     Ok(s.point.lin.force_vector(&ex.target))
-                },
-            )?;
+                })
+                .collect::<Result<Vec<_>, Error>>()?;
+            let shift = |s: &Shifted<'_>| C64::new(0.0, omega + s.offset * domega);
+            let dz = self.response_tangent(&pencil, &z, k, &shift, &forces)?;
             let mut g = 0.0;
             for s in &self.shifted[k] {
-                let zs: Vec<C64> = z.iter().zip(&dz).map(|(a, b)| a + b * s.offset).collect();
+                let zs = along(&z, &dz, s.offset);
                 g += s.weight * limit(&s.point.input.model, &s.point.lin, &zs).ok_or_else(none)?;
             }
             gradient.push(g);
