@@ -150,6 +150,25 @@ struct Runs<'a, S> {
     sinks: Vec<S>,
 }
 
+impl<'a, S> Runs<'a, S> {
+    /// The run as described with every comparison run's summary in its `comparisons`
+    /// block, and the sinks (the run's first); `each` sees every comparison run before.
+    fn fold(self, mut each: impl FnMut(Comparison, &HybridRun<'a>)) -> (HybridRun<'a>, Vec<S>) {
+        let Runs {
+            mut run,
+            compared,
+            sinks,
+        } = self;
+        for (c, r) in compared {
+            each(c, &r);
+            run.summary
+                .comparisons
+                .insert(c.key(), ComparisonReport::of(c.legend(), r.summary));
+        }
+        (run, sinks)
+    }
+}
+
 /// The runs of a hybrid scenario held in memory, no file written ([`in_memory`]).
 #[derive(Debug)]
 pub struct InMemory {
@@ -178,24 +197,16 @@ pub fn in_memory(
     let columns = Columns::new(&built.model, &built.state);
     Estimate::hybrid(sc, columns.header().len(), built.model.attachments.len())
         .check(&file, allow_long)?;
-    let Runs {
-        mut run,
-        compared,
-        sinks,
-    } = runs(
+    let mut keys: Vec<&'static str> = vec![];
+    let (run, sinks) = runs(
         sc,
         &built,
         overrides,
         false,
         &mut |_, header| Ok(ColumnRows::new(header)),
         &|_, e| e,
-    )?;
-    let keys: Vec<&'static str> = compared.iter().map(|(c, _)| c.key()).collect();
-    for (c, r) in compared {
-        run.summary
-            .comparisons
-            .insert(c.key(), ComparisonReport::of(c.legend(), r.summary));
-    }
+    )?
+    .fold(|c, _| keys.push(c.key()));
     let mut sinks = sinks.into_iter();
     let rows = sinks.next().expect("the run as described has its rows");
     Ok(InMemory {
@@ -227,11 +238,15 @@ pub fn simulate(
         None => out.join("time_history.csv"),
         Some(c) => out.join(format!("time_history_{}.csv", c.key())),
     };
-    let Runs {
-        mut run,
-        compared,
-        sinks,
-    } = runs(
+    let cycles = |d: &Option<hybrid_core::decay::DecayEstimate>| -> Vec<(f64, f64)> {
+        d.as_ref()
+            .map(|d| d.cycles().iter().map(|c| (c.amplitude, c.zeta)).collect())
+            .unwrap_or_default()
+    };
+    let mut compared: Vec<Comparison> = vec![];
+    let mut damping_series: Vec<(&str, Vec<(f64, f64)>)> = vec![];
+    let mut comparison_lines: Vec<(String, Vec<(f64, f64)>)> = vec![];
+    let (run, sinks) = runs(
         sc,
         &built,
         overrides,
@@ -246,32 +261,23 @@ pub fn simulate(
             Error::Report(ReportError::Csv(e)) => csv_error(&path_of(c), e).into(),
             e => e,
         },
-    )?;
+    )?
+    .fold(|c, r| {
+        compared.push(c);
+        damping_series.push((c.legend(), cycles(&r.summary.decay)));
+        if let (Some(a), Some(w)) = (r.summary.attachments.first(), r.displacements.first()) {
+            comparison_lines.push((format!("{} ({})", a.name, c.legend()), w.clone()));
+        }
+    });
+    damping_series.insert(0, ("as described", cycles(&run.summary.decay)));
     let paths = std::iter::once(None)
-        .chain(compared.iter().map(|(c, _)| Some(*c)))
+        .chain(compared.iter().map(|c| Some(*c)))
         .map(path_of);
     let streams = sinks
         .into_iter()
         .zip(paths)
         .map(|(csv, path)| csv.into_inner().map_err(|e| csv_error(&path, e)))
         .collect::<Result<Vec<_>, _>>()?;
-    let mut damping_series: Vec<(&str, Vec<(f64, f64)>)> = vec![];
-    let cycles = |d: &Option<hybrid_core::decay::DecayEstimate>| -> Vec<(f64, f64)> {
-        d.as_ref()
-            .map(|d| d.cycles().iter().map(|c| (c.amplitude, c.zeta)).collect())
-            .unwrap_or_default()
-    };
-    damping_series.push(("as described", cycles(&run.summary.decay)));
-    let mut comparison_lines: Vec<(String, Vec<(f64, f64)>)> = vec![];
-    for (c, r) in compared {
-        damping_series.push((c.legend(), cycles(&r.summary.decay)));
-        if let (Some(a), Some(w)) = (r.summary.attachments.first(), r.displacements.first()) {
-            comparison_lines.push((format!("{} ({})", a.name, c.legend()), w.clone()));
-        }
-        run.summary
-            .comparisons
-            .insert(c.key(), ComparisonReport::of(c.legend(), r.summary));
-    }
     let summary = &run.summary;
     if let Some(w) = summary.random.as_ref().and_then(|r| r.warning.as_ref()) {
         eprintln!("{file}: warning: {w}");
