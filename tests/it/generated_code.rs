@@ -134,7 +134,7 @@ fn compare<const N: usize, const NC: usize>(
         assert_close(&format!("{rel} V"), &v, &[num.potential_energy(&q)]);
         assert_close(&format!("{rel} V interp"), &v, &interp(&[sym.potential]));
 
-        // The force elements' dissipation and input power (THEORY.md section 8).
+        // The force elements' dissipation and input power (docs/theory.md section 8).
         let dp = generated.element_power(&q, &qd);
         let (dn, pn) = num.element_power(&q, &qd);
         assert_close(&format!("{rel} D, P"), &dp, &[dn, pn]);

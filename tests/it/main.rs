@@ -6,6 +6,7 @@
 static GLOBAL: damper_e2e::alloc_counter::CountingAllocator =
     damper_e2e::alloc_counter::CountingAllocator;
 
+mod docs;
 mod generated_alloc;
 mod generated_code;
 mod tangent_alloc;

@@ -623,7 +623,7 @@ pub fn peak_of(
 
 /// A connected generator's phasors in a linear harmonic response (amplitudes and phases of
 /// `x e^{i omega t}`): the rotor speed `n i omega q_j`, the current
-/// `k_e n i omega q_j / (R_a + R_L + i omega L)` (THEORY.md section 7), the terminal voltage
+/// `k_e n i omega q_j / (R_a + R_L + i omega L)` (docs/theory.md section 7), the terminal voltage
 /// across the load `R_L i`, and the load's mean power `R_L |i|^2 / 2`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GeneratorPhasor {

@@ -1,5 +1,5 @@
 //! Planar Euler–Bernoulli finite-element beam: the vibrating structure of the damper
-//! (K. Lipinski 2011, section 3, eqs. 26–44; THEORY.md section 4).
+//! (K. Lipinski 2011, section 3, eqs. 26–44; docs/theory.md section 4).
 //!
 //! A straight beam along x is made of prismatic segments, each meshed into equal two-node
 //! elements with two DOFs per node, the transverse displacement `q_2` and the rotation

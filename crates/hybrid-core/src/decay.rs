@@ -1,4 +1,4 @@
-//! Damping of a mode from a free decay (THEORY.md, the damping estimate of a run): the one
+//! Damping of a mode from a free decay (docs/theory.md section 11, the damping estimate of a run): the one
 //! estimator of the code base.
 //!
 //! - [`ModalFilter`]: the modal coordinate of one mode shape `phi` of the beam,

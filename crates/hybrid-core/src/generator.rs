@@ -1,4 +1,4 @@
-//! The DC generator used as the damper (THEORY.md section 7).
+//! The DC generator used as the damper (docs/theory.md section 7).
 //!
 //! The generator sits on one joint of the mechanism (the crank) through a gear of ratio `n`:
 //! motor speed `w_m = n q'`, EMF `e = k_e w_m`, circuit `L i' + (R_a + R_L) i = e`, torque on
@@ -475,7 +475,7 @@ pub const MAX_COEFFICIENT: f64 = 1e12;
 pub enum DerivedQuantity {
     /// `n^2`, the gear ratio squared.
     GearRatioSquared,
-    /// `c_g = k_t k_e n^2 / (R_a + R_L)`, the damping on the joint (THEORY.md section 7).
+    /// `c_g = k_t k_e n^2 / (R_a + R_L)`, the damping on the joint (docs/theory.md section 7).
     Damping,
     /// `k_e n / (R_a + R_L)`, the quasi-static current per unit joint speed.
     CurrentPerSpeed,

@@ -1,4 +1,4 @@
-//! `[integrator]` of a scenario: the Newmark / HHT scheme (THEORY.md section 8), its time
+//! `[integrator]` of a scenario: the Newmark / HHT scheme (docs/theory.md section 8), its time
 //! step and end time, checked at load.
 
 use diagnostic::Kind;

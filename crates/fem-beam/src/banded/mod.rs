@@ -1,4 +1,4 @@
-//! Banded symmetric matrices and their LDL^T factorisation (THEORY.md section 4: the beam
+//! Banded symmetric matrices and their LDL^T factorisation (docs/theory.md section 4: the beam
 //! matrices are banded, half-bandwidth 3 with nodal ordering, so storage, products and
 //! solves are O(n)). One file per operation:
 //!

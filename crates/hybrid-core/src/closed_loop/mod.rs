@@ -1,5 +1,5 @@
 //! Pure (rigid) closed-loop mechanisms: assembly, automatic coordinate partitioning and
-//! accurate time integration (paper section 2.2, eqs. 14–25; THEORY.md §§2–3).
+//! accurate time integration (paper section 2.2, eqs. 14–25; docs/theory.md §§2–3).
 //!
 //! A closed chain is cut into a tree (coordinates `q`, equations (10)) plus constraints
 //! `h(q) = 0` (eqs. 14–16). This module

@@ -1,4 +1,4 @@
-//! Choosing and monitoring the independent coordinates of a run (eq. 18; THEORY.md §3).
+//! Choosing and monitoring the independent coordinates of a run (eq. 18; docs/theory.md §3).
 //!
 //! At the start, the rank of `J` is examined ([`examine_rank`]): redundant constraint rows
 //! are diagnosed by name with the combination of kept rows they equal (or dropped when the

@@ -1,5 +1,5 @@
 //! Position projection: the dependent coordinates `v` from `h(u, v) = 0` for given
-//! independent coordinates `u`, by Newton iterations with `J_v` (THEORY.md §3), warm-started
+//! independent coordinates `u`, by Newton iterations with `J_v` (docs/theory.md §3), warm-started
 //! from a nearby consistent configuration; then the dependent velocities from eq. (18).
 
 use nalgebra::{DMatrix, DVector};

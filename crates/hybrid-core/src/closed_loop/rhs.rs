@@ -1,5 +1,5 @@
 //! The reduced right-hand side `y' = (u', u'')` of a closed-loop mechanism in independent
-//! coordinates: `M^R u'' + F^R + Q^R = 0` (eqs. 22–25; THEORY.md §3).
+//! coordinates: `M^R u'' + F^R + Q^R = 0` (eqs. 22–25; docs/theory.md §3).
 //!
 //! The state is `y = (u, u')`. One evaluation:
 //!

@@ -1,6 +1,6 @@
 //! Settings of a closed-loop run: the integration method and its tolerances or step, the
 //! output grid, and how the independent coordinates are chosen and monitored (eqs. 18–25;
-//! THEORY.md §3).
+//! docs/theory.md §3).
 
 use super::error::{SettingsError, SimError};
 

@@ -664,7 +664,7 @@ impl Integrator {
         }
     }
 
-    /// The mechanism models' own force elements in the energy account (THEORY.md section 8:
+    /// The mechanism models' own force elements in the energy account (docs/theory.md section 8:
     /// d(T + V)/dt of a tree is P - D), by the trapezoidal rule between `state` (the old
     /// step) and the followers' solution. Kept out of [`Integrator::step`]'s body (not
     /// inlined): inlined, it changed how the step's vector loops were compiled and cost 4 %

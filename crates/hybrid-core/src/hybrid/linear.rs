@@ -52,7 +52,7 @@
 //! b_e = n k_t R_i^T e_j,   g_e = k_e n R_i^T e_j
 //! ```
 //!
-//! (THEORY.md section 7: `Q_j += n k_t i`, `L i' + R i = k_e n q_j'`). A generator without
+//! (docs/theory.md section 7: `Q_j += n k_t i`, `L i' + R i = k_e n q_j'`). A generator without
 //! inductance is the damper `n^2 k_t k_e / R` on its joint, inside `C_i`. A generator's
 //! gear loss is the damper `n^2 (tau_c / w_s + b + b_eta)` on its joint (the smooth Coulomb
 //! friction by its slope at rest; [`crate::generator`]).

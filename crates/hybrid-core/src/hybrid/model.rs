@@ -160,7 +160,7 @@ pub struct Attachment {
 /// A force element on a joint, in the paper's sign (its contribution to `Q^b`, eq. 13).
 #[derive(Clone, Debug, PartialEq)]
 pub enum ForceKind {
-    /// The DC generator (THEORY.md section 7), with its current as a state when its
+    /// The DC generator (docs/theory.md section 7), with its current as a state when its
     /// inductance is > 0.
     Generator(GeneratorSpec),
     /// Viscous damper: `Q_j += c q_j'`.

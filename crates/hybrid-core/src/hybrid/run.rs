@@ -12,7 +12,7 @@
 //!
 //! with `D_model`, `W_model` the dissipation and the input work of each mechanism model's own
 //! force elements (its dampers; its constant joint forces and external loads), integrated
-//! like the scenario's elements (THEORY.md section 8).
+//! like the scenario's elements (docs/theory.md section 8).
 //!
 //! with `E` the stored energy ([`Stored::total`]). The stored energies cost quadratic forms
 //! and a mechanism evaluation each, so they are computed only at the output steps, and the

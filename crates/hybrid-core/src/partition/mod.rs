@@ -1,4 +1,4 @@
-//! General coordinate partitioning (paper section 2.2, eqs. 18–25; THEORY.md §3).
+//! General coordinate partitioning (paper section 2.2, eqs. 18–25; docs/theory.md §3).
 //!
 //! A mechanism described by `n` coordinates `q` and `m` constraint rows `h(q) = 0`
 //! (eq. 14), with Jacobian `J = dh/dq` (eq. 15) and bias `A = J' q'` (eq. 16), moves
@@ -15,7 +15,7 @@
 //! M^R u'' + F^R + Q^R = 0                                             (22)
 //! ```
 //!
-//! (the corrected forms of THEORY.md §3; `-J_u^T J_v^-T = B^T`). The reduction is the
+//! (the corrected forms of docs/theory.md §3; `-J_u^T J_v^-T = B^T`). The reduction is the
 //! projection of eq. (17) on the tangent space of the constraint manifold, spanned by the
 //! columns of `[I; B]`, which removes the multipliers `lambda`.
 //!

@@ -367,7 +367,7 @@ pub fn dependent_accelerations(
 }
 
 /// Solves `J_v dv = rhs` for an already evaluated `J` (Newton step of the position
-/// projection, THEORY.md §3). Returns the condition number of `J_v`.
+/// projection, docs/theory.md §3). Returns the condition number of `J_v`.
 pub fn solve_dependent_into(
     j: &DMatrix<f64>,
     p: &Partition,

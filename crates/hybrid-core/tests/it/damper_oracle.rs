@@ -264,7 +264,7 @@ fn massless_mechanism_leaves_the_first_beam_frequency() {
 }
 
 /// The structured fast path (rank-one update of the beam matrices) == the general
-/// coordinate-partitioning routine (eqs. 18–25) with u = q^c and v = q^b (THEORY.md 6), in
+/// coordinate-partitioning routine (eqs. 18–25) with u = q^c and v = q^b (docs/theory.md section 6), in
 /// M^R, F^R + Q^R and the resulting accelerations, at random states.
 #[test]
 fn structured_fast_path_equals_general_partitioning() {

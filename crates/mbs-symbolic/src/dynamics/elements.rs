@@ -2,7 +2,7 @@
 //! `Q = -(generalised applied force)`), its potential energy, its dissipation power and
 //! the power of whatever is left (work put in).
 //!
-//! # The energy identity (THEORY.md sections 2 and 8)
+//! # The energy identity (docs/theory.md sections 2 and 8)
 //!
 //! Every element splits its generalised applied force `-Q_e` into the gradient of a potential
 //! `V_e(q)` and a remainder whose power is either dissipated (`D_e(q, q') >= 0`, viscous

@@ -1,7 +1,7 @@
 //! Potential energy `V(q)`: gravity `-sum m_i g . x_Ci` plus the potentials `V_e` of the
 //! force elements that store energy (`k s^2 / 2` of the springs, stated with each element in
 //! `elements.rs`). The gravity part of `F^b` and the spring part of `Q^b` are its gradient
-//! (THEORY.md section 8).
+//! (docs/theory.md section 8).
 
 use super::kinematics::{BodyKinematics, ground_point};
 use super::{Builder, vec3};

@@ -97,7 +97,7 @@ pub struct Symbolic {
     pub dissipation: Id,
     /// Power put in by the force elements that have neither potential nor dissipation,
     /// `P(q, q') = sum_e P_e`: `f0 q'` of the constant joint forces, `f . x' + t . w` of the
-    /// external loads. Along any motion `d(T + V)/dt = P - D` (THEORY.md section 8).
+    /// external loads. Along any motion `d(T + V)/dt = P - D` (docs/theory.md section 8).
     pub input_power: Id,
 }
 

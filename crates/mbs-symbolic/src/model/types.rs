@@ -25,7 +25,7 @@
 //! `com` is the centre of mass, `inertia` the symmetric inertia tensor about the centre of
 //! mass in body axes.
 //!
-//! # Sign convention (THEORY.md section 2)
+//! # Sign convention (docs/theory.md section 2)
 //!
 //! `M q'' + F + Q = 0`: `F` holds the velocity terms and gravity (gravity enters as a base
 //! acceleration `-g`), `Q = -(generalised applied force)` from the force elements.

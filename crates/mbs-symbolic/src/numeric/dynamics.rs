@@ -271,7 +271,7 @@ impl NumericModel {
     /// -q'^T Q_nc = P - D,      so along any motion   d(T + V)/dt = P - D
     /// ```
     ///
-    /// (THEORY.md section 8). A point spring-damper whose points coincide contributes
+    /// (docs/theory.md section 8). A point spring-damper whose points coincide contributes
     /// nothing, as in [`NumericModel::q_vector`].
     ///
     /// `q` and `qd` must have [`NumericModel::dof`] entries.
@@ -376,7 +376,7 @@ impl NumericModel {
     /// Gravity is part of `F` (eq. 12), the springs part of `Q` (eq. 13); everything else in
     /// `Q` — damping, constant joint forces, external forces — is left out of `V` and
     /// collected by [`NumericModel::q_nonconservative`], so that along the motion
-    /// `d(T + V)/dt = -q'^T Q_nc` (THEORY.md section 8), and `T + V` is conserved when there
+    /// `d(T + V)/dt = -q'^T Q_nc` (docs/theory.md section 8), and `T + V` is conserved when there
     /// is none.
     ///
     /// `q` must have [`NumericModel::dof`] entries.

@@ -30,7 +30,7 @@
 //! - constraints (eqs. 14–16) from point positions, point Jacobians and point accelerations
 //!   computed with `q'' = 0` (no finite differences anywhere).
 //!
-//! The sign convention is the paper's (eq. 10, THEORY.md section 2):
+//! The sign convention is the paper's (eq. 10, docs/theory.md section 2):
 //! `M q'' + F + Q = 0`, gravity in `F`, `Q = -(generalised applied force)`, and with
 //! constraints `M q'' + F + Q + J^T lambda = 0` (eq. 17).
 //!

@@ -105,7 +105,7 @@ pub trait Mechanism<const N: usize, const NC: usize> {
     fn gravity_load_jacobian(&self, q: &[f64; N], g: &mut [[f64; 3]; N]);
 
     /// `[D, P]`: the dissipation power and the input power of the force elements at
-    /// `(q, q')` (see [`super::System::element_power`]; THEORY.md section 8).
+    /// `(q, q')` (see [`super::System::element_power`]; docs/theory.md section 8).
     fn element_power(&self, q: &[f64; N], qd: &[f64; N]) -> [f64; 2];
 
     /// `M^b`, `F^b`, `Q^b`, `h`, `J` and `A` at once. The default calls the separate

@@ -74,7 +74,7 @@ pub(super) fn store_bias(values: &[f64], out: &mut [f64]) {
 }
 
 /// The power of a mechanism's force elements at one state (W), split as in
-/// THEORY.md section 8: along any motion of the tree `d(T + V)/dt = input - dissipated`,
+/// docs/theory.md section 8: along any motion of the tree `d(T + V)/dt = input - dissipated`,
 /// `V` being [`System::potential_energy`] (gravity and springs).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ElementPower {

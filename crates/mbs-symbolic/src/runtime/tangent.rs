@@ -5,7 +5,7 @@
 //! # The equations
 //!
 //! The paper's equations of a constrained tree, in the sign convention of
-//! `docs/THEORY.md` (eqs. 10–17):
+//! `docs/theory.md` (eqs. 10–17):
 //!
 //! ```text
 //! r(q, q', q'', t) = M(q) q'' + F(q, q') + Q(q, q', t)        (eqs. 10–13)

@@ -1,4 +1,4 @@
-//! The force elements' dissipation and input power (`System::element_power`, THEORY.md
+//! The force elements' dissipation and input power (`System::element_power`, docs/theory.md
 //! section 8): the symbolic expressions (DAG interpreter) against the numeric reference on
 //! random trees with every kind of force element, and both against the power identity
 //!

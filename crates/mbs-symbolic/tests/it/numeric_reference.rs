@@ -1,5 +1,5 @@
 //! Tests of the numeric reference implementation (`mbs_symbolic::numeric`) against closed
-//! forms, invariants (THEORY.md section 8) and finite differences, on hand-built models and
+//! forms, invariants (docs/theory.md section 8) and finite differences, on hand-built models and
 //! on the deterministic random models of `common`.
 
 use crate::common;

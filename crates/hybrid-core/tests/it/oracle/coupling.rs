@@ -1,4 +1,4 @@
-//! The oracle's joint between the beam and the mechanism (paper section 4, THEORY.md
+//! The oracle's joint between the beam and the mechanism (paper section 4, docs/theory.md
 //! sections 5–6): a copy of the former `hybrid_core::coupling`, on hybrid-core's public API.
 //!
 //! A point `p(q^b)` of a planar two-coordinate mechanism (the double bar's `tip`) is pinned
@@ -12,7 +12,7 @@
 //! A^b = [J'_y q^b' ; J'_x q^b']          (50; rows in the order of J^b)
 //! ```
 //!
-//! With all mechanism coordinates dependent (THEORY.md section 6), the mechanism follows the
+//! With all mechanism coordinates dependent (docs/theory.md section 6), the mechanism follows the
 //! beam: `q^b` from `h = 0` (Newton with `J^b`), `q^b' = g y'` with `g = J^b^-1 e_1`, and the
 //! reduction (56)–(58) collapses to a rank-one term on the beam:
 //!

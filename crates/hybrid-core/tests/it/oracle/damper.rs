@@ -5,13 +5,13 @@
 //!
 //! # Equations
 //!
-//! The beam (eq. 44) with the mechanism reduced onto it (eqs. 55–58, corrected in THEORY.md
+//! The beam (eq. 44) with the mechanism reduced onto it (eqs. 55–58, corrected in docs/theory.md
 //! section 6; see [`super::coupling`]):
 //!
 //! ```text
 //! (A + m_eff(y) n n^T) q'' + B q' + C q = P(t) + n f(y, y', i)            (55)–(58)
 //! y = n . q                                                               (beam point)
-//! L i' + (R_a + R_L) i = k_e n_g q1'       (only when the inductance is > 0; THEORY.md 7)
+//! L i' + (R_a + R_L) i = k_e n_g q1'       (only when the inductance is > 0; docs/theory.md section 7)
 //! ```
 //!
 //! # Time integration: Newmark / HHT-alpha with a rank-one Newton
