@@ -9,7 +9,7 @@
 
 use plotters::prelude::*;
 
-use super::plot::{PlotError, tick_label as tick};
+use super::plot::{PlotError, Ticked, linear_ticks, log_ticks, tick_label as tick};
 
 /// Size of the map (pixels).
 const WIDTH: u32 = 1000;
@@ -188,6 +188,17 @@ pub fn plot_map_svg(map: &DesignMap<'_>) -> Result<Vec<u8>, PlotError> {
     let zspan = if zmax > zmin { zmax - zmin } else { 1.0 };
     let z_of = |v: f64| (v - zmin) / zspan;
     let label = |l: bool| move |v: &f64| tick(if l { v.exp() } else { *v });
+    // A geometric axis is drawn in ln v: its ticks are the 1-2-5 values, at their logarithms.
+    let ticks = |lo: f64, hi: f64, l: bool| {
+        if l {
+            log_ticks(lo.exp(), hi.exp())
+                .into_iter()
+                .map(f64::ln)
+                .collect()
+        } else {
+            linear_ticks(lo, hi)
+        }
+    };
     let mut legend: Vec<(String, Option<RGBColor>)> = vec![];
     legend.push((
         "hatched: breaks a constraint; grey: no value (the point failed)".into(),
@@ -214,7 +225,16 @@ pub fn plot_map_svg(map: &DesignMap<'_>) -> Result<Vec<u8>, PlotError> {
             .margin(15)
             .x_label_area_size(45)
             .y_label_area_size(80)
-            .build_cartesian_2d(x0..x1, y0..y1)
+            .build_cartesian_2d(
+                Ticked {
+                    range: x0..x1,
+                    ticks: ticks(x0, x1, log.0),
+                },
+                Ticked {
+                    range: y0..y1,
+                    ticks: ticks(y0, y1, log.1),
+                },
+            )
             .map_err(PlotError::of)?;
         chart
             .configure_mesh()
@@ -360,5 +380,61 @@ mod tests {
         assert!(!is_geometric(&[1.0, 2.0, 3.0, 4.0]));
         assert!(!is_geometric(&[1.0, 1.5, 2.25]));
         assert!(is_monotonic(&[3.0, 2.0, 1.0]) && !is_monotonic(&[1.0, 3.0, 2.0]));
+    }
+
+    /// A geometric axis ticks at 1-2-5 values (not at e^(k/2): 0.6065, 1.649, ...), a linear
+    /// one at multiples of a 1-2-5 step; every number printed has at most 4 significant
+    /// digits; every text is anchored inside the view box.
+    #[test]
+    fn map_axes_tick_at_1_2_5_values_with_short_labels_inside_the_view() {
+        let x: Vec<f64> = (0..6).map(|i| 0.5 * 2f64.powi(i)).collect();
+        let y: Vec<f64> = (0..5).map(|j| 3.0 + 5.5 * f64::from(j)).collect();
+        let values: Vec<Option<f64>> = x
+            .iter()
+            .flat_map(|a| y.iter().map(move |b| Some(a.ln() * b / 7.0)))
+            .collect();
+        let feasible = vec![true; values.len()];
+        let map = DesignMap {
+            title: "t",
+            x: MapAxis {
+                label: "load resistance [ohm]",
+                values: &x,
+            },
+            y: MapAxis {
+                label: "half-angle [deg]",
+                values: &y,
+            },
+            figure: "f [-]",
+            values: &values,
+            feasible: &feasible,
+            contours: &[],
+            best: None,
+        };
+        let svg = String::from_utf8(plot_map_svg(&map).unwrap()).unwrap();
+        let texts = crate::report::plot::svg_texts(&svg);
+        let shown: Vec<&str> = texts.iter().map(|t| t.0.as_str()).collect();
+        for tick in [
+            "0.5", "1", "2", "5", "10", "20", "5", "10", "15", "20", "25",
+        ] {
+            assert!(shown.contains(&tick), "tick {tick} missing from {shown:?}");
+        }
+        for (text, px, py) in &texts {
+            if let Ok(v) = text.parse::<f64>() {
+                let digits = text
+                    .split(['e', 'E'])
+                    .next()
+                    .unwrap_or_default()
+                    .chars()
+                    .filter(char::is_ascii_digit)
+                    .collect::<String>();
+                let significant = digits.trim_start_matches('0').len();
+                assert!(significant <= 4, "label {text} ({v}) has too many digits");
+            }
+            assert!(
+                (0.0..=f64::from(WIDTH)).contains(px) && *py >= 0.0,
+                "text {text} anchored outside the view at ({px}, {py})"
+            );
+        }
+        assert!(!shown.iter().any(|t| *t == "1.649" || *t == "0.6065"));
     }
 }

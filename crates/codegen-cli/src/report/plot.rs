@@ -196,12 +196,19 @@ pub fn plot_damping_vs_amplitude_svg(
             .margin(15)
             .x_label_area_size(40)
             .y_label_area_size(70)
-            .build_cartesian_2d((a_lo..a_hi).log_scale(), z_lo..z_hi)
+            .build_cartesian_2d(
+                (a_lo..a_hi)
+                    .log_scale()
+                    .with_key_points(log_ticks(a_lo, a_hi)),
+                z_lo..z_hi,
+            )
             .map_err(PlotError::of)?;
         chart
             .configure_mesh()
             .x_desc("cycle amplitude of the tip [mm] (geometric mean of its bounding peaks)")
             .y_desc("damping ratio of the cycle [%]")
+            .x_label_formatter(&|v| tick_label(*v))
+            .y_label_formatter(&|v| tick_label(*v))
             .draw()
             .map_err(PlotError::of)?;
         for (k, (_, points)) in series.iter().enumerate().rev() {
@@ -272,6 +279,8 @@ pub fn plot_xy_svg(
                     .configure_mesh()
                     .x_desc(x_desc)
                     .y_desc(y_desc)
+                    .x_label_formatter(&|v| tick_label(*v))
+                    .y_label_formatter(&|v| tick_label(*v))
                     .draw()
                     .map_err(PlotError::of)?;
                 for (k, (_, pts)) in series.iter().enumerate().rev() {
@@ -285,9 +294,13 @@ pub fn plot_xy_svg(
             }};
         }
         let log_y = log_y && log_range(y_lo, y_hi);
-        let y_log = (y_lo / 1.2..y_hi * 1.2).log_scale();
+        let y_log = (y_lo / 1.2..y_hi * 1.2)
+            .log_scale()
+            .with_key_points(log_ticks(y_lo / 1.2, y_hi * 1.2));
         if log_x && log_range(x0, x1) {
-            let x = (x0 / 1.1..x1 * 1.1).log_scale();
+            let x = (x0 / 1.1..x1 * 1.1)
+                .log_scale()
+                .with_key_points(log_ticks(x0 / 1.1, x1 * 1.1));
             if log_y {
                 chart_on!(x, y_log);
             } else {
@@ -342,7 +355,7 @@ pub fn plot_receptance_svg(
 /// Tick values of a log axis over `[a, b]` (`0 < a < b`): the 1-2-5 sequence of every
 /// decade, thinned to 1-3 or to the decades when it would give more than 12 ticks; the two
 /// ends are added when fewer than 3 values fall inside.
-fn log_ticks(a: f64, b: f64) -> Vec<f64> {
+pub(crate) fn log_ticks(a: f64, b: f64) -> Vec<f64> {
     let (lo, hi) = (a.log10().floor() as i32, b.log10().ceil() as i32);
     let inside = |mantissas: &[f64]| -> Vec<f64> {
         (lo..=hi)
@@ -364,21 +377,85 @@ fn log_ticks(a: f64, b: f64) -> Vec<f64> {
 }
 
 /// A tick label: at most four significant digits, no trailing zeros (`2`, `0.5`, `12.5`);
-/// scientific outside [1e-3, 1e6) (`1.500e-5`).
+/// scientific outside [1e-3, 1e6), its mantissa trimmed the same way (`1.5e-5`, `2e7`).
 pub(crate) fn tick_label(v: f64) -> String {
+    fn trimmed(s: &str) -> &str {
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.')
+        } else {
+            s
+        }
+    }
     if v == 0.0 || !v.is_finite() {
         return format!("{v}");
     }
     if !(-3..6).contains(&(v.abs().log10().floor() as i32)) {
-        return format!("{v:.3e}");
+        let s = format!("{v:.3e}");
+        let (mantissa, exponent) = s.split_once('e').unwrap_or((&s, "0"));
+        return format!("{}e{exponent}", trimmed(mantissa));
     }
     let digits = (3 - v.abs().log10().floor() as i32).clamp(0, 12) as usize;
-    let s = format!("{v:.digits$}");
-    if s.contains('.') {
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        s
+    trimmed(&format!("{v:.digits$}")).to_string()
+}
+
+/// A linear axis `range` whose ticks (labels and bold mesh lines) are `ticks`: plotters'
+/// own key points are for decimal ranges, and a geometric axis drawn in `ln v` needs the
+/// 1-2-5 values at their logarithms.
+pub(crate) struct Ticked {
+    /// The axis.
+    pub range: std::ops::Range<f64>,
+    /// The tick values, inside `range`.
+    pub ticks: Vec<f64>,
+}
+
+impl Ranged for Ticked {
+    type FormatOption = plotters::coord::ranged1d::DefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
+        let r = &self.range;
+        let t = (value - r.start) / (r.end - r.start);
+        limit.0 + (t * f64::from(limit.1 - limit.0)).round() as i32
     }
+
+    fn key_points<Hint: plotters::coord::ranged1d::KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
+        // The light mesh lines asked for by plotters are left out; labels go on the ticks.
+        if hint.max_num_points() == 0 || hint.weight().allow_light_points() {
+            return vec![];
+        }
+        self.ticks.clone()
+    }
+
+    fn range(&self) -> std::ops::Range<f64> {
+        self.range.clone()
+    }
+}
+
+/// Tick values of a linear axis over `[a, b]` (`a < b`): the multiples inside it of the
+/// 1-2-5 step that gives 4 to 10 ticks.
+pub(crate) fn linear_ticks(a: f64, b: f64) -> Vec<f64> {
+    if !(a.is_finite() && b.is_finite() && a < b) {
+        return vec![];
+    }
+    let exponent = ((b - a) / 4.0).log10().floor() as i32;
+    // k m 10^e, computed as (k m) / 10^-e for e < 0 so that 0.6 prints as 0.6.
+    let value = |k: i64, m: f64| {
+        if exponent >= 0 {
+            k as f64 * m * 10f64.powi(exponent)
+        } else {
+            k as f64 * m / 10f64.powi(-exponent)
+        }
+    };
+    let m = [5.0, 2.0, 1.0, 0.5]
+        .into_iter()
+        .find(|&m| (b - a) / value(1, m) >= 4.0)
+        .unwrap_or(1.0);
+    let step = value(1, m);
+    let first = (a / step).ceil() as i64;
+    let last = (b / step).floor() as i64;
+    (first..=last.min(first + 20))
+        .map(|k| value(k, m))
+        .collect()
 }
 
 /// The SVG plot: `|H|` on a log axis against frequency (`x`: a linear or log range), the
@@ -424,7 +501,7 @@ where
             .margin(15)
             .x_label_area_size(40)
             .y_label_area_size(80)
-            .build_cartesian_2d(x, (lo..hi).log_scale())
+            .build_cartesian_2d(x, (lo..hi).log_scale().with_key_points(log_ticks(lo, hi)))
             .map_err(|e| err(&e))?;
         chart
             .configure_mesh()
@@ -432,7 +509,7 @@ where
             .x_labels(12)
             .x_label_formatter(&|v| tick_label(*v))
             .y_desc(format!("|H| ({unit})"))
-            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .y_label_formatter(&|v| tick_label(*v))
             .draw()
             .map_err(|e| err(&e))?;
         chart
@@ -495,6 +572,26 @@ where
     Ok(svg.into_bytes())
 }
 
+/// The texts of an SVG (`<text ...>CONTENT</text>`), with their anchor `(x, y)`.
+#[cfg(test)]
+pub(crate) fn svg_texts(svg: &str) -> Vec<(String, f64, f64)> {
+    let attr = |tag: &str, name: &str| -> f64 {
+        let key = format!(" {name}=\"");
+        tag.split_once(key.as_str())
+            .and_then(|(_, rest)| rest.split_once('"'))
+            .and_then(|(v, _)| v.parse().ok())
+            .unwrap_or(f64::NAN)
+    };
+    svg.split("<text")
+        .skip(1)
+        .filter_map(|t| {
+            let (tag, rest) = t.split_once('>')?;
+            let (content, _) = rest.split_once("</text>")?;
+            Some((content.trim().to_string(), attr(tag, "x"), attr(tag, "y")))
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod log_range_tests {
     use super::log_range;
@@ -542,5 +639,46 @@ mod receptance_tests {
             labels,
             ["2", "0.5", "12.5", "100", "6.425", "0.002", "100000"]
         );
+        let small: Vec<String> = [1.5e-5, 2e7, 1.23456e-9, -2e-4]
+            .into_iter()
+            .map(tick_label)
+            .collect();
+        assert_eq!(small, ["1.5e-5", "2e7", "1.235e-9", "-2e-4"]);
+    }
+
+    #[test]
+    fn linear_ticks_are_multiples_of_a_1_2_5_step() {
+        assert_eq!(
+            super::linear_ticks(0.0, 1.0),
+            vec![0.0, 0.2, 0.4, 0.6, 0.8, 1.0]
+        );
+        assert_eq!(
+            super::linear_ticks(3.0, 25.0),
+            vec![5.0, 10.0, 15.0, 20.0, 25.0]
+        );
+        assert_eq!(super::linear_ticks(-1.0, 1.0).len(), 5);
+        assert!(super::linear_ticks(1.0, 1.0).is_empty());
+    }
+
+    /// The x-y and damping plots tick their logarithmic axes at 1-2-5 values.
+    #[test]
+    fn log_axes_of_the_xy_and_damping_plots_tick_at_1_2_5_values() {
+        let pts: Vec<(f64, f64)> = (0..6)
+            .map(|i| (0.5 * 2f64.powi(i), 1e-4 * 3f64.powi(i)))
+            .collect();
+        let xy = super::plot_xy_svg("t", "x [ohm]", "y [m]", &[("a", &pts)], (true, true)).unwrap();
+        let damping: Vec<(f64, f64)> = pts.iter().map(|p| (p.0 * 1e-3, 0.01 * p.0)).collect();
+        let dz = super::plot_damping_vs_amplitude_svg("t", &[("a", &damping)]).unwrap();
+        for svg in [xy, dz] {
+            let svg = String::from_utf8(svg).unwrap();
+            let texts = super::svg_texts(&svg);
+            let shown: Vec<&str> = texts.iter().map(|t| t.0.as_str()).collect();
+            for tick in ["0.5", "1", "2", "5", "10"] {
+                assert!(shown.contains(&tick), "tick {tick} missing from {shown:?}");
+            }
+            for e in ["0.6065", "1.649", "2.718", "4.482", "7.389"] {
+                assert!(!shown.contains(&e), "tick at a power of e: {e}");
+            }
+        }
     }
 }
