@@ -629,15 +629,24 @@ impl Integrator {
     fn accept(&mut self, model: &HybridModel, state: &mut HybridState, integrate: bool) {
         let n = state.q.len();
         let (h, beta, gamma) = (self.h, self.beta, self.gamma);
-        for i in 0..n {
-            let mut a = self.r0[i];
-            for k in 0..self.nb {
-                a -= self.zcols[k * n + i] * self.phi[k];
+        state.a.copy_from_slice(&self.r0);
+        if n > 0 {
+            for (col, phi) in self.zcols.chunks_exact(n).zip(&self.phi) {
+                for (a, z) in state.a.iter_mut().zip(col) {
+                    *a -= z * phi;
+                }
             }
-            state.a[i] = a;
-            if integrate {
-                state.q[i] = self.q_hat[i] + beta * h * h * a;
-                state.v[i] = self.v_hat[i] + gamma * h * a;
+        }
+        if integrate {
+            let (cq, cv) = (beta * h * h, gamma * h);
+            for ((q, v), ((qh, vh), a)) in state
+                .q
+                .iter_mut()
+                .zip(&mut state.v)
+                .zip(self.q_hat.iter().zip(&self.v_hat).zip(&state.a))
+            {
+                *q = qh + cq * a;
+                *v = vh + cv * a;
             }
         }
         for (m, z) in self.zmax.iter_mut().zip(&self.z) {
@@ -727,11 +736,16 @@ impl Integrator {
     ) -> Result<(), HybridError> {
         let (h, alpha, beta, gamma) = (self.h, self.alpha, self.beta, self.gamma);
         let t_new = state.t + h;
-        let n = state.q.len();
         if let Some(beam) = &model.beam {
-            for i in 0..n {
-                self.q_hat[i] = state.q[i] + h * state.v[i] + h * h * (0.5 - beta) * state.a[i];
-                self.v_hat[i] = state.v[i] + h * (1.0 - gamma) * state.a[i];
+            let (ca, cv) = (h * h * (0.5 - beta), h * (1.0 - gamma));
+            for ((qh, vh), ((q, v), a)) in self
+                .q_hat
+                .iter_mut()
+                .zip(&mut self.v_hat)
+                .zip(state.q.iter().zip(&state.v).zip(&state.a))
+            {
+                *qh = q + h * v + ca * a;
+                *vh = v + cv * a;
             }
             // r0 = (1+alpha)(P_{n+1} - B v^ - C q^) - alpha (P_n - B v_n - C q_n)
             Self::load_into(model, &self.base_load, t_new, &mut self.p_new);
@@ -794,9 +808,7 @@ impl Integrator {
                 acc.excitation_work[k] += 0.5 * h * (old + new);
             }
         }
-        for i in 0..n {
-            self.v_mid[i] = state.v[i];
-        }
+        self.v_mid.copy_from_slice(&state.v);
         self.accept(model, state, true);
         let finite = state.q.iter().chain(&state.v).all(|x| x.is_finite())
             && state
@@ -810,15 +822,15 @@ impl Integrator {
         // Energy account, part 2: midpoint velocity for the Rayleigh dissipation and the
         // beam loads (exact for the linear part under the average-acceleration rule).
         if let Some(beam) = &model.beam {
-            for i in 0..n {
-                self.v_mid[i] = 0.5 * (self.v_mid[i] + state.v[i]);
+            for (m, v) in self.v_mid.iter_mut().zip(&state.v) {
+                *m = 0.5 * (*m + v);
             }
             let acc = &mut state.account;
             acc.dissipated_structure += h * beam.damping().quadratic_form(&self.v_mid);
             // Beam loads: P (which includes the beam excitations) at the two ends.
             let mut work = 0.0;
-            for i in 0..n {
-                work += 0.5 * (self.p_old[i] + self.p_new[i]) * self.v_mid[i];
+            for ((po, pn), m) in self.p_old.iter().zip(&self.p_new).zip(&self.v_mid) {
+                work += 0.5 * (po + pn) * m;
             }
             let mut excited = 0.0;
             let base_v: f64 = self
