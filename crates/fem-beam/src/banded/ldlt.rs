@@ -347,6 +347,12 @@ impl BandedFactor {
                     groups.iter().for_each(|&m| restore(m));
                 }
             }
+            // The beam's nodes (w, theta): the pairs back in order, without a call each.
+            2 => b.chunks_exact_mut(2).for_each(|c| {
+                if let [x, y] = c {
+                    std::mem::swap(x, y);
+                }
+            }),
             m => b.chunks_exact_mut(m).for_each(<[f64]>::reverse),
         }
     }

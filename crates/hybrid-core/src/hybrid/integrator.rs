@@ -156,7 +156,12 @@ pub struct Integrator {
     q_hat: Vec<f64>,
     v_hat: Vec<f64>,
     r0: Vec<f64>,
+    /// The beam load `P` at the step's end (at `p_new_t` after a step).
     p_new: Vec<f64>,
+    /// The time at which `p_new` holds `P` (`None` before the first evaluation): the next
+    /// step starts there and takes it as its `P_n` instead of evaluating the loads again.
+    p_new_t: Option<f64>,
+    /// The beam load at the step's start.
     p_old: Vec<f64>,
     v_mid: Vec<f64>,
     pos_hat: Vec<f64>,
@@ -295,6 +300,7 @@ impl Integrator {
             v_hat: vec![0.0; n],
             r0: vec![0.0; n],
             p_new: vec![0.0; n],
+            p_new_t: None,
             p_old: vec![0.0; n],
             v_mid: vec![0.0; n],
             pos_hat: vec![0.0; nz],
@@ -610,6 +616,7 @@ impl Integrator {
         self.v_hat.copy_from_slice(&state.v);
         if let Some(beam) = &model.beam {
             Self::load_into(model, &self.base_load, state.t, &mut self.p_new);
+            self.p_new_t = Some(state.t);
             self.r0.copy_from_slice(&self.p_new);
             beam.damping().mul_add_into(-1.0, &state.v, &mut self.r0);
             beam.stiffness().mul_add_into(-1.0, &state.q, &mut self.r0);
@@ -748,8 +755,15 @@ impl Integrator {
                 *vh = v + cv * a;
             }
             // r0 = (1+alpha)(P_{n+1} - B v^ - C q^) - alpha (P_n - B v_n - C q_n)
+            // P_n is the last step's P_{n+1} when that step ended here (the loads are
+            // functions of t alone).
+            if self.p_new_t == Some(state.t) {
+                std::mem::swap(&mut self.p_old, &mut self.p_new);
+            } else {
+                Self::load_into(model, &self.base_load, state.t, &mut self.p_old);
+            }
             Self::load_into(model, &self.base_load, t_new, &mut self.p_new);
-            Self::load_into(model, &self.base_load, state.t, &mut self.p_old);
+            self.p_new_t = Some(t_new);
             self.r0.copy_from_slice(&self.p_new);
             beam.damping().mul_add_into(-1.0, &self.v_hat, &mut self.r0);
             beam.stiffness()
