@@ -16,6 +16,7 @@ impl BandedSym {
             kd: self.kd,
             data: Vec::new(),
             groups: None,
+            uniform_group: 0,
         };
         self.factorize_into(&mut f)?;
         Ok(f)
@@ -109,6 +110,10 @@ impl BandedSym {
                 }
                 other => other,
             })?;
+        f.uniform_group = match groups.first() {
+            Some(&m) if groups.iter().all(|&g| g == m) => m,
+            _ => 0,
+        };
         f.groups = Some(groups.to_vec());
         Ok(f)
     }
@@ -123,6 +128,7 @@ impl BandedSym {
         f.n = n;
         f.kd = kd;
         f.groups = None;
+        f.uniform_group = 0;
         f.data.clear();
         f.data.extend_from_slice(&self.data);
         ldlt_in_place(n, kd, &mut f.data, |index, pivot| {
@@ -214,6 +220,55 @@ fn solve_kernel(kd: usize, data: &[f64], b: &mut [f64]) {
     }
 }
 
+/// [`solve_kernel`] for the half-bandwidth 3 of the beam, with the same operations in the
+/// same order (so bit-identical results), the last three entries of each sweep held in
+/// registers and the rows as fixed-size chunks: no bounds checks in the loops, and
+/// `D z = y` folded into the forward sweep.
+fn solve_kernel_kd3(data: &[f64], b: &mut [f64]) {
+    let n = b.len();
+    if n < 4 || data.len() != 4 * n {
+        solve_kernel(3, data, b);
+        return;
+    }
+    let row = |i: usize| -> [f64; 4] {
+        [
+            data[4 * i],
+            data[4 * i + 1],
+            data[4 * i + 2],
+            data[4 * i + 3],
+        ]
+    };
+    // L y = b and z = D^-1 y; (y0, y1, y2) are y_{i-3}, y_{i-2}, y_{i-1}.
+    let (r1, r2) = (row(1), row(2));
+    let mut y0 = b[0];
+    let mut y1 = b[1] - r1[2] * y0;
+    let mut y2 = b[2] - (r2[1] * y0 + r2[2] * y1);
+    b[0] = y0 / row(0)[3];
+    b[1] = y1 / r1[3];
+    b[2] = y2 / r2[3];
+    for (bi, r) in b[3..].iter_mut().zip(data[12..].chunks_exact(4)) {
+        let y = *bi - (r[0] * y0 + r[1] * y1 + r[2] * y2);
+        *bi = y / r[3];
+        (y0, y1, y2) = (y1, y2, y);
+    }
+    // L^T x = z, the column sweep: row i subtracts L_ij x_i from x_j, j = i-3 .. i-1, rows
+    // from the last up; (u1, u2, u3) are the partial x_i, x_{i-1}, x_{i-2}.
+    let (mut u1, mut u2, mut u3) = (b[n - 1], b[n - 2], b[n - 3]);
+    for i in (3..n).rev() {
+        let r = &data[4 * i..4 * i + 3];
+        let x = u1;
+        b[i] = x;
+        let u4 = b[i - 3] - r[0] * x;
+        (u1, u2, u3) = (u2 - r[2] * x, u3 - r[1] * x, u4);
+    }
+    // Rows 2 and 1 (row 0 has no strict lower part).
+    let x2 = u1;
+    b[2] = x2;
+    let (u2, u3) = (u2 - r2[2] * x2, u3 - r2[1] * x2);
+    b[1] = u2;
+    b[0] = u3 - r1[2] * u2;
+}
+
 /// The factorisation `A = L D L^T` of a [`BandedSym`]; solves are `O(n kd)` and allocate
 /// nothing.
 #[derive(Clone, Debug, PartialEq)]
@@ -226,6 +281,8 @@ pub struct BandedFactor {
     /// The groups of [`BandedSym::factorize_reversed`], when the factor is of the
     /// group-reversed matrix.
     groups: Option<Vec<usize>>,
+    /// The size of every group when they all have one (0 otherwise).
+    uniform_group: usize,
 }
 
 impl BandedFactor {
@@ -259,29 +316,44 @@ impl BandedFactor {
             self.n,
             "BandedFactor::solve_in_place: right-hand side has the wrong length"
         );
-        // Group reversal P, in place: reverse everything, then restore the order inside
-        // each group (at its new place); P^-1: reverse everything, then restore each group
-        // at its original place.
-        if let Some(groups) = &self.groups {
-            b.reverse();
-            let mut start = 0;
-            for &m in groups.iter().rev() {
-                b[start..start + m].reverse();
-                start += m;
-            }
-        }
+        self.permute(b, true);
         if self.kd == 3 {
-            solve_kernel(3, &self.data, b);
+            solve_kernel_kd3(&self.data, b);
         } else {
             solve_kernel(self.kd, &self.data, b);
         }
-        if let Some(groups) = &self.groups {
-            b.reverse();
-            let mut start = 0;
-            for &m in groups {
-                b[start..start + m].reverse();
-                start += m;
+        self.permute(b, false);
+    }
+
+    /// The group reversal `P` (`forward`) or `P^-1` of [`BandedSym::factorize_reversed`],
+    /// in place: reverse everything, then restore the order inside each group at its new
+    /// place (`P`) or at its original place (`P^-1`). Groups of one size (a beam's nodes
+    /// with the same free DOFs) are fixed-size chunks of the reversed vector, either way.
+    fn permute(&self, b: &mut [f64], forward: bool) {
+        let Some(groups) = &self.groups else {
+            return;
+        };
+        b.reverse();
+        match self.uniform_group {
+            0 => {
+                let mut start = 0;
+                let mut restore = |m: usize| {
+                    b[start..start + m].reverse();
+                    start += m;
+                };
+                if forward {
+                    groups.iter().rev().for_each(|&m| restore(m));
+                } else {
+                    groups.iter().for_each(|&m| restore(m));
+                }
             }
+            // The beam's nodes (w, theta): the pairs back in order, without a call each.
+            2 => b.chunks_exact_mut(2).for_each(|c| {
+                if let [x, y] = c {
+                    std::mem::swap(x, y);
+                }
+            }),
+            m => b.chunks_exact_mut(m).for_each(<[f64]>::reverse),
         }
     }
 
@@ -344,6 +416,24 @@ mod tests {
     }
 
     #[test]
+    fn kd3_kernel_is_bit_identical_to_the_generic_one() {
+        for n in 1..14 {
+            let f = sample(n, 3).factorize().unwrap();
+            let b: Vec<f64> = (0..n).map(|i| (i as f64 * 1.3).sin() - 0.2).collect();
+            let (mut x3, mut x) = (b.clone(), b.clone());
+            solve_kernel_kd3(&f.data, &mut x3);
+            solve_kernel(f.kd, &f.data, &mut x);
+            assert_eq!(x3, x, "n = {n}");
+            // And it solves: A x = b to rounding.
+            let mut r = vec![0.0; n];
+            sample(n, 3).mul_vec_into(&x, &mut r);
+            for i in 0..n {
+                assert!((r[i] - b[i]).abs() < 1e-14, "n = {n}, row {i}");
+            }
+        }
+    }
+
+    #[test]
     fn reversed_factor_solves_the_same_system() {
         // Block-tridiagonal in the groups below (like a beam: a node couples only with its
         // neighbours), so the group reversal keeps the band.
@@ -358,7 +448,8 @@ mod tests {
         }
         let b: Vec<f64> = (0..11).map(|i| (i as f64 * 0.7).cos()).collect();
         let x = a.factorize().unwrap().solve(&b);
-        // Groups of 1 (plain reversal) and node-like groups of 2 (one single at the start).
+        // Groups of 1 (plain reversal: the fixed-size chunk path of groups of one size) and
+        // node-like groups of 2 with one single at the start (the general path).
         for groups in [vec![1; 11], vec![1, 2, 2, 2, 2, 2]] {
             let f = a.factorize_reversed(&groups).unwrap();
             assert!(f.is_reversed());

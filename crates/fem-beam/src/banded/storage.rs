@@ -149,8 +149,8 @@ impl BandedSym {
             "BandedSym::mul_add_into: y has the wrong length"
         );
         // The half-bandwidth of the beam (3) gets its own inlined copy of the kernel.
-        if self.kd == 3 {
-            mul_add_kernel(3, &self.data, alpha, x, y);
+        if self.kd == 3 && self.n >= 3 {
+            mul_add_kd3(&self.data, alpha, x, y);
         } else {
             mul_add_kernel(self.kd, &self.data, alpha, x, y);
         }
@@ -166,6 +166,9 @@ impl BandedSym {
             self.n,
             "BandedSym::quadratic_form: x has the wrong length"
         );
+        if self.kd == 3 && self.n >= 3 {
+            return quadratic_form_kd3(&self.data, x);
+        }
         let w = self.kd + 1;
         let mut s = 0.0;
         for i in 0..self.n {
@@ -219,6 +222,58 @@ fn mul_add_kernel(kd: usize, data: &[f64], alpha: f64, x: &[f64], y: &mut [f64])
     }
 }
 
+/// `x^T A x` for the half-bandwidth 3 (`n >= 3`), the operations of
+/// [`BandedSym::quadratic_form`] in the same order (bit-identical), the rows as fixed-size
+/// chunks and `x_{i-3} .. x_{i-1}` in registers.
+fn quadratic_form_kd3(data: &[f64], x: &[f64]) -> f64 {
+    let (r1, r2) = (&data[4..8], &data[8..12]);
+    let mut s = 0.0;
+    s += x[0] * (data[3] * x[0] + 2.0 * 0.0);
+    s += x[1] * (r1[3] * x[1] + 2.0 * (0.0 + r1[2] * x[0]));
+    s += x[2] * (r2[3] * x[2] + 2.0 * (0.0 + r2[1] * x[0] + r2[2] * x[1]));
+    let (mut x0, mut x1, mut x2) = (x[0], x[1], x[2]);
+    for (&xi, r) in x[3..].iter().zip(data[12..].chunks_exact(4)) {
+        let off = 0.0 + r[0] * x0 + r[1] * x1 + r[2] * x2;
+        s += xi * (r[3] * xi + 2.0 * off);
+        (x0, x1, x2) = (x1, x2, xi);
+    }
+    s
+}
+
+/// `y += alpha A x` for the half-bandwidth 3 (`n >= 3`), the operations of
+/// [`mul_add_kernel`] in the same order (bit-identical), the rows as fixed-size chunks and the
+/// partial sums of `y_{i-3} .. y_{i-1}` in registers.
+fn mul_add_kd3(data: &[f64], alpha: f64, x: &[f64], y: &mut [f64]) {
+    let n = x.len();
+    if data.len() != 4 * n || y.len() != n {
+        mul_add_kernel(3, data, alpha, x, y);
+        return;
+    }
+    // Rows 0 .. 2 (fewer than 3 lower entries) as the general kernel does them.
+    mul_add_kernel(3, &data[..12], alpha, &x[..3], &mut y[..3]);
+    // (v0, v1, v2): y_{i-3}, y_{i-2}, y_{i-1} with the updates of the rows before i.
+    let (mut v0, mut v1, mut v2) = (y[0], y[1], y[2]);
+    let (mut x0, mut x1, mut x2) = (x[0], x[1], x[2]);
+    for (i, r) in data.chunks_exact(4).enumerate().skip(3) {
+        let xi = x[i];
+        let axi = alpha * xi;
+        let mut acc = r[3] * xi;
+        acc += r[0] * x0;
+        v0 += r[0] * axi;
+        acc += r[1] * x1;
+        v1 += r[1] * axi;
+        acc += r[2] * x2;
+        v2 += r[2] * axi;
+        y[i - 3] = v0;
+        let yi = y[i] + alpha * acc;
+        (v0, v1, v2) = (v1, v2, yi);
+        (x0, x1, x2) = (x1, x2, xi);
+    }
+    y[n - 3] = v0;
+    y[n - 2] = v1;
+    y[n - 1] = v2;
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::sample;
@@ -232,6 +287,42 @@ mod tests {
         assert_eq!(d[(0, 3)], 0.0);
         assert_eq!(BandedSym::from_dense(&d, 2).unwrap(), a);
         assert_eq!(a.get(1, 3), d[(1, 3)]);
+    }
+
+    #[test]
+    fn kd3_kernels_are_bit_identical_to_the_general_ones() {
+        for n in 3..14 {
+            let a = sample(n, 3);
+            let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.9).cos() + 0.1).collect();
+            let y0: Vec<f64> = (0..n).map(|i| (i as f64 * 0.4).sin()).collect();
+            let (mut y3, mut y) = (y0.clone(), y0.clone());
+            mul_add_kd3(&a.data, -0.7, &x, &mut y3);
+            mul_add_kernel(3, &a.data, -0.7, &x, &mut y);
+            assert_eq!(y3, y, "n = {n}");
+            // Against the dense product.
+            let d = a.to_dense() * nalgebra::DVector::from_column_slice(&x);
+            for i in 0..n {
+                assert!(
+                    (y[i] - (y0[i] - 0.7 * d[i])).abs() < 1e-14,
+                    "n = {n}, row {i}"
+                );
+            }
+            let mut general = 0.0;
+            for i in 0..n {
+                let row = &a.data[i * 4..(i + 1) * 4];
+                let mut off = 0.0;
+                for j in i.saturating_sub(3)..i {
+                    off += row[3 + j - i] * x[j];
+                }
+                general += x[i] * (row[3] * x[i] + 2.0 * off);
+            }
+            assert_eq!(quadratic_form_kd3(&a.data, &x), general, "n = {n}");
+            let dense: f64 = x.iter().zip(d.iter()).map(|(a, b)| a * b).sum();
+            assert!(
+                (general - dense).abs() < 1e-13 * dense.abs().max(1.0),
+                "n = {n}"
+            );
+        }
     }
 
     #[test]

@@ -156,7 +156,12 @@ pub struct Integrator {
     q_hat: Vec<f64>,
     v_hat: Vec<f64>,
     r0: Vec<f64>,
+    /// The beam load `P` at the step's end (at `p_new_t` after a step).
     p_new: Vec<f64>,
+    /// The time at which `p_new` holds `P` (`None` before the first evaluation): the next
+    /// step starts there and takes it as its `P_n` instead of evaluating the loads again.
+    p_new_t: Option<f64>,
+    /// The beam load at the step's start.
     p_old: Vec<f64>,
     v_mid: Vec<f64>,
     pos_hat: Vec<f64>,
@@ -295,6 +300,7 @@ impl Integrator {
             v_hat: vec![0.0; n],
             r0: vec![0.0; n],
             p_new: vec![0.0; n],
+            p_new_t: None,
             p_old: vec![0.0; n],
             v_mid: vec![0.0; n],
             pos_hat: vec![0.0; nz],
@@ -610,6 +616,7 @@ impl Integrator {
         self.v_hat.copy_from_slice(&state.v);
         if let Some(beam) = &model.beam {
             Self::load_into(model, &self.base_load, state.t, &mut self.p_new);
+            self.p_new_t = Some(state.t);
             self.r0.copy_from_slice(&self.p_new);
             beam.damping().mul_add_into(-1.0, &state.v, &mut self.r0);
             beam.stiffness().mul_add_into(-1.0, &state.q, &mut self.r0);
@@ -629,15 +636,24 @@ impl Integrator {
     fn accept(&mut self, model: &HybridModel, state: &mut HybridState, integrate: bool) {
         let n = state.q.len();
         let (h, beta, gamma) = (self.h, self.beta, self.gamma);
-        for i in 0..n {
-            let mut a = self.r0[i];
-            for k in 0..self.nb {
-                a -= self.zcols[k * n + i] * self.phi[k];
+        state.a.copy_from_slice(&self.r0);
+        if n > 0 {
+            for (col, phi) in self.zcols.chunks_exact(n).zip(&self.phi) {
+                for (a, z) in state.a.iter_mut().zip(col) {
+                    *a -= z * phi;
+                }
             }
-            state.a[i] = a;
-            if integrate {
-                state.q[i] = self.q_hat[i] + beta * h * h * a;
-                state.v[i] = self.v_hat[i] + gamma * h * a;
+        }
+        if integrate {
+            let (cq, cv) = (beta * h * h, gamma * h);
+            for ((q, v), ((qh, vh), a)) in state
+                .q
+                .iter_mut()
+                .zip(&mut state.v)
+                .zip(self.q_hat.iter().zip(&self.v_hat).zip(&state.a))
+            {
+                *q = qh + cq * a;
+                *v = vh + cv * a;
             }
         }
         for (m, z) in self.zmax.iter_mut().zip(&self.z) {
@@ -727,15 +743,27 @@ impl Integrator {
     ) -> Result<(), HybridError> {
         let (h, alpha, beta, gamma) = (self.h, self.alpha, self.beta, self.gamma);
         let t_new = state.t + h;
-        let n = state.q.len();
         if let Some(beam) = &model.beam {
-            for i in 0..n {
-                self.q_hat[i] = state.q[i] + h * state.v[i] + h * h * (0.5 - beta) * state.a[i];
-                self.v_hat[i] = state.v[i] + h * (1.0 - gamma) * state.a[i];
+            let (ca, cv) = (h * h * (0.5 - beta), h * (1.0 - gamma));
+            for ((qh, vh), ((q, v), a)) in self
+                .q_hat
+                .iter_mut()
+                .zip(&mut self.v_hat)
+                .zip(state.q.iter().zip(&state.v).zip(&state.a))
+            {
+                *qh = q + h * v + ca * a;
+                *vh = v + cv * a;
             }
             // r0 = (1+alpha)(P_{n+1} - B v^ - C q^) - alpha (P_n - B v_n - C q_n)
+            // P_n is the last step's P_{n+1} when that step ended here (the loads are
+            // functions of t alone).
+            if self.p_new_t == Some(state.t) {
+                std::mem::swap(&mut self.p_old, &mut self.p_new);
+            } else {
+                Self::load_into(model, &self.base_load, state.t, &mut self.p_old);
+            }
             Self::load_into(model, &self.base_load, t_new, &mut self.p_new);
-            Self::load_into(model, &self.base_load, state.t, &mut self.p_old);
+            self.p_new_t = Some(t_new);
             self.r0.copy_from_slice(&self.p_new);
             beam.damping().mul_add_into(-1.0, &self.v_hat, &mut self.r0);
             beam.stiffness()
@@ -794,9 +822,7 @@ impl Integrator {
                 acc.excitation_work[k] += 0.5 * h * (old + new);
             }
         }
-        for i in 0..n {
-            self.v_mid[i] = state.v[i];
-        }
+        self.v_mid.copy_from_slice(&state.v);
         self.accept(model, state, true);
         let finite = state.q.iter().chain(&state.v).all(|x| x.is_finite())
             && state
@@ -810,15 +836,15 @@ impl Integrator {
         // Energy account, part 2: midpoint velocity for the Rayleigh dissipation and the
         // beam loads (exact for the linear part under the average-acceleration rule).
         if let Some(beam) = &model.beam {
-            for i in 0..n {
-                self.v_mid[i] = 0.5 * (self.v_mid[i] + state.v[i]);
+            for (m, v) in self.v_mid.iter_mut().zip(&state.v) {
+                *m = 0.5 * (*m + v);
             }
             let acc = &mut state.account;
             acc.dissipated_structure += h * beam.damping().quadratic_form(&self.v_mid);
             // Beam loads: P (which includes the beam excitations) at the two ends.
             let mut work = 0.0;
-            for i in 0..n {
-                work += 0.5 * (self.p_old[i] + self.p_new[i]) * self.v_mid[i];
+            for ((po, pn), m) in self.p_old.iter().zip(&self.p_new).zip(&self.v_mid) {
+                work += 0.5 * (po + pn) * m;
             }
             let mut excited = 0.0;
             let base_v: f64 = self
