@@ -44,11 +44,15 @@
 //! | `sweep` | grid points of the shard (product of the axes, overflow-checked) | [`MAX_SWEEP_POINTS`] |
 //! | `sweep` | memory of the grid, [`SWEEP_BYTES_PER_POINT`] a point | 1 GiB |
 //! | `sweep --time-domain` | steps of one point (the `simulate` estimate) | [`MAX_STEPS`] |
-//! | `sweep --time-domain` | steps of all the shard's points | [`MAX_SWEEP_STEPS`] |
+//! | `sweep` | core time of the shard's points: `points (t_p + steps / r)`, `t_p` = [`SWEEP_POINT_SECONDS`], `r` = [`SWEEP_STEPS_PER_SECOND`] (`steps` 0 without `--time-domain`) | [`MAX_SWEEP_SECONDS`] |
+//! | every command on a beam (and every Python call) | beam elements; memory [`BEAM_BYTES_PER_ELEMENT`] an element | [`MAX_BEAM_ELEMENTS`]; 1 GiB |
 //! | `merge` | bytes of the part files; grid points | 1 GiB; [`MAX_MERGE_POINTS`] |
 //! | `generate` | source size `400 ((n + n_c)^2 + 3 p n)` bytes (`n` coordinates, `n_c` constraint rows, `p` points; 354 to 408 measured on chains of 200 to 1000 bodies), memory about 4 times that | [`MAX_SOURCE_BYTES`] |
 //!
-//! Some bounds hold even with `--allow-long`: a grid whose point count does not fit in a
+//! Some bounds hold even with `--allow-long`: a memory estimate above the machine's
+//! physical memory (`MemTotal` of `/proc/meminfo`, [`machine_memory`]) is refused by
+//! [`refuse_above`] whatever the flag, and a beam whose memory estimate is above it is
+//! refused by the scenario loader before it is built; a grid whose point count does not fit in a
 //! machine word, or whose values cannot be allocated, is refused; `sweep --threads T` is
 //! capped to the machine's available parallelism; `merge` reads regular files only and
 //! needs exactly one part per shard; an error listing many items names the first few and
@@ -73,9 +77,22 @@ pub const MAX_MEMORY: f64 = 1024.0 * 1024.0 * 1024.0;
 /// Largest number of grid points of a sweep (of its shard) without `--allow-long`: about
 /// an hour of one core at 10-40 ms a linearised point (measured on the bundled scenarios).
 pub const MAX_SWEEP_POINTS: f64 = 1e5;
-/// Largest number of time steps of all the points of a sweep (of its shard) without
-/// `--allow-long`: about an hour of one core at 3.6e5 steps/s.
-pub const MAX_SWEEP_STEPS: f64 = 1e9;
+/// Core time of one linearised sweep point (s): 18 ms measured a point of the bundled
+/// damper (`--threads 1`, 20 points in 0.36 s), rounded up.
+pub const SWEEP_POINT_SECONDS: f64 = 0.02;
+/// Time steps a second of one core in a time-domain sweep point (its run and comparison
+/// runs with their figures): 1.5e5 measured on the bundled damper (10 points of 7,500
+/// steps in 0.70 s with one thread, less the linearised part).
+pub const SWEEP_STEPS_PER_SECOND: f64 = 1.5e5;
+/// Largest estimated core time of a sweep (of its shard) without `--allow-long` (s): an
+/// hour of one core.
+pub const MAX_SWEEP_SECONDS: f64 = 3600.0;
+/// Largest number of beam elements without `--allow-long`: 1e5 elements took 26 s and
+/// 450 MB for `linearize` of the bundled damper (measured), 1e6 more than a minute.
+pub const MAX_BEAM_ELEMENTS: f64 = 1e5;
+/// Peak memory of an analysis a beam element (bytes): 450 MB measured for `linearize` at
+/// 1e5 elements, rounded up.
+pub const BEAM_BYTES_PER_ELEMENT: f64 = 4.6e3;
 /// Memory of one sweep point while the sweep runs: its grid index, its result (about 25
 /// named figures) and its rows in the CSV and JSON held until the commit (bytes).
 pub const SWEEP_BYTES_PER_POINT: f64 = 4096.0;
@@ -277,6 +294,20 @@ pub fn refuse_above(
     remedy: &str,
     allow_long: bool,
 ) -> Result<(), Error> {
+    if let Some(machine) = machine_memory() {
+        let beyond: Vec<&Quantity> = work
+            .iter()
+            .filter(|q| q.bytes && (q.value.is_nan() || q.value > machine))
+            .collect();
+        if !beyond.is_empty() {
+            let estimates: Vec<String> = beyond.iter().map(|q| q.show(q.value)).collect();
+            return Err(Error::TooLong(format!(
+                "{subject}: estimated at {}, more than this machine's memory ({:.1} GiB), even with --allow-long; {remedy}",
+                estimates.join(", "),
+                machine / (1024.0 * 1024.0 * 1024.0)
+            )));
+        }
+    }
     let over: Vec<&Quantity> = work.iter().filter(|q| q.over()).collect();
     if allow_long || over.is_empty() {
         return Ok(());
@@ -288,6 +319,89 @@ pub fn refuse_above(
         estimates.join(", "),
         limits.join(", ")
     )))
+}
+
+/// The machine's physical memory (bytes): `MemTotal` of `/proc/meminfo`, read once;
+/// `None` where it cannot be read (then no estimate is refused for it).
+pub fn machine_memory() -> Option<f64> {
+    static MEMORY: std::sync::OnceLock<Option<f64>> = std::sync::OnceLock::new();
+    *MEMORY.get_or_init(|| {
+        let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+        let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+        let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+        Some(kib * 1024.0)
+    })
+}
+
+/// The beam elements of a beam description (all segments; in `f64`, so that no count
+/// overflows).
+pub fn beam_elements(spec: &fem_beam::BeamSpec) -> f64 {
+    spec.segments.iter().map(|s| s.elements as f64).sum()
+}
+
+/// The work quantities of a scenario's structure: its beam elements and their memory
+/// ([`MAX_BEAM_ELEMENTS`], [`BEAM_BYTES_PER_ELEMENT`]); none without a beam.
+pub fn structure_work(sc: &Scenario) -> Vec<Quantity> {
+    let Scenario::Hybrid(h) = sc else {
+        return vec![];
+    };
+    let Some((spec, _)) = &h.beam else {
+        return vec![];
+    };
+    let elements = beam_elements(spec);
+    vec![
+        Quantity::count("beam elements", elements, MAX_BEAM_ELEMENTS),
+        Quantity::bytes(
+            "memory of the beam",
+            elements * BEAM_BYTES_PER_ELEMENT,
+            MAX_MEMORY,
+        ),
+    ]
+}
+
+/// Refuses a scenario whose structure is above the limits unless `allow_long` (every
+/// command and Python call, before any work): `subject` names the scenario.
+pub fn structure(sc: &Scenario, subject: &str, allow_long: bool) -> Result<(), Error> {
+    refuse_above(
+        subject,
+        &structure_work(sc),
+        "use fewer beam elements",
+        allow_long,
+    )
+}
+
+/// Refuses a sweep of `points` points (of its shard) estimated above the limits unless
+/// `allow_long`: their count, `memory` (bytes), and their core time, each point
+/// [`SWEEP_POINT_SECONDS`] plus, in the time domain, its `steps` (one point's, all its runs;
+/// `None` for a linearised sweep) at [`SWEEP_STEPS_PER_SECOND`]; with `steps`, also the
+/// steps of one point against [`MAX_STEPS`]. `first`: the scenario of the first point,
+/// whose structure stands for the others'.
+pub fn sweep(
+    subject: &str,
+    points: f64,
+    memory: f64,
+    steps: Option<f64>,
+    first: Option<&Scenario>,
+    allow_long: bool,
+) -> Result<(), Error> {
+    let seconds = points * (SWEEP_POINT_SECONDS + steps.unwrap_or(0.0) / SWEEP_STEPS_PER_SECOND);
+    let mut work = vec![
+        Quantity::count("grid points", points, MAX_SWEEP_POINTS),
+        Quantity::bytes("memory", memory, MAX_MEMORY),
+        Quantity::count("core seconds", seconds, MAX_SWEEP_SECONDS),
+    ];
+    if let Some(steps) = steps {
+        work.push(Quantity::count("time steps a point", steps, MAX_STEPS));
+    }
+    if let Some(sc) = first {
+        work.extend(structure_work(sc));
+    }
+    refuse_above(
+        subject,
+        &work,
+        "use fewer points, a shorter --t-end or fewer beam elements, or split the sweep with --shard I/N",
+        allow_long,
+    )
 }
 
 /// A list for an error line: the first [`LISTED`] items and the count of the others.
@@ -411,6 +525,36 @@ mod tests {
             let e = bad.check("s.toml", false).unwrap_err().to_string();
             assert!(e.contains("--allow-long") && e.contains("s.toml"), "{e}");
             assert!(bad.check("s.toml", true).is_ok());
+        }
+    }
+
+    #[test]
+    fn a_sweep_is_refused_by_its_core_time_not_its_point_count() {
+        // 99,999 time-domain points of 7,500 steps: under the point and step limits, but
+        // 99,999 (0.02 + 0.05) s = 7,000 s of one core.
+        let e = sweep("sweep", 99_999.0, 1e6, Some(7_500.0), None, false)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("core seconds") && !e.contains("grid points"),
+            "{e}"
+        );
+        assert!(sweep("sweep", 99_999.0, 1e6, Some(7_500.0), None, true).is_ok());
+        // The same points linearised: 2,000 s, accepted.
+        assert!(sweep("sweep", 99_999.0, 1e6, None, None, false).is_ok());
+    }
+
+    #[test]
+    fn memory_beyond_the_machine_is_refused_even_with_allow_long() {
+        let Some(machine) = machine_memory() else {
+            return;
+        };
+        let q = [Quantity::bytes("memory", 2.0 * machine, MAX_MEMORY)];
+        let e = refuse_above("x", &q, "less", true).unwrap_err().to_string();
+        assert!(e.contains("more than this machine's memory"), "{e}");
+        let q = [Quantity::bytes("memory", 2.0 * MAX_MEMORY, MAX_MEMORY)];
+        if 2.0 * MAX_MEMORY < machine {
+            assert!(refuse_above("x", &q, "less", true).is_ok());
         }
     }
 }

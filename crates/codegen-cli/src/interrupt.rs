@@ -21,36 +21,88 @@
 //! library users without [`install`] keep the default behaviour.
 //!
 //! A library user that handles signals itself (the Python package: Ctrl-C is Python's
-//! `KeyboardInterrupt`) asks the runs in progress to stop with [`request_stop`]: the
-//! hybrid time-domain runs poll [`stop_requested`] at every output step, the closed-loop
-//! mechanism runs before every step (`Simulator::set_stop`), the steady states of the
-//! nonlinear frequency response every period, the sweeps before every point, and fail with
-//! [`crate::Error::Interrupted`]; nothing is half-written (runs held
-//! in memory write nothing at all). [`clear_stop`] re-arms the flag before the next call.
+//! `KeyboardInterrupt`) stops one call, not the process: it runs the call under a
+//! [`StopToken`] ([`StopToken::run`]) and asks that call to stop with [`StopToken::stop`].
+//! The token is the calling thread's (a thread-local), handed on to the threads the call
+//! starts (the sweep's and the nonlinear frequency response's thread pools, the
+//! optimiser's parallel grid: [`current`], [`StopToken::run`]); other calls, on other
+//! threads, do not see it and run to their end. The hybrid time-domain runs poll
+//! [`stop_requested`] at every output step, the closed-loop mechanism runs before every
+//! step (`Simulator::set_stop`), the steady states of the nonlinear frequency response
+//! every period, the sweeps before every point, and fail with
+//! [`crate::Error::Interrupted`]; nothing is half-written (runs held in memory write
+//! nothing at all).
 
+use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use signal_hook::consts::{SIGINT, SIGTERM};
 
-/// Set by [`request_stop`]: the runs in progress stop at their next output step.
-static STOP: AtomicBool = AtomicBool::new(false);
+/// The stop request of one call of the library: cloned into every thread that works for
+/// the call; [`StopToken::stop`] makes [`stop_requested`] true on those threads only.
+#[derive(Clone, Debug, Default)]
+pub struct StopToken(Arc<AtomicBool>);
 
-/// Asks every run in progress in this process to stop at its next output step (it fails
-/// with [`crate::Error::Interrupted`]); stays set until [`clear_stop`].
-pub fn request_stop() {
-    STOP.store(true, Ordering::SeqCst);
+thread_local! {
+    /// The token of the call this thread works for (none: never asked to stop).
+    static CURRENT: RefCell<Option<StopToken>> = const { RefCell::new(None) };
 }
 
-/// Whether [`request_stop`] was called since the last [`clear_stop`].
+impl StopToken {
+    /// A token not stopped.
+    pub fn new() -> StopToken {
+        StopToken::default()
+    }
+
+    /// Asks the call of this token to stop at its next output step (it fails with
+    /// [`crate::Error::Interrupted`]); stays set.
+    pub fn stop(&self) {
+        self.0.store(true, Ordering::SeqCst);
+    }
+
+    /// Whether [`StopToken::stop`] was called.
+    pub fn is_stopped(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+
+    /// Runs `f` on this thread as work of this token's call (the previous token of the
+    /// thread restored afterwards, also when `f` panics).
+    pub fn run<R>(&self, f: impl FnOnce() -> R) -> R {
+        with_current(Some(self.clone()), f)
+    }
+}
+
+/// Runs `f` with `token` as this thread's (restored afterwards): how the threads a call
+/// starts take on its token ([`current`] read before they start).
+pub fn with_current<R>(token: Option<StopToken>, f: impl FnOnce() -> R) -> R {
+    struct Restore(Option<StopToken>);
+    impl Drop for Restore {
+        fn drop(&mut self) {
+            let previous = self.0.take();
+            CURRENT.with(|c| *c.borrow_mut() = previous);
+        }
+    }
+    let previous = CURRENT.with(|c| std::mem::replace(&mut *c.borrow_mut(), token));
+    let _restore = Restore(previous);
+    f()
+}
+
+/// Makes `token` this thread's for good: a thread started for one call only (the start
+/// handler of a call's own thread pool).
+pub fn adopt(token: Option<StopToken>) {
+    CURRENT.with(|c| *c.borrow_mut() = token);
+}
+
+/// The token of the call this thread works for, to hand on to the threads it starts.
+pub fn current() -> Option<StopToken> {
+    CURRENT.with(|c| c.borrow().clone())
+}
+
+/// Whether the call this thread works for was asked to stop ([`StopToken::stop`]).
 pub fn stop_requested() -> bool {
-    STOP.load(Ordering::Relaxed)
-}
-
-/// Re-arms the flag of [`request_stop`] (before a new call of the library).
-pub fn clear_stop() {
-    STOP.store(false, Ordering::SeqCst);
+    CURRENT.with(|c| c.borrow().as_ref().is_some_and(StopToken::is_stopped))
 }
 
 /// Held while output files are being committed.
@@ -147,4 +199,39 @@ pub fn install() -> std::io::Result<()> {
             }
         })?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_stop_reaches_the_threads_of_its_call_only() {
+        let a = StopToken::new();
+        let b = StopToken::new();
+        assert!(!stop_requested());
+        a.stop();
+        assert!(a.run(stop_requested));
+        assert!(
+            !b.run(stop_requested),
+            "another call's token is not stopped"
+        );
+        assert!(!stop_requested(), "no token outside a call");
+        // Handed on to a thread the call starts.
+        let seen = a.run(|| {
+            let token = current();
+            std::thread::spawn(move || with_current(token, stop_requested))
+                .join()
+                .unwrap()
+        });
+        assert!(seen);
+        // Restored after a nested call and after a panic.
+        b.run(|| {
+            assert!(a.run(stop_requested));
+            assert!(!stop_requested());
+        });
+        let caught = std::panic::catch_unwind(|| a.run(|| panic!("boom")));
+        assert!(caught.is_err());
+        assert!(!stop_requested());
+    }
 }

@@ -135,7 +135,7 @@ pub enum Error {
     /// Invalid `--set PATH=VALUES` or `--shard` options of a sweep.
     #[error(transparent)]
     Sweep(#[from] commands::sweep::SpecError),
-    /// The run was asked to stop ([`interrupt::request_stop`]); nothing was written.
+    /// The run was asked to stop ([`interrupt::StopToken::stop`]); nothing was written.
     #[error("interrupted")]
     Interrupted,
     /// Writing to standard output failed (a closed pipe: `BrokenPipe`).

@@ -211,6 +211,10 @@ pub struct Outcome {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum OptimizeError {
+    /// No variable to vary: the search would have nothing to move (the derivative-free
+    /// search needs at least one dimension).
+    #[error("no variable to vary: give at least one PATH=LO:HI")]
+    NoVariables,
     /// No evaluated point satisfies the constraints.
     #[error(
         "no point satisfies the constraints ({evaluations} evaluated); the least infeasible: {point}"
@@ -356,13 +360,21 @@ type ScaledFn<'a> = dyn Fn(&[f64], &mut ()) -> f64 + 'a;
 /// Solves the problem (see the module documentation).
 pub fn optimize(p: &Problem<'_>) -> Result<Outcome, OptimizeError> {
     let d = p.variables.len();
+    if d == 0 {
+        return Err(OptimizeError::NoVariables);
+    }
     let scales: Vec<f64> = p
         .constraints
         .iter()
         .map(|c| if c.value != 0.0 { c.value.abs() } else { 1.0 })
         .collect();
     // The grid, in parallel (collected in grid order: the same result on any thread count).
-    let mut history: Vec<Evaluation> = grid(p).par_iter().map(|x| evaluate(p, x, "grid")).collect();
+    // Each point on rayon's threads as work of this call (its stop token).
+    let token = crate::interrupt::current();
+    let mut history: Vec<Evaluation> = grid(p)
+        .par_iter()
+        .map(|x| crate::interrupt::with_current(token.clone(), || evaluate(p, x, "grid")))
+        .collect();
     let sign = if p.maximize { -1.0 } else { 1.0 };
     let (omin, omax) = history
         .iter()

@@ -185,7 +185,7 @@ pub struct InMemory {
 /// Runs a hybrid scenario as `damper simulate` does, its time histories kept in memory
 /// ([`ColumnRows`], the same header as the CSVs) and its summary as `summary.json` holds it;
 /// no file is written and no plot drawn. Above the limits of [`crate::budget`] unless
-/// `allow_long`; [`Error::Interrupted`] when [`crate::interrupt::request_stop`] is called
+/// `allow_long`; [`Error::Interrupted`] when [`crate::interrupt::StopToken::stop`] is called
 /// during the runs.
 pub fn in_memory(
     sc: &HybridScenario,
@@ -764,7 +764,7 @@ pub fn evaluate<'a>(
 enum Halt {
     /// A row could not be written.
     Csv(::csv::Error),
-    /// [`crate::interrupt::request_stop`] was called.
+    /// [`crate::interrupt::StopToken::stop`] was called.
     Interrupted,
 }
 

@@ -134,12 +134,19 @@ pub fn evaluate_with(
     options: &PointOptions,
     extra: &Extra<'_>,
 ) -> Result<Evaluated, PointError> {
-    // Asked to stop (`crate::interrupt::request_stop`): the optimiser's and the sweeps'
+    // Asked to stop (`crate::interrupt::StopToken::stop`): the optimiser's and the sweeps'
     // remaining points fail at once.
     if crate::interrupt::stop_requested() {
         return Err(PointError::Run(Box::new(Error::Interrupted)));
     }
     let loaded = scenario::parse_with(text, path, overrides)?;
+    // A point's own structure (an axis may be the beam's elements) within the limits.
+    budget::structure(
+        &loaded.scenario,
+        &path.display().to_string(),
+        options.allow_long,
+    )
+    .map_err(|e| PointError::Run(Box::new(e)))?;
     let mut figures = vec![];
     let remap = |e: Error| {
         Box::new(match e {

@@ -8,15 +8,26 @@ use codegen_cli::scenario::Override;
 use codegen_cli::scenario::overrides::{parse_value, value_text};
 use numpy::npyffi::NPY_ORDER;
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyFloat, PyInt, PyList, PyString, PyTuple};
+use pyo3::types::{PyBool, PyFloat, PyInt, PyList, PyRange, PyString, PyTuple};
 use toml_edit::{Array, Value};
 
-/// A Python value as the TOML value of a `--set`: `bool`, `int`, `float`, a list or tuple of
-/// those, or a `str` read as the command line reads VALUE (a TOML value, a bare word a
-/// string).
+/// How deep lists may nest in a scenario value (the scenario's deepest values are lists of
+/// pairs: depth 2); deeper is refused before the conversion can exhaust the stack.
+pub const MAX_DEPTH: usize = 32;
+
+/// A Python value as the TOML value of a `--set`: `bool`, `int` (numpy integers too),
+/// `float`, a list, tuple or 1-D numpy array of those, or a `str` read as the command line
+/// reads VALUE (a TOML value, a bare word a string). `TypeError` for any other type
+/// (`bytes`, complex numbers, mappings, sets); `ValueError` for lists nested deeper than
+/// [`MAX_DEPTH`] or containing themselves.
 pub fn toml_value(v: &Bound<'_, PyAny>) -> PyResult<Value> {
+    toml_value_in(v, &mut vec![])
+}
+
+/// [`toml_value`] inside the containers `open` (their addresses, outermost first).
+fn toml_value_in(v: &Bound<'_, PyAny>, open: &mut Vec<usize>) -> PyResult<Value> {
     if v.is_instance_of::<PyBool>() {
         return Ok(Value::from(v.extract::<bool>()?));
     }
@@ -30,20 +41,64 @@ pub fn toml_value(v: &Bound<'_, PyAny>) -> PyResult<Value> {
         return Ok(parse_value(v.extract::<String>()?.trim()));
     }
     if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
-        let items: Vec<Bound<'_, PyAny>> = v.try_iter()?.collect::<PyResult<_>>()?;
-        let mut array = Array::new();
-        for item in &items {
-            array.push(toml_value(item)?);
+        let id = v.as_ptr() as usize;
+        if open.contains(&id) {
+            return Err(PyValueError::new_err(
+                "set: a list that contains itself cannot be a scenario value",
+            ));
         }
+        if open.len() >= MAX_DEPTH {
+            return Err(PyValueError::new_err(format!(
+                "set: lists nested more than {MAX_DEPTH} deep cannot be a scenario value"
+            )));
+        }
+        open.push(id);
+        let mut array = Array::new();
+        let items: Vec<Bound<'_, PyAny>> = v.try_iter()?.collect::<PyResult<_>>()?;
+        for item in &items {
+            array.push(toml_value_in(item, open)?);
+        }
+        open.pop();
         return Ok(Value::Array(array));
     }
-    // numpy scalars and other numbers: as a float.
-    match v.extract::<f64>() {
-        Ok(x) => Ok(Value::from(x)),
-        Err(_) => Err(PyValueError::new_err(format!(
-            "set: cannot use {} as a scenario value (bool, int, float, str or a list of them)",
-            v.repr()?
-        ))),
+    // numpy scalars and arrays by their dtype's kind: b(ool), i/u (integers), f(loat).
+    if let Ok(kind) = v.getattr("dtype").and_then(|d| d.getattr("kind")) {
+        let kind: String = kind.extract().unwrap_or_default();
+        let ndim: usize = v.getattr("ndim").and_then(|n| n.extract()).unwrap_or(0);
+        if ndim > 0 && matches!(kind.as_str(), "b" | "i" | "u" | "f") {
+            return toml_value_in(&v.call_method0("tolist")?, open);
+        }
+        match kind.as_str() {
+            "b" => return Ok(Value::from(v.is_truthy()?)),
+            "i" | "u" => {
+                let n = v.call_method0("__index__")?.extract::<i64>().map_err(|_| {
+                    PyValueError::new_err(format!(
+                        "set: {} does not fit a 64-bit integer",
+                        v.repr().map(|r| r.to_string()).unwrap_or_default()
+                    ))
+                })?;
+                return Ok(Value::from(n));
+            }
+            "f" => return Ok(Value::from(v.extract::<f64>()?)),
+            _ => {}
+        }
+    }
+    Err(PyTypeError::new_err(format!(
+        "set: cannot use {} of type {} as a scenario value (bool, int, float, str or a list of them)",
+        short_repr(v),
+        v.get_type()
+            .name()
+            .map(|n| n.to_string())
+            .unwrap_or_default()
+    )))
+}
+
+/// `repr(v)`, cut to 60 characters.
+fn short_repr(v: &Bound<'_, PyAny>) -> String {
+    let r = v.repr().map(|r| r.to_string()).unwrap_or_default();
+    match r.char_indices().nth(60) {
+        Some((at, _)) => format!("{}...", &r[..at]),
+        None => r,
     }
 }
 
@@ -60,12 +115,30 @@ pub fn overrides(sets: &[(String, Bound<'_, PyAny>)]) -> PyResult<Vec<Override>>
 }
 
 /// The VALUES text of a sweep axis (`PATH=VALUES`): the values' TOML texts, comma
-/// separated, or a string as written (`"0.1:0.5:5"`).
+/// separated, or a string as written (`"0.1:0.5:5"`). The values: a list, tuple, range or
+/// 1-D numpy array (`TypeError` for `bytes`, mappings, sets and other types).
 pub fn axis_spec(path: &str, values: &Bound<'_, PyAny>) -> PyResult<String> {
     if values.is_instance_of::<PyString>() {
         return Ok(format!("{path}={}", values.extract::<String>()?));
     }
-    let items: Vec<Bound<'_, PyAny>> = values.try_iter()?.collect::<PyResult<_>>()?;
+    let list = if values.hasattr("tolist")? && values.hasattr("dtype")? {
+        values.call_method0("tolist")?
+    } else {
+        values.clone()
+    };
+    if !(list.is_instance_of::<PyList>()
+        || list.is_instance_of::<PyTuple>()
+        || list.is_instance_of::<PyRange>())
+    {
+        return Err(PyTypeError::new_err(format!(
+            "sweep axis {path}: the values must be a list, tuple, range, numpy array or a VALUES string, not {}",
+            list.get_type()
+                .name()
+                .map(|n| n.to_string())
+                .unwrap_or_default()
+        )));
+    }
+    let items: Vec<Bound<'_, PyAny>> = list.try_iter()?.collect::<PyResult<_>>()?;
     let texts: Vec<String> = items
         .iter()
         .map(|v| toml_value(v).map(|v| value_text(&v)))

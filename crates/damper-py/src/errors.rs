@@ -8,7 +8,12 @@
 //!   `distance` (the displacement of the mechanism's first attached beam point there),
 //!   `reach` and `mechanism`;
 //! - an interrupted run raises `KeyboardInterrupt` (the one Python raised);
-//! - invalid arguments (`ValueError`), every other failure `DamperError`.
+//! - invalid arguments (`ValueError`; `TypeError` for a wrong type), every other failure
+//!   `DamperError`.
+//!
+//! The exceptions belong to the public module `damper` (their `__module__`), so that they
+//! pickle: `multiprocessing` and `concurrent.futures` bring a worker's exception to the
+//! parent as it was raised, with its attributes.
 
 use codegen_cli::Error;
 use diagnostic::Diagnostics;
@@ -17,25 +22,25 @@ use pyo3::exceptions::{PyException, PyValueError};
 use pyo3::prelude::*;
 
 pyo3::create_exception!(
-    _damper,
+    damper,
     ScenarioError,
     PyValueError,
     "A scenario file (or an override of it) that cannot be used: `file`, `line`, `column`, `entity`, `message` of the first problem."
 );
 pyo3::create_exception!(
-    _damper,
+    damper,
     ModelError,
     PyValueError,
     "A mechanism model file that cannot be used: `file`, `line`, `column`, `entity`, `message` of the first problem."
 );
 pyo3::create_exception!(
-    _damper,
+    damper,
     DamperError,
     PyException,
     "A computation that failed (no equilibrium, a run that diverged, an output limit)."
 );
 pyo3::create_exception!(
-    _damper,
+    damper,
     SingularPosition,
     DamperError,
     "A run stopped at a singular (toggle) position: `time` (s), `distance` (m, the displacement of the mechanism's first attached beam point), `reach` (m or None), `mechanism`."

@@ -1,5 +1,6 @@
 //! The mechanism model functions: what `damper eval` and `damper generate` compute, for a
-//! model file.
+//! model file. The file is read by the one safe reader (a regular file within the size
+//! limit) without the GIL and interruptibly ([`interruptible`]).
 
 use std::path::PathBuf;
 
@@ -11,9 +12,11 @@ use pyo3::prelude::*;
 
 use crate::convert::to_python;
 use crate::errors::{Input, to_py};
+use crate::watch::interruptible;
 
 fn load(py: Python<'_>, path: &std::path::Path) -> PyResult<mbs_symbolic::model::Model> {
-    mbs_symbolic::model::load(path).map_err(|d| to_py(py, Error::Input(d), Input::Model))
+    interruptible(py, || mbs_symbolic::model::load(path).map_err(Error::Input))?
+        .map_err(|e| to_py(py, e, Input::Model))
 }
 
 /// A model's name, its coordinate names and its parameters `(name, value, derived,
@@ -49,6 +52,11 @@ pub fn model_eval<'py>(
     backend: &str,
     params: Vec<String>,
 ) -> PyResult<Bound<'py, PyAny>> {
+    if q.is_empty() || qd.is_empty() {
+        return Err(PyValueError::new_err(
+            "q and qd: give one value per coordinate of the model (an empty vector is not a state)",
+        ));
+    }
     let backend = match backend {
         "interp" => eval::Backend::Interp,
         "numeric" => eval::Backend::Numeric,
@@ -67,9 +75,8 @@ pub fn model_eval<'py>(
         params,
         backend,
     };
-    let value = py
-        .detach(|| eval::evaluation(&args))
-        .map_err(|e| to_py(py, e, Input::Model))?;
+    let value =
+        interruptible(py, || eval::evaluation(&args))?.map_err(|e| to_py(py, e, Input::Model))?;
     to_python(py, &value)
 }
 

@@ -1,7 +1,9 @@
 //! The scenario functions: every call receives the scenario as its text, the file name its
 //! messages name, the directory of its relative paths and its `set` overrides, and loads it
 //! through the one loader ([`codegen_cli::scenario::parse_with_in`]) — exactly what the
-//! command line does with a file and its `--set` options.
+//! command line does with a file and its `--set` options. The directory is made absolute
+//! (a call after `os.chdir`, or in another process, finds the same files); every call
+//! refuses a structure above the work budget before any work ([`Source::load`]).
 
 use std::path::{Path, PathBuf};
 
@@ -16,7 +18,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyList;
 
 use crate::convert::{array1, array2, axis_spec, json, matrix, overrides, to_python};
-use crate::errors::{Input, diagnostics, to_py};
+use crate::errors::{Input, to_py};
 use crate::watch::interruptible;
 
 /// A scenario as the Python side holds it.
@@ -34,21 +36,31 @@ impl Source {
         base: String,
         sets: Vec<(String, Bound<'_, PyAny>)>,
     ) -> PyResult<Source> {
+        let base = std::path::absolute(PathBuf::from(&base))
+            .map_err(|e| PyValueError::new_err(format!("base directory {base:?}: {e}")))?;
         Ok(Source {
             text,
             file,
-            base: PathBuf::from(base),
+            base,
             overrides: overrides(&sets)?,
         })
     }
 
-    fn load(&self) -> Result<Loaded, Error> {
+    /// The scenario loaded and checked (model files included), without any work.
+    fn check(&self) -> Result<Loaded, Error> {
         Ok(scenario::parse_with_in(
             &self.text,
             &self.file,
             &self.base,
             &self.overrides,
         )?)
+    }
+
+    /// [`Source::check`], then its structure within the work budget unless `allow_long`.
+    fn load(&self, allow_long: bool) -> Result<Loaded, Error> {
+        let loaded = self.check()?;
+        codegen_cli::budget::structure(&loaded.scenario, &self.file, allow_long)?;
+        Ok(loaded)
     }
 
     /// The path that names the file and whose directory is the base of relative paths
@@ -69,10 +81,11 @@ fn remapped(loaded: &Loaded, e: Error) -> Error {
     }
 }
 
-/// The text of a scenario file (`ScenarioError` when it cannot be read).
+/// The text of a scenario file (`ScenarioError` when it cannot be read: not a regular
+/// file, too large), read without the GIL and interruptible.
 #[pyfunction]
 pub fn read_scenario(py: Python<'_>, path: PathBuf) -> PyResult<String> {
-    scenario::read(&path).map_err(|d| diagnostics(py, &d, Input::Scenario))
+    interruptible(py, || Ok(scenario::read(&path)?))?.map_err(|e| to_py(py, e, Input::Scenario))
 }
 
 /// Loads and checks a scenario; returns its kind (`"hybrid"` for a damper scenario, or
@@ -86,7 +99,7 @@ pub fn check(
     sets: Vec<(String, Bound<'_, PyAny>)>,
 ) -> PyResult<&'static str> {
     let src = Source::new(text, file, base, sets)?;
-    let loaded = src.load().map_err(|e| to_py(py, e, Input::Scenario))?;
+    let loaded = interruptible(py, || src.check())?.map_err(|e| to_py(py, e, Input::Scenario))?;
     Ok(match loaded.scenario {
         Scenario::Hybrid(_) => "hybrid",
         Scenario::Mechanism(_) => "mechanism",
@@ -117,7 +130,7 @@ pub fn simulate<'py>(
 ) -> PyResult<(Bound<'py, PyAny>, Columns<'py>, Vec<(String, Columns<'py>)>)> {
     let src = Source::new(text, file, base, sets)?;
     let out = interruptible(py, || {
-        let loaded = src.load()?;
+        let loaded = src.load(allow_long)?;
         let records = loaded.applied.records();
         match &loaded.scenario {
             Scenario::Hybrid(sc) => codegen_cli::run_hybrid::in_memory(sc, allow_long, records),
@@ -170,11 +183,21 @@ fn shapes<'py>(
         .collect()
 }
 
+/// The dense reduced matrices `M_R`, `C_R`, `K_R`.
+type Dense<'py> = (
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+);
+
 /// The linearisation as `damper linearize --json` reports it (`modes` modes of each
 /// variant, eigen-solver `method`): `(report JSON, shapes of the modes with the generator,
-/// disconnected, of the bare beam, M_R, C_R, K_R)`.
+/// disconnected, of the bare beam, (M_R, C_R, K_R) or None)`. The dense matrices (`3 d^2`
+/// numbers of `d` reduced coordinates) only with `matrices`, within the memory budget
+/// unless `allow_long` (refused before they are allocated); the work of `damper linearize`
+/// is refused above its limits unless `allow_long`.
 #[pyfunction]
-#[allow(clippy::type_complexity)]
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
 pub fn linearize<'py>(
     py: Python<'py>,
     text: String,
@@ -183,14 +206,14 @@ pub fn linearize<'py>(
     sets: Vec<(String, Bound<'py, PyAny>)>,
     modes: usize,
     method: String,
+    matrices: bool,
+    allow_long: bool,
 ) -> PyResult<(
     Bound<'py, PyAny>,
     Vec<Shapes<'py>>,
     Option<Vec<Shapes<'py>>>,
     Option<Vec<Shapes<'py>>>,
-    Bound<'py, PyArray2<f64>>,
-    Bound<'py, PyArray2<f64>>,
-    Bound<'py, PyArray2<f64>>,
+    Option<Dense<'py>>,
 )> {
     if modes == 0 {
         return Err(PyValueError::new_err("modes must be at least 1"));
@@ -198,15 +221,36 @@ pub fn linearize<'py>(
     let method: EigenMethod = codegen_cli::commands::linearize::parse_method(&method)
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let src = Source::new(text, file, base, sets)?;
-    let (report, lin) = interruptible(py, || {
-        let loaded = src.load()?;
+    let (report, dense) = interruptible(py, || {
+        let loaded = src.load(allow_long)?;
         let input =
             codegen_cli::setup::tangents_for(&loaded.scenario).map_err(|e| remapped(&loaded, e))?;
+        codegen_cli::commands::linearize::check_work(&src.file, &input, modes, method, allow_long)?;
         let (mut report, lin) =
             codegen_cli::linear::analyse_linearization(&src.file, &input, modes, method)
                 .map_err(|e| remapped(&loaded, e))?;
         report.overrides = loaded.applied.records();
-        Ok((report, lin))
+        let dense = if matrices {
+            let d = lin.dim() as f64;
+            codegen_cli::budget::refuse_above(
+                &src.file,
+                &[codegen_cli::budget::Quantity::bytes(
+                    "memory of M_R, C_R, K_R",
+                    3.0 * 8.0 * d * d,
+                    codegen_cli::budget::MAX_MEMORY,
+                )],
+                &format!("{d} reduced coordinates: use fewer beam elements or matrices=False"),
+                allow_long,
+            )?;
+            Some((
+                lin.dense(Matrix::Mass),
+                lin.dense(Matrix::Damping),
+                lin.dense(Matrix::Stiffness),
+            ))
+        } else {
+            None
+        };
+        Ok((report, dense))
     })?
     .map_err(|e| to_py(py, e, Input::Scenario))?;
     let with = shapes(py, &report.modes)?;
@@ -220,15 +264,10 @@ pub fn linearize<'py>(
         .as_deref()
         .map(|m| shapes(py, m))
         .transpose()?;
-    Ok((
-        to_python(py, &report)?,
-        with,
-        off,
-        bare,
-        matrix(py, lin.dense(Matrix::Mass))?,
-        matrix(py, lin.dense(Matrix::Damping))?,
-        matrix(py, lin.dense(Matrix::Stiffness))?,
-    ))
+    let dense = dense
+        .map(|(m, c, k)| Ok::<_, PyErr>((matrix(py, m)?, matrix(py, c)?, matrix(py, k)?)))
+        .transpose()?;
+    Ok((to_python(py, &report)?, with, off, bare, dense))
 }
 
 /// The frequency response as `damper frf` writes it: the columns of `frf.csv` under the
@@ -278,7 +317,7 @@ pub fn frf<'py>(
     };
     let (cols, nl) = interruptible(py, || {
         frf_command::check(&args)?;
-        let loaded = src.load()?;
+        let loaded = src.load(allow_long)?;
         let analysis =
             frf_command::analyse(&args, &loaded.scenario).map_err(|e| remapped(&loaded, e))?;
         Ok((analysis.columns(), analysis.nonlinear_columns()))
@@ -348,16 +387,33 @@ pub fn sweep_grid<'py>(
     let path = src.path();
     let (grid, results) = interruptible(py, || {
         // The scenario and the fixed overrides must load before any point.
-        src.load()?;
+        src.check()?;
+        let shape = sweep::Shape::of(&specs)?;
+        let points = shape.shard_points(0, 1);
+        let subject = format!("sweep of {}", src.file);
+        let memory = shape.memory(points);
+        // Count and memory before the grid's values are allocated.
+        codegen_cli::budget::sweep(&subject, points as f64, memory, None, None, allow_long)?;
         let grid = sweep::Grid::parse(&specs)?;
-        codegen_cli::budget::refuse_above(
-            &format!("sweep of {}", src.file),
-            &[codegen_cli::budget::Quantity::count(
-                "grid points",
-                grid.len() as f64,
-                codegen_cli::budget::MAX_SWEEP_POINTS,
-            )],
-            "use fewer values per axis",
+        // The first point stands for the others: its structure and its time steps, as
+        // `damper sweep` estimates them.
+        let first = (points > 0)
+            .then(|| {
+                let mut overrides = src.overrides.clone();
+                overrides.extend(grid.overrides(0));
+                scenario::parse_with(&src.text, &path, &overrides).ok()
+            })
+            .flatten();
+        let steps = first
+            .as_ref()
+            .filter(|_| time_domain)
+            .and_then(|l| codegen_cli::budget::steps_per_run(&l.scenario));
+        codegen_cli::budget::sweep(
+            &subject,
+            points as f64,
+            memory,
+            steps,
+            first.as_ref().map(|l| &l.scenario),
             allow_long,
         )?;
         let indices: Vec<usize> = (0..grid.len()).collect();
@@ -432,7 +488,8 @@ fn toml_to_py<'py>(py: Python<'py>, v: &toml_edit::Value) -> PyResult<Bound<'py,
 }
 
 /// The linear stationary response to the scenario's random excitations as `damper random
-/// --json` prints it (`outputs`, `generators`, `method`, ...), as a JSON object.
+/// --json` prints it (`outputs`, `generators`, `method`, ...), as a JSON object; refused
+/// above the limits of `damper random` unless `allow_long`.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
 pub fn random<'py>(
@@ -444,6 +501,7 @@ pub fn random<'py>(
     outputs: Vec<String>,
     method: String,
     modes: usize,
+    allow_long: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     let method = codegen_cli::random::RandomMethod::parse(&method).ok_or_else(|| {
         PyValueError::new_err(format!(
@@ -455,7 +513,10 @@ pub fn random<'py>(
     }
     let src = Source::new(text, file, base, sets)?;
     let report = interruptible(py, || {
-        let loaded = src.load()?;
+        let loaded = src.load(allow_long)?;
+        let input =
+            codegen_cli::setup::tangents_for(&loaded.scenario).map_err(|e| remapped(&loaded, e))?;
+        codegen_cli::commands::random::check_work(&src.file, &input, method, modes, allow_long)?;
         codegen_cli::random::analyse(
             &src.file,
             &loaded.scenario,

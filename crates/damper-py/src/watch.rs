@@ -1,18 +1,24 @@
-//! Long calls without the GIL, interruptible by Ctrl-C.
+//! Long calls without the GIL, interruptible by Ctrl-C — the call only.
 //!
 //! The work runs on a scoped worker thread while the calling thread, the GIL released,
 //! waits for it in slices of [`SLICE`]; between slices it takes the GIL for
 //! `Python::check_signals` (which runs Python's signal handlers: on the main thread a
-//! SIGINT raises `KeyboardInterrupt` there). When a handler raises, the library is asked to
-//! stop ([`codegen_cli::interrupt::request_stop`]: the runs poll it at every output step,
-//! the sweeps before every point), the worker is waited for (it stops within one output
-//! step), and the handler's exception is returned. Results are held in memory until the
+//! SIGINT raises `KeyboardInterrupt` there; on other threads it does nothing). When a
+//! handler raises, this call's [`StopToken`] is stopped (the runs poll it at every output
+//! step, the sweeps before every point; calls of other threads have their own token and
+//! run on), the worker is waited for (it stops within one output step), and the handler's
+//! exception is raised — never the partial result. Results are held in memory until the
 //! call returns, so nothing is half-written.
+//!
+//! At interpreter exit a daemon thread's call cannot take the GIL any more
+//! (`Python::try_attach` fails): the call is stopped and its thread ends with the process,
+//! without touching Python.
 
 use std::sync::mpsc;
 use std::time::Duration;
 
 use codegen_cli::Error;
+use codegen_cli::interrupt::StopToken;
 use pyo3::prelude::*;
 
 /// The worker thread's name.
@@ -29,16 +35,17 @@ where
     T: Send,
     F: FnOnce() -> Result<T, Error> + Send,
 {
-    codegen_cli::interrupt::clear_stop();
+    let token = StopToken::new();
     let mut raised: Option<PyErr> = None;
     let joined = py.detach(|| {
         std::thread::scope(|s| {
             let (tx, rx) = mpsc::channel::<()>();
+            let worker_token = token.clone();
             // Named, so that a test (or a profiler) can see the run in progress.
             let worker = std::thread::Builder::new()
                 .name(WORKER.into())
                 .spawn_scoped(s, move || {
-                    let out = job();
+                    let out = worker_token.run(job);
                     let _ = tx.send(());
                     out
                 })
@@ -53,19 +60,29 @@ where
                     Ok(()) | Err(mpsc::RecvTimeoutError::Disconnected) => break,
                     Err(mpsc::RecvTimeoutError::Timeout) => {}
                 }
-                if raised.is_none()
-                    && let Err(e) = Python::attach(|py| py.check_signals())
-                {
-                    raised = Some(e);
-                    codegen_cli::interrupt::request_stop();
+                if raised.is_some() || token.is_stopped() {
+                    continue;
+                }
+                match Python::try_attach(|py| py.check_signals()) {
+                    Some(Ok(())) => {}
+                    Some(Err(e)) => {
+                        raised = Some(e);
+                        token.stop();
+                    }
+                    // The interpreter is shutting down: stop the call, touch nothing.
+                    None => token.stop(),
                 }
             }
             Ok::<_, PyErr>(worker.join())
         })
     })?;
-    codegen_cli::interrupt::clear_stop();
     if let Some(e) = raised {
         return Err(e);
+    }
+    if token.is_stopped() {
+        return Err(pyo3::exceptions::PyKeyboardInterrupt::new_err(
+            "interrupted: the interpreter is shutting down",
+        ));
     }
     match joined {
         Ok(out) => Ok(out),

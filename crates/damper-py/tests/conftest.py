@@ -20,6 +20,8 @@ MODELS = sorted(p for p in (ROOT / "models").iterdir() if p.suffix in (".toml", 
 
 # Wall-clock figures differ between any two runs.
 WALL = {"wall_seconds", "steps_per_second", "wall_time_s"}
+# The summary fields that hold a mechanism model's path.
+MODEL_PATHS = {"model_file", "model"}
 
 
 def cli(*args: str, check: bool = True) -> subprocess.CompletedProcess:
@@ -29,9 +31,15 @@ def cli(*args: str, check: bool = True) -> subprocess.CompletedProcess:
 
 
 def without_wall(v: Any) -> Any:
-    """`v` with the wall-clock fields removed at every level."""
+    """`v` with the wall-clock fields removed at every level, and every model path
+    (`model_file`, a mechanism scenario's `model`) as an absolute path (the command line's, run from the repository root, relative to it; a
+    Python scenario keeps its directory as an absolute path)."""
     if isinstance(v, dict):
-        return {k: without_wall(x) for k, x in v.items() if k not in WALL}
+        return {
+            k: os.path.normpath(os.path.join(ROOT, x)) if k in MODEL_PATHS and isinstance(x, str) else without_wall(x)
+            for k, x in v.items()
+            if k not in WALL
+        }
     if isinstance(v, list):
         return [without_wall(x) for x in v]
     return v

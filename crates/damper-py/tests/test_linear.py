@@ -49,7 +49,8 @@ def test_reduced_matrices_give_the_modes(monkeypatch: pytest.MonkeyPatch, root: 
     the companion form) are the modes' eigenvalues."""
     monkeypatch.chdir(root)
     # The damper's generator has no inductance: the pencil is the whole linear system.
-    lin = damper.Scenario.load("scenarios/damper.toml").linearize(modes=3, method="dense")
+    lin = damper.Scenario.load("scenarios/damper.toml").linearize(modes=3, method="dense", matrices=True)
+    assert lin.M_R is not None and lin.C_R is not None and lin.K_R is not None
     m, c, k = lin.M_R, lin.C_R, lin.K_R
     n = m.shape[0]
     # nalgebra's column-major buffer, viewed in Fortran order (no copy).

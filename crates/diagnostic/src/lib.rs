@@ -15,9 +15,13 @@
 
 #![warn(missing_docs)]
 
+mod input;
+
 use std::fmt;
 
 use serde::Serialize;
+
+pub use input::{MAX_INPUT_BYTES, check_input, read_input, read_input_bytes};
 
 /// What kind of problem a [`Diagnostic`] reports (machine-readable; serialised in
 /// `snake_case`).

@@ -397,10 +397,9 @@ impl Beam {
     /// Reads, parses and validates a TOML beam file.
     pub fn from_file(path: impl AsRef<Path>) -> Result<Self, BeamError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|error| BeamError::Io {
-            path: path.display().to_string(),
-            error,
-        })?;
+        // A regular file within the size limit (a fifo or a device is refused, not read).
+        let text = diagnostic::read_input(path, "beam file")
+            .map_err(|d| BeamError::Input(diagnostic::Diagnostics::from(d)))?;
         Self::from_toml_str(&text, &path.display().to_string())
     }
 

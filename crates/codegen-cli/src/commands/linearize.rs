@@ -70,12 +70,13 @@ pub fn run(args: Args) -> Result<(), Error> {
     }
     let loaded = scenario::load_with(&args.scenario, &args.set)?;
     let file = args.scenario.display().to_string();
+    budget::structure(&loaded.scenario, &file, args.allow_long)?;
     let remap = |e: Error| match e {
         Error::Input(d) => Error::Input(loaded.remap(d)),
         e => e,
     };
     let input = tangents_for(&loaded.scenario).map_err(remap)?;
-    check_work(&file, &input, &args)?;
+    check_work(&file, &input, args.modes, args.method, args.allow_long)?;
     let mut report = analyse_model(&file, &input, args.modes, args.method).map_err(remap)?;
     report.overrides = loaded.applied.records();
     if args.json {
@@ -87,14 +88,22 @@ pub fn run(args: Args) -> Result<(), Error> {
 
 /// Refuses eigen-solves estimated above the limits unless `--allow-long` (module
 /// documentation).
-fn check_work(file: &str, input: &Linearizable, args: &Args) -> Result<(), Error> {
+/// Refuses the eigen-solves of `modes` modes with `method` estimated above the limits
+/// unless `allow_long` (the command line and the Python package).
+pub fn check_work(
+    file: &str,
+    input: &Linearizable,
+    modes: usize,
+    method: EigenMethod,
+    allow_long: bool,
+) -> Result<(), Error> {
     let states = input.first_order_states();
-    let dense = match args.method {
+    let dense = match method {
         EigenMethod::Auto => states <= 600,
         EigenMethod::Dense => true,
         EigenMethod::ShiftInvert => false,
     };
-    let (bytes, flops) = budget::eigen_work(states, args.modes, dense);
+    let (bytes, flops) = budget::eigen_work(states, modes, dense);
     budget::refuse_above(
         file,
         &[
@@ -103,10 +112,10 @@ fn check_work(file: &str, input: &Linearizable, args: &Args) -> Result<(), Error
         ],
         &format!(
             "{states} states, {} modes, {} eigen-solver: ask fewer --modes, use --method shift-invert or a coarser beam",
-            args.modes,
+            modes,
             if dense { "dense" } else { "Arnoldi" }
         ),
-        args.allow_long,
+        allow_long,
     )
 }
 

@@ -255,12 +255,19 @@ pub fn solve(
 ) -> Result<(optimize::Outcome, Vec<Constraint>), Error> {
     let file = path.display().to_string();
     let vary: Vec<Variable> = vary.iter().map(|v| v.parse()).collect::<Result<_, _>>()?;
+    if vary.is_empty() {
+        return Err(Error::Usage(format!(
+            "{file}: {}",
+            optimize::OptimizeError::NoVariables
+        )));
+    }
     let parsed: Vec<Constraint> = constraints
         .iter()
         .map(|c| c.parse())
         .collect::<Result<_, _>>()?;
     // The fixed overrides and the scenario must load before any search.
-    scenario::parse_with(text, path, fixed)?;
+    let loaded = scenario::parse_with(text, path, fixed)?;
+    budget::structure(&loaded.scenario, &file, allow_long)?;
     let d = vary.len();
     let evaluations = (MAX_GRID as f64).min((grid.max(2) as f64).powi(d as i32))
         + (MAX_STARTS * (MAX_EVALS + 4 * d)) as f64;

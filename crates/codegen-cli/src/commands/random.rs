@@ -19,7 +19,7 @@ use crate::random::{DENSE_STATES, RandomMethod, RandomOptions, RandomReport, ana
 use crate::report::ReportError;
 use crate::report::summary::json_bytes;
 use crate::scenario::{self, Override};
-use crate::setup::tangents_for;
+use crate::setup::{Linearizable, tangents_for};
 
 /// Arguments of `damper random`.
 #[derive(clap::Args, Debug)]
@@ -61,33 +61,13 @@ pub fn run(args: Args) -> Result<(), Error> {
     }
     let loaded = scenario::load_with(&args.scenario, &args.set)?;
     let file = args.scenario.display().to_string();
+    budget::structure(&loaded.scenario, &file, args.allow_long)?;
     let remap = |e: Error| match e {
         Error::Input(d) => Error::Input(loaded.remap(d)),
         e => e,
     };
     let input = tangents_for(&loaded.scenario).map_err(remap)?;
-    // The work, before the linearisation's solves.
-    let states = input.first_order_states();
-    let dense = match method {
-        RandomMethod::Auto => states <= DENSE_STATES,
-        RandomMethod::Dense => true,
-        _ => false,
-    };
-    let (mut bytes, mut flops) = budget::eigen_work(states, args.modes, states <= 600);
-    if dense {
-        let n = states as f64;
-        bytes += 10.0 * 16.0 * n * n;
-        flops += 100.0 * n * n * n;
-    }
-    budget::refuse_above(
-        &file,
-        &[
-            Quantity::bytes("memory", bytes, budget::MAX_MEMORY),
-            Quantity::count("flops", flops, budget::MAX_FLOPS),
-        ],
-        &format!("{states} states: use --method modal or a coarser beam"),
-        args.allow_long,
-    )?;
+    check_work(&file, &input, method, args.modes, args.allow_long)?;
     let report = analyse(
         &file,
         &loaded.scenario,
@@ -153,4 +133,36 @@ fn table(r: &RandomReport) -> String {
         );
     }
     out
+}
+
+/// Refuses the random response's solves (`method`, `modes`) estimated above the limits
+/// unless `allow_long` (the command line and the Python package).
+pub fn check_work(
+    file: &str,
+    input: &Linearizable,
+    method: RandomMethod,
+    modes: usize,
+    allow_long: bool,
+) -> Result<(), Error> {
+    let states = input.first_order_states();
+    let dense = match method {
+        RandomMethod::Auto => states <= DENSE_STATES,
+        RandomMethod::Dense => true,
+        _ => false,
+    };
+    let (mut bytes, mut flops) = budget::eigen_work(states, modes, states <= 600);
+    if dense {
+        let n = states as f64;
+        bytes += 10.0 * 16.0 * n * n;
+        flops += 100.0 * n * n * n;
+    }
+    budget::refuse_above(
+        file,
+        &[
+            Quantity::bytes("memory", bytes, budget::MAX_MEMORY),
+            Quantity::count("flops", flops, budget::MAX_FLOPS),
+        ],
+        &format!("{states} states: use --method modal or a coarser beam"),
+        allow_long,
+    )
 }

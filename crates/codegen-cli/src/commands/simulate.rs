@@ -71,6 +71,11 @@ pub struct Args {
 pub fn run(args: Args) -> Result<(), Error> {
     let started = Instant::now();
     let loaded = scenario::load_with(&args.scenario, &args.set)?;
+    crate::budget::structure(
+        &loaded.scenario,
+        &args.scenario.display().to_string(),
+        args.allow_long,
+    )?;
     let overrides = loaded.applied.records();
     let stem = args
         .scenario
@@ -282,7 +287,7 @@ fn mechanism_run(
 /// A closed-loop mechanism scenario run as `damper simulate` runs it, held in memory (no file
 /// written, no plot drawn): `<stem>_summary.json` byte for byte and the columns of
 /// `<stem>.csv` ([`crate::report::csv::mechanism_header`]). [`Error::Interrupted`] when
-/// [`crate::interrupt::request_stop`] is called during the run.
+/// [`crate::interrupt::StopToken::stop`] is called during the run.
 pub fn mechanism_in_memory(
     sc: &MechanismScenario,
     allow_long: bool,

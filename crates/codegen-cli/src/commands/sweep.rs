@@ -87,8 +87,9 @@ pub struct Args {
     /// largest).
     #[arg(long)]
     pub minimize: bool,
-    /// Run even when the estimated grid points (1e5 a shard), memory (1 GiB) or time steps
-    /// (2e7 a point, 1e9 in all) are above the limits (`codegen_cli::budget`).
+    /// Run even when the estimated grid points (1e5 a shard), memory (1 GiB), time steps
+    /// (2e7 a point), core time (an hour a shard) or beam elements (1e5) are above the
+    /// limits (`codegen_cli::budget`).
     #[arg(long)]
     pub allow_long: bool,
 }
@@ -694,30 +695,26 @@ pub fn run(args: Args) -> Result<(), Error> {
     let t_end = args.t_end.map(|t| {
         Override::new("integrator.t_end", Value::from(t), &cell(Some(t))).expect("a valid PATH")
     });
-    if args.time_domain && points > 0 {
-        // The first point stands for the others; a point whose own time settings are above
-        // the limit records that as its error (`sweep_point`).
-        let mut overrides = grid.overrides(0);
-        overrides.extend(t_end.clone());
-        if let Some(steps) = scenario::parse_with(&text, &args.scenario, &overrides)
-            .ok()
-            .and_then(|loaded| budget::steps_per_run(&loaded.scenario))
-        {
-            budget::refuse_above(
-                &format!("sweep of {file}"),
-                &[
-                    Quantity::count("time steps a point", steps, budget::MAX_STEPS),
-                    Quantity::count(
-                        "time steps in all",
-                        steps * points as f64,
-                        budget::MAX_SWEEP_STEPS,
-                    ),
-                ],
-                "shorten --t-end or use fewer points",
-                args.allow_long,
-            )?;
-        }
-    }
+    // The first point stands for the others (its structure, its time steps); a point
+    // whose own settings are above the limits records that as its error (`sweep_point`).
+    let first = (points > 0)
+        .then(|| {
+            let mut overrides = grid.overrides(0);
+            overrides.extend(t_end.clone());
+            scenario::parse_with(&text, &args.scenario, &overrides).ok()
+        })
+        .flatten();
+    budget::sweep(
+        &format!("sweep of {file}"),
+        points as f64,
+        shape.memory(points),
+        first
+            .as_ref()
+            .filter(|_| args.time_domain)
+            .and_then(|l| budget::steps_per_run(&l.scenario)),
+        first.as_ref().map(|l| &l.scenario),
+        args.allow_long,
+    )?;
     let spec = SweepSpec {
         scenario: args.scenario.display().to_string(),
         scenario_hash: fnv1a_hex(text.as_bytes()),
@@ -794,7 +791,7 @@ pub fn run(args: Args) -> Result<(), Error> {
 /// `t_end`'s applied in that order ([`sweep_point::evaluate`]); the results in the order of
 /// `indices` (never in completion order), a failed or panicking point recorded as its
 /// one-line error. `done` is called after every point. [`Error::Interrupted`] when
-/// [`crate::interrupt::request_stop`] was called (the points not started then fail at once,
+/// [`crate::interrupt::StopToken::stop`] was called (the points not started then fail at once,
 /// [`sweep_point::evaluate`]).
 pub fn evaluate_points(
     path: &Path,
@@ -832,8 +829,11 @@ pub fn evaluate_points(
             },
         }
     };
+    // The pool's threads work for this call: they see its stop token only.
+    let token = crate::interrupt::current();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
+        .start_handler(move |_| crate::interrupt::adopt(token.clone()))
         .build()
         .map_err(|e| Error::Usage(format!("cannot start the worker threads: {e}")))?;
     let results: Vec<PointResult> =

@@ -210,11 +210,18 @@ pub(crate) fn from_doc(c: &mut Doc<'_>) -> Option<MechanismScenario> {
                 "empty model path",
             );
         }
-        if p.is_absolute() {
+        let path = if p.is_absolute() {
             p.to_path_buf()
         } else {
             base_dir.join(p)
+        };
+        // The model file is checked now (a regular file within the size limit), read later.
+        if !m.get_ref().trim().is_empty()
+            && let Err(d) = diagnostic::check_input(&path, "model file")
+        {
+            c.push(Kind::Io, Some(m.span()), Some("model"), d.to_string());
         }
+        path
     });
     // [initial]
     let named = |map: &BTreeMap<String, Spanned<f64>>, section: &str, c: &mut Doc<'_>| {

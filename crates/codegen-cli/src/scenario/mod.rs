@@ -58,15 +58,10 @@ pub fn load(path: &Path) -> Result<Scenario, Diagnostics> {
     load_with(path, &[]).map(|l| l.scenario)
 }
 
-/// The text of a scenario file.
+/// The text of a scenario file: a regular file of at most [`diagnostic::MAX_INPUT_BYTES`]
+/// (a fifo, a device, a directory is refused in one line: [`diagnostic::read_input`]).
 pub fn read(path: &Path) -> Result<String, Diagnostics> {
-    std::fs::read_to_string(path).map_err(|e| {
-        Diagnostics::from(Diagnostic::new(
-            Kind::Io,
-            path.display().to_string(),
-            format!("cannot read the scenario file: {e}"),
-        ))
-    })
+    diagnostic::read_input(path, "scenario file").map_err(Diagnostics::from)
 }
 
 /// A scenario loaded with `--set` overrides.
@@ -162,6 +157,11 @@ pub(crate) struct Doc<'a> {
     index: LineIndex,
     root: DeTable<'a>,
     diags: Diagnostics,
+    /// Problems that follow from another one (a name unknown because the table that
+    /// defines it could not be read): reported after every root cause.
+    cascades: Diagnostics,
+    /// `[[mechanism]]` tables that could not be read (their names are unknown).
+    pub(crate) unread_mechanisms: usize,
 }
 
 impl<'a> Doc<'a> {
@@ -182,6 +182,8 @@ impl<'a> Doc<'a> {
             index,
             root: root.into_inner(),
             diags: Diagnostics::default(),
+            cascades: Diagnostics::default(),
+            unread_mechanisms: 0,
         })
     }
 
@@ -235,6 +237,12 @@ impl<'a> Doc<'a> {
     ) {
         let d = self.diagnostic(kind, span, entity, message);
         self.diags.push(d);
+    }
+
+    /// Records a problem ([`Doc::diagnostic`]) that follows from another one: reported
+    /// after the root causes.
+    pub(crate) fn push_cascade(&mut self, d: Diagnostic) {
+        self.cascades.push(d);
     }
 
     /// A problem at a span of the text (not recorded).
@@ -321,10 +329,15 @@ impl<'a> Doc<'a> {
         Some(v.span())
     }
 
-    /// The problems found, in source order.
+    /// The problems found, in source order: the root causes, then their cascades.
     fn finish(self) -> Diagnostics {
         let mut d = self.diags;
         d.sort();
+        let mut cascades = self.cascades;
+        cascades.sort();
+        for c in cascades {
+            d.push(c);
+        }
         d
     }
 }

@@ -97,9 +97,19 @@ impl Override {
         })
     }
 
-    /// `--set PATH=VALUE`, as the user wrote it.
+    /// `--set PATH=VALUE`, as the user wrote it; a VALUE longer than [`OPTION_SHOWN`]
+    /// characters cut there with its length (a diagnostic names the option, it does not
+    /// copy a long input: memory and time linear in the input however many diagnostics).
     pub fn option(&self) -> String {
-        format!("--set {}={}", self.path, self.text)
+        match self.text.char_indices().nth(OPTION_SHOWN) {
+            Some((at, _)) => format!(
+                "--set {}={}... ({} characters)",
+                self.path,
+                &self.text[..at],
+                self.text.chars().count()
+            ),
+            None => format!("--set {}={}", self.path, self.text),
+        }
     }
 
     /// What the summary records: `{"path": .., "value": ..}`.
@@ -110,6 +120,9 @@ impl Override {
         }
     }
 }
+
+/// Characters of a VALUE a diagnostic shows ([`Override::option`]).
+pub const OPTION_SHOWN: usize = 80;
 
 impl FromStr for Override {
     type Err = PathError;

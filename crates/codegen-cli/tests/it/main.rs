@@ -26,6 +26,7 @@ mod output_dir_cli;
 mod preset;
 mod random_cli;
 mod readme_cli;
+mod reliability_cli;
 mod scenario_loader;
 mod sensitivity;
 mod simulate_cli;

@@ -17,13 +17,16 @@ Example::
 Errors: ``ScenarioError`` / ``ModelError`` (subclasses of ``ValueError``) carry ``file``,
 ``line``, ``column``, ``entity`` and ``message``; a run stopped at the singular (toggle)
 position raises ``SingularPosition`` (``time``, ``distance``); other failures raise
-``DamperError``. Long calls release the GIL and Ctrl-C raises ``KeyboardInterrupt``.
+``DamperError``; an argument of the wrong type raises ``TypeError``. The exceptions pickle
+with their attributes (``multiprocessing`` shows a worker's own exception). Long calls
+release the GIL; Ctrl-C stops the call of the main thread (``KeyboardInterrupt``), calls of
+other threads run to their end.
 """
 
 from __future__ import annotations
 
 import os
-from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, Iterable, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -44,6 +47,52 @@ __all__ = [
 
 PathLike = Union[str, "os.PathLike[str]"]
 SetValue = Union[bool, int, float, str, Sequence[Any]]
+
+
+def _items(value: Any, what: str) -> List[Tuple[str, Any]]:
+    """The ``(key, value)`` pairs of a mapping argument (``TypeError`` for anything else)."""
+    if value is None:
+        return []
+    if not isinstance(value, Mapping):
+        raise TypeError(f"{what} must be a mapping (a dict), not {type(value).__name__}")
+    items = list(value.items())
+    for key, _ in items:
+        if not isinstance(key, str):
+            raise TypeError(f"{what}: keys must be str, not {type(key).__name__} ({key!r})")
+    return items
+
+
+def _names(value: Any, what: str) -> List[str]:
+    """A list of names: one ``str`` is one name (never its characters); else a sequence of
+    ``str`` (``TypeError`` for anything else)."""
+    if isinstance(value, str):
+        return [value]
+    if isinstance(value, (bytes, bytearray)) or isinstance(value, Mapping) or not isinstance(value, Iterable):
+        raise TypeError(f"{what} must be a str or a list of str, not {type(value).__name__}")
+    names = list(value)
+    for name in names:
+        if not isinstance(name, str):
+            raise TypeError(f"{what}: every name must be a str, not {type(name).__name__} ({name!r})")
+    return names
+
+
+def _floats(value: Any, what: str) -> List[float]:
+    """A vector of real numbers (``TypeError`` for ``str``, ``bytes``, complex values)."""
+    if isinstance(value, (str, bytes, bytearray)) or isinstance(value, Mapping) or not isinstance(value, Iterable):
+        raise TypeError(f"{what} must be a sequence of real numbers, not {type(value).__name__}")
+    out = []
+    for x in value:
+        if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, float, np.integer, np.floating)):
+            raise TypeError(f"{what}: {x!r} is not a real number")
+        out.append(float(x))
+    return out
+
+
+def _real(value: Any, what: str) -> float:
+    """One real number (``TypeError`` for anything else, complex values included)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{what} must be a real number, not {type(value).__name__} ({value!r})")
+    return float(value)
 
 
 class Run:
@@ -146,24 +195,27 @@ class Linearization:
     ``modes`` (generator connected), ``generator_disconnected`` and ``bare_beam`` (``None``
     where the scenario has no generator, or no beam or mechanism) are lists of ``Mode``;
     ``equilibrium`` and ``amplification`` are the report's objects; ``M_R``, ``C_R``, ``K_R``
-    the reduced mass, damping and stiffness matrices; ``report`` the whole JSON object of
-    ``damper linearize --json``.
+    the reduced mass, damping and stiffness matrices as dense arrays when asked for
+    (``Scenario.linearize(matrices=True)``), else ``None``; ``report`` the whole JSON object
+    of ``damper linearize --json``.
     """
 
     def __init__(self, raw: Tuple[Any, ...]) -> None:
-        report, with_gen, off, bare, m, c, k = raw
+        report, with_gen, off, bare, dense = raw
+        m, c, k = dense if dense is not None else (None, None, None)
         self.report: Dict[str, Any] = report
         self.modes: List[Mode] = _modes(report["modes"], with_gen) or []
         self.generator_disconnected: Optional[List[Mode]] = _modes(report.get("generator_disconnected"), off)
         self.bare_beam: Optional[List[Mode]] = _modes(report.get("bare_beam"), bare)
         self.equilibrium: Dict[str, Any] = report["equilibrium"]
         self.amplification: List[Dict[str, Any]] = report["amplification"]
-        self.M_R: np.ndarray = m
-        self.C_R: np.ndarray = c
-        self.K_R: np.ndarray = k
+        self.M_R: Optional[np.ndarray] = m
+        self.C_R: Optional[np.ndarray] = c
+        self.K_R: Optional[np.ndarray] = k
 
     def __repr__(self) -> str:
-        return f"Linearization({len(self.modes)} modes, {self.M_R.shape[0]} coordinates)"
+        size = "" if self.M_R is None else f", {self.M_R.shape[0]} coordinates"
+        return f"Linearization({len(self.modes)} modes{size})"
 
 
 class Scenario:
@@ -171,24 +223,34 @@ class Scenario:
 
     Loaded by the tool's one loader: every problem raises ``ScenarioError`` naming the file,
     line and column. ``set`` maps ``--set`` paths (``"mechanism.half_angle_deg"``,
-    ``"beam.segment[0].elements"``) to values (``bool``, ``int``, ``float``, a list, or a
-    ``str`` read as the command line reads VALUE: a TOML value, a bare word a string).
+    ``"beam.segment[0].elements"``) to values (``bool``, ``int`` or numpy integer, ``float``,
+    a list, or a ``str`` read as the command line reads VALUE: a TOML value, a bare word a
+    string; ``bytes``, complex numbers, lists nested deeper than 32 or containing
+    themselves are refused). The mechanism model files are checked when the scenario is
+    loaded; the scenario keeps its directory as an absolute path, so it works after
+    ``os.chdir`` and pickled to another process.
     """
 
-    def __init__(self, text: str, file: str, base_dir: str, sets: Sequence[Tuple[str, Any]] = ()) -> None:
+    def __init__(self, text: str, file: str, base_dir: PathLike, sets: Sequence[Tuple[str, Any]] = ()) -> None:
+        if not isinstance(text, str):
+            raise TypeError(f"the scenario text must be a str, not {type(text).__name__}")
         self._text = text
         self._file = file
-        self._base = base_dir
+        self._base = os.path.abspath(os.fspath(base_dir))
         self._sets: List[Tuple[str, Any]] = list(sets)
-        self.kind: str = _damper.check(text, file, base_dir, self._sets)
+        self.kind: str = _damper.check(text, file, self._base, self._sets)
 
     @classmethod
     def load(cls, path: PathLike, set: Optional[Mapping[str, SetValue]] = None) -> "Scenario":
-        """Reads and checks the scenario file ``path`` with the overrides ``set``."""
+        """Reads and checks the scenario file ``path`` (a regular file of at most 64 MiB)
+        with the overrides ``set``."""
         file = os.fspath(path)
+        if not isinstance(file, str):
+            raise TypeError(f"path must be a str or os.PathLike[str], not {type(file).__name__}")
+        sets = _items(set, "set")
         text = _damper.read_scenario(file)
         base = os.path.dirname(file)
-        return cls(text, file, base, list((set or {}).items()))
+        return cls(text, file, base, sets)
 
     @classmethod
     def from_str(cls, text: str, kind: str = "toml", base_dir: PathLike = ".", name: str = "<string>") -> "Scenario":
@@ -196,7 +258,7 @@ class Scenario:
         (the mechanism model) are relative to ``base_dir``; messages name it ``name``."""
         if kind != "toml":
             raise ValueError(f"kind {kind!r}: scenarios are TOML (kind='toml')")
-        return cls(text, name, os.fspath(base_dir))
+        return cls(text, name, base_dir)
 
     @property
     def file(self) -> str:
@@ -210,7 +272,7 @@ class Scenario:
 
     def with_set(self, set: Mapping[str, SetValue]) -> "Scenario":
         """A copy with the overrides ``set`` applied after this scenario's own."""
-        return Scenario(self._text, self._file, self._base, self._sets + list(set.items()))
+        return Scenario(self._text, self._file, self._base, self._sets + _items(set, "set"))
 
     def _src(self) -> Tuple[str, str, str, List[Tuple[str, Any]]]:
         return (self._text, self._file, self._base, self._sets)
@@ -221,7 +283,7 @@ class Scenario:
         ``compare``: the comparison runs (``"generator_disconnected"``, ``"bare_beam"``),
         replacing the scenario's ``[output] compare``; ``None`` keeps the scenario's.
         """
-        sc = self if compare is None else self.with_set({"output.compare": list(compare)})
+        sc = self if compare is None else self.with_set({"output.compare": _names(compare, "compare")})
         summary, columns, comparisons = _damper.simulate(*sc._src(), allow_long)
         runs = {
             key: Run(cols, summary.get("comparisons", {}).get(key, {}))
@@ -229,10 +291,16 @@ class Scenario:
         }
         return Run(columns, summary, runs)
 
-    def linearize(self, modes: int = 5, method: str = "auto") -> Linearization:
+    def linearize(
+        self, modes: int = 5, method: str = "auto", matrices: bool = False, allow_long: bool = False
+    ) -> Linearization:
         """The linearisation about the static equilibrium and ``modes`` modes of each variant
-        (``method``: ``"auto"``, ``"dense"`` or ``"shift-invert"``)."""
-        return Linearization(_damper.linearize(*self._src(), modes, method))
+        (``method``: ``"auto"``, ``"dense"`` or ``"shift-invert"``). ``matrices=True`` also
+        builds the dense reduced matrices ``M_R``, ``C_R``, ``K_R`` (``3 d^2`` numbers for
+        ``d`` reduced coordinates; refused above 1 GiB unless ``allow_long``, and above the
+        machine's memory always); the work is refused above the limits of
+        ``damper linearize`` unless ``allow_long``."""
+        return Linearization(_damper.linearize(*self._src(), modes, method, matrices, allow_long))
 
     def frf(
         self,
@@ -261,9 +329,12 @@ class Scenario:
         ``str`` or ``None``. The runs release the GIL and Ctrl-C stops them
         (``KeyboardInterrupt``); above the command's limits they are refused
         (``DamperError``) unless ``allow_long``."""
+        if not isinstance(output, str):
+            output = repr(_real(output, "output"))
         cols, nl = _damper.frf(
-            *self._src(), str(output), float(f_from), float(f_to), points, log, excitation, force,
-            nonlinear, steps_per_period, float(tolerance), max_periods, allow_long,
+            *self._src(), output, _real(f_from, "f_from"), _real(f_to, "f_to"), points, log, excitation,
+            None if force is None else _real(force, "force"),
+            nonlinear, steps_per_period, _real(tolerance, "tolerance"), max_periods, allow_long,
         )
         result: Dict[str, Any] = dict(cols)
         if nl is not None:
@@ -282,7 +353,7 @@ class Scenario:
         name — ``index``, each axis, each figure ``"name [unit]"`` as an array (NaN where a
         point does not give it), ``error`` (and ``time_domain_error``) as lists of ``str`` or
         ``None``."""
-        return dict(_damper.sweep_grid(*self._src(), list(axes.items()), time_domain, threads, allow_long))
+        return dict(_damper.sweep_grid(*self._src(), _items(axes, "axes"), time_domain, threads, allow_long))
 
     def optimize(
         self,
@@ -303,22 +374,32 @@ class Scenario:
             objective, up = minimize, False
         else:
             raise ValueError("give one of maximize or minimize")
-        specs = [f"{p}={_num(lo)}:{_num(hi)}" for p, (lo, hi) in vary.items()]
-        return dict(_damper.optimize(*self._src(), specs, objective, up, list(constraints), grid, allow_long))
+        specs = []
+        for p, bounds in _items(vary, "vary"):
+            if isinstance(bounds, (str, bytes)) or not isinstance(bounds, Sequence) or len(bounds) != 2:
+                raise TypeError(f"vary[{p!r}] must be a pair (lo, hi), not {bounds!r}")
+            lo, hi = bounds
+            specs.append(f"{p}={_num(_real(lo, f'vary[{p!r}] lo'))}:{_num(_real(hi, f'vary[{p!r}] hi'))}")
+        return dict(
+            _damper.optimize(*self._src(), specs, objective, up, _names(constraints, "constraints"), grid, allow_long)
+        )
 
     def random(
         self,
-        outputs: Sequence[str] = (),
+        outputs: Union[str, Sequence[str]] = (),
         method: str = "auto",
         modes: int = 20,
+        allow_long: bool = False,
     ) -> Dict[str, Any]:
         """The linear stationary response to the scenario's random excitations
         (``damper random --json``): ``outputs`` as ``--output`` names them (default: every
         attachment and mechanism coordinate), ``method`` one of ``"auto"``, ``"dense"``,
         ``"modal"``, ``"quadrature"``, ``modes`` the modal basis. Returns the JSON object
         (``outputs``: ``{name, unit, rms}``, ``generators``: ``{name, rms_current,
-        rms_rotor_speed, mean_power_dissipated, mean_power_load}``, ``method``, ...)."""
-        return dict(_damper.random(*self._src(), list(outputs), method, modes))
+        rms_rotor_speed, mean_power_dissipated, mean_power_load}``, ``method``, ...). One
+        ``str`` is one output name. Refused above the limits of ``damper random`` unless
+        ``allow_long``."""
+        return dict(_damper.random(*self._src(), _names(outputs, "outputs"), method, modes, allow_long))
 
     def __repr__(self) -> str:
         return f"Scenario({self._file!r}, kind={self.kind!r}, sets={self._sets!r})"
@@ -358,8 +439,10 @@ class Model:
         ``A`` as arrays, ``constraint_names``, ``points`` (name → ``p``, ``J``, ``A``
         arrays) and ``op_count``. ``backend``: ``"interp"``, ``"numeric"`` or
         ``"generated"``; ``params``: parameter overrides by name."""
-        pairs = [f"{k}={float(v)!r}" for k, v in (params or {}).items()]
-        out = dict(_damper.model_eval(self.path, [float(x) for x in q], [float(x) for x in qd], float(t), backend, pairs))
+        pairs = [f"{k}={_real(v, f'params[{k!r}]')!r}" for k, v in _items(params, "params")]
+        out = dict(
+            _damper.model_eval(self.path, _floats(q, "q"), _floats(qd, "qd"), _real(t, "t"), backend, pairs)
+        )
         for key in ("q", "qd", "M", "F", "Q", "h", "J", "A"):
             out[key] = np.asarray(out[key], dtype=float)
         n = len(self.coordinates)

@@ -55,15 +55,26 @@ def simulate(
     text: str, file: str, base: str, sets: _Sets, allow_long: bool
 ) -> Tuple[Any, _Columns, List[Tuple[str, _Columns]]]: ...
 def linearize(
-    text: str, file: str, base: str, sets: _Sets, modes: int, method: str
+    text: str,
+    file: str,
+    base: str,
+    sets: _Sets,
+    modes: int,
+    method: str,
+    matrices: bool,
+    allow_long: bool,
 ) -> Tuple[
     Any,
     _Shapes,
     Optional[_Shapes],
     Optional[_Shapes],
-    npt.NDArray[np.float64],
-    npt.NDArray[np.float64],
-    npt.NDArray[np.float64],
+    Optional[
+        Tuple[
+            npt.NDArray[np.float64],
+            npt.NDArray[np.float64],
+            npt.NDArray[np.float64],
+        ]
+    ],
 ]: ...
 def frf(
     text: str,
@@ -113,6 +124,7 @@ def random(
     outputs: Sequence[str],
     method: str,
     modes: int,
+    allow_long: bool,
 ) -> Any: ...
 def model_info(path: str) -> Tuple[str, List[str], List[Tuple[str, float, bool, bool]]]: ...
 def model_eval(

@@ -42,8 +42,7 @@ pub fn load(path: &Path) -> Result<Model, Diagnostics> {
             "unknown model file extension (expected .toml or .json)".into(),
         ));
     };
-    let src = std::fs::read_to_string(path)
-        .map_err(|e| single(Kind::Io, format!("cannot read the model file: {e}")))?;
+    let src = diagnostic::read_input(path, "model file").map_err(Diagnostics::from)?;
     parse_str(&src, &file, format)
 }
 

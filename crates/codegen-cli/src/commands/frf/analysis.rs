@@ -394,7 +394,14 @@ pub(super) fn nonlinear_rows(
         freqs.len() as u64,
         "frf nonlinear [{bar:40}] {pos}/{len} ETA {eta}",
     );
-    let results = steady_states(&model, &start, &io.output, &freqs, &options, &|| bar.inc(1));
+    // The runs on a pool of this call: its threads see this call's stop token only.
+    let token = crate::interrupt::current();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .start_handler(move |_| crate::interrupt::adopt(token.clone()))
+        .build()
+        .map_err(|e| usage(format!("cannot start the worker threads: {e}")))?;
+    let results = pool
+        .install(|| steady_states(&model, &start, &io.output, &freqs, &options, &|| bar.inc(1)));
     bar.finish_and_clear();
     if crate::interrupt::stop_requested() {
         return Err(Error::Interrupted);

@@ -268,6 +268,7 @@ pub fn run(args: Args) -> Result<(), Error> {
     check(&args)?;
     let file = args.scenario.display().to_string();
     let loaded = scenario::load_with(&args.scenario, &args.set)?;
+    crate::budget::structure(&loaded.scenario, &file, args.allow_long)?;
     let sc = loaded.scenario.clone();
     let stem = args
         .scenario

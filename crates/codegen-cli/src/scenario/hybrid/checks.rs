@@ -99,7 +99,14 @@ pub(super) fn mechanism_ref(
             name.get_ref(),
             list(names)
         );
-        doc.push(Kind::UnknownName, Some(name.span()), Some(entity), msg);
+        if doc.unread_mechanisms > 0 {
+            // Most likely a mechanism whose table could not be read: after that problem.
+            let msg = format!("{msg}; a [[mechanism]] table could not be read");
+            let d = doc.diagnostic(Kind::UnknownName, Some(name.span()), Some(entity), msg);
+            doc.push_cascade(d);
+        } else {
+            doc.push(Kind::UnknownName, Some(name.span()), Some(entity), msg);
+        }
     }
     k
 }

@@ -87,11 +87,33 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<HybridScenario> {
     })
 }
 
+/// Bytes in a GiB.
+const GIB: f64 = 1024.0 * 1024.0 * 1024.0;
+
 /// `[beam]`: the beam as written and validated, and where it is written.
 #[allow(clippy::type_complexity)]
 fn beam(doc: &mut Doc<'_>, ok: &mut bool) -> (Option<(BeamSpec, Beam)>, Option<Range<usize>>) {
     let beam_spec = doc.section::<BeamSpec>("beam", false);
     let beam_span = doc.span(&["beam"]);
+    // A beam whose analyses could not fit in this machine is refused before it is built
+    // (with or without `--allow-long`; see `crate::budget`).
+    let beam_spec = beam_spec.filter(|b| {
+        let elements = crate::budget::beam_elements(b.get_ref());
+        let bytes = elements * crate::budget::BEAM_BYTES_PER_ELEMENT;
+        match crate::budget::machine_memory() {
+            Some(machine) if bytes.is_nan() || bytes > machine => {
+                let msg = format!(
+                    "{elements:.0} beam elements need about {:.1} GiB of memory, more than this machine's {:.1} GiB; use fewer elements",
+                    bytes / GIB,
+                    machine / GIB
+                );
+                doc.push(Kind::InvalidValue, beam_span.clone(), Some("[beam]"), msg);
+                *ok = false;
+                false
+            }
+            _ => true,
+        }
+    });
     let beam = match beam_spec {
         Some(b) => match Beam::new_in_physical_range(b.get_ref()) {
             Ok(beam) => Some((b.into_inner(), beam)),
@@ -121,6 +143,7 @@ fn mechanism_tables(
         .filter_map(|v| {
             let m = de::<RawMechanism>(doc, v, "[[mechanism]]");
             *ok &= m.is_some();
+            doc.unread_mechanisms += usize::from(m.is_none());
             m
         })
         .collect();
@@ -246,13 +269,22 @@ fn mechanisms(
         let initial = named(doc, &m.initial);
         *ok &= parameters.iter().chain(&initial).all(|p| p.1.is_finite());
         let placement = placement(doc, k, m, &entity, attachments, &attachment_names, ok);
+        let model = if model_path.is_absolute() {
+            model_path.to_path_buf()
+        } else {
+            doc.base().join(model_path)
+        };
+        // The model file is checked now (a regular file within the size limit), read at
+        // the setup.
+        if !m.model.get_ref().trim().is_empty()
+            && let Err(d) = diagnostic::check_input(&model, "model file")
+        {
+            doc.push(Kind::Io, Some(m.model.span()), Some(&entity), d.to_string());
+            *ok = false;
+        }
         mechanisms.push(MechanismEntry {
             name: m.name.get_ref().clone(),
-            model: if model_path.is_absolute() {
-                model_path.to_path_buf()
-            } else {
-                doc.base().join(model_path)
-            },
+            model,
             origin,
             angle,
             parameters,
@@ -571,9 +603,14 @@ fn output(doc: &mut Doc<'_>, beam_written: bool, ok: &mut bool) -> (usize, Vec<C
     };
     let mut compare = vec![];
     if let Some(list) = output.as_ref().and_then(|o| o.get_ref().compare.as_ref()) {
-        for c in list.get_ref() {
-            if compare.contains(c) {
-                let msg = format!("{:?} is listed twice", c.key());
+        // One problem per repeated entry (not per repetition), naming the entry.
+        for c in Comparison::ALL {
+            let times = list.get_ref().iter().filter(|&&x| x == c).count();
+            if times > 1 {
+                let msg = match times {
+                    2 => format!("{:?} is listed twice", c.key()),
+                    n => format!("{:?} is listed {n} times (once at most)", c.key()),
+                };
                 doc.push(
                     Kind::InvalidValue,
                     Some(list.span()),
@@ -581,7 +618,14 @@ fn output(doc: &mut Doc<'_>, beam_written: bool, ok: &mut bool) -> (usize, Vec<C
                     msg,
                 );
                 *ok = false;
+            }
+        }
+        let mut refused = false;
+        for c in list.get_ref() {
+            if compare.contains(c) || (*c == Comparison::BareBeam && refused) {
+                continue;
             } else if *c == Comparison::BareBeam && !beam_written {
+                refused = true;
                 let msg = "\"bare_beam\" needs a [beam]";
                 doc.push(
                     Kind::InvalidValue,

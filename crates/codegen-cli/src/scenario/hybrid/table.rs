@@ -72,13 +72,7 @@ pub(super) fn time_function<'a>(
 /// with the table file's name and line.
 pub fn read_table(path: &Path) -> Result<Vec<[f64; 2]>, Diagnostics> {
     let file = path.display().to_string();
-    let text = std::fs::read(path).map_err(|e| {
-        Diagnostics::from(Diagnostic::new(
-            Kind::Io,
-            file.clone(),
-            format!("cannot read the time table: {e}"),
-        ))
-    })?;
+    let text = diagnostic::read_input_bytes(path, "time table").map_err(Diagnostics::from)?;
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)
         .flexible(true)
