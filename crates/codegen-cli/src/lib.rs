@@ -18,7 +18,8 @@
 //!   [`sweep_point`] evaluates one point of a sweep, [`linear`] and [`random`] the linearised
 //!   figures (modes, receptance peak, harvested power, admissible load; stationary random
 //!   response), [`optimize`] the constrained design optimisation and [`sensitivity`] its
-//!   gradients (the adjoint of the linear model).
+//!   gradients (the adjoint of the linear model); [`analysis::figures`] is the catalogue of
+//!   every figure they yield (names, units, producers, gradients) and the constraints on them.
 //!
 //! Standard output closed early (`damper modes .. | head -1`) is [`Error::Stdout`] with
 //! [`std::io::ErrorKind::BrokenPipe`]; the binary exits quietly with status 141
@@ -31,6 +32,7 @@
 
 #![warn(missing_docs)]
 
+pub mod analysis;
 pub mod budget;
 pub mod commands;
 pub mod interrupt;

@@ -10,7 +10,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use codegen_cli::commands::{
-    eval, frf, generate, linearize, merge, modes, optimize, random, simulate, sweep,
+    eval, figures, frf, generate, linearize, merge, modes, optimize, random, simulate, sweep,
 };
 
 /// Design and verification of electromagnetic vibration dampers (beam + mechanism + generator)
@@ -60,6 +60,11 @@ enum Command {
     Sweep(sweep::Args),
     /// Join the parts of a sharded sweep into the files of the unsharded run
     Merge(merge::Args),
+    /// The figures a scenario offers to sweep and optimize: name, unit, meaning
+    ///
+    /// From the one figure catalogue; the names `--map`, `--constraint`, `--maximize` and
+    /// `--minimize` accept, and their earlier short spellings (aliases).
+    Figures(figures::Args),
     /// Frequency response of a damper or hybrid scenario, linear and nonlinear
     ///
     /// The linear receptance with and without the generator, and with `--nonlinear` the
@@ -130,6 +135,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Simulate(args) => simulate::run(args)?,
         Command::Sweep(args) => sweep::run(args)?,
         Command::Merge(args) => merge::run(args)?,
+        Command::Figures(args) => figures::run(args)?,
         Command::Frf(args) => frf::run(args)?,
         Command::Optimize(args) => optimize::run(args)?,
         Command::Random(args) => random::run(args)?,

@@ -26,7 +26,8 @@
 
 use rayon::prelude::*;
 
-use crate::commands::sweep::{Bound, Constraint, SpecError};
+use crate::analysis::figures::{Bound, Constraint};
+use crate::commands::sweep::SpecError;
 use crate::scenario::Override;
 use crate::scenario::overrides::parse_value;
 use crate::sweep_point::{self, Figure, PointError, PointOptions};
@@ -81,17 +82,6 @@ impl std::str::FromStr for Variable {
             lo,
             hi,
         })
-    }
-}
-
-/// Short names of the linear figures: `zeta1` is `linear.zeta1`, ...
-pub fn figure_name(name: &str) -> String {
-    match name {
-        "zeta1" | "f1" | "reach" | "amplification" | "jacobian_condition" | "decay1"
-        | "overdamped1" => {
-            format!("linear.{name}")
-        }
-        other => other.to_string(),
     }
 }
 
@@ -250,40 +240,9 @@ pub fn evaluate(p: &Problem<'_>, x: &[f64], stage: &str) -> Evaluation {
             names.push(&c.figure);
         }
     }
-    // The receptance peak (`peak:X:F1:F2`), the harvested power (`power`) and the RMS
-    // response under the scenario's random excitation (`rms:OUTPUT`), as the objective or a
-    // constraint, computed beside the sweep figures from the same linearisation.
-    let extra = |file: &str,
-                 input: &crate::setup::Linearizable,
-                 lin: &hybrid_core::hybrid::Linearization|
-     -> Result<Vec<Figure>, crate::Error> {
-        let model = &input.model;
-        let mut figures = vec![];
-        for &name in &names {
-            let (unit, value) = match crate::linear::PeakSpec::parse(name) {
-                Some(spec) => ("m", crate::linear::peak_of(file, model, lin, &spec)?.1),
-                None if name == "power" => {
-                    let responses = crate::linear::harmonic_responses(file, model, lin)?;
-                    ("W", crate::linear::load_power(model, lin, &responses))
-                }
-                None => match name.strip_prefix("rms:") {
-                    Some(output) => {
-                        let (v, unit) = crate::random::output_rms_of(file, input, lin, output)?;
-                        (if unit == "rad" { "rad" } else { "m" }, v)
-                    }
-                    None => continue,
-                },
-            };
-            figures.push(Figure {
-                name: name.to_string(),
-                unit,
-                value: Some(value),
-            });
-        }
-        Ok(figures)
-    };
+    let names: Vec<String> = names.into_iter().map(str::to_string).collect();
     let point = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        sweep_point::evaluate_with(p.path, p.text, &overrides, &PointOptions::default(), &extra)
+        sweep_point::evaluate_with(p.path, p.text, &overrides, &PointOptions::default(), &names)
     }))
     .unwrap_or(Err(PointError::Panicked));
     let figure = |figures: &[Figure], name: &str| {
@@ -303,12 +262,7 @@ pub fn evaluate(p: &Problem<'_>, x: &[f64], stage: &str) -> Evaluation {
                 .constraints
                 .iter()
                 .zip(&values)
-                .map(|(c, v)| {
-                    v.map(|v| match c.bound {
-                        Bound::AtLeast => v - c.value,
-                        Bound::AtMost => c.value - v,
-                    })
-                })
+                .map(|(c, v)| v.map(|v| c.margin_of(v)))
                 .collect();
             Evaluation {
                 x: x.to_vec(),
@@ -663,13 +617,11 @@ mod tests {
     }
 
     #[test]
-    fn variables_parse_with_bounds_and_short_figure_names_expand() {
+    fn variables_parse_with_bounds() {
         let v: Variable = "mechanism.half_angle_deg=3:25".parse().unwrap();
         assert_eq!((v.lo, v.hi), (3.0, 25.0));
         for bad in ["x=3", "x=5:3", "x=a:b", "=1:2", "x=1:inf"] {
             assert!(bad.parse::<Variable>().is_err(), "{bad}");
         }
-        assert_eq!(figure_name("zeta1"), "linear.zeta1");
-        assert_eq!(figure_name("damping_ratio"), "damping_ratio");
     }
 }

@@ -367,8 +367,12 @@ pub fn simulate(
         }
         _ => zeta,
     };
+    let random = summary
+        .random
+        .as_ref()
+        .map_or_else(String::new, |r| r.lines());
     crate::print(&format!(
-        "{file}: {} steps in {:.3} s ({} mechanism(s){backends}, {} attachment(s), {} repartition(s)); peak {}; zeta {zeta}{others}; energy balance error {:.1e}; outputs in {}\n",
+        "{file}: {} steps in {:.3} s ({} mechanism(s){backends}, {} attachment(s), {} repartition(s)); peak {}; zeta {zeta}{others}; energy balance error {:.1e}; outputs in {}\n{random}",
         summary.steps,
         summary.wall_seconds,
         model.mechanisms.len(),
@@ -844,14 +848,10 @@ fn random_report(
     let mut outputs: Vec<RmsEstimate> = names[..nout]
         .iter()
         .enumerate()
-        .map(|(k, (name, unit, centred))| {
-            let [rms, standard_error] = st.rms(k, *centred);
-            RmsEstimate {
-                name: name.clone(),
-                unit: unit.clone(),
-                rms,
-                standard_error,
-            }
+        .map(|(k, (name, unit, centred))| RmsEstimate {
+            name: name.clone(),
+            unit: unit.clone(),
+            rms: st.rms(k, *centred).into(),
         })
         .collect();
     let mut generators = vec![];
@@ -864,18 +864,16 @@ fn random_report(
         let g = f.generator().expect("filtered on generators");
         let (ki, ks) = (nout + 2 * j, nout + 2 * j + 1);
         let [ms, se] = st.second_moment(ki, false);
-        let [rms, standard_error] = st.rms(ks, true);
         outputs.push(RmsEstimate {
             name: names[ks].0.clone(),
             unit: names[ks].1.clone(),
-            rms,
-            standard_error,
+            rms: st.rms(ks, true).into(),
         });
         generators.push(GeneratorEstimate {
             name: f.name.clone(),
-            rms_current: st.rms(ki, false),
-            mean_power_dissipated: [g.resistance() * ms, g.resistance() * se],
-            mean_power_load: [g.load_resistance * ms, g.load_resistance * se],
+            rms_current: st.rms(ki, false).into(),
+            mean_power_dissipated: [g.resistance() * ms, g.resistance() * se].into(),
+            mean_power_load: [g.load_resistance * ms, g.load_resistance * se].into(),
         });
     }
     RandomRunReport {

@@ -17,12 +17,12 @@
 //!   shift does not change the peak to first order: `d|H|/d omega = 0` there, or the
 //!   frequency is a band edge, which does not move), `dH = c^T dz + dc^T z`,
 //!   `dz = S(i omega*)^-1 (df - dS z)`.
-//! - `power`: the response of each harmonic excitation and its `dz` (the excitation's
+//! - `harmonic.load_power`: the response of each harmonic excitation and its `dz` (the excitation's
 //!   frequency may move with the variable: the pencil's shift follows it), the load power
 //!   differenced along `z + t dz` (an explicit function of the response).
 //! - `linear.max_force`: `reach / |H_att(i omega_1)|` with `omega_1 = |lambda_1|` moving by
 //!   `d|lambda_1|`.
-//! - `rms:OUTPUT` (white-noise excitations, the whole first-order state up to
+//! - `random.rms:OUTPUT` (white-noise excitations, the whole first-order state up to
 //!   [`crate::random::DENSE_STATES`] states): with `A P + P A^T + Q = 0`, `J = c^T P c` and the
 //!   adjoint `A^T L + L A + c c^T = 0`, `dJ = 2 c^T P dc + tr(L (dA P + P dA^T + dQ))`, `rms =
 //!   sqrt(J)`.
@@ -274,10 +274,10 @@ impl<'n> AdjointFigure<'n> {
         Some(match name {
             "linear.zeta1" | "linear.f1" | "linear.decay1" => AdjointFigure::Eigen(name),
             "linear.max_force" => AdjointFigure::MaxForce,
-            "power" => AdjointFigure::Power,
+            "harmonic.load_power" => AdjointFigure::Power,
             _ => match PeakSpec::parse(name) {
                 Some(spec) => AdjointFigure::Peak(spec),
-                None => AdjointFigure::Rms(name.strip_prefix("rms:")?),
+                None => AdjointFigure::Rms(name.strip_prefix("random.rms:")?),
             },
         })
     }

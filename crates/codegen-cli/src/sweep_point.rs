@@ -32,6 +32,7 @@ use std::path::Path;
 use hybrid_core::hybrid::EigenMethod;
 
 use crate::Error;
+use crate::analysis::figures;
 use crate::budget::{self, Quantity};
 use crate::scenario::{self, Loaded, Override, Scenario};
 use crate::setup::Linearizable;
@@ -50,9 +51,12 @@ pub struct Figure {
 }
 
 impl Figure {
-    fn new(name: impl Into<String>, unit: &'static str, value: impl Into<Option<f64>>) -> Figure {
+    /// The catalogued figure `name` ([`crate::analysis::figures`]) with its usual unit.
+    pub fn of(name: impl Into<String>, value: impl Into<Option<f64>>) -> Figure {
+        let name = name.into();
+        let unit = figures::entry_of(&name).unit();
         Figure {
-            name: name.into(),
+            name,
             unit,
             value: value.into(),
         }
@@ -117,22 +121,20 @@ pub fn evaluate(
     overrides: &[Override],
     options: &PointOptions,
 ) -> Result<Evaluated, PointError> {
-    evaluate_with(path, text, overrides, options, &|_, _, _| Ok(vec![]))
+    evaluate_with(path, text, overrides, options, &[])
 }
 
-/// Figures computed from a point's linearisation beside the sweep's: `(file, the system
-/// built for linearisation, its linearisation with the generator(s))` to figures.
-pub type Extra<'a> = dyn Fn(&str, &Linearizable, &Linearization) -> Result<Vec<Figure>, Error> + 'a;
-
-/// [`evaluate`] with the figures of `extra` after the linearised ones (the optimiser's
-/// receptance peak, harvested power and RMS response), from the same linearisation (not
-/// called for a mechanism scenario). An error of `extra` is an error of the point.
+/// [`evaluate`] with the figures `requested` (canonical names, [`figures::resolve`]) that
+/// are computed only when asked for ([`figures::Entry::on_request`]: the receptance peak,
+/// the harmonic load power) after the linearised ones, from the same linearisation (not for
+/// a mechanism scenario); a requested figure that is a default one is not repeated. An
+/// error computing one is an error of the point.
 pub fn evaluate_with(
     path: &Path,
     text: &str,
     overrides: &[Override],
     options: &PointOptions,
-    extra: &Extra<'_>,
+    requested: &[String],
 ) -> Result<Evaluated, PointError> {
     // Asked to stop (`crate::interrupt::StopToken::stop`): the optimiser's and the sweeps'
     // remaining points fail at once.
@@ -156,7 +158,7 @@ pub fn evaluate_with(
     };
     if let Some((input, lin)) = linearised(path, &loaded, &mut figures).map_err(remap)? {
         let file = path.display().to_string();
-        figures.extend(extra(&file, &input, &lin).map_err(remap)?);
+        figures.extend(on_request(&file, &input, &lin, requested).map_err(remap)?);
     }
     finite(&figures)?;
     let mut time_domain_error = None;
@@ -184,6 +186,46 @@ pub fn evaluate_with(
         figures,
         time_domain_error,
     })
+}
+
+/// The figures of `requested` computed only on request, from the point's linearisation.
+fn on_request(
+    file: &str,
+    input: &Linearizable,
+    lin: &Linearization,
+    requested: &[String],
+) -> Result<Vec<Figure>, Error> {
+    let model = &input.model;
+    let mut out: Vec<Figure> = vec![];
+    for name in requested {
+        let Ok(r) = figures::resolve(name, None) else {
+            continue;
+        };
+        if !r.entry.on_request || out.iter().any(|f| f.name == r.name) {
+            continue;
+        }
+        let value = match crate::linear::PeakSpec::parse(&r.name) {
+            Some(spec) => crate::linear::peak_of(file, model, lin, &spec)?.1,
+            None if r.name == "harmonic.load_power" => {
+                let responses = crate::linear::harmonic_responses(file, model, lin)?;
+                crate::linear::load_power(model, lin, &responses)
+            }
+            None => match r.name.strip_prefix("random.rms:") {
+                Some(output) => {
+                    let (v, unit) = crate::random::output_rms_of(file, input, lin, output)?;
+                    out.push(Figure {
+                        name: r.name,
+                        unit: if unit == "rad" { "rad" } else { "m" },
+                        value: Some(v),
+                    });
+                    continue;
+                }
+                None => continue,
+            },
+        };
+        out.push(Figure::of(r.name, value));
+    }
+    Ok(out)
 }
 
 /// Refuses figures of which one is not finite, naming it (the point's error).
@@ -235,42 +277,43 @@ fn linearised(
         ))
     });
     figures.extend([
-        Figure::new("linear.f1", "Hz", with.map(|m| m.0)),
-        Figure::new("linear.zeta1", "-", with.map(|m| m.1)),
-        Figure::new("linear.decay1", "1/s", decay1),
-        Figure::new("linear.overdamped1", "-", overdamped1),
-        Figure::new("linear.f1_generator_disconnected", "Hz", off.map(|m| m.0)),
-        Figure::new("linear.zeta1_generator_disconnected", "-", off.map(|m| m.1)),
-        Figure::new("linear.f1_bare_beam", "Hz", bare.map(|m| m.0)),
-        Figure::new(
+        Figure::of("linear.f1", with.map(|m| m.0)),
+        Figure::of("linear.zeta1", with.map(|m| m.1)),
+        Figure::of("linear.decay1", decay1),
+        Figure::of("linear.overdamped1", overdamped1),
+        Figure::of("linear.f1_generator_disconnected", off.map(|m| m.0)),
+        Figure::of("linear.zeta1_generator_disconnected", off.map(|m| m.1)),
+        Figure::of("linear.f1_bare_beam", bare.map(|m| m.0)),
+        Figure::of(
             "linear.amplification",
-            "rad/m",
             r.amplification.first().map(|a| a.joint_per_displacement),
         ),
-        Figure::new(
+        Figure::of(
             "linear.reach",
-            "m",
             r.equilibrium
                 .mechanisms
                 .iter()
                 .filter_map(|m| m.reach)
                 .reduce(f64::min),
         ),
-        Figure::new(
-            "linear.max_force",
-            max_force.map_or("N", |m| m.unit),
-            max_force.map(|m| m.value),
-        ),
-        Figure::new(
-            "linear.jacobian_condition",
-            "-",
-            r.equilibrium
-                .mechanisms
-                .iter()
-                .map(|m| m.jacobian_condition)
-                .reduce(f64::max),
-        ),
     ]);
+    // Absent (no column) without an excitation; without a reach, no value.
+    if let Scenario::Hybrid(h) = &loaded.scenario
+        && !h.excitations.is_empty()
+    {
+        figures.push(Figure {
+            unit: max_force.map_or("N", |m| m.unit),
+            ..Figure::of("linear.max_force", max_force.map(|m| m.value))
+        });
+    }
+    figures.extend([Figure::of(
+        "linear.jacobian_condition",
+        r.equilibrium
+            .mechanisms
+            .iter()
+            .map(|m| m.jacobian_condition)
+            .reduce(f64::max),
+    )]);
     Ok(Some((input, lin)))
 }
 
@@ -281,58 +324,50 @@ fn time_domain(path: &Path, loaded: &Loaded, figures: &mut Vec<Figure>) -> Resul
             let built = crate::setup::build(sc)?;
             let run = crate::run_hybrid::evaluate(sc, &built, &[], None, vec![], false)?;
             let s = &run.summary;
-            figures.push(Figure::new("damping_ratio", "-", s.damping_ratio));
+            figures.push(Figure::of("damping_ratio", s.damping_ratio));
             let file = path.display().to_string();
             for &c in &sc.compare {
                 if let Some((variant, probes)) = crate::setup::comparison(&file, &built, c)? {
                     let r =
                         crate::run_hybrid::evaluate(sc, &variant, &probes, None, vec![], false)?;
                     let name = format!("damping_ratio_{}", c.key());
-                    figures.push(Figure::new(name, "-", r.summary.damping_ratio));
+                    figures.push(Figure::of(name, r.summary.damping_ratio));
                 }
             }
             figures.extend([
-                Figure::new("beam_first_frequency", "Hz", s.beam_first_frequency_hz),
-                Figure::new("peak_amplitude", "m", s.peak_amplitude),
+                Figure::of("beam_first_frequency", s.beam_first_frequency_hz),
+                Figure::of("peak_amplitude", s.peak_amplitude),
             ]);
             for a in &s.attachments {
                 let name = |f: &str| format!("attachment.{}.{f}", a.name);
-                figures.push(Figure::new(
-                    name("peak_displacement"),
-                    "m",
-                    a.peak_displacement,
+                figures.push(Figure::of(
+                    name("peak_displacement"), a.peak_displacement,
                 ));
-                figures.push(Figure::new(name("final_amplitude"), "m", a.final_amplitude));
+                figures.push(Figure::of(name("final_amplitude"), a.final_amplitude));
             }
             for g in &s.generators {
                 let name = |f: &str| format!("generator.{}.{f}", g.name);
-                figures.push(Figure::new(name("dissipated"), "J", g.dissipated));
-                figures.push(Figure::new(
-                    name("harvested_in_load"),
-                    "J",
-                    g.harvested_in_load,
+                figures.push(Figure::of(name("dissipated"), g.dissipated));
+                figures.push(Figure::of(
+                    name("harvested_in_load"), g.harvested_in_load,
                 ));
-                figures.push(Figure::new(name("peak_current"), "A", g.peak_current));
+                figures.push(Figure::of(name("peak_current"), g.peak_current));
             }
             let e = &s.energy;
             let generators = |f: fn(&crate::report::hybrid::GeneratorReport) -> f64| {
                 (!s.generators.is_empty()).then(|| s.generators.iter().map(f).sum::<f64>())
             };
             figures.extend([
-                Figure::new("energy.initial", "J", e.initial),
-                Figure::new(
-                    "energy.dissipated_generators",
-                    "J",
-                    generators(|g| g.dissipated),
+                Figure::of("energy.initial", e.initial),
+                Figure::of(
+                    "energy.dissipated_generators", generators(|g| g.dissipated),
                 ),
-                Figure::new(
-                    "energy.harvested_in_load",
-                    "J",
-                    generators(|g| g.harvested_in_load),
+                Figure::of(
+                    "energy.harvested_in_load", generators(|g| g.harvested_in_load),
                 ),
-                Figure::new("energy.dissipated_structure", "J", e.dissipated_structure),
-                Figure::new("energy.final_stored", "J", e.final_stored),
-                Figure::new("energy_balance_rel_error", "-", s.energy_balance_rel_error),
+                Figure::of("energy.dissipated_structure", e.dissipated_structure),
+                Figure::of("energy.final_stored", e.final_stored),
+                Figure::of("energy_balance_rel_error", s.energy_balance_rel_error),
             ]);
             Ok(())
         }
@@ -349,12 +384,16 @@ mod tests {
     #[test]
     fn a_non_finite_figure_is_an_error_naming_it_and_an_absent_one_is_not() {
         let ok = [
-            Figure::new("linear.f1", "Hz", 5.9),
-            Figure::new("zeta_with_generator", "-", None),
+            Figure::of("linear.f1", 5.9),
+            Figure {
+                name: "zeta_with_generator".into(),
+                unit: "-",
+                value: None,
+            },
         ];
         assert!(finite(&ok).is_ok());
         for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
-            let figures = [ok[0].clone(), Figure::new("energy.initial", "J", bad)];
+            let figures = [ok[0].clone(), Figure::of("energy.initial", bad)];
             let e = finite(&figures).unwrap_err().to_string();
             assert!(e.contains("figure energy.initial is not finite"), "{e}");
         }

@@ -1,6 +1,7 @@
 //! The subcommands of `damper`, one module each: arguments (clap) and the command.
 
 pub mod eval;
+pub mod figures;
 pub mod frf;
 pub mod generate;
 pub mod linearize;

@@ -16,9 +16,9 @@
 use std::path::PathBuf;
 
 use crate::Error;
+use crate::analysis::figures::{self, Bound, Constraint, Entities};
 use crate::budget::{self, Quantity};
-use crate::commands::sweep::Constraint;
-use crate::optimize::{self, MAX_EVALS, MAX_GRID, MAX_STARTS, Problem, Variable, figure_name};
+use crate::optimize::{self, MAX_EVALS, MAX_GRID, MAX_STARTS, Problem, Variable};
 use crate::report::csv::cell;
 use crate::report::rows::CsvRows;
 use crate::report::{OutputFile, OutputLock, ReportError, commit_files};
@@ -81,12 +81,13 @@ pub fn run(args: Args) -> Result<(), Error> {
         .map(|v| v.parse())
         .collect::<Result<_, _>>()?;
     for c in &args.constraints {
-        c.parse::<Constraint>()?;
+        c.parse::<Constraint>()
+            .map_err(crate::commands::sweep::SpecError::from)?;
     }
     let text = scenario::read(&args.scenario)?;
     let (objective, maximize) = match (&args.maximize, &args.minimize) {
-        (Some(f), None) => (figure_name(f), true),
-        (None, Some(f)) => (figure_name(f), false),
+        (Some(f), None) => (f.clone(), true),
+        (None, Some(f)) => (f.clone(), false),
         _ => return Err(Error::Usage("give one of --maximize or --minimize".into())),
     };
     let started = std::time::Instant::now();
@@ -117,7 +118,7 @@ pub fn run(args: Args) -> Result<(), Error> {
     if let Some(out) = &args.out {
         let mut header = vec!["stage".to_string()];
         header.extend(vary.iter().map(|v| v.path.clone()));
-        header.push(objective.clone());
+        header.push(outcome.objective.0.clone());
         header.extend(constraints.iter().map(|c| c.figure.clone()));
         header.push("error".into());
         let csv_err = |e: ::csv::Error| Error::from(ReportError::from(e));
@@ -261,13 +262,27 @@ pub fn solve(
             optimize::OptimizeError::NoVariables
         )));
     }
-    let parsed: Vec<Constraint> = constraints
-        .iter()
-        .map(|c| c.parse())
-        .collect::<Result<_, _>>()?;
-    // The fixed overrides and the scenario must load before any search.
+    // The fixed overrides and the scenario must load, the figures be the scenario's and the
+    // variables' PATHs fields it takes, before any search.
     let loaded = scenario::parse_with(text, path, fixed)?;
     budget::structure(&loaded.scenario, &file, allow_long)?;
+    let entities = Entities::of(&loaded.scenario);
+    let spec_error = crate::commands::sweep::SpecError::from;
+    let constraints: Vec<Constraint> = constraints
+        .iter()
+        .map(|c| c.parse::<Constraint>()?.resolve(Some(&entities)))
+        .collect::<Result<_, _>>()
+        .map_err(spec_error)?;
+    let goal = if maximize { "--maximize" } else { "--minimize" };
+    let objective = figures::resolve(objective, Some(&entities))
+        .map_err(|e| Error::Usage(format!("{goal}: {e}")))?
+        .name;
+    crate::commands::sweep::check_paths(
+        path,
+        text,
+        fixed,
+        vary.iter().map(|v| (v.path.as_str(), v.lo)),
+    )?;
     let d = vary.len();
     let evaluations = (MAX_GRID as f64).min((grid.max(2) as f64).powi(d as i32))
         + (MAX_STARTS * (MAX_EVALS + 4 * d)) as f64;
@@ -277,19 +292,12 @@ pub fn solve(
         "use fewer variables",
         allow_long,
     )?;
-    let constraints: Vec<Constraint> = parsed
-        .iter()
-        .map(|c| Constraint {
-            figure: figure_name(&c.figure),
-            ..c.clone()
-        })
-        .collect();
     let problem = Problem {
         path,
         text,
         fixed,
         variables: &vary,
-        objective: figure_name(objective),
+        objective,
         maximize,
         constraints: &constraints,
         grid,
@@ -333,9 +341,7 @@ fn verify(
     let amplitude = args.verify_amplitude.or_else(|| {
         constraints
             .iter()
-            .find(|c| {
-                c.figure == "linear.reach" && c.bound == crate::commands::sweep::Bound::AtLeast
-            })
+            .find(|c| c.figure == "linear.reach" && c.bound == Bound::AtLeast)
             .map(|c| c.value)
     });
     let has_initial = text.lines().any(|l| l.trim() == "[initial]");

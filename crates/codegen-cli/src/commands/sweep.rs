@@ -36,6 +36,7 @@ use serde::{Deserialize, Serialize};
 use toml_edit::Value;
 
 use crate::Error;
+use crate::analysis::figures::{self, Constraint, ConstraintError, Entities, UnknownFigure};
 use crate::budget::{self, Quantity};
 use crate::report::csv::cell;
 use crate::report::{OutputFile, OutputLock, ReportError, commit_files};
@@ -184,12 +185,12 @@ pub enum SpecError {
         /// The option's value.
         text: String,
     },
-    /// A `--constraint` that is not `FIGURE>=VALUE` or `FIGURE<=VALUE` with a finite VALUE.
-    #[error("--constraint {text}: expected FIGURE>=VALUE or FIGURE<=VALUE (a finite number)")]
-    Constraint {
-        /// The option's value.
-        text: String,
-    },
+    /// A `--constraint` that cannot be read, or a figure the catalogue does not know.
+    #[error(transparent)]
+    Constraint(#[from] ConstraintError),
+    /// A `--map` figure the catalogue does not know.
+    #[error("--map: {0}")]
+    Map(UnknownFigure),
     /// `--shard` is not `I/N` with `0 <= I < N`.
     #[error("--shard {text}: expected I/N with 0 <= I < N")]
     Shard {
@@ -560,70 +561,14 @@ fn default_map() -> String {
     "linear.zeta1".into()
 }
 
-/// Whether a constraint bounds its figure from below or above.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Bound {
-    /// `FIGURE>=VALUE`.
-    AtLeast,
-    /// `FIGURE<=VALUE`.
-    AtMost,
-}
-
-/// A design constraint of a sweep: `FIGURE>=VALUE` or `FIGURE<=VALUE`.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Constraint {
-    /// The figure (a column of `sweep.csv` without its unit).
-    pub figure: String,
-    /// Which side.
-    pub bound: Bound,
-    /// The bound.
-    pub value: f64,
-    /// As written.
-    pub text: String,
-}
-
-impl std::str::FromStr for Constraint {
-    type Err = SpecError;
-
-    fn from_str(text: &str) -> Result<Constraint, SpecError> {
-        let bad = || SpecError::Constraint {
-            text: text.to_string(),
-        };
-        let (figure, bound, value) = if let Some((f, v)) = text.split_once(">=") {
-            (f, Bound::AtLeast, v)
-        } else if let Some((f, v)) = text.split_once("<=") {
-            (f, Bound::AtMost, v)
-        } else {
-            return Err(bad());
-        };
-        let figure = figure.trim();
-        let value: f64 = value.trim().parse().map_err(|_| bad())?;
-        if figure.is_empty() || !value.is_finite() {
-            return Err(bad());
-        }
-        Ok(Constraint {
-            figure: figure.to_string(),
-            bound,
-            value,
-            text: text.trim().to_string(),
-        })
-    }
-}
-
-impl Constraint {
-    /// How far the point is inside the constraint (`>= 0`: satisfied; in the figure's
-    /// unit); `None` when the point does not give the figure.
-    pub fn margin(&self, r: &PointResult) -> Option<f64> {
-        let v = r
-            .figures
-            .iter()
-            .find(|f| f.name == self.figure)
-            .and_then(|f| f.value)?;
-        Some(match self.bound {
-            Bound::AtLeast => v - self.value,
-            Bound::AtMost => self.value - v,
-        })
-    }
+/// How far the point `r` is inside the constraint `c` (`>= 0`: satisfied; in the figure's
+/// unit); `None` when the point does not give the figure.
+pub fn margin(c: &Constraint, r: &PointResult) -> Option<f64> {
+    r.figures
+        .iter()
+        .find(|f| f.name == c.figure)
+        .and_then(|f| f.value)
+        .map(|v| c.margin_of(v))
 }
 
 /// The result of one point.
@@ -692,6 +637,29 @@ pub fn run(args: Args) -> Result<(), Error> {
     };
     let grid = Grid::parse(&args.set)?;
     let text = scenario::read(&args.scenario)?;
+    // Before any work: every PATH a field the scenario takes, every figure one it offers.
+    check_paths(
+        &args.scenario,
+        &text,
+        &[],
+        grid.axes
+            .iter()
+            .map(|a| (a.path.as_str(), a.values[0].clone())),
+    )?;
+    let entities = scenario::parse_with(&text, &args.scenario, &[])
+        .ok()
+        .map(|l| Entities::of(&l.scenario));
+    let map = figures::resolve(&args.map, entities.as_ref())
+        .map_err(SpecError::Map)?
+        .name;
+    let constraints: Vec<Constraint> = args
+        .constraints
+        .iter()
+        .map(|c| c.parse::<Constraint>()?.resolve(entities.as_ref()))
+        .collect::<Result<_, _>>()
+        .map_err(SpecError::from)?;
+    let mut requested = vec![map.clone()];
+    requested.extend(constraints.iter().map(|c| c.figure.clone()));
     let t_end = args.t_end.map(|t| {
         Override::new("integrator.t_end", Value::from(t), &cell(Some(t))).expect("a valid PATH")
     });
@@ -722,12 +690,8 @@ pub fn run(args: Args) -> Result<(), Error> {
         t_end: args.t_end.map(|t| cell(Some(t))),
         time_domain: args.time_domain,
         grid_size: grid.len(),
-        constraints: args
-            .constraints
-            .iter()
-            .map(|c| c.parse::<Constraint>().map(|c| c.text))
-            .collect::<Result<_, _>>()?,
-        map: args.map.clone(),
+        constraints: constraints.iter().map(|c| c.text.clone()).collect(),
+        map,
         minimize: args.minimize,
     };
     let mut indices: Vec<usize> = Vec::new();
@@ -740,7 +704,7 @@ pub fn run(args: Args) -> Result<(), Error> {
         allow_long: args.allow_long,
     };
     let bar = progress_bar(!args.quiet, indices.len());
-    let results = evaluate_points(
+    let results = evaluate_points_requesting(
         &args.scenario,
         &text,
         &[],
@@ -748,6 +712,7 @@ pub fn run(args: Args) -> Result<(), Error> {
         &indices,
         t_end.as_ref(),
         &options,
+        &requested,
         threads,
         &|| bar.inc(1),
     )?;
@@ -783,16 +748,80 @@ pub fn run(args: Args) -> Result<(), Error> {
         started.elapsed().as_secs_f64(),
         written.join(", ")
     );
+    match results.first().and_then(|r| r.error.as_deref()) {
+        Some(first) if failed == results.len() => Err(Error::Usage(format!(
+            "{file}: every one of the {failed} point(s) failed (the files record each error); the first: {first}"
+        ))),
+        _ => Ok(()),
+    }
+}
+
+/// Checks the `--set` / `--vary` PATHs before any work: each override (`path = value`, the
+/// first value of an axis) applied alone after the `fixed` ones; a PATH the scenario cannot
+/// take (an unknown field, no such table or index) is an error naming it and the valid
+/// fields. A value the loader refuses is not an error here (it is the point's).
+pub fn check_paths<'a, V: Into<Value>>(
+    path: &Path,
+    text: &str,
+    fixed: &[Override],
+    paths: impl Iterator<Item = (&'a str, V)>,
+) -> Result<(), Error> {
+    for (p, value) in paths {
+        let value: Value = value.into();
+        let o = Override::new(p, value.clone(), &value_text(&value)).map_err(|source| {
+            SpecError::Path {
+                spec: p.to_string(),
+                source,
+            }
+        })?;
+        let mut overrides = fixed.to_vec();
+        overrides.push(o.clone());
+        let Err(d) = scenario::parse_with(text, path, &overrides) else {
+            continue;
+        };
+        let option = o.option();
+        let named = |x: &diagnostic::Diagnostic| {
+            x.entity.as_deref().is_some_and(|e| e.starts_with(&option))
+        };
+        let bad: Vec<diagnostic::Diagnostic> =
+            d.0.into_iter()
+                .filter(|x| {
+                    named(x)
+                        && (matches!(
+                            x.kind,
+                            diagnostic::Kind::UnknownField | diagnostic::Kind::UnknownName
+                        ) || x.message.contains("unknown field"))
+                })
+                .collect();
+        if !bad.is_empty() {
+            let bad: Vec<diagnostic::Diagnostic> = bad.into_iter().map(nearest_field).collect();
+            return Err(Error::Input(bad.into()));
+        }
+    }
     Ok(())
 }
 
-/// Evaluates the points `indices` of `grid` on `threads` worker threads (0: every core), each
-/// point the scenario `text` (the file `path`) with the `fixed` overrides, the point's and
-/// `t_end`'s applied in that order ([`sweep_point::evaluate`]); the results in the order of
-/// `indices` (never in completion order), a failed or panicking point recorded as its
-/// one-line error. `done` is called after every point. [`Error::Interrupted`] when
-/// [`crate::interrupt::StopToken::stop`] was called (the points not started then fail at once,
-/// [`sweep_point::evaluate`]).
+/// An unknown field's problem ("unknown field `x`, expected one of `a`, `b`") with the
+/// nearest valid field by edit distance appended ("did you mean `a`?").
+fn nearest_field(mut d: diagnostic::Diagnostic) -> diagnostic::Diagnostic {
+    let Some((head, list)) = d.message.split_once("expected one of ") else {
+        return d;
+    };
+    let Some(field) = head.split('`').nth(1) else {
+        return d;
+    };
+    let best = list
+        .split('`')
+        .skip(1)
+        .step_by(2)
+        .min_by_key(|c| figures::levenshtein(field, c));
+    if let Some(best) = best.filter(|b| figures::levenshtein(field, b) <= field.len() / 2 + 1) {
+        d.message = format!("{} (did you mean `{best}`?)", d.message);
+    }
+    d
+}
+
+/// [`evaluate_points_requesting`] without figures on request.
 pub fn evaluate_points(
     path: &Path,
     text: &str,
@@ -804,12 +833,46 @@ pub fn evaluate_points(
     threads: usize,
     done: &(dyn Fn() + Sync),
 ) -> Result<Vec<PointResult>, Error> {
+    evaluate_points_requesting(
+        path,
+        text,
+        fixed,
+        grid,
+        indices,
+        t_end,
+        options,
+        &[],
+        threads,
+        done,
+    )
+}
+
+/// Evaluates the points `indices` of `grid` on `threads` worker threads (0: every core), each
+/// point the scenario `text` (the file `path`) with the `fixed` overrides, the point's and
+/// `t_end`'s applied in that order ([`sweep_point::evaluate`]); the results in the order of
+/// `indices` (never in completion order), a failed or panicking point recorded as its
+/// one-line error. `done` is called after every point. [`Error::Interrupted`] when
+/// [`crate::interrupt::StopToken::stop`] was called (the points not started then fail at once,
+/// [`sweep_point::evaluate`]). The figures `requested` (canonical names) are computed beside
+/// the default ones when they are on request only ([`sweep_point::evaluate_with`]).
+pub fn evaluate_points_requesting(
+    path: &Path,
+    text: &str,
+    fixed: &[Override],
+    grid: &Grid,
+    indices: &[usize],
+    t_end: Option<&Override>,
+    options: &PointOptions,
+    requested: &[String],
+    threads: usize,
+    done: &(dyn Fn() + Sync),
+) -> Result<Vec<PointResult>, Error> {
     let evaluate = |index: usize| {
         let mut overrides = fixed.to_vec();
         overrides.extend(grid.overrides(index));
         overrides.extend(t_end.cloned());
         let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            sweep_point::evaluate(path, text, &overrides, options)
+            sweep_point::evaluate_with(path, text, &overrides, options, requested)
         }))
         .unwrap_or(Err(sweep_point::PointError::Panicked));
         done();
@@ -920,7 +983,8 @@ pub enum PartRowError {
         /// The figure (truncated).
         name: String,
     },
-    /// A unit no figure has.
+    /// A figure the catalogue does not know, or a unit it cannot have
+    /// ([`crate::analysis::figures`]).
     #[error("point {point}: unknown unit `{unit}` of figure {name}")]
     Unit {
         /// Grid index.
@@ -970,9 +1034,6 @@ pub struct Part {
     /// FNV-1a of the compact JSON of `[sweep, shard, shards, rows]` ([`Part::checksum`]).
     pub checksum: String,
 }
-
-/// Units known to figures (a part file names them as text).
-const UNITS: [&str; 9] = ["-", "Hz", "m", "rad/m", "J", "A", "N", "N m", "1/s"];
 
 impl Part {
     fn new(spec: &SweepSpec, shard: usize, shards: usize, results: &[PointResult]) -> Part {
@@ -1033,7 +1094,7 @@ impl Part {
                                 name: name(),
                             });
                         }
-                        let unit = UNITS.iter().find(|u| **u == f.unit).ok_or_else(|| {
+                        let unit = figures::unit_of(&f.name, &f.unit).ok_or_else(|| {
                             PartRowError::Unit {
                                 point,
                                 name: name(),
@@ -1111,15 +1172,16 @@ impl Design {
         let constraints = spec
             .constraints
             .iter()
-            .map(|c| c.parse::<Constraint>())
-            .collect::<Result<Vec<_>, _>>()?;
+            .map(|c| c.parse::<Constraint>()?.resolve(None))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(SpecError::from)?;
         let feasible: Vec<bool> = rows
             .iter()
             .map(|r| {
                 r.error.is_none()
                     && constraints
                         .iter()
-                        .all(|c| c.margin(r).is_some_and(|m| m >= 0.0))
+                        .all(|c| margin(c, r).is_some_and(|m| m >= 0.0))
             })
             .collect();
         let mut best: Option<(usize, f64)> = None;
@@ -1355,7 +1417,7 @@ fn design_map(
     let contours: Vec<(String, Vec<Option<f64>>)> = design
         .constraints
         .iter()
-        .map(|c| (c.text.clone(), per_point(&|r| c.margin(r))))
+        .map(|c| (c.text.clone(), per_point(&|r| margin(c, r))))
         .collect();
     let best_label;
     let best = match design.best {

@@ -64,6 +64,32 @@ pub struct RealisationReport {
     pub psd_mean_square: f64,
 }
 
+/// A statistic of the stationary part and its standard error: the one JSON shape
+/// `{value, standard_error}` of every output's RMS and every generator's figure.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Estimate {
+    /// The statistic.
+    pub value: f64,
+    /// Its standard error (batch means).
+    pub standard_error: f64,
+}
+
+impl From<[f64; 2]> for Estimate {
+    fn from([value, standard_error]: [f64; 2]) -> Estimate {
+        Estimate {
+            value,
+            standard_error,
+        }
+    }
+}
+
+impl std::fmt::Display for Estimate {
+    /// `value ± standard_error` (4 significant digits).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{:.4e} ± {:.1e}", self.value, self.standard_error)
+    }
+}
+
 /// One output's RMS with its standard error.
 #[derive(Clone, Debug, Serialize)]
 pub struct RmsEstimate {
@@ -71,10 +97,8 @@ pub struct RmsEstimate {
     pub name: String,
     /// SI unit.
     pub unit: String,
-    /// RMS about its mean over the stationary part.
-    pub rms: f64,
-    /// Its standard error.
-    pub standard_error: f64,
+    /// RMS about its mean over the stationary part, and its standard error.
+    pub rms: Estimate,
 }
 
 /// One generator's figures over the stationary part.
@@ -83,11 +107,32 @@ pub struct GeneratorEstimate {
     /// The force element.
     pub name: String,
     /// RMS current (A) and its standard error.
-    pub rms_current: [f64; 2],
+    pub rms_current: Estimate,
     /// Mean power dissipated in `R_a + R_L` (W) and its standard error.
-    pub mean_power_dissipated: [f64; 2],
+    pub mean_power_dissipated: Estimate,
     /// Mean power in the load (W) and its standard error.
-    pub mean_power_load: [f64; 2],
+    pub mean_power_load: Estimate,
+}
+
+impl RandomRunReport {
+    /// The lines `simulate` prints: every output's RMS and every generator's RMS current and
+    /// mean powers, each with its standard error.
+    pub fn lines(&self) -> String {
+        let mut out = format!(
+            "  random response over [{:.3} s, end] ({} samples, {} batches):\n",
+            self.from, self.samples, self.batches
+        );
+        for o in &self.outputs {
+            out.push_str(&format!("    RMS {} = {} {}\n", o.name, o.rms, o.unit));
+        }
+        for g in &self.generators {
+            out.push_str(&format!(
+                "    {}: RMS current {} A, mean power dissipated {} W, in the load {} W\n",
+                g.name, g.rms_current, g.mean_power_dissipated, g.mean_power_load
+            ));
+        }
+        out
+    }
 }
 
 /// The `random` block of a run's summary.

@@ -450,7 +450,17 @@ fn set_in_value(
 }
 
 /// Replaces a value, keeping the spacing and comment around it.
+/// Replaces `old` by `value`, keeping its decoration; a whole float (`10.0`, what a range or
+/// a numpy array gives) replacing an integer is written as the integer, so an integer field
+/// (an element count) takes it.
 fn replace(old: &mut Value, mut value: Value) {
+    if let (Value::Integer(_), Value::Float(f)) = (&*old, &value) {
+        let x = *f.value();
+        // Exactly representable: |x| below 2^53.
+        if x.fract() == 0.0 && x.abs() < 9.007_199_254_740_992e15 {
+            value = Value::from(x as i64);
+        }
+    }
     *value.decor_mut() = old.decor().clone();
     *old = value;
 }

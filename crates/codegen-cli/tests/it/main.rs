@@ -13,6 +13,7 @@ mod base_cli;
 mod bundled_hybrid;
 mod common;
 mod eval_cli;
+mod figures_cli;
 mod frf;
 mod fuzz;
 mod generate_cli;

@@ -154,15 +154,15 @@ fn time_domain_realisation_agrees_with_the_closed_forms() {
         .unwrap();
     within(
         "theta",
-        theta["rms"].as_f64().unwrap(),
-        theta["standard_error"].as_f64().unwrap(),
+        theta["rms"]["value"].as_f64().unwrap(),
+        theta["rms"]["standard_error"].as_f64().unwrap(),
         (G / (4.0 * K * c)).sqrt(),
     );
     let g = &r["generators"][0]["mean_power_dissipated"];
     within(
         "power",
-        g[0].as_f64().unwrap(),
-        g[1].as_f64().unwrap(),
+        g["value"].as_f64().unwrap(),
+        g["standard_error"].as_f64().unwrap(),
         G / (4.0 * j),
     );
     // The same seed gives the same run.
@@ -253,7 +253,13 @@ fn base_white_noise_time_domain_agrees_with_the_linear_response() {
     let summary: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
     let r = &summary["random"];
-    let pair = |v: &serde_json::Value| [v[0].as_f64().unwrap(), v[1].as_f64().unwrap()];
+    // One shape for outputs and powers alike: `{value, standard_error}`.
+    let pair = |v: &serde_json::Value| {
+        [
+            v["value"].as_f64().unwrap(),
+            v["standard_error"].as_f64().unwrap(),
+        ]
+    };
     let tip = r["outputs"]
         .as_array()
         .unwrap()
@@ -265,10 +271,7 @@ fn base_white_noise_time_domain_agrees_with_the_linear_response() {
     let checks = [
         (
             "tip RMS",
-            [
-                tip["rms"].as_f64().unwrap(),
-                tip["standard_error"].as_f64().unwrap(),
-            ],
+            pair(&tip["rms"]),
             linear["outputs"][0]["rms"].as_f64().unwrap(),
         ),
         (
@@ -282,6 +285,24 @@ fn base_white_noise_time_domain_agrees_with_the_linear_response() {
             lg["mean_power_dissipated"].as_f64().unwrap(),
         ),
     ];
+    // Printed on stdout too, each with its standard error.
+    for line in [
+        "RMS w(x=1) = ",
+        "RMS current ",
+        "mean power dissipated ",
+        "in the load ",
+    ] {
+        assert!(
+            stdout.contains(line) && stdout.contains(" ± "),
+            "{line}: {stdout}"
+        );
+    }
+    let printed = format!(
+        "RMS w(x=1) = {:.4e} ± {:.1e} m",
+        tip["rms"]["value"].as_f64().unwrap(),
+        tip["rms"]["standard_error"].as_f64().unwrap()
+    );
+    assert!(stdout.contains(&printed), "{printed}: {stdout}");
     for (what, [got, se], want) in checks {
         println!("{what}: time domain {got:.4e} +- {se:.2e}, linear {want:.4e}");
         assert!(

@@ -99,7 +99,7 @@ fn help_lists_every_command_of_the_readme_table_with_its_summary() {
         .map(|r| (r.command().to_string(), r.summary.clone()))
         .collect();
     let mut from_help = help_commands();
-    assert_eq!(from_help.len(), 10, "{from_help:?}");
+    assert_eq!(from_help.len(), 11, "{from_help:?}");
     from_readme.sort();
     from_help.sort();
     assert_eq!(

@@ -1,13 +1,13 @@
 //! Issue #22: the optimiser's gradients ([`codegen_cli::sensitivity::gradients`]) — the
 //! adjoint ones of the linear figures (`zeta1`, `f1`, `decay1`, `max_force`, `peak:`,
-//! `power`, `rms:`) and the differences of the others — equal central differences of the
+//! `harmonic.load_power`, `random.rms:`) and the differences of the others — equal central differences of the
 //! figures re-evaluated from the scenario (Richardson-extrapolated, the steps of the smaller
 //! error estimate among 1e-3 and 1e-2 of the variable's range) to 1e-6 of the gradient's norm, at two random points
 //! (fixed seed) of every bundled damper and hybrid scenario, over a variable that moves the
 //! static equilibrium and the geometry (half-angle, spring, gear) and one of the circuit.
 
 use crate::common::root;
-use codegen_cli::commands::sweep::Constraint;
+use codegen_cli::analysis::figures::Constraint;
 use codegen_cli::optimize::{Problem, Variable, evaluate};
 use codegen_cli::sensitivity::{Method, gradients};
 use mbs_symbolic::samples::SplitMix64;
@@ -37,7 +37,7 @@ fn cases() -> Vec<Case> {
     ];
     let forced = [
         free.clone(),
-        vec!["linear.max_force", "peak:1.0:3:12", "power"],
+        vec!["linear.max_force", "peak:1.0:3:12", "harmonic.load_power"],
     ]
     .concat();
     vec![
@@ -48,12 +48,12 @@ fn cases() -> Vec<Case> {
         (
             "random_damper.toml",
             hybrid.clone(),
-            [free.clone(), vec!["rms:1.0", "linear.max_force"]].concat(),
+            [free.clone(), vec!["random.rms:1.0", "linear.max_force"]].concat(),
         ),
         (
             "random_base_damper.toml",
             hybrid,
-            [free.clone(), vec!["rms:1.0"]].concat(),
+            [free.clone(), vec!["random.rms:1.0"]].concat(),
         ),
         (
             "two_dampers.toml",
@@ -189,8 +189,8 @@ fn gradients_equal_central_differences_of_the_figures_on_every_bundled_hybrid_sc
                 ];
                 let adjoint = linear.contains(&g.figure.as_str())
                     || g.figure.starts_with("peak:")
-                    || g.figure.starts_with("rms:")
-                    || g.figure == "power";
+                    || g.figure.starts_with("random.rms:")
+                    || g.figure == "harmonic.load_power";
                 assert_eq!(
                     g.method == Method::Adjoint,
                     adjoint,

@@ -1,0 +1,820 @@
+//! The figure catalogue: every figure a scenario can yield, with its one canonical name, its
+//! unit, what it means, which analysis produces it and whether its gradient is exact (the
+//! adjoint of the linear model, [`crate::sensitivity`]) — the one vocabulary of `sweep`
+//! (columns, `--map`, `--constraint`), `optimize` (objective, constraints), `merge` (units),
+//! `damper figures` and Python.
+//!
+//! A name is `producer.figure` (`linear.zeta1`), or a pattern with one parameter written
+//! `{}` in [`Entry::pattern`] (`attachment.{}.peak_displacement`, `peak:{}`), whose value
+//! names an entity of the scenario (an attachment, a generator, a mechanism, a comparison
+//! run) or an output (`1.0`, `MECHANISM/COORDINATE`). Short names of earlier versions
+//! (`zeta1`, `reach`, `power`, `rms:OUTPUT`) are aliases: [`resolve`] turns them into the
+//! canonical name, and an unknown name is an error that lists the nearest valid names
+//! (edit distance), before any work.
+//!
+//! Constraints are `FIGURE>=VALUE` or `FIGURE<=VALUE` ([`Constraint`]).
+
+use crate::scenario::{Scenario, hybrid::HybridScenario};
+
+/// Which analysis computes a figure.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Producer {
+    /// The linearised system about the static equilibrium (modes, reach, ...).
+    Linear,
+    /// The steady state of the linearised system under the harmonic excitations.
+    Harmonic,
+    /// The stationary random response of the linearised system under the random
+    /// excitations ([`crate::random`]).
+    Random,
+    /// The time-domain run of the scenario (`sweep --time-domain`).
+    TimeDomain,
+}
+
+impl Producer {
+    /// As `damper figures` prints it.
+    pub fn label(self) -> &'static str {
+        match self {
+            Producer::Linear => "linear",
+            Producer::Harmonic => "harmonic",
+            Producer::Random => "random",
+            Producer::TimeDomain => "time-domain",
+        }
+    }
+}
+
+/// What the parameter of a figure pattern names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Param {
+    /// No parameter.
+    None,
+    /// An attachment's name.
+    Attachment,
+    /// A generator's (force element's) name.
+    Generator,
+    /// A comparison run of `[output] compare` (`generator_disconnected`, `bare_beam`).
+    Comparison,
+    /// A receptance peak `X:F1:F2` (beam abscissa in m, band in Hz).
+    Peak,
+    /// An output as `damper random --output` names it: a beam abscissa in m (`1.0`) or
+    /// `MECHANISM/COORDINATE`.
+    Output,
+}
+
+impl Param {
+    /// The placeholder shown for the parameter.
+    fn placeholder(self) -> &'static str {
+        match self {
+            Param::None => "",
+            Param::Attachment => "ATTACHMENT",
+            Param::Generator => "GENERATOR",
+            Param::Comparison => "COMPARISON",
+            Param::Peak => "X:F1:F2",
+            Param::Output => "OUTPUT",
+        }
+    }
+}
+
+/// How the gradient of a figure is computed ([`crate::sensitivity`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Gradient {
+    /// The adjoint of the linear model (exact up to the pencil's difference formula).
+    Adjoint,
+    /// Differences of re-evaluated figures.
+    Differences,
+}
+
+/// One figure (or one family of figures) of the catalogue.
+#[derive(Clone, Copy, Debug)]
+pub struct Entry {
+    /// The canonical name; `{}` stands for the parameter.
+    pub pattern: &'static str,
+    /// Earlier spellings accepted for it (same parameter).
+    pub aliases: &'static [&'static str],
+    /// What the parameter names.
+    pub param: Param,
+    /// The units the figure can have, the usual one first (`linear.max_force` follows the
+    /// first excitation: N, N m or m/s^2).
+    pub units: &'static [&'static str],
+    /// What it means (one line).
+    pub meaning: &'static str,
+    /// Which analysis computes it.
+    pub producer: Producer,
+    /// How its gradient is computed.
+    pub gradient: Gradient,
+    /// Computed only when asked for (`--map`, `--constraint`, an objective), not a default
+    /// column of a sweep.
+    pub on_request: bool,
+}
+
+impl Entry {
+    /// The unit (the usual one).
+    pub fn unit(&self) -> &'static str {
+        self.units[0]
+    }
+
+    /// The pattern with its placeholder (`attachment.ATTACHMENT.peak_displacement`).
+    pub fn display(&self) -> String {
+        self.pattern.replace("{}", self.param.placeholder())
+    }
+
+    /// The alias `alias` of this entry with its placeholder.
+    pub fn display_alias(&self, alias: &str) -> String {
+        alias.replace("{}", self.param.placeholder())
+    }
+
+    /// The name with the parameter `p`.
+    pub fn name_with(&self, p: &str) -> String {
+        self.pattern.replace("{}", p)
+    }
+
+    /// The parameter of `name` when it is this entry's (canonical or alias) spelling.
+    fn matches<'n>(&self, name: &'n str) -> Option<(&'n str, bool)> {
+        std::iter::once(self.pattern)
+            .chain(self.aliases.iter().copied())
+            .enumerate()
+            .find_map(|(i, pattern)| match pattern.split_once("{}") {
+                None => (pattern == name).then_some(("", i > 0)),
+                Some((pre, post)) => name
+                    .strip_prefix(pre)
+                    .and_then(|r| r.strip_suffix(post))
+                    .filter(|p| !p.is_empty())
+                    .map(|p| (p, i > 0)),
+            })
+    }
+}
+
+const fn entry(
+    pattern: &'static str,
+    units: &'static [&'static str],
+    producer: Producer,
+    gradient: Gradient,
+    meaning: &'static str,
+) -> Entry {
+    Entry {
+        pattern,
+        aliases: &[],
+        param: Param::None,
+        units,
+        meaning,
+        producer,
+        gradient,
+        on_request: false,
+    }
+}
+
+const fn with_param(e: Entry, param: Param) -> Entry {
+    Entry { param, ..e }
+}
+
+const fn aka(e: Entry, aliases: &'static [&'static str]) -> Entry {
+    Entry { aliases, ..e }
+}
+
+const fn on_request(e: Entry) -> Entry {
+    Entry {
+        on_request: true,
+        ..e
+    }
+}
+
+use Gradient::{Adjoint, Differences};
+use Producer::{Harmonic, Linear, Random, TimeDomain};
+
+/// Every figure, in the order of a sweep's columns (consecutive entries with the same
+/// parameter kind are expanded entity by entity: `attachment.A.peak_displacement`,
+/// `attachment.A.final_amplitude`, `attachment.B.peak_displacement`, ...).
+pub static CATALOGUE: &[Entry] = &[
+    aka(
+        entry(
+            "linear.f1",
+            &["Hz"],
+            Linear,
+            Adjoint,
+            "first mode's natural frequency, generator(s) connected",
+        ),
+        &["f1"],
+    ),
+    aka(
+        entry(
+            "linear.zeta1",
+            &["-"],
+            Linear,
+            Adjoint,
+            "first mode's damping ratio, generator(s) connected (1 when overdamped)",
+        ),
+        &["zeta1"],
+    ),
+    aka(
+        entry(
+            "linear.decay1",
+            &["1/s"],
+            Linear,
+            Adjoint,
+            "first mode's decay rate -Re(lambda_1), ordered across critical damping",
+        ),
+        &["decay1"],
+    ),
+    aka(
+        entry(
+            "linear.overdamped1",
+            &["-"],
+            Linear,
+            Differences,
+            "1 when the first mode is overdamped, else 0",
+        ),
+        &["overdamped1"],
+    ),
+    entry(
+        "linear.f1_generator_disconnected",
+        &["Hz"],
+        Linear,
+        Differences,
+        "first mode's natural frequency, generator(s) disconnected",
+    ),
+    entry(
+        "linear.zeta1_generator_disconnected",
+        &["-"],
+        Linear,
+        Differences,
+        "first mode's damping ratio, generator(s) disconnected",
+    ),
+    entry(
+        "linear.f1_bare_beam",
+        &["Hz"],
+        Linear,
+        Differences,
+        "first natural frequency of the beam without mechanism",
+    ),
+    aka(
+        entry(
+            "linear.amplification",
+            &["rad/m"],
+            Linear,
+            Differences,
+            "first generator's amplification dq/dw at the equilibrium",
+        ),
+        &["amplification"],
+    ),
+    aka(
+        entry(
+            "linear.reach",
+            &["m"],
+            Linear,
+            Differences,
+            "smallest remaining reach of a mechanism to its singular (toggle) position",
+        ),
+        &["reach"],
+    ),
+    aka(
+        entry(
+            "linear.max_force",
+            &["N", "N m", "m/s^2"],
+            Linear,
+            Adjoint,
+            "admissible amplitude of the first excitation: min over mechanisms of reach / |H_att(i 2 pi f1)|",
+        ),
+        &["max_force"],
+    ),
+    aka(
+        entry(
+            "linear.jacobian_condition",
+            &["-"],
+            Linear,
+            Differences,
+            "largest cond(J_d) of the mechanisms at the equilibrium",
+        ),
+        &["jacobian_condition"],
+    ),
+    on_request(aka(
+        with_param(
+            entry(
+                "peak:{}",
+                &["m"],
+                Harmonic,
+                Adjoint,
+                "largest receptance |H| of the beam at x = X over F1..F2 Hz per unit of the first excitation",
+            ),
+            Param::Peak,
+        ),
+        &[],
+    )),
+    on_request(aka(
+        entry(
+            "harmonic.load_power",
+            &["W"],
+            Harmonic,
+            Adjoint,
+            "mean power in the load resistances in the steady state under the harmonic excitations",
+        ),
+        &["power"],
+    )),
+    on_request(aka(
+        with_param(
+            entry(
+                "random.rms:{}",
+                &["m", "rad"],
+                Random,
+                Adjoint,
+                "RMS of an output's displacement under the random excitations (white noise: Lyapunov equation; PSD tables: quadrature)",
+            ),
+            Param::Output,
+        ),
+        &["rms:{}"],
+    )),
+    entry(
+        "damping_ratio",
+        &["-"],
+        TimeDomain,
+        Differences,
+        "damping ratio of the free decay (filtered peaks)",
+    ),
+    with_param(
+        entry(
+            "damping_ratio_{}",
+            &["-"],
+            TimeDomain,
+            Differences,
+            "damping ratio of the free decay of a comparison run of [output] compare",
+        ),
+        Param::Comparison,
+    ),
+    entry(
+        "beam_first_frequency",
+        &["Hz"],
+        TimeDomain,
+        Differences,
+        "first natural frequency of the beam (time-domain run's summary)",
+    ),
+    entry(
+        "peak_amplitude",
+        &["m"],
+        TimeDomain,
+        Differences,
+        "largest amplitude of the observed beam point",
+    ),
+    with_param(
+        entry(
+            "attachment.{}.peak_displacement",
+            &["m"],
+            TimeDomain,
+            Differences,
+            "largest displacement of an attachment point",
+        ),
+        Param::Attachment,
+    ),
+    with_param(
+        entry(
+            "attachment.{}.final_amplitude",
+            &["m"],
+            TimeDomain,
+            Differences,
+            "amplitude of an attachment point at the end of the run",
+        ),
+        Param::Attachment,
+    ),
+    with_param(
+        entry(
+            "generator.{}.dissipated",
+            &["J"],
+            TimeDomain,
+            Differences,
+            "energy dissipated in a generator's R_a + R_L",
+        ),
+        Param::Generator,
+    ),
+    with_param(
+        entry(
+            "generator.{}.harvested_in_load",
+            &["J"],
+            TimeDomain,
+            Differences,
+            "energy harvested in a generator's load R_L",
+        ),
+        Param::Generator,
+    ),
+    with_param(
+        entry(
+            "generator.{}.peak_current",
+            &["A"],
+            TimeDomain,
+            Differences,
+            "largest |current| of a generator",
+        ),
+        Param::Generator,
+    ),
+    entry(
+        "energy.initial",
+        &["J"],
+        TimeDomain,
+        Differences,
+        "initial energy of the run",
+    ),
+    entry(
+        "energy.dissipated_generators",
+        &["J"],
+        TimeDomain,
+        Differences,
+        "energy dissipated in every generator",
+    ),
+    entry(
+        "energy.harvested_in_load",
+        &["J"],
+        TimeDomain,
+        Differences,
+        "energy harvested in every load",
+    ),
+    entry(
+        "energy.dissipated_structure",
+        &["J"],
+        TimeDomain,
+        Differences,
+        "energy dissipated in the structure's damping",
+    ),
+    entry(
+        "energy.final_stored",
+        &["J"],
+        TimeDomain,
+        Differences,
+        "energy stored at the end of the run",
+    ),
+    entry(
+        "energy_balance_rel_error",
+        &["-"],
+        TimeDomain,
+        Differences,
+        "relative error of the energy account",
+    ),
+];
+
+/// The catalogue entry of the canonical name `name` (a figure a producer emits).
+///
+/// # Panics
+/// When `name` is not in the catalogue: a producer emitting a figure the catalogue does not
+/// know is a bug (the catalogue's tests check every producer's names).
+pub fn entry_of(name: &str) -> &'static Entry {
+    match lookup(name) {
+        Some((e, _, false)) => e,
+        _ => panic!("figure {name} is not in the catalogue (analysis/figures.rs)"),
+    }
+}
+
+/// The entry of `name`, its parameter and whether `name` is an alias.
+fn lookup(name: &str) -> Option<(&'static Entry, &str, bool)> {
+    CATALOGUE
+        .iter()
+        .find_map(|e| e.matches(name).map(|(p, alias)| (e, p, alias)))
+}
+
+/// A figure name read against the catalogue.
+#[derive(Clone, Debug)]
+pub struct Resolved {
+    /// The canonical name (an alias replaced).
+    pub name: String,
+    /// Its entry.
+    pub entry: &'static Entry,
+}
+
+/// Why a figure name is refused: unknown, with the nearest valid names.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown figure `{name}`{}; `damper figures SCENARIO` lists them", nearest_text(.nearest))]
+pub struct UnknownFigure {
+    /// The name as given (truncated).
+    pub name: String,
+    /// The nearest valid names (edit distance), closest first.
+    pub nearest: Vec<String>,
+}
+
+fn nearest_text(nearest: &[String]) -> String {
+    if nearest.is_empty() {
+        String::new()
+    } else {
+        format!(" (did you mean {}?)", nearest.join(", "))
+    }
+}
+
+/// The entities of a scenario that figure parameters name.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Entities {
+    /// Attachment names.
+    pub attachments: Vec<String>,
+    /// Generator names.
+    pub generators: Vec<String>,
+    /// Comparison runs of `[output] compare` (their keys).
+    pub comparisons: Vec<String>,
+    /// Whether the scenario has an excitation (`linear.max_force`, `peak:`), a harmonic one
+    /// (`harmonic.load_power`).
+    pub excitation: bool,
+    /// Whether an excitation is harmonic.
+    pub harmonic: bool,
+    /// Whether an excitation is random (white noise or a PSD table).
+    pub random: bool,
+    /// Mechanism names.
+    pub mechanisms: Vec<String>,
+}
+
+impl Entities {
+    /// The entities of a loaded scenario (none for a rigid mechanism).
+    pub fn of(sc: &Scenario) -> Entities {
+        match sc {
+            Scenario::Hybrid(h) => Entities::of_hybrid(h),
+            Scenario::Mechanism(_) => Entities::default(),
+        }
+    }
+
+    fn of_hybrid(h: &HybridScenario) -> Entities {
+        use fem_beam::TimeFunction;
+        Entities {
+            attachments: h.attachments.iter().map(|a| a.name.clone()).collect(),
+            generators: h
+                .forces
+                .iter()
+                .filter(|f| matches!(f.kind, hybrid_core::hybrid::ForceKind::Generator(_)))
+                .map(|f| f.name.clone())
+                .collect(),
+            comparisons: h.compare.iter().map(|c| c.key().to_string()).collect(),
+            excitation: !h.excitations.is_empty(),
+            harmonic: h
+                .excitations
+                .iter()
+                .any(|e| matches!(e.time, TimeFunction::Harmonic { .. })),
+            random: h.excitations.iter().any(|e| e.time.is_random()),
+            mechanisms: h.mechanisms.iter().map(|m| m.name.clone()).collect(),
+        }
+    }
+
+    /// The values the parameter kind takes in this scenario.
+    fn values(&self, p: Param) -> &[String] {
+        match p {
+            Param::Attachment => &self.attachments,
+            Param::Generator => &self.generators,
+            Param::Comparison => &self.comparisons,
+            Param::None | Param::Peak | Param::Output => &[],
+        }
+    }
+
+    /// Whether the scenario can give figures of `e` at all.
+    pub fn offers(&self, e: &Entry) -> bool {
+        match e.pattern {
+            "linear.max_force" | "peak:{}" => self.excitation,
+            "harmonic.load_power" => self.harmonic && !self.generators.is_empty(),
+            _ if e.producer == Producer::Random => self.random,
+            _ => true,
+        }
+    }
+
+    /// Every concrete figure name the scenario offers (patterns expanded over its
+    /// entities; `peak:{}` shown with its placeholder), in catalogue order, and its entry.
+    pub fn figures(&self) -> Vec<(String, &'static Entry)> {
+        let mut out = vec![];
+        let mut k = 0;
+        while k < CATALOGUE.len() {
+            let e = &CATALOGUE[k];
+            if matches!(e.param, Param::None | Param::Peak | Param::Output) {
+                if self.offers(e) {
+                    out.push((e.display(), e));
+                }
+                k += 1;
+                continue;
+            }
+            // A run of entries with the same parameter kind: entity by entity.
+            let end = CATALOGUE[k..]
+                .iter()
+                .position(|x| x.param != e.param)
+                .map_or(CATALOGUE.len(), |n| k + n);
+            for v in self.values(e.param) {
+                for x in &CATALOGUE[k..end] {
+                    out.push((x.name_with(v), x));
+                }
+            }
+            k = end;
+        }
+        out
+    }
+}
+
+/// Reads a figure name against the catalogue: an alias becomes the canonical name; a name
+/// the catalogue does not know, or a parameter the scenario (`entities`, when given) does
+/// not have, is [`UnknownFigure`] with the nearest valid names.
+pub fn resolve(name: &str, entities: Option<&Entities>) -> Result<Resolved, UnknownFigure> {
+    let name = name.trim();
+    let unknown = || UnknownFigure {
+        name: diagnostic::truncate(name, 80),
+        nearest: nearest(name, entities),
+    };
+    let (entry, param, _) = lookup(name).ok_or_else(unknown)?;
+    let ok = match entry.param {
+        Param::None => true,
+        Param::Peak => crate::linear::PeakSpec::parse(&entry.name_with(param)).is_some(),
+        Param::Output => match param.split_once('/') {
+            None => param.trim().parse::<f64>().is_ok_and(f64::is_finite),
+            Some((m, c)) => {
+                !c.is_empty() && entities.is_none_or(|en| en.mechanisms.iter().any(|x| x == m))
+            }
+        },
+        p => entities.is_none_or(|en| en.values(p).iter().any(|v| v == param)),
+    };
+    if !ok {
+        return Err(unknown());
+    }
+    Ok(Resolved {
+        name: entry.name_with(param),
+        entry,
+    })
+}
+
+/// The canonical spelling of `name` (itself when the catalogue does not know it).
+pub fn canonical(name: &str) -> String {
+    resolve(name, None).map_or_else(|_| name.to_string(), |r| r.name)
+}
+
+/// The unit `unit` is one figure `name` can have.
+pub fn unit_of(name: &str, unit: &str) -> Option<&'static str> {
+    let (e, _, _) = lookup(name)?;
+    e.units.iter().find(|u| **u == unit).copied()
+}
+
+/// The (at most 3) valid names nearest to `name` by edit distance: the scenario's figures
+/// when known, else the catalogue's patterns, and the aliases.
+fn nearest(name: &str, entities: Option<&Entities>) -> Vec<String> {
+    let mut candidates: Vec<String> = match entities {
+        Some(en) => en.figures().into_iter().map(|(n, _)| n).collect(),
+        None => CATALOGUE.iter().map(Entry::display).collect(),
+    };
+    for e in CATALOGUE {
+        candidates.extend(e.aliases.iter().map(|a| e.display_alias(a)));
+    }
+    let mut scored: Vec<(usize, String)> = candidates
+        .into_iter()
+        .map(|c| (levenshtein(name, &c), c))
+        .collect();
+    scored.sort();
+    scored.dedup();
+    let limit = (name.chars().count() / 2).max(3);
+    scored
+        .into_iter()
+        .filter(|(d, _)| *d <= limit)
+        .take(3)
+        .map(|(_, c)| c)
+        .collect()
+}
+
+/// The edit (Levenshtein) distance between `a` and `b`, by characters.
+pub fn levenshtein(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut diag = row[0];
+        row[0] = i + 1;
+        for (j, cb) in b.iter().enumerate() {
+            let up = row[j + 1];
+            row[j + 1] = (diag + usize::from(ca != *cb)).min(row[j] + 1).min(up + 1);
+            diag = up;
+        }
+    }
+    row[b.len()]
+}
+
+/// Whether a constraint bounds its figure from below or above.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Bound {
+    /// `FIGURE>=VALUE`.
+    AtLeast,
+    /// `FIGURE<=VALUE`.
+    AtMost,
+}
+
+/// Why a `--constraint` cannot be read.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum ConstraintError {
+    /// Not `FIGURE>=VALUE` or `FIGURE<=VALUE` with a finite VALUE.
+    #[error("--constraint {text}: expected FIGURE>=VALUE or FIGURE<=VALUE (a finite number)")]
+    Syntax {
+        /// The option's value.
+        text: String,
+    },
+    /// The figure is unknown.
+    #[error("--constraint {text}: {unknown}")]
+    Figure {
+        /// The option's value.
+        text: String,
+        /// Why.
+        unknown: UnknownFigure,
+    },
+}
+
+/// A design constraint: `FIGURE>=VALUE` or `FIGURE<=VALUE`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Constraint {
+    /// The figure (its canonical name once [`Constraint::resolve`]d).
+    pub figure: String,
+    /// Which side.
+    pub bound: Bound,
+    /// The bound.
+    pub value: f64,
+    /// As written.
+    pub text: String,
+}
+
+impl std::str::FromStr for Constraint {
+    type Err = ConstraintError;
+
+    fn from_str(text: &str) -> Result<Constraint, ConstraintError> {
+        let bad = || ConstraintError::Syntax {
+            text: text.to_string(),
+        };
+        let (figure, bound, value) = if let Some((f, v)) = text.split_once(">=") {
+            (f, Bound::AtLeast, v)
+        } else if let Some((f, v)) = text.split_once("<=") {
+            (f, Bound::AtMost, v)
+        } else {
+            return Err(bad());
+        };
+        let figure = figure.trim();
+        let value: f64 = value.trim().parse().map_err(|_| bad())?;
+        if figure.is_empty() || !value.is_finite() {
+            return Err(bad());
+        }
+        Ok(Constraint {
+            figure: figure.to_string(),
+            bound,
+            value,
+            text: text.trim().to_string(),
+        })
+    }
+}
+
+impl Constraint {
+    /// The constraint with its figure checked against the catalogue (and the scenario's
+    /// entities when given) and spelt canonically.
+    pub fn resolve(self, entities: Option<&Entities>) -> Result<Constraint, ConstraintError> {
+        let r = resolve(&self.figure, entities).map_err(|unknown| ConstraintError::Figure {
+            text: self.text.clone(),
+            unknown,
+        })?;
+        Ok(Constraint {
+            figure: r.name,
+            ..self
+        })
+    }
+
+    /// How far a figure's value `v` is inside the constraint (`>= 0`: satisfied; in the
+    /// figure's unit).
+    pub fn margin_of(&self, v: f64) -> f64 {
+        match self.bound {
+            Bound::AtLeast => v - self.value,
+            Bound::AtMost => self.value - v,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn aliases_resolve_to_one_canonical_name_and_unknown_names_list_the_nearest() {
+        assert_eq!(canonical("zeta1"), "linear.zeta1");
+        assert_eq!(canonical("reach"), "linear.reach");
+        assert_eq!(canonical("power"), "harmonic.load_power");
+        assert_eq!(canonical("linear.reach"), "linear.reach");
+        assert_eq!(canonical("peak:1.0:3:12"), "peak:1.0:3:12");
+        assert_eq!(canonical("rms:1.0"), "random.rms:1.0");
+        assert_eq!(canonical("rms:damper/q1"), "random.rms:damper/q1");
+        let e = resolve("powr", None).unwrap_err();
+        assert!(e.nearest.contains(&"power".to_string()), "{e}");
+        let e = resolve("linear.zeta", None).unwrap_err();
+        assert_eq!(e.nearest[0], "linear.zeta1", "{e}");
+        assert!(resolve("peak:1.0:12:3", None).is_err());
+        let en = Entities {
+            attachments: vec!["tip".into()],
+            ..Entities::default()
+        };
+        assert!(resolve("attachment.tip.peak_displacement", Some(&en)).is_ok());
+        let e = resolve("attachment.tp.peak_displacement", Some(&en)).unwrap_err();
+        assert_eq!(e.nearest[0], "attachment.tip.peak_displacement", "{e}");
+    }
+
+    #[test]
+    fn patterns_expand_entity_by_entity_and_every_name_resolves_to_itself() {
+        let en = Entities {
+            attachments: vec!["a".into(), "b".into()],
+            generators: vec!["g".into()],
+            comparisons: vec!["bare_beam".into()],
+            excitation: true,
+            harmonic: true,
+            random: true,
+            mechanisms: vec!["m".into()],
+        };
+        let names: Vec<String> = en.figures().into_iter().map(|(n, _)| n).collect();
+        let pos = |n: &str| names.iter().position(|x| x == n).unwrap();
+        assert!(pos("attachment.a.final_amplitude") < pos("attachment.b.peak_displacement"));
+        for (n, e) in en.figures() {
+            if !matches!(e.param, Param::Peak | Param::Output) {
+                assert_eq!(resolve(&n, Some(&en)).unwrap().name, n);
+            }
+        }
+        assert_eq!(levenshtein("kitten", "sitting"), 3);
+    }
+}
