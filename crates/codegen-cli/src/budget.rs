@@ -294,7 +294,9 @@ pub fn refuse_above(
     remedy: &str,
     allow_long: bool,
 ) -> Result<(), Error> {
-    if let Some(machine) = machine_memory() {
+    // With --allow-long, memory beyond the machine is still refused (without it, such an
+    // estimate is above its limit anyway and reported with the others).
+    if allow_long && let Some(machine) = machine_memory() {
         let beyond: Vec<&Quantity> = work
             .iter()
             .filter(|q| q.bytes && (q.value.is_nan() || q.value > machine))

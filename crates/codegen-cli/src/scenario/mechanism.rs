@@ -582,6 +582,10 @@ impl MechanismScenario {
 mod tests {
     use super::*;
 
+    /// The bundled scenarios' directory: the model files the tests name exist there (the
+    /// loader checks them).
+    const SCENARIOS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios");
+
     const GOOD: &str = r#"
 kind = "mechanism"
 model = "../models/four_bar.toml"
@@ -601,8 +605,11 @@ independent = ["q1"]
 
     #[test]
     fn parses_and_resolves() {
-        let s = parse_str(GOOD, "s.toml", Path::new("/x/scenarios")).unwrap();
-        assert_eq!(s.model, Path::new("/x/scenarios/../models/four_bar.toml"));
+        let s = parse_str(GOOD, "s.toml", Path::new(SCENARIOS)).unwrap();
+        assert_eq!(
+            s.model,
+            Path::new(SCENARIOS).join("../models/four_bar.toml")
+        );
         let names: Vec<String> = ["q1", "q2", "q3"].iter().map(|s| s.to_string()).collect();
         let r = s.resolve(&names).unwrap();
         assert_eq!(r.q0, vec![0.6, 1.2, 1.9]);
@@ -614,7 +621,7 @@ independent = ["q1"]
     #[test]
     fn unknown_keys_and_names_report_lines() {
         let bad = GOOD.replace("rtol = 1e-10", "rtoll = 1e-10");
-        let e = parse_str(&bad, "s.toml", Path::new(".")).unwrap_err();
+        let e = parse_str(&bad, "s.toml", Path::new(SCENARIOS)).unwrap_err();
         let msg = e.to_string();
         assert!(msg.starts_with("s.toml:11:"), "{msg}");
         assert!(msg.contains("rtoll"), "{msg}");
@@ -622,7 +629,7 @@ independent = ["q1"]
         let s = parse_str(
             &GOOD.replace("q2 = 1.2", "q7 = 1.2"),
             "s.toml",
-            Path::new("."),
+            Path::new(SCENARIOS),
         )
         .unwrap();
         let names: Vec<String> = ["q1", "q2", "q3"].iter().map(|s| s.to_string()).collect();
@@ -638,7 +645,7 @@ independent = ["q1"]
         let rk4 = GOOD
             .replace("method = \"dopri5\"", "method = \"rk4\"")
             .replace("rtol = 1e-10\natol = 1e-12", "step = 0.02");
-        let msg = parse_str(&rk4, "s.toml", Path::new("."))
+        let msg = parse_str(&rk4, "s.toml", Path::new(SCENARIOS))
             .unwrap_err()
             .to_string();
         assert!(
@@ -651,14 +658,14 @@ independent = ["q1"]
         let s = parse_str(
             &rk4.replace("output_step = 0.01\n", ""),
             "s.toml",
-            Path::new("."),
+            Path::new(SCENARIOS),
         )
         .unwrap();
         assert_eq!(s.settings.output_step, 0.02);
         let s = parse_str(
             &rk4.replace("step = 0.02", "step = 0.01"),
             "s.toml",
-            Path::new("."),
+            Path::new(SCENARIOS),
         );
         assert_eq!(s.unwrap().settings.output_step, 0.01);
     }
@@ -668,7 +675,7 @@ independent = ["q1"]
         let bad = GOOD
             .replace("method = \"dopri5\"", "method = \"rk4\"")
             .replace("t_end = 5.0", "t_end = -1.0");
-        let e = parse_str(&bad, "s.toml", Path::new(".")).unwrap_err();
+        let e = parse_str(&bad, "s.toml", Path::new(SCENARIOS)).unwrap_err();
         let msg = e.to_string();
         assert!(msg.contains("t_end"), "{msg}");
         assert!(msg.contains("rtol: not used"), "{msg}");

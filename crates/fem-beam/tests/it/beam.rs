@@ -860,7 +860,10 @@ locked = [\"rotation\"]
     let msg = Beam::from_file("no/such/file.toml")
         .unwrap_err()
         .to_string();
-    assert!(msg.starts_with("cannot read no/such/file.toml:"), "{msg}");
+    assert!(
+        msg.starts_with("no/such/file.toml: cannot read the beam file:"),
+        "{msg}"
+    );
 }
 
 #[test]
