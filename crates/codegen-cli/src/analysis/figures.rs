@@ -56,6 +56,8 @@ pub enum Param {
     Comparison,
     /// A receptance peak `X:F1:F2` (beam abscissa in m, band in Hz).
     Peak,
+    /// A mechanism's name.
+    Mechanism,
     /// An output as `damper random --output` names it: a beam abscissa in m (`1.0`) or
     /// `MECHANISM/COORDINATE`.
     Output,
@@ -71,6 +73,7 @@ impl Param {
             Param::Comparison => "COMPARISON",
             Param::Peak => "X:F1:F2",
             Param::Output => "OUTPUT",
+            Param::Mechanism => "MECHANISM",
         }
     }
 }
@@ -324,6 +327,60 @@ pub static CATALOGUE: &[Entry] = &[
         &["rms:{}"],
     )),
     entry(
+        "random.load_power",
+        &["W"],
+        Random,
+        Differences,
+        "mean power in the load resistances of every generator, sum of R_L sigma_i^2",
+    ),
+    entry(
+        "random.power",
+        &["W"],
+        Random,
+        Differences,
+        "mean power dissipated in the generators, sum of (R_a + R_L) sigma_i^2",
+    ),
+    with_param(
+        entry(
+            "random.load_power:{}",
+            &["W"],
+            Random,
+            Differences,
+            "mean power in one generator's load, R_L sigma_i^2",
+        ),
+        Param::Generator,
+    ),
+    with_param(
+        entry(
+            "random.rms_current:{}",
+            &["A"],
+            Random,
+            Differences,
+            "RMS current sigma_i of one generator",
+        ),
+        Param::Generator,
+    ),
+    with_param(
+        entry(
+            "random.reach_sigma:{}",
+            &["-"],
+            Random,
+            Differences,
+            "a mechanism's reach over the RMS sigma_x of its attachment's motion towards the toggle",
+        ),
+        Param::Mechanism,
+    ),
+    with_param(
+        entry(
+            "random.toggle_rate:{}",
+            &["1/s"],
+            Random,
+            Differences,
+            "expected rate of reaching the toggle (Rice): (sigma_v / sigma_x) exp(-a^2 / 2 sigma_x^2) / 2 pi",
+        ),
+        Param::Mechanism,
+    ),
+    entry(
         "damping_ratio",
         &["-"],
         TimeDomain,
@@ -550,6 +607,7 @@ impl Entities {
             Param::Attachment => &self.attachments,
             Param::Generator => &self.generators,
             Param::Comparison => &self.comparisons,
+            Param::Mechanism => &self.mechanisms,
             Param::None | Param::Peak | Param::Output => &[],
         }
     }
