@@ -652,6 +652,39 @@ impl Entities {
     }
 }
 
+/// One figure a scenario offers, as `damper figures --json` and Python list it.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Listed {
+    /// The name (a user-chosen parameter shown as its placeholder).
+    pub name: String,
+    /// The units it can have (`N | N m | m/s^2`).
+    pub unit: String,
+    /// Which analysis computes it.
+    pub producer: &'static str,
+    /// How its gradient is computed.
+    pub gradient: Gradient,
+    /// Computed only when named.
+    pub on_request: bool,
+    /// What it means.
+    pub meaning: &'static str,
+}
+
+/// The figures a loaded scenario offers ([`Entities::figures`]), in catalogue order.
+pub fn listing(sc: &Scenario) -> Vec<Listed> {
+    Entities::of(sc)
+        .figures()
+        .into_iter()
+        .map(|(name, e)| Listed {
+            name,
+            unit: e.units.join(" | "),
+            producer: e.producer.label(),
+            gradient: e.gradient,
+            on_request: e.on_request,
+            meaning: e.meaning,
+        })
+        .collect()
+}
+
 /// Reads a figure name against the catalogue: an alias becomes the canonical name; a name
 /// the catalogue does not know, or a parameter the scenario (`entities`, when given) does
 /// not have, is [`UnknownFigure`] with the nearest valid names.

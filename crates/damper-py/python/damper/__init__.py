@@ -320,6 +320,12 @@ class Scenario:
         rms_rotor_speed, mean_power_dissipated, mean_power_load}``, ``method``, ...)."""
         return dict(_damper.random(*self._src(), list(outputs), method, modes))
 
+    def figures(self) -> List[Dict[str, Any]]:
+        """The figures this scenario offers to ``sweep`` and ``optimize`` (``damper figures
+        --json``): ``{name, unit, producer, gradient, on_request, meaning}`` each, from the
+        one catalogue; constraints and objectives take these names."""
+        return list(_damper.figures(*self._src()))
+
     def __repr__(self) -> str:
         return f"Scenario({self._file!r}, kind={self.kind!r}, sets={self._sets!r})"
 

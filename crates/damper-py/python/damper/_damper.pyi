@@ -105,6 +105,7 @@ def optimize(
     grid: int,
     allow_long: bool,
 ) -> Any: ...
+def figures(text: str, file: str, base: str, sets: _Sets) -> Any: ...
 def random(
     text: str,
     file: str,
