@@ -11,6 +11,7 @@ __all__ = [
     "ScenarioError",
     "SingularPosition",
     "check",
+    "figures",
     "frf",
     "linearize",
     "model_eval",
