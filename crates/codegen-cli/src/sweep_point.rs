@@ -11,6 +11,11 @@
 //! excitation, [`crate::linear::max_force_at`]; N, or N m for a joint excitation) and the
 //! mechanisms' largest cond(J_d) at the equilibrium.
 //!
+//! Under a random excitation, the random figures of one stationary random response (the
+//! mean load and generator powers, RMS currents, each mechanism's reach in RMS of its
+//! attachment's motion and its rate of reaching the toggle, `random.rms:OUTPUT` on request:
+//! `random` below). The names and units are the catalogue's ([`crate::analysis::figures`]).
+//!
 //! With `--time-domain`, the figures of the run's own summary, the one `damper simulate`
 //! writes (nothing is recomputed here), with the outputs kept in memory (no file is
 //! written):
@@ -159,6 +164,7 @@ pub fn evaluate_with(
     if let Some((input, lin)) = linearised(path, &loaded, &mut figures).map_err(remap)? {
         let file = path.display().to_string();
         figures.extend(on_request(&file, &input, &lin, requested).map_err(remap)?);
+        figures.extend(random(&file, &input, &lin, requested).map_err(remap)?);
     }
     finite(&figures)?;
     let mut time_domain_error = None;
@@ -210,20 +216,102 @@ fn on_request(
                 let responses = crate::linear::harmonic_responses(file, model, lin)?;
                 crate::linear::load_power(model, lin, &responses)
             }
-            None => match r.name.strip_prefix("random.rms:") {
-                Some(output) => {
-                    let (v, unit) = crate::random::output_rms_of(file, input, lin, output)?;
-                    out.push(Figure {
-                        name: r.name,
-                        unit: if unit == "rad" { "rad" } else { "m" },
-                        value: Some(v),
-                    });
-                    continue;
-                }
-                None => continue,
-            },
+            None => continue,
         };
         out.push(Figure::of(r.name, value));
+    }
+    Ok(out)
+}
+
+/// The random figures of a scenario with a random excitation (none otherwise), from one
+/// stationary random response of the point's linearisation ([`crate::random`]: automatic
+/// method, 20 modes where modal): `random.rms:OUTPUT` of every requested output, the mean
+/// load and dissipated powers of all generators and of each, each generator's RMS current,
+/// and per mechanism with a reach `a` and an attachment whose displacement `x` has RMS
+/// `sigma_x` and rate RMS `sigma_v`:
+///
+/// ```text
+/// random.reach_sigma  = a / sigma_x
+/// random.toggle_rate  = (1 / 2 pi) (sigma_v / sigma_x) exp(-a^2 / (2 sigma_x^2))
+/// ```
+///
+/// the second Rice's rate of up-crossings of the level `a` by a Gaussian stationary
+/// zero-mean `x`: one side only, because the toggle lies on one side of the equilibrium
+/// (the motion away from it bends the bars further, no singular position there).
+fn random(
+    file: &str,
+    input: &Linearizable,
+    lin: &Linearization,
+    requested: &[String],
+) -> Result<Vec<Figure>, Error> {
+    let model = &input.model;
+    if !model.excitations.iter().any(|e| e.time.is_random()) {
+        return Ok(vec![]);
+    }
+    let limits = crate::linear::LoadLimit::of(model, lin);
+    let mut outputs: Vec<String> = limits
+        .iter()
+        .map(|l| crate::report::csv::cell(Some(l.point.x)))
+        .collect();
+    let asked: Vec<&str> = requested
+        .iter()
+        .filter_map(|n| n.strip_prefix("random.rms:"))
+        .collect();
+    outputs.extend(asked.iter().map(|o| o.to_string()));
+    let report = crate::random::analyse_linearised(
+        file,
+        input,
+        lin,
+        &crate::random::RandomOptions {
+            method: crate::random::RandomMethod::Auto,
+            modes: 20,
+            outputs,
+        },
+    )?;
+    // The outputs come in pairs: the displacement, then its rate.
+    let rms = |k: usize| report.outputs.get(2 * k).map(|o| (o.rms, o.unit.as_str()));
+    let rate = |k: usize| report.outputs.get(2 * k + 1).map(|o| o.rms);
+    let mut out = vec![];
+    for (j, name) in asked.iter().enumerate() {
+        if let Some((v, unit)) = rms(limits.len() + j) {
+            out.push(Figure {
+                name: format!("random.rms:{name}"),
+                unit: if unit == "rad" { "rad" } else { "m" },
+                value: Some(v),
+            });
+        }
+    }
+    if !report.generators.is_empty() {
+        let sum = |f: fn(&crate::random::GeneratorRms) -> f64| {
+            report.generators.iter().map(f).sum::<f64>()
+        };
+        out.push(Figure::of("random.load_power", sum(|g| g.mean_power_load)));
+        out.push(Figure::of("random.power", sum(|g| g.mean_power_dissipated)));
+    }
+    for g in &report.generators {
+        out.push(Figure::of(
+            format!("random.load_power:{}", g.name),
+            g.mean_power_load,
+        ));
+        out.push(Figure::of(
+            format!("random.rms_current:{}", g.name),
+            g.rms_current,
+        ));
+    }
+    for (k, l) in limits.iter().enumerate() {
+        let (Some((sx, _)), Some(sv)) = (rms(k), rate(k)) else {
+            continue;
+        };
+        let moves = sx > 0.0;
+        let a = l.reach;
+        out.push(Figure::of(
+            format!("random.reach_sigma:{}", l.name),
+            moves.then(|| a / sx),
+        ));
+        out.push(Figure::of(
+            format!("random.toggle_rate:{}", l.name),
+            moves.then(|| sv / sx * (-a * a / (2.0 * sx * sx)).exp() / std::f64::consts::TAU),
+        ));
     }
     Ok(out)
 }

@@ -38,6 +38,7 @@ fn _damper(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(scenario::sweep_grid, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::optimize, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::random, m)?)?;
+    m.add_function(wrap_pyfunction!(scenario::figures, m)?)?;
     m.add_function(wrap_pyfunction!(model::model_info, m)?)?;
     m.add_function(wrap_pyfunction!(model::model_eval, m)?)?;
     m.add_function(wrap_pyfunction!(model::model_generate, m)?)?;

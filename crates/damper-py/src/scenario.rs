@@ -532,6 +532,25 @@ pub fn random<'py>(
     to_python(py, &report)
 }
 
+/// The figures the scenario offers to `sweep` and `optimize` (`damper figures --json`): a
+/// list of `{name, unit, producer, gradient, on_request, meaning}`.
+#[pyfunction]
+pub fn figures<'py>(
+    py: Python<'py>,
+    text: String,
+    file: String,
+    base: String,
+    sets: Vec<(String, Bound<'py, PyAny>)>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let src = Source::new(text, file, base, sets)?;
+    let listed = interruptible(py, || {
+        src.load()
+            .map(|l| codegen_cli::analysis::figures::listing(&l.scenario))
+    })?
+    .map_err(|e| to_py(py, e, Input::Scenario))?;
+    to_python(py, &listed)
+}
+
 /// The best design as `damper optimize --json` prints it (the optimum, the objective, every
 /// constraint, the KKT residual, the history), as a JSON object.
 #[pyfunction]

@@ -157,3 +157,14 @@ def test_random_equals_the_cli(scenario: str, method: str, monkeypatch: pytest.M
     assert [o["name"] for o in tip["outputs"]][:2] == ["w(x=1)", "w(x=1)'"]
     with pytest.raises(ValueError, match="expected auto"):
         damper.Scenario.load(scenario).random(method="fast")
+
+
+def test_figures_equal_the_cli(monkeypatch: pytest.MonkeyPatch, root: Path) -> None:
+    """``Scenario.figures()`` is ``damper figures --json``, entry for entry."""
+    monkeypatch.chdir(root)
+    for rel in ("scenarios/forced_damper.toml", "scenarios/random_damper.toml"):
+        listed = damper.Scenario.load(rel).figures()
+        assert listed == json.loads(cli("figures", rel, "--json").stdout)
+        names = [f["name"] for f in listed]
+        assert "linear.zeta1" in names
+        assert ("random.load_power" in names) == ("random" in rel)

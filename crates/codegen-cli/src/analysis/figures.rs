@@ -56,6 +56,8 @@ pub enum Param {
     Comparison,
     /// A receptance peak `X:F1:F2` (beam abscissa in m, band in Hz).
     Peak,
+    /// A mechanism's name.
+    Mechanism,
     /// An output as `damper random --output` names it: a beam abscissa in m (`1.0`) or
     /// `MECHANISM/COORDINATE`.
     Output,
@@ -71,6 +73,7 @@ impl Param {
             Param::Comparison => "COMPARISON",
             Param::Peak => "X:F1:F2",
             Param::Output => "OUTPUT",
+            Param::Mechanism => "MECHANISM",
         }
     }
 }
@@ -324,6 +327,60 @@ pub static CATALOGUE: &[Entry] = &[
         &["rms:{}"],
     )),
     entry(
+        "random.load_power",
+        &["W"],
+        Random,
+        Differences,
+        "mean power in the load resistances of every generator, sum of R_L sigma_i^2",
+    ),
+    entry(
+        "random.power",
+        &["W"],
+        Random,
+        Differences,
+        "mean power dissipated in the generators, sum of (R_a + R_L) sigma_i^2",
+    ),
+    with_param(
+        entry(
+            "random.load_power:{}",
+            &["W"],
+            Random,
+            Differences,
+            "mean power in one generator's load, R_L sigma_i^2",
+        ),
+        Param::Generator,
+    ),
+    with_param(
+        entry(
+            "random.rms_current:{}",
+            &["A"],
+            Random,
+            Differences,
+            "RMS current sigma_i of one generator",
+        ),
+        Param::Generator,
+    ),
+    with_param(
+        entry(
+            "random.reach_sigma:{}",
+            &["-"],
+            Random,
+            Differences,
+            "a mechanism's reach over the RMS sigma_x of its attachment's motion towards the toggle",
+        ),
+        Param::Mechanism,
+    ),
+    with_param(
+        entry(
+            "random.toggle_rate:{}",
+            &["1/s"],
+            Random,
+            Differences,
+            "expected rate of reaching the toggle (Rice): (sigma_v / sigma_x) exp(-a^2 / 2 sigma_x^2) / 2 pi",
+        ),
+        Param::Mechanism,
+    ),
+    entry(
         "damping_ratio",
         &["-"],
         TimeDomain,
@@ -550,6 +607,7 @@ impl Entities {
             Param::Attachment => &self.attachments,
             Param::Generator => &self.generators,
             Param::Comparison => &self.comparisons,
+            Param::Mechanism => &self.mechanisms,
             Param::None | Param::Peak | Param::Output => &[],
         }
     }
@@ -592,6 +650,39 @@ impl Entities {
         }
         out
     }
+}
+
+/// One figure a scenario offers, as `damper figures --json` and Python list it.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Listed {
+    /// The name (a user-chosen parameter shown as its placeholder).
+    pub name: String,
+    /// The units it can have (`N | N m | m/s^2`).
+    pub unit: String,
+    /// Which analysis computes it.
+    pub producer: &'static str,
+    /// How its gradient is computed.
+    pub gradient: Gradient,
+    /// Computed only when named.
+    pub on_request: bool,
+    /// What it means.
+    pub meaning: &'static str,
+}
+
+/// The figures a loaded scenario offers ([`Entities::figures`]), in catalogue order.
+pub fn listing(sc: &Scenario) -> Vec<Listed> {
+    Entities::of(sc)
+        .figures()
+        .into_iter()
+        .map(|(name, e)| Listed {
+            name,
+            unit: e.units.join(" | "),
+            producer: e.producer.label(),
+            gradient: e.gradient,
+            on_request: e.on_request,
+            meaning: e.meaning,
+        })
+        .collect()
 }
 
 /// Reads a figure name against the catalogue: an alias becomes the canonical name; a name

@@ -9,7 +9,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use crate::Error;
-use crate::analysis::figures::{CATALOGUE, Entities};
+use crate::analysis::figures::{CATALOGUE, Entities, listing};
 use crate::report::ReportError;
 use crate::scenario;
 
@@ -23,16 +23,6 @@ pub struct Args {
     pub json: bool,
 }
 
-#[derive(serde::Serialize)]
-struct Row<'a> {
-    name: String,
-    unit: String,
-    producer: &'a str,
-    gradient: crate::analysis::figures::Gradient,
-    on_request: bool,
-    meaning: &'a str,
-}
-
 /// Runs `damper figures`.
 pub fn run(args: Args) -> Result<(), Error> {
     let loaded = scenario::load_with(&args.scenario, &[])?;
@@ -43,18 +33,7 @@ pub fn run(args: Args) -> Result<(), Error> {
         )));
     }
     let entities = Entities::of(&loaded.scenario);
-    let rows: Vec<Row<'_>> = entities
-        .figures()
-        .into_iter()
-        .map(|(name, e)| Row {
-            name,
-            unit: e.units.join(" | "),
-            producer: e.producer.label(),
-            gradient: e.gradient,
-            on_request: e.on_request,
-            meaning: e.meaning,
-        })
-        .collect();
+    let rows = listing(&loaded.scenario);
     if args.json {
         let mut v = serde_json::to_vec_pretty(&rows).map_err(ReportError::from)?;
         v.push(b'\n');

@@ -494,3 +494,58 @@ fn the_transient_skipped_follows_the_slowest_mode_and_a_short_run_is_warned() {
         "{err}"
     );
 }
+
+/// Issue #29: the optimal load under noise. The same single degree of freedom with a
+/// viscous damper `c_s` on the arm beside the generator (armature `R_a`, no inductance, its
+/// damping at the arm `c_e = kappa^2 / (R_a + R_L)`, `kappa = n k_t` with `k_e = k_t`): the
+/// input power `P_in = G / (4 J)` does not depend on the damping, the generator takes
+/// `c_e / (c_s + c_e)` of it and the load `R_L / (R_a + R_L)` of that:
+///
+/// ```text
+/// P_L = P_in kappa^2 R_L / (c_s (R_a + R_L)^2 + kappa^2 (R_a + R_L))
+/// dP_L/dR_L = 0  <=>  R_L^2 = R_a^2 + R_a kappa^2 / c_s
+/// ```
+///
+/// `optimize --maximize random.load_power` over `R_L` returns `R_L*` to 1e-6, and the figure
+/// equals the closed form `P_L` there to 1e-9.
+#[test]
+fn the_optimal_load_under_noise_is_the_closed_form() {
+    const RA: f64 = 1.5;
+    const CS: f64 = 2e-3;
+    let text = sdof_text(10.0).replace(
+        "[[force]]\nname = \"generator\"",
+        &format!(
+            "[[force]]\nname = \"arm_damper\"\nmechanism = \"absorber\"\njoint = \"arm\"\nkind = \"damper\"\nc = {CS:e}\n\n[[force]]\nname = \"generator\""
+        ),
+    );
+    assert!(text.contains("arm_damper"), "the damper is added");
+    let p = scenario_file("optimal_load", &text);
+    let (_, j) = sdof_constants();
+    let kappa2 = (N * KT).powi(2);
+    let best = (RA * RA + RA * kappa2 / CS).sqrt();
+    let p_in = G / (4.0 * j);
+    let closed = |rl: f64| p_in * kappa2 * rl / (CS * (RA + rl).powi(2) + kappa2 * (RA + rl));
+    let r = json(&[
+        "optimize",
+        &p,
+        "--vary",
+        "force[2].load_resistance=0.5:20",
+        "--maximize",
+        "random.load_power",
+        "--json",
+    ]);
+    let rl = r["optimum"][0][1].as_f64().unwrap();
+    let value = r["objective"][1].as_f64().unwrap();
+    println!(
+        "R_L* = {best:.12}, optimize {rl:.12} ({:.2e} relative); P_L {value:.6e} W, closed form {:.6e} W",
+        (rl / best - 1.0).abs(),
+        closed(rl)
+    );
+    assert_eq!(r["objective"][0], "random.load_power");
+    assert!((rl / best - 1.0).abs() < 1e-6, "{rl} vs {best}");
+    assert!(
+        (value / closed(rl) - 1.0).abs() < 1e-9,
+        "{value} vs {}",
+        closed(rl)
+    );
+}

@@ -48,7 +48,18 @@ fn cases() -> Vec<Case> {
         (
             "random_damper.toml",
             hybrid.clone(),
-            [free.clone(), vec!["random.rms:1.0", "linear.max_force"]].concat(),
+            [
+                free.clone(),
+                vec![
+                    "random.rms:1.0",
+                    "linear.max_force",
+                    "random.load_power",
+                    "random.power",
+                    "random.rms_current:generator",
+                    "random.reach_sigma:damper",
+                ],
+            ]
+            .concat(),
         ),
         (
             "random_base_damper.toml",

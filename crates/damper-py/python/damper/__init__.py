@@ -401,6 +401,12 @@ class Scenario:
         ``allow_long``."""
         return dict(_damper.random(*self._src(), _names(outputs, "outputs"), method, modes, allow_long))
 
+    def figures(self) -> List[Dict[str, Any]]:
+        """The figures this scenario offers to ``sweep`` and ``optimize`` (``damper figures
+        --json``): ``{name, unit, producer, gradient, on_request, meaning}`` each, from the
+        one catalogue; constraints and objectives take these names."""
+        return list(_damper.figures(*self._src()))
+
     def __repr__(self) -> str:
         return f"Scenario({self._file!r}, kind={self.kind!r}, sets={self._sets!r})"
 

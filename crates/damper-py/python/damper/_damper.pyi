@@ -11,6 +11,7 @@ __all__ = [
     "ScenarioError",
     "SingularPosition",
     "check",
+    "figures",
     "frf",
     "linearize",
     "model_eval",
@@ -116,6 +117,7 @@ def optimize(
     grid: int,
     allow_long: bool,
 ) -> Any: ...
+def figures(text: str, file: str, base: str, sets: _Sets) -> Any: ...
 def random(
     text: str,
     file: str,
