@@ -544,7 +544,7 @@ pub fn figures<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let src = Source::new(text, file, base, sets)?;
     let listed = interruptible(py, || {
-        src.load()
+        src.check()
             .map(|l| codegen_cli::analysis::figures::listing(&l.scenario))
     })?
     .map_err(|e| to_py(py, e, Input::Scenario))?;
