@@ -1,7 +1,8 @@
 //! Shared support for the workspace-level end-to-end tests in `tests/` and the benchmarks in
 //! `benches/`: the test fixture mechanisms generated at build time by
-//! `tests/support/build.rs`, the one seeded test generator ([`rng::SplitMix64`]) and a
-//! counting global allocator for allocation-free checks.
+//! `tests/support/build.rs`, the one seeded test generator
+//! (`mbs_symbolic::samples::SplitMix64`) and a counting global allocator for
+//! allocation-free checks.
 
 use std::path::PathBuf;
 

@@ -34,6 +34,7 @@
 //! nothing at all).
 
 use std::cell::RefCell;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -111,7 +112,27 @@ static COMMIT: Mutex<()> = Mutex::new(());
 /// Marks a commit of output files: a signal arriving while the guard lives is handled when
 /// it is dropped.
 pub fn commit_section() -> MutexGuard<'static, ()> {
+    COMMITTING.store(true, Ordering::SeqCst);
     COMMIT.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Waits for a running commit without marking one as started (the signal handler's).
+fn commit_section_unmarked() -> MutexGuard<'static, ()> {
+    COMMIT.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Set when a commit of output files starts ([`commit_section`]): a signal after it cannot
+/// say that nothing was written.
+static COMMITTING: AtomicBool = AtomicBool::new(false);
+
+/// The line a signal prints before the process exits: "nothing written" unless a commit of
+/// output files had started (outputs are only ever written by a commit).
+fn interrupted_line() -> &'static str {
+    if COMMITTING.load(Ordering::SeqCst) {
+        "interrupted"
+    } else {
+        "interrupted: nothing written"
+    }
 }
 
 /// Temporary files of streamed outputs not yet committed, and the output directories
@@ -193,8 +214,10 @@ pub fn install() -> std::io::Result<()> {
         .name("signals".into())
         .spawn(move || {
             if let Some(sig) = signals.forever().next() {
-                let _commit = commit_section();
+                let _commit = commit_section_unmarked();
                 Leftovers::remove_all();
+                // A closed standard error is no reason not to exit.
+                let _ = writeln!(std::io::stderr(), "{}", interrupted_line());
                 std::process::exit(128 + sig);
             }
         })?;

@@ -9,7 +9,7 @@
 //! functions into its classes (`Scenario`, `Run`, `Linearization`, `Model`); the type stub
 //! `_damper.pyi` describes them.
 //!
-//! Long calls release the GIL and honour Ctrl-C ([`watch`]).
+//! Long calls release the GIL and honour Ctrl-C (the `watch` module).
 
 mod convert;
 mod errors;

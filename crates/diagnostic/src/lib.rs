@@ -233,7 +233,7 @@ const CHECKPOINT: usize = 256;
 /// Line starts of a text: turns byte offsets (parser spans) into 1-based line and column.
 ///
 /// Both are found in O(log n) (a binary search of the line starts; the column from a
-/// character count kept every [`CHECKPOINT`] bytes), so locating every value of a long line
+/// character count kept every `CHECKPOINT` bytes), so locating every value of a long line
 /// (a 10^6-element array) stays linear in the text.
 #[derive(Clone, Debug)]
 pub struct LineIndex {

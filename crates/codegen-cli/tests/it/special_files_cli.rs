@@ -246,8 +246,8 @@ fn closed_stdout_ends_every_command_quietly() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// SIGTERM during a long mechanism run: exit 143, nothing written, no output directory, no
-/// temporary file.
+/// SIGTERM during a long mechanism run: exit 143, "interrupted: nothing written" on stderr, no
+/// output directory, no temporary file.
 #[cfg(unix)]
 #[test]
 fn sigterm_during_a_mechanism_run_leaves_nothing_behind() {
@@ -269,7 +269,7 @@ fn sigterm_during_a_mechanism_run_leaves_nothing_behind() {
         .arg(&out)
         .current_dir(root())
         .stdout(Stdio::null())
-        .stderr(Stdio::null())
+        .stderr(Stdio::piped())
         .spawn()
         .unwrap();
     std::thread::sleep(std::time::Duration::from_millis(1500));
@@ -282,8 +282,15 @@ fn sigterm_during_a_mechanism_run_leaves_nothing_behind() {
         eprintln!("kill unavailable: test skipped");
         return;
     }
-    let status = child.wait().unwrap();
+    let output = child.wait_with_output().unwrap();
+    let status = output.status;
     assert_eq!(status.code(), Some(143), "{status:?}");
+    let err = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(
+        err.lines().last(),
+        Some("interrupted: nothing written"),
+        "{err}"
+    );
     assert!(!out.exists(), "interrupted run wrote {:?}", names(&out));
     assert_eq!(names(&dir), ["long.toml"]);
     let _ = std::fs::remove_dir_all(&dir);
