@@ -1,6 +1,6 @@
 //! The documentation ships with the code: every theory citation in the sources names a
 //! section of `docs/theory.md` that exists (no file outside the repository is cited), and
-//! every path of the README's layout table exists.
+//! every path of the guide's layout table (`docs/guide/layout.md`) exists.
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -156,15 +156,9 @@ fn backticked(cell: &str) -> Vec<&str> {
 }
 
 #[test]
-fn every_path_of_the_readme_layout_table_exists() {
-    let readme = fs::read_to_string(root().join("README.md")).expect("README.md");
-    let table = readme
-        .split("\n## Layout\n")
-        .nth(1)
-        .expect("a `## Layout` section")
-        .split("\n## ")
-        .next()
-        .unwrap_or_default();
+fn every_path_of_the_guide_layout_table_exists() {
+    let table =
+        fs::read_to_string(root().join("docs/guide/layout.md")).expect("docs/guide/layout.md");
     let mut missing = vec![];
     let mut checked = 0;
     for row in table.lines().filter(|l| l.starts_with("| `")) {

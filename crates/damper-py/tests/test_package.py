@@ -1,6 +1,6 @@
 """The package itself: the type stub matches the native module (`mypy.stubtest`), the
-package type-checks, the README example runs (matplotlib optional: skipped when absent) and
-is the one the README shows."""
+package type-checks, the guide's example runs (matplotlib optional: skipped when absent) and
+is the one the guide's Python page shows, and the front page's Python tour runs."""
 
 from __future__ import annotations
 
@@ -43,8 +43,8 @@ def test_every_public_name_is_documented() -> None:
                 assert value.__doc__, f"{cls.__name__}.{attr}"
 
 
-def test_readme_shows_the_example(root: Path) -> None:
-    readme = (root / "README.md").read_text()
+def test_guide_shows_the_example(root: Path) -> None:
+    readme = (root / "docs" / "guide" / "python.md").read_text()
     code = EXAMPLE.read_text()
     body = code.split('"""', 2)[2].strip()
     indented = "\n".join(("    " + l) if l else "" for l in body.splitlines())
@@ -64,3 +64,18 @@ def test_example_runs_and_plots(tmp_path: Path, root: Path) -> None:
     zeta1 = sweep["linear.zeta1 [-]"]
     best = int(np.argmax(zeta1))
     assert f"highest zeta1 = {zeta1[best]:.4f} at a half-angle of {sweep['mechanism.half_angle_deg'][best]} deg" in r.stdout
+
+
+def test_front_page_python_tour_runs(root: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every ```python block of README.md runs from the repository root, as shown."""
+    text = (root / "README.md").read_text()
+    blocks = [b.split("```", 1)[0] for b in text.split("```python\n")[1:]]
+    assert blocks, "README.md shows Python"
+    monkeypatch.chdir(root)
+    for block in blocks:
+        namespace: dict[str, object] = {}
+        exec(compile(block, "README.md", "exec"), namespace)
+    # The tour's last block leaves a linearisation, a sweep and a run behind.
+    lin = namespace["lin"]
+    assert isinstance(lin, damper.Linearization)
+    assert abs(lin.modes[0].natural_frequency_hz - 5.943158) < 1e-6

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use codegen_cli::analysis::figures::{CATALOGUE, resolve};
-use common::{damper, root};
+use common::damper;
 
 fn scratch(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("figures_cli_{name}_{}", std::process::id()));
@@ -41,7 +41,7 @@ fn sweep(dir: &std::path::Path, args: &[&str]) -> String {
 
 #[test]
 fn every_catalogue_figure_is_listed_documented_and_a_sweep_column() {
-    let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
+    let readme = common::documentation();
     let dir = scratch("columns");
     let mut seen: Vec<String> = vec![];
     // The time domain with comparison runs, the harmonic figures on request, the random ones.
@@ -89,7 +89,7 @@ fn every_catalogue_figure_is_listed_documented_and_a_sweep_column() {
         let shown = e.display();
         assert!(
             readme.contains(&format!("`{shown}`")),
-            "README.md does not document `{shown}`"
+            "neither README.md nor docs/guide documents `{shown}`"
         );
         let column = seen
             .iter()
@@ -103,7 +103,10 @@ fn every_catalogue_figure_is_listed_documented_and_a_sweep_column() {
         });
         assert!(any, "damper figures does not list {shown}:\n{listed}");
         for u in e.units {
-            assert!(readme.contains(u), "README.md: unit {u} of {shown}");
+            assert!(
+                readme.contains(u),
+                "README.md and docs/guide: unit {u} of {shown}"
+            );
         }
     }
 }

@@ -1,7 +1,7 @@
-//! The README against the binary it describes: the command table against `damper --help` and
-//! every subcommand's help, where the binary lands and how to install it, and the sample
-//! outputs the README shows (produced again here and compared, wall-clock times and output
-//! directories aside), so that none of them can drift.
+//! The front page (`README.md`) and the guide (`docs/guide/`) against the binary they describe:
+//! the command table against `damper --help` and every subcommand's help, where the binary
+//! lands and how to install it, and every command they show, run again here with its shown
+//! output compared (wall-clock times and output directories aside), so that none can drift.
 
 use crate::common;
 
@@ -199,91 +199,6 @@ fn readme_says_where_the_binary_lands_and_how_to_install_it() {
     );
 }
 
-/// `text` with the figures that change from run to run masked: the wall-clock time
-/// (`steps in 0.459 s`) and the output directory (`outputs in DIR`).
-fn masked(line: &str) -> String {
-    let mut out = line.to_string();
-    if let Some(i) = out.find(" steps in ") {
-        let from = i + " steps in ".len();
-        if let Some(len) = out[from..].find(" s ") {
-            out.replace_range(from..from + len, "<wall>");
-        }
-    }
-    if let Some(i) = out.find("; outputs in ") {
-        out.truncate(i + "; outputs in ".len());
-        out.push_str("<dir>");
-    }
-    out
-}
-
-/// Every sample line of `damper simulate` in the README (an indented line starting with a
-/// bundled scenario's path and giving its steps) is what the bundled scenario prints, apart from the wall-clock
-/// time and the output directory.
-#[test]
-fn readme_sample_runs_are_what_the_scenarios_print() {
-    let text = readme();
-    let samples: Vec<&str> = text
-        .lines()
-        .filter(|l| {
-            l.starts_with("    scenarios/") && l.contains(".toml: ") && l.contains(" steps in ")
-        })
-        .map(str::trim_start)
-        .collect();
-    assert!(samples.len() >= 3, "{samples:?}");
-    let dir = temp("samples");
-    for sample in samples {
-        let scenario = &sample[..sample.find(": ").unwrap()];
-        let out_dir = dir.join(scenario.replace('/', "_"));
-        let (code, out, err) = damper(&[
-            "simulate",
-            scenario,
-            "-o",
-            out_dir.to_str().unwrap(),
-            "--quiet",
-        ]);
-        assert_eq!(code, 0, "damper simulate {scenario}: {err}");
-        let printed = out
-            .lines()
-            .find(|l| l.starts_with(scenario))
-            .unwrap_or_else(|| panic!("damper simulate {scenario} printed {out:?}"));
-        assert_eq!(
-            masked(printed),
-            masked(sample),
-            "README.md's sample line for {scenario} is out of date; the run prints\n{printed}"
-        );
-    }
-    let _ = std::fs::remove_dir_all(&dir);
-}
-
-/// The README's `damper generate --stats` sample is the table the command prints.
-#[test]
-fn readme_generate_stats_sample_is_what_generate_prints() {
-    let text = readme();
-    let command = "    $ damper generate models/double_bar.toml -o double_bar.rs --stats\n";
-    let start = text.find(command).expect("the generate sample") + command.len();
-    let sample: Vec<&str> = text[start..]
-        .lines()
-        .take_while(|l| l.starts_with("    "))
-        .map(|l| l[4..].trim_end())
-        .collect();
-    let dir = temp("generate");
-    let file = dir.join("double_bar.rs");
-    let (code, out, err) = damper(&[
-        "generate",
-        "models/double_bar.toml",
-        "-o",
-        file.to_str().unwrap(),
-        "--stats",
-    ]);
-    assert_eq!(code, 0, "{err}");
-    let printed: Vec<&str> = out.lines().map(str::trim_end).collect();
-    assert_eq!(
-        printed, sample,
-        "README.md's `damper generate --stats` sample is out of date; the command prints\n{out}"
-    );
-    let _ = std::fs::remove_dir_all(&dir);
-}
-
 /// `x` with three significant digits (`14.6`, `143`, `1.27`, `41.2`).
 fn sig3(x: f64) -> String {
     let digits = 2 - x.abs().log10().floor() as i32;
@@ -294,7 +209,7 @@ fn sig3(x: f64) -> String {
 /// shows computes: frequencies to 1 mHz, damping ratios and amplifications as printed.
 #[test]
 fn readme_operating_angle_table_is_what_the_sweep_computes() {
-    let text = readme();
+    let text = common::documentation();
     let command = "damper sweep scenarios/damper.toml --set mechanism.half_angle_deg=20,10,5,2 -o out/operating_angle";
     let start = text.find(command).expect("the operating-angle sweep") + command.len();
     let table: Vec<Vec<String>> = text[start..]
@@ -378,7 +293,7 @@ fn hashes_masked(line: &str) -> String {
 /// build) is the notice the registry writes for that case, content hashes aside.
 #[test]
 fn readme_stale_model_notice_is_the_registrys() {
-    let text = readme();
+    let text = common::documentation();
     let sample = text
         .lines()
         .find(|l| l.starts_with("    note: model models/double_bar.toml changed"))
@@ -396,4 +311,252 @@ fn readme_stale_model_notice_is_the_registrys() {
         hashes_masked(&notice),
         "README.md's sample notice is out of date"
     );
+}
+
+/// A command the front page or the guide shows, with the output shown after it.
+#[derive(Debug)]
+struct Example {
+    /// `page:line` of the command.
+    at: String,
+    /// The shell text, `cargo run --release -p codegen-cli --` written as `damper`.
+    command: String,
+    /// The output lines shown after it (a ```` ```console ```` block), `...` lines dropped.
+    shown: Vec<String>,
+}
+
+/// A synopsis, not a command: it names a placeholder (`SCENARIO`, `PATH=VALUES`, `[-o DIR]`,
+/// `...`).
+fn is_synopsis(command: &str) -> bool {
+    command.contains("...")
+        || command.contains(" [")
+        || command
+            .split(|c: char| c.is_whitespace() || "=:[]()|,'".contains(c))
+            .any(|w| {
+                w.len() >= 2
+                    && w.starts_with(|c: char| c.is_ascii_uppercase())
+                    && w.chars()
+                        .all(|c| c.is_ascii_uppercase() || c.is_ascii_digit() || c == '_')
+            })
+}
+
+/// Every `damper` command of a page: in ```` ```console ```` blocks the `$ ` lines (their
+/// output the lines that follow), in other code blocks (fenced or indented) the lines that
+/// start with `damper ` or `cargo run --release -p codegen-cli -- ` (no output shown).
+/// A line ending in `\` continues on the next.
+fn examples(page: &str, text: &str) -> Vec<Example> {
+    const CARGO: &str = "cargo run --release -p codegen-cli -- ";
+    let lines: Vec<&str> = text.lines().collect();
+    let mut found: Vec<Example> = vec![];
+    let mut fence: Option<&str> = None; // the info string of the open fenced block
+    let mut in_block = false; // an example started in the open console block
+    let mut i = 0;
+    while i < lines.len() {
+        let line = lines[i];
+        i += 1;
+        if let Some(info) = line.trim_start().strip_prefix("```") {
+            fence = match fence {
+                Some(_) => None,
+                None => Some(info.trim()),
+            };
+            in_block = false;
+            continue;
+        }
+        let console = fence == Some("console");
+        let indented = fence.is_none()
+            && line.starts_with("    ")
+            && (i < 2 || lines[i - 2].trim().is_empty() || lines[i - 2].starts_with("    "));
+        let body = if console {
+            line.strip_prefix("$ ")
+        } else if fence.is_some() || indented {
+            let t = line.trim_start();
+            Some(t.strip_prefix("$ ").unwrap_or(t))
+        } else {
+            None
+        };
+        let Some(body) = body else {
+            if console && in_block && !line.trim().is_empty() && line.trim() != "..." {
+                found.last_mut().unwrap().shown.push(line.to_string());
+            }
+            continue;
+        };
+        let body = body
+            .strip_prefix(CARGO)
+            .map_or(body.to_string(), |rest| format!("damper {rest}"));
+        if !body.starts_with("damper ") {
+            continue;
+        }
+        let at = format!("{page}:{i}");
+        let mut command = body.trim_end().to_string();
+        while command.ends_with('\\') && i < lines.len() {
+            command.pop();
+            command.truncate(command.trim_end().len());
+            command.push(' ');
+            command.push_str(lines[i].trim());
+            command = command.trim_end().to_string();
+            i += 1;
+        }
+        if is_synopsis(&command) {
+            in_block = false;
+        } else {
+            found.push(Example {
+                at,
+                command,
+                shown: vec![],
+            });
+            in_block = console;
+        }
+    }
+    found
+}
+
+/// A token of printed output with the figures that change from run to run or machine to
+/// machine made comparable: `Ok(x)` for a number (trailing `,;:)%` stripped), else the text.
+fn token(t: &str) -> Result<f64, &str> {
+    let core = t
+        .trim_start_matches('(')
+        .trim_end_matches([',', ';', ':', ')', '%']);
+    core.parse::<f64>().map_err(|_| t)
+}
+
+/// Whether a shown line reads as the printed one: the same words, numbers equal to 1e-9
+/// relative (or both below 1e-12 in magnitude: residuals at round-off), a wall-clock time
+/// (`in 0.31 s`, `12 ms`) and the output directory (`outputs in DIR`) whatever they are.
+fn same_line(shown: &str, printed: &str) -> bool {
+    let a: Vec<&str> = shown.split_whitespace().collect();
+    let b: Vec<&str> = printed.split_whitespace().collect();
+    if a.len() != b.len() {
+        return false;
+    }
+    (0..a.len()).all(|k| {
+        if a[k] == b[k] {
+            return true;
+        }
+        let unit = a.get(k + 1).map(|u| u.trim_end_matches([',', ';', ')']));
+        let wall = (k > 0 && a[k - 1] == "in" && matches!(unit, Some("s") | Some("ms")))
+            || (k > 1 && a[k - 2] == "outputs" && a[k - 1] == "in");
+        match (token(a[k]), token(b[k])) {
+            _ if wall => true,
+            (Ok(x), Ok(y)) => {
+                (x - y).abs() <= 1e-9 * x.abs().max(y.abs()) || (x.abs() < 1e-12 && y.abs() < 1e-12)
+            }
+            _ => false,
+        }
+    })
+}
+
+/// Every `damper` command the front page and the guide show runs from a directory holding
+/// the bundled `scenarios/`, `models/` and `beams/`, exits with status 0 (non-zero where the
+/// shown output is an error), and prints every output line shown after it (in any order of
+/// its two streams; numbers to 1e-9, wall-clock times and output directories aside).
+#[test]
+fn every_command_of_the_front_page_and_the_guide_runs_and_prints_what_is_shown() {
+    let dir = temp("guide");
+    for d in ["scenarios", "models", "beams"] {
+        std::os::unix::fs::symlink(root().join(d).canonicalize().unwrap(), dir.join(d)).unwrap();
+    }
+    let exe = PathBuf::from(env!("CARGO_BIN_EXE_damper"));
+    let path = format!(
+        "{}:{}",
+        exe.parent().unwrap().display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let mut all = vec![];
+    for (page, text) in common::documentation_pages() {
+        all.extend(examples(&page, &text));
+    }
+    assert!(all.len() >= 15, "{all:#?}");
+    let mut failures = vec![];
+    for e in &all {
+        let out = std::process::Command::new("sh")
+            .args(["-c", &e.command])
+            .current_dir(&dir)
+            .env("PATH", &path)
+            .output()
+            .expect("sh");
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let printed: Vec<&str> = stdout.lines().chain(stderr.lines()).collect();
+        let error_shown = e.shown.iter().any(|l| l.starts_with("error"));
+        if out.status.success() == error_shown {
+            failures.push(format!(
+                "{}: `{}` exited with {} ({})",
+                e.at,
+                e.command,
+                out.status,
+                stderr.trim_end()
+            ));
+            continue;
+        }
+        for s in &e.shown {
+            if !printed.iter().any(|p| same_line(s, p)) {
+                failures.push(format!(
+                    "{}: `{}` does not print the shown line\n  {s}\nit printed:\n{}",
+                    e.at,
+                    e.command,
+                    printed.join("\n")
+                ));
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+}
+
+#[test]
+fn synopses_and_commands_are_told_apart() {
+    assert!(is_synopsis(
+        "damper sweep SCENARIO --set PATH=VALUES -o OUT"
+    ));
+    assert!(is_synopsis(
+        "damper simulate scenarios/damper.toml [-o DIR]"
+    ));
+    assert!(!is_synopsis(
+        "damper optimize scenarios/damper.toml --vary mechanism.half_angle_deg=3:25 --constraint 'reach>=0.002'"
+    ));
+    assert!(same_line(
+        "scenarios/damper.toml: 50000 steps in 0.315 s (1 mechanism(s)); zeta 4.083 %; outputs in out/damper",
+        "scenarios/damper.toml: 50000 steps in 0.402 s (1 mechanism(s)); zeta 4.083 %; outputs in /tmp/x"
+    ));
+    assert!(!same_line("zeta 4.083 %", "zeta 4.084 %"));
+    assert!(same_line("residual 6.59e-23", "residual 7.1e-23"));
+    let page = "text\n\n```console\n$ damper figures scenarios/damper.toml \\\n    --json\nline one\n...\n```\n\n    damper sweep SCENARIO --set PATH=VALUES\n";
+    let found = examples("p.md", page);
+    assert_eq!(found.len(), 1, "{found:?}");
+    assert_eq!(
+        found[0].command,
+        "damper figures scenarios/damper.toml --json"
+    );
+    assert_eq!(found[0].shown, ["line one"]);
+    assert_eq!(found[0].at, "p.md:4");
+}
+
+/// The design map the front page shows (`docs/img/design_map.svg`) is the one its tour's
+/// sweep draws today, byte for byte (regenerate it with that command when plots change).
+#[test]
+fn front_page_design_map_is_what_the_tour_sweep_draws() {
+    let dir = temp("design_map");
+    let (code, _, err) = damper(&[
+        "sweep",
+        "scenarios/damper.toml",
+        "--set",
+        "mechanism.half_angle_deg=3:25:12",
+        "--set",
+        "generator.load_resistance=0.5:20:12:log",
+        "--constraint",
+        "linear.reach>=0.002",
+        "--constraint",
+        "linear.zeta1>=0.05",
+        "-o",
+        dir.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let drawn = std::fs::read(dir.join("sweep_map_linear.zeta1.svg")).unwrap();
+    let shown = std::fs::read(root().join("docs/img/design_map.svg")).unwrap();
+    assert!(
+        drawn == shown,
+        "docs/img/design_map.svg is out of date: copy {}/sweep_map_linear.zeta1.svg over it",
+        dir.display()
+    );
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -51,3 +51,33 @@ pub fn bundled_scenarios() -> Vec<PathBuf> {
     files.sort();
     files
 }
+
+/// The user documentation: `README.md` (the front page) followed by every page of the guide
+/// under `docs/guide/` (sorted by name), as `(path relative to the root, text)`.
+pub fn documentation_pages() -> Vec<(String, String)> {
+    let mut pages = vec![(
+        "README.md".to_string(),
+        std::fs::read_to_string(root().join("README.md")).expect("README.md"),
+    )];
+    let mut guide: Vec<PathBuf> = std::fs::read_dir(root().join("docs/guide"))
+        .expect("docs/guide/")
+        .map(|e| e.expect("directory entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "md"))
+        .collect();
+    guide.sort();
+    for p in guide {
+        let text = std::fs::read_to_string(&p).expect("a guide page");
+        let name = p.strip_prefix(root()).unwrap_or(&p).display().to_string();
+        pages.push((name, text));
+    }
+    pages
+}
+
+/// The front page and the guide in one text (see [`documentation_pages`]).
+pub fn documentation() -> String {
+    documentation_pages()
+        .into_iter()
+        .map(|(_, text)| text)
+        .collect::<Vec<_>>()
+        .join("\n")
+}
