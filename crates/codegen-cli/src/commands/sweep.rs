@@ -496,6 +496,24 @@ impl Grid {
         values
     }
 
+    /// The fields every point shares (axes of one value) as `PATH = VALUE` with its unit,
+    /// comma-separated, for plot titles; empty when every axis varies.
+    pub fn fixed_text(&self) -> String {
+        let fixed: Vec<String> = self
+            .axes
+            .iter()
+            .filter(|a| a.values.len() == 1)
+            .map(|a| {
+                let v = value_text(&a.values[0]);
+                match scenario::units::field_unit(&a.path) {
+                    Some(u) if u != "-" => format!("{} = {v} {u}", a.path),
+                    _ => format!("{} = {v}", a.path),
+                }
+            })
+            .collect();
+        fixed.join(", ")
+    }
+
     /// The overrides of point `index`.
     pub fn overrides(&self, index: usize) -> Vec<Override> {
         self.axes
@@ -1370,6 +1388,7 @@ fn design_map(
     design: &Design,
 ) -> Result<Option<OutputFile>, Error> {
     use crate::report::map::{DesignMap, MapAxis, is_monotonic, plot_map_svg};
+    use crate::report::plot::tick_label;
     let varying: Vec<usize> = (0..grid.axes.len())
         .filter(|&a| grid.axes[a].values.len() > 1)
         .collect();
@@ -1419,39 +1438,64 @@ fn design_map(
         .iter()
         .map(|c| (c.text.clone(), per_point(&|r| margin(c, r))))
         .collect();
+    // The figure's unit as its column has it; numbers in the legend to 4 digits.
+    let unit = figure_heads(rows)
+        .into_iter()
+        .find(|(n, _)| *n == spec.map)
+        .map_or("-", |(_, u)| u);
+    let short = |v: &Value| number(v).map_or_else(|| value_text(v), tick_label);
     let best_label;
     let best = match design.best {
         Some((index, value)) => {
             let p = grid.point(index);
             let (bx, by) = (number(p[ax]), number(p[ay]));
             best_label = format!(
-                "{} = {}, {} = {}: {} = {}",
+                "{} = {}, {} = {}: {} = {}{}",
                 grid.axes[ax].path,
-                value_text(p[ax]),
+                short(p[ax]),
                 grid.axes[ay].path,
-                value_text(p[ay]),
+                short(p[ay]),
                 spec.map,
-                cell(Some(value))
+                tick_label(value),
+                if unit == "-" {
+                    String::new()
+                } else {
+                    format!(" {unit}")
+                }
             );
             bx.zip(by).map(|b| (b, best_label.as_str()))
         }
         None => None,
     };
+    let fixed = grid.fixed_text();
     let title = format!(
-        "{} over {} and {}: {}",
-        spec.map, grid.axes[ax].path, grid.axes[ay].path, spec.scenario
+        "{} over {} and {}: {}{}",
+        spec.map,
+        grid.axes[ax].path,
+        grid.axes[ay].path,
+        spec.scenario,
+        if fixed.is_empty() {
+            String::new()
+        } else {
+            format!(" ({fixed})")
+        }
     );
+    let (x_label, y_label) = (
+        scenario::units::field_label(&grid.axes[ax].path),
+        scenario::units::field_label(&grid.axes[ay].path),
+    );
+    let figure = format!("{} [{unit}]", spec.map);
     let bytes = plot_map_svg(&DesignMap {
         title: &title,
         x: MapAxis {
-            label: &grid.axes[ax].path,
+            label: &x_label,
             values: &xs,
         },
         y: MapAxis {
-            label: &grid.axes[ay].path,
+            label: &y_label,
             values: &ys,
         },
-        figure: &spec.map,
+        figure: &figure,
         values: &map_values,
         feasible: &feasible,
         contours: &contours,
@@ -1533,7 +1577,15 @@ fn plots(
         }
     };
     let log_x = axis.path.ends_with("resistance");
-    let title = |what: &str| format!("{what} vs {}: {}", axis.path, spec.scenario);
+    let fixed = grid.fixed_text();
+    let title = |what: &str| {
+        if fixed.is_empty() {
+            format!("{what} vs {}: {}", axis.path, spec.scenario)
+        } else {
+            format!("{what} vs {}: {} ({fixed})", axis.path, spec.scenario)
+        }
+    };
+    let x_label = scenario::units::field_label(&axis.path);
     let mut files = vec![];
     let mut draw = |file: &str,
                     what: &str,
@@ -1554,14 +1606,9 @@ fn plots(
         }
         let refs: Vec<(&str, &[(f64, f64)])> =
             series.iter().map(|(l, p)| (l.as_str(), &p[..])).collect();
-        let bytes = crate::report::plot::plot_xy_svg(
-            &title(what),
-            &axis.path,
-            y_desc,
-            &refs,
-            (log_x, false),
-        )
-        .map_err(ReportError::from)?;
+        let bytes =
+            crate::report::plot::plot_xy_svg(&title(what), &x_label, y_desc, &refs, (log_x, false))
+                .map_err(ReportError::from)?;
         files.push(OutputFile {
             path: out.join(file),
             bytes,

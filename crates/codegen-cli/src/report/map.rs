@@ -9,7 +9,9 @@
 
 use plotters::prelude::*;
 
-use super::plot::{PlotError, Ticked, linear_ticks, log_ticks, tick_label as tick};
+use super::plot::{
+    LINE_CHARS, PlotError, Ticked, linear_ticks, log_ticks, tick_label as tick, titled, wrap,
+};
 
 /// Size of the map (pixels).
 const WIDTH: u32 = 1000;
@@ -159,6 +161,9 @@ pub fn zero_contour(x: &[f64], y: &[f64], m: &[Option<f64>]) -> Vec<[(f64, f64);
     segments
 }
 
+/// A straight piece of a contour, between two points in the map's coordinates.
+type Segment = [(f64, f64); 2];
+
 /// Draws the design map (see the module documentation) and returns the SVG text.
 pub fn plot_map_svg(map: &DesignMap<'_>) -> Result<Vec<u8>, PlotError> {
     let (nx, ny) = (map.x.values.len(), map.y.values.len());
@@ -199,29 +204,53 @@ pub fn plot_map_svg(map: &DesignMap<'_>) -> Result<Vec<u8>, PlotError> {
             linear_ticks(lo, hi)
         }
     };
-    let mut legend: Vec<(String, Option<RGBColor>)> = vec![];
-    legend.push((
-        "hatched: breaks a constraint; grey: no value (the point failed)".into(),
+    // The contours, computed before the legend: a constraint whose margin does not change
+    // sign on the grid draws no line and has no legend entry.
+    let contour_lines: Vec<(usize, Vec<Segment>)> = map
+        .contours
+        .iter()
+        .enumerate()
+        .map(|(k, (_, margins))| (k, zero_contour(&cx, &cy, margins)))
+        .filter(|(_, segments)| !segments.is_empty())
+        .collect();
+    // Legend entries: (text, swatch); a swatch is a contour's line or the best point's mark.
+    enum Swatch {
         None,
-    ));
-    for (k, (name, _)) in map.contours.iter().enumerate() {
+        Line(RGBColor),
+        Cross,
+    }
+    let mut legend: Vec<(String, Swatch)> = vec![(
+        "hatched: breaks a constraint; grey: no value (the point failed)".into(),
+        Swatch::None,
+    )];
+    for (k, _) in &contour_lines {
         legend.push((
-            format!("contour of {name}"),
-            Some(CONTOUR[k % CONTOUR.len()]),
+            format!("contour of {}", map.contours[*k].0),
+            Swatch::Line(CONTOUR[k % CONTOUR.len()]),
         ));
     }
     if let Some((_, l)) = map.best {
-        legend.push((format!("x best feasible point: {l}"), Some(BLACK)));
+        legend.push((format!("best feasible point: {l}"), Swatch::Cross));
     }
+    // One row per wrapped line; the swatch on an entry's first row.
+    let rows: Vec<(String, &Swatch)> = legend
+        .iter()
+        .flat_map(|(text, swatch)| {
+            wrap(text, LINE_CHARS)
+                .into_iter()
+                .enumerate()
+                .map(move |(i, line)| (line, if i == 0 { swatch } else { &Swatch::None }))
+        })
+        .collect();
     let mut svg = String::new();
     {
-        let band = 10 + LEGEND_ROW * legend.len() as u32;
+        let band = 10 + LEGEND_ROW * rows.len() as u32;
         let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT + band)).into_drawing_area();
         root.fill(&WHITE).map_err(PlotError::of)?;
         let (main, legend_area) = root.split_vertically(HEIGHT);
         let (plot, bar) = main.split_horizontally(WIDTH - BAR);
+        let plot = titled(&plot, map.title)?;
         let mut chart = ChartBuilder::on(&plot)
-            .caption(map.title, ("sans-serif", 18))
             .margin(15)
             .x_label_area_size(45)
             .y_label_area_size(80)
@@ -274,13 +303,12 @@ pub fn plot_map_svg(map: &DesignMap<'_>) -> Result<Vec<u8>, PlotError> {
         }
         chart.draw_series(cells).map_err(PlotError::of)?;
         chart.draw_series(hatch).map_err(PlotError::of)?;
-        for (k, (_, margins)) in map.contours.iter().enumerate() {
+        for (k, segments) in &contour_lines {
             let c = CONTOUR[k % CONTOUR.len()];
-            let segments = zero_contour(&cx, &cy, margins);
             chart
                 .draw_series(
                     segments
-                        .into_iter()
+                        .iter()
                         .map(|s| PathElement::new(s.to_vec(), c.stroke_width(3))),
                 )
                 .map_err(PlotError::of)?;
@@ -307,10 +335,17 @@ pub fn plot_map_svg(map: &DesignMap<'_>) -> Result<Vec<u8>, PlotError> {
             ))
             .map_err(PlotError::of)?;
         }
-        bar.draw(&Text::new(
+        // The figure and its unit above the bar, right-aligned on the figure's edge (a long
+        // name reaches left over the plot's margin, not out of the view).
+        root.draw(&Text::new(
             map.figure.to_string(),
-            (5, top - 30),
-            ("sans-serif", 14).into_font(),
+            (WIDTH as i32 - 8, top - 30),
+            TextStyle::from(("sans-serif", 14).into_font()).pos(
+                plotters::style::text_anchor::Pos::new(
+                    plotters::style::text_anchor::HPos::Right,
+                    plotters::style::text_anchor::VPos::Top,
+                ),
+            ),
         ))
         .map_err(PlotError::of)?;
         if zmin.is_finite() {
@@ -325,15 +360,26 @@ pub fn plot_map_svg(map: &DesignMap<'_>) -> Result<Vec<u8>, PlotError> {
                 .map_err(PlotError::of)?;
             }
         }
-        for (k, (text, c)) in legend.iter().enumerate() {
-            let y = 5 + (LEGEND_ROW * k as u32 + LEGEND_ROW / 2) as i32;
-            if let Some(c) = c {
-                legend_area
-                    .draw(&PathElement::new(
-                        vec![(80, y), (120, y)],
-                        c.stroke_width(3),
-                    ))
-                    .map_err(PlotError::of)?;
+        for (row, (text, swatch)) in rows.iter().enumerate() {
+            let y = 5 + (LEGEND_ROW * row as u32 + LEGEND_ROW / 2) as i32;
+            match swatch {
+                Swatch::None => {}
+                // A dark edge under the colour: a white contour shows on the white band.
+                Swatch::Line(c) => {
+                    for (colour, width) in [(RGBColor(60, 60, 60), 5), (*c, 3)] {
+                        legend_area
+                            .draw(&PathElement::new(
+                                vec![(80, y), (120, y)],
+                                colour.stroke_width(width),
+                            ))
+                            .map_err(PlotError::of)?;
+                    }
+                }
+                Swatch::Cross => {
+                    legend_area
+                        .draw(&Cross::new((100, y), 7, BLACK.stroke_width(3)))
+                        .map_err(PlotError::of)?;
+                }
             }
             legend_area
                 .draw(&Text::new(
@@ -436,5 +482,81 @@ mod tests {
             );
         }
         assert!(!shown.iter().any(|t| *t == "1.649" || *t == "0.6065"));
+    }
+
+    /// The legend names only the contours drawn (a constraint satisfied everywhere has none),
+    /// long entries (the best point of many digits, a long constraint) wrap inside the view,
+    /// and a long title wraps onto a second line with the fixed parameters.
+    #[test]
+    fn legend_lists_drawn_contours_only_and_wraps_inside_the_view() {
+        let x: Vec<f64> = (0..5).map(|i| f64::from(i) + 1.0).collect();
+        let y = x.clone();
+        let values: Vec<Option<f64>> = x
+            .iter()
+            .flat_map(|a| y.iter().map(move |b| Some(a * b)))
+            .collect();
+        let feasible = vec![true; values.len()];
+        let crossing: Vec<Option<f64>> = values.iter().map(|v| v.map(|v| v - 6.0)).collect();
+        let everywhere: Vec<Option<f64>> = values.iter().map(|v| v.map(|v| v + 1.0)).collect();
+        let contours = vec![
+            ("product>=6".to_string(), crossing),
+            ("product>=-1".to_string(), everywhere),
+        ];
+        let best = format!(
+            "a.very.long.swept.path.of.a.mechanism = 5, another.long.swept.path.of.a.generator = 5: {}",
+            "linear.zeta1 = 0.1196 with words enough to need a second legend row beyond the width"
+        );
+        let title = "linear.zeta1 over a.very.long.swept.path.of.a.mechanism and another.long.swept.path: scenarios/some_scenario.toml (generator.gear_ratio = 20)";
+        let map = DesignMap {
+            title,
+            x: MapAxis {
+                label: "a [m]",
+                values: &x,
+            },
+            y: MapAxis {
+                label: "b [ohm]",
+                values: &y,
+            },
+            figure: "random.toggle_rate:damper [1/s]",
+            values: &values,
+            feasible: &feasible,
+            contours: &contours,
+            best: Some(((5.0, 5.0), &best)),
+        };
+        let svg = String::from_utf8(plot_map_svg(&map).unwrap()).unwrap();
+        let texts = crate::report::plot::svg_texts(&svg);
+        let shown: Vec<&str> = texts.iter().map(|t| t.0.as_str()).collect();
+        assert!(
+            shown.contains(&"contour of product&gt;=6") || shown.contains(&"contour of product>=6"),
+            "{shown:?}"
+        );
+        assert!(
+            !shown
+                .iter()
+                .any(|t| t.contains("product&gt;=-1") || t.contains("product>=-1")),
+            "{shown:?}"
+        );
+        assert!(shown.iter().any(|t| t.starts_with("best feasible point: ")));
+        assert!(shown.contains(&"random.toggle_rate:damper [1/s]"));
+        // The title's lines, in order, are the title.
+        let first = shown.iter().position(|t| title.starts_with(*t)).unwrap();
+        assert_eq!(shown[first..first + 3].join(" "), title, "{shown:?}");
+        for (text, px, py) in &texts {
+            assert!(
+                text.chars().count() <= LINE_CHARS,
+                "{text:?} is longer than a row"
+            );
+            assert!(
+                (0.0..=f64::from(WIDTH)).contains(px) && *py >= 0.0,
+                "text {text} anchored outside the view at ({px}, {py})"
+            );
+        }
+        // The view box holds every legend row.
+        let height: f64 = svg
+            .split_once("height=\"")
+            .and_then(|(_, r)| r.split_once('"'))
+            .and_then(|(h, _)| h.parse().ok())
+            .unwrap();
+        assert!(texts.iter().all(|t| t.2 < height), "{height}");
     }
 }

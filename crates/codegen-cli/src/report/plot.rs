@@ -50,32 +50,96 @@ fn color(k: usize) -> RGBColor {
     COLORS[k % COLORS.len()]
 }
 
-/// Draws `draw` on a plot area above a legend band with one row per label, and returns the
+/// The most characters of a legend row or a title line (15 px and 18 px sans-serif across
+/// the 1000 px figure, right of the legend's swatch): longer texts wrap at spaces.
+pub(crate) const LINE_CHARS: usize = 100;
+
+/// `text` broken at spaces into lines of at most `max` characters (a word longer than
+/// `max` stands on a line of its own; `name = value` is never split at its `=`); at least
+/// one line.
+pub(crate) fn wrap(text: &str, max: usize) -> Vec<String> {
+    const GLUE: char = '\u{a0}';
+    let glued = text.replace(" = ", "\u{a0}=\u{a0}");
+    let mut lines: Vec<String> = vec![];
+    let mut line = String::new();
+    for word in glued.split(' ').filter(|w| !w.is_empty()) {
+        if !line.is_empty() && line.chars().count() + 1 + word.chars().count() > max {
+            lines.push(std::mem::take(&mut line));
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(word);
+    }
+    lines.push(line);
+    lines.into_iter().map(|l| l.replace(GLUE, " ")).collect()
+}
+
+/// Draws `title` centred at the top of `area`, wrapped (18 px; `LINE_CHARS` less a fifth a
+/// line), and returns the area below it for the chart.
+pub(crate) fn titled<'a>(
+    area: &DrawingArea<SVGBackend<'a>, Shift>,
+    title: &str,
+) -> Result<DrawingArea<SVGBackend<'a>, Shift>, PlotError> {
+    let lines = wrap(title, LINE_CHARS * 4 / 5);
+    let width = area.dim_in_pixel().0 as i32;
+    let style = TextStyle::from(("sans-serif", 18).into_font()).pos(
+        plotters::style::text_anchor::Pos::new(
+            plotters::style::text_anchor::HPos::Center,
+            plotters::style::text_anchor::VPos::Top,
+        ),
+    );
+    for (k, line) in lines.iter().enumerate() {
+        area.draw(&Text::new(
+            line.clone(),
+            (width / 2, 8 + 22 * k as i32),
+            style.clone(),
+        ))
+        .map_err(PlotError::of)?;
+    }
+    let (_, below) = area.split_vertically(14 + 22 * lines.len() as u32);
+    Ok(below)
+}
+
+/// Draws `draw` on a plot area above a legend band with one row per label line (labels
+/// longer than [`LINE_CHARS`] wrap onto indented rows without a swatch), and returns the
 /// SVG text.
 fn with_legend(
     labels: &[&str],
     draw: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), PlotError>,
 ) -> Result<Vec<u8>, PlotError> {
+    let rows: Vec<(Option<usize>, String)> = labels
+        .iter()
+        .enumerate()
+        .flat_map(|(k, label)| {
+            wrap(label, LINE_CHARS)
+                .into_iter()
+                .enumerate()
+                .map(move |(i, line)| ((i == 0).then_some(k), line))
+        })
+        .collect();
     let mut svg = String::new();
     {
-        let band = 10 + LEGEND_ROW * labels.len() as u32;
+        let band = 10 + LEGEND_ROW * rows.len() as u32;
         let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT + band)).into_drawing_area();
         root.fill(&WHITE).map_err(PlotError::of)?;
         let (plot, legend) = root.split_vertically(HEIGHT);
         draw(&plot)?;
-        for (k, label) in labels.iter().enumerate() {
-            let y = 5 + (LEGEND_ROW * k as u32 + LEGEND_ROW / 2) as i32;
-            let c = color(k);
-            legend
-                .draw(&PathElement::new(
-                    vec![(80, y), (120, y)],
-                    c.stroke_width(2),
-                ))
-                .map_err(PlotError::of)?;
+        for (row, (series, line)) in rows.iter().enumerate() {
+            let y = 5 + (LEGEND_ROW * row as u32 + LEGEND_ROW / 2) as i32;
+            if let Some(k) = series {
+                legend
+                    .draw(&PathElement::new(
+                        vec![(80, y), (120, y)],
+                        color(*k).stroke_width(2),
+                    ))
+                    .map_err(PlotError::of)?;
+            }
+            let indent = if series.is_some() { 130 } else { 150 };
             legend
                 .draw(&Text::new(
-                    label.to_string(),
-                    (130, y - 8),
+                    line.clone(),
+                    (indent, y - 8),
                     ("sans-serif", 15).into_font(),
                 ))
                 .map_err(PlotError::of)?;
@@ -251,7 +315,6 @@ pub fn plot_xy_svg(
             }
         };
         let (y0, y1) = pad(y_lo, y_hi);
-        let caption = (title, ("sans-serif", 18));
         let draw_points = |k: usize, pts: &[(f64, f64)]| {
             pts.iter()
                 .copied()
@@ -268,8 +331,8 @@ pub fn plot_xy_svg(
         // The same chart on logarithmic or linear axes (different coordinate types).
         macro_rules! chart_on {
             ($x:expr, $y:expr) => {{
-                let mut chart = ChartBuilder::on(area)
-                    .caption(caption.0, caption.1)
+                let below = titled(area, title)?;
+                let mut chart = ChartBuilder::on(&below)
                     .margin(15)
                     .x_label_area_size(40)
                     .y_label_area_size(80)

@@ -111,6 +111,22 @@ impl Dimension {
         }
     }
 
+    /// The SI unit a value of this dimension is held in (`N m/A`, `ohm`, ...; `-` for a pure
+    /// number): what an axis or a column of it reads in.
+    pub fn si_unit(self) -> &'static str {
+        match self {
+            Dimension::TorquePerCurrent => "N m/A",
+            Dimension::SpeedPerVoltage => "rad/s/V",
+            Dimension::Resistance => "ohm",
+            Dimension::Inductance => "H",
+            Dimension::Inertia => "kg m^2",
+            Dimension::Torque => "N m",
+            Dimension::RotationalDamping => "N m s/rad",
+            Dimension::AngularSpeed => "rad/s",
+            Dimension::Dimensionless => "-",
+        }
+    }
+
     fn short(self) -> &'static str {
         match self {
             Dimension::TorquePerCurrent => "a torque per current",
@@ -123,6 +139,57 @@ impl Dimension {
             Dimension::AngularSpeed => "an angular speed",
             Dimension::Dimensionless => "a pure number",
         }
+    }
+}
+
+/// Units of the scenario fields that are neither generator nor beam-segment fields, by the
+/// field's name.
+const OTHER_FIELD_UNITS: [(&str, &str); 14] = [
+    ("half_angle_deg", "deg"),
+    ("angle_deg", "deg"),
+    ("t_end", "s"),
+    ("dt", "s"),
+    ("output_step", "s"),
+    ("max_step", "s"),
+    ("displacement", "m"),
+    ("x", "m"),
+    ("frequency", "Hz"),
+    ("ratio", "-"),
+    ("elements", "-"),
+    ("every", "-"),
+    ("max_condition", "-"),
+    ("alpha", "-"),
+];
+
+/// The SI unit of a numeric scenario field by its `--set` PATH (`generator.load_resistance`
+/// → `ohm`, `mechanism.half_angle_deg` → `deg`, `beam.segment[0].length` → `m`), from the
+/// field's last name: the generator's fields by their dimension, the beam segments' by
+/// `fem_beam::PHYSICAL_RANGES`, a few others by a table. `None` where the unit depends on
+/// the context (an excitation's `amplitude`, a spring's `k`) or the name is unknown.
+pub fn field_unit(path: &str) -> Option<&'static str> {
+    let last = path.rsplit('.').next().unwrap_or(path);
+    let name = last.split('[').next().unwrap_or(last);
+    if let Some(d) = super::hybrid::generator::field_dimension(name) {
+        return Some(d.si_unit());
+    }
+    fem_beam::PHYSICAL_RANGES
+        .iter()
+        .find(|r| r.0 == name)
+        .map(|r| r.3)
+        .or_else(|| {
+            OTHER_FIELD_UNITS
+                .iter()
+                .find(|(n, _)| *n == name)
+                .map(|(_, u)| *u)
+        })
+}
+
+/// An axis label for a swept field: its PATH and, where known, its unit in brackets
+/// (`generator.load_resistance [ohm]`), as the figures' columns read.
+pub fn field_label(path: &str) -> String {
+    match field_unit(path) {
+        Some(unit) => format!("{path} [{unit}]"),
+        None => path.to_string(),
     }
 }
 
@@ -360,6 +427,26 @@ pub fn convert(text: &str, expected: Dimension) -> Result<f64, UnitError> {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn swept_fields_have_their_units() {
+        use super::{field_label, field_unit};
+        assert_eq!(field_unit("generator.load_resistance"), Some("ohm"));
+        assert_eq!(field_unit("force[0].speed_constant"), Some("rad/s/V"));
+        assert_eq!(field_unit("force[1].gear_friction.coulomb"), Some("N m"));
+        assert_eq!(
+            field_unit("mechanism[0].placement.half_angle_deg"),
+            Some("deg")
+        );
+        assert_eq!(field_unit("beam.segment[0].youngs_modulus"), Some("Pa"));
+        assert_eq!(field_unit("beam.segment[0].elements"), Some("-"));
+        assert_eq!(field_unit("excitation[0].amplitude"), None);
+        assert_eq!(
+            field_label("generator.gear_ratio"),
+            "generator.gear_ratio [-]"
+        );
+        assert_eq!(field_label("spring.k"), "spring.k");
+    }
+
     use super::*;
 
     /// The datasheet forms against SI values computed by hand, to 1e-15 relative.

@@ -122,6 +122,17 @@ const EFFICIENCY: Field = field(
     GeneratorField::GearEfficiency,
 );
 
+/// The dimension of a generator field by the name it is written under (`load_resistance`,
+/// `speed_constant`, `coulomb`, ...), `None` for a name that is not a generator field.
+pub fn field_dimension(name: &str) -> Option<Dimension> {
+    FIELDS
+        .iter()
+        .chain(&FRICTION)
+        .chain([&EFFICIENCY])
+        .find(|f| f.name == name)
+        .map(|f| f.dimension)
+}
+
 const fn field(name: &'static str, dimension: Dimension, target: GeneratorField) -> Field {
     Field {
         name,
