@@ -1,20 +1,22 @@
 //! `damper modes BEAM.toml [--count K] [--json]`: natural frequencies of a finite-element
 //! beam (`fem-beam`), with the closed-form Euler–Bernoulli values alongside when the
 //! boundary conditions have them (cantilever, simply supported, clamped–clamped, free–free,
-//! clamped–pinned, pinned–free on a uniform beam).
+//! clamped–pinned, pinned–free on a uniform beam). The file is a beam description or a
+//! scenario (one with a `kind` or a `[beam]` table): then its beam, without mechanisms.
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use fem_beam::{Beam, BeamModel, analytic};
 
 use crate::Error;
 use crate::report::ReportError;
+use crate::scenario::{self, Scenario};
 
 /// Arguments of `damper modes`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Beam description (TOML), e.g. beams/cantilever.toml.
+    /// Beam description (TOML, e.g. beams/cantilever.toml) or a scenario: its beam alone.
     pub beam: PathBuf,
     /// Number of modes (lowest first; rigid-body modes count).
     #[arg(long, default_value_t = 5)]
@@ -30,10 +32,40 @@ pub fn run(args: Args) -> Result<(), Error> {
     crate::print(&report(&args)?)
 }
 
+/// The beam of `path`: a scenario's (a file with a `kind` key or a `[beam]` table, loaded
+/// and checked as `simulate` loads it), else the file read as a beam description.
+fn beam_of(path: &Path) -> Result<Beam, Error> {
+    let text =
+        diagnostic::read_input(path, "beam or scenario").map_err(diagnostic::Diagnostics::from)?;
+    let is_scenario = text
+        .parse::<toml::Table>()
+        .is_ok_and(|t| t.contains_key("kind") || t.contains_key("beam"));
+    if !is_scenario {
+        return Ok(Beam::from_file(path)?);
+    }
+    let no_beam = |what: &str| {
+        Error::Input(
+            diagnostic::Diagnostic::new(
+                diagnostic::Kind::InvalidValue,
+                path.display().to_string(),
+                format!("{what} has no beam: `damper modes` gives a beam's modes (`damper linearize` the coupled system's)"),
+            )
+            .into(),
+        )
+    };
+    match scenario::load_with(path, &[])?.scenario {
+        Scenario::Hybrid(sc) => sc
+            .beam
+            .map(|(_, beam)| beam)
+            .ok_or_else(|| no_beam("this scenario")),
+        Scenario::Mechanism(_) => Err(no_beam("a mechanism scenario")),
+    }
+}
+
 /// The text `damper modes` prints.
 fn report(args: &Args) -> Result<String, Error> {
     // Library errors already name the file, line and entity.
-    let beam = Beam::from_file(&args.beam)?;
+    let beam = beam_of(&args.beam)?;
     let model = BeamModel::new(&beam)?;
     let modes = model.modes(args.count)?;
     let fe = modes.frequencies_hz();

@@ -15,6 +15,8 @@
 //! [initial] displacement                -> [initial] displacement, x = [mechanism] x
 //! [output] every, compare               -> [output] every, compare (default
 //!   (compare_without_generator)              ["generator_disconnected"])
+//! [[excitation]] ...                    -> [[excitation]] ... (as written; then `[initial]`
+//!                                            may be left out: the beam starts at rest)
 //! ```
 
 use std::borrow::Cow;
@@ -35,7 +37,7 @@ pub const ATTACHMENT: &str = "pin";
 pub const GENERATOR: &str = "generator";
 
 /// The top-level keys of a damper scenario.
-const KEYS: [&str; 8] = [
+const KEYS: [&str; 9] = [
     "kind",
     "description",
     "beam",
@@ -44,6 +46,7 @@ const KEYS: [&str; 8] = [
     "initial",
     "integrator",
     "output",
+    "excitation",
 ];
 
 fn string<'a>(span: Range<usize>, s: &str) -> Spanned<DeValue<'a>> {
@@ -106,7 +109,14 @@ pub(crate) fn expand(doc: &mut Doc<'_>) {
     for k in unknown {
         doc.root.remove(k.as_str());
     }
-    for required in ["beam", "mechanism", "generator", "initial"] {
+    // A free decay needs its initial deflection; a forced damper may start at rest.
+    let forced = doc.root.contains_key("excitation");
+    let required: &[&str] = if forced {
+        &["beam", "mechanism", "generator"]
+    } else {
+        &["beam", "mechanism", "generator", "initial"]
+    };
+    for &required in required {
         if !doc.root.contains_key(required) {
             let msg = format!("missing field `{required}`");
             doc.push(Kind::MissingField, None, None, msg);

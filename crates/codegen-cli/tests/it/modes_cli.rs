@@ -179,3 +179,30 @@ fn closed_stdout_exits_quietly_without_panic() {
         assert!(err.is_empty(), "{args:?}: quiet on stderr: {err}");
     }
 }
+
+/// A scenario gives its beam's modes: `scenarios/damper.toml`'s beam is the bundled
+/// cantilever (the same JSON, number for number); a mechanism scenario, which has no beam,
+/// is refused in one line.
+#[test]
+fn a_scenario_gives_the_modes_of_its_beam() {
+    let scenario = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/damper.toml");
+    let of = |file: &str| {
+        let out = damper(&["modes", file, "--json", "--count", "4"]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8(out.stdout).unwrap()
+    };
+    assert_eq!(of(scenario), of(BEAM));
+    let four_bar = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/four_bar.toml");
+    let out = damper(&["modes", four_bar]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("four_bar.toml") && err.contains("has no beam"),
+        "{err}"
+    );
+}

@@ -332,3 +332,75 @@ fn a_model_level_damper_closes_the_energy_balance_like_a_scenario_damper() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The damper kind takes `[[excitation]]` as the hybrid kind writes it (and then no
+/// `[initial]`): the paper's damper under the forced damper's harmonic tip force gives the
+/// outputs of `scenarios/forced_damper.toml` (its hybrid form) bit for bit — every cell of
+/// the time history and the summary's figures — apart from the attachment's name.
+#[test]
+fn a_damper_kind_with_an_excitation_is_its_hybrid_form_bit_for_bit() {
+    let root = damper_file()
+        .parent()
+        .unwrap()
+        .parent()
+        .unwrap()
+        .to_path_buf();
+    let model = root.join("models/double_bar.toml").canonicalize().unwrap();
+    let model = format!("\"{}\"", model.display());
+    let forced = std::fs::read_to_string(root.join("scenarios/forced_damper.toml")).unwrap();
+    let excitation =
+        &forced[forced.find("[[excitation]]").unwrap()..forced.find("[integrator]").unwrap()];
+    let mut damper_kind = std::fs::read_to_string(damper_file()).unwrap();
+    let initial = damper_kind.find("[initial]").unwrap();
+    let integrator = damper_kind.find("[integrator]").unwrap();
+    damper_kind.replace_range(initial..integrator, excitation);
+    let damper_kind = damper_kind
+        .replace("\"../models/double_bar.toml\"", &model)
+        .replace(
+            "compare = [\"generator_disconnected\", \"bare_beam\"]",
+            "compare = []",
+        );
+    assert!(
+        damper_kind.contains("kind = \"damper\"")
+            && !damper_kind.lines().any(|l| l.starts_with("[initial]"))
+    );
+    let hybrid_kind = forced
+        .replace("\"../models/double_bar.toml\"", &model)
+        .replace("tip_pin", "pin");
+    let dir = std::env::temp_dir().join(format!("preset_excitation_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut outputs = vec![];
+    for (name, text) in [("damper_kind", &damper_kind), ("hybrid_kind", &hybrid_kind)] {
+        let file = dir.join(format!("{name}.toml"));
+        std::fs::write(&file, text).unwrap();
+        let out = dir.join(name);
+        let (code, _, err) = crate::common::damper(&[
+            "simulate",
+            file.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert_eq!(code, 0, "{name}: {err}");
+        let csv = std::fs::read_to_string(out.join("time_history.csv")).unwrap();
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
+                .unwrap();
+        outputs.push((csv, summary));
+    }
+    let ((csv_d, sum_d), (csv_h, sum_h)) = (&outputs[0], &outputs[1]);
+    assert!(
+        csv_d.lines().count() > 5000,
+        "a 5 s run at a row a millisecond"
+    );
+    assert!(csv_d == csv_h, "the time histories differ");
+    for figure in ["peak_amplitude", "generators", "steady_power", "energy"] {
+        assert_eq!(sum_d[figure], sum_h[figure], "summary {figure}");
+    }
+    assert!(
+        sum_d["steady_power"].is_object(),
+        "a forced run's steady power"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
