@@ -15,7 +15,9 @@
 //!   system with every generator disconnected, or the bare beam read at the attachments'
 //!   beam points as probes) and its block in the summary's `comparisons`;
 //! - `damping_vs_amplitude.svg` (free decay with comparisons): the damping ratio of each
-//!   cycle against its amplitude, one series per run.
+//!   cycle against its amplitude, one series per run;
+//! - `random_rms.svg` (under random excitation): the beam points' RMS against time over
+//!   windows of 1/100 of the run, the stationary RMS and where the stationary part starts.
 //!
 //! Rows go through a [`RowSink`] into a [`StreamFile`] (`<name>.tmp-<pid>`, or written
 //! directly to a fifo or device) while the run goes, and are committed with the other files
@@ -25,7 +27,7 @@
 
 use crate::report::random_run::{
     BATCHES, BatchStats, GeneratorEstimate, RandomRunReport, RealisationReport, RmsEstimate,
-    stationary_start,
+    RmsHistory, stationary_start,
 };
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -41,7 +43,7 @@ use crate::report::hybrid::{
     AttachmentReport, Columns, ComparisonReport, EnergySplit, ExcitationReport, GeneratorReport,
     HybridEnergy, HybridSummary, MechanismReport, RepartitionReport, amplifications,
 };
-use crate::report::plot::{plot_damping_vs_amplitude_svg, plot_displacements_svg};
+use crate::report::plot::{plot_damping_vs_amplitude_svg, plot_displacements_svg, tick_label};
 use crate::report::rows::{ColumnRows, CsvRows, RowSink};
 use crate::report::steady_power::SteadyPowerTracker;
 use crate::report::summary::json_bytes;
@@ -309,6 +311,9 @@ pub fn simulate(
             )
             .map_err(ReportError::from)?,
         });
+    }
+    if let Some(random) = &summary.random {
+        files.extend(random_rms_plot(out, sc, random)?);
     }
     if summary.decay.is_some() && !summary.comparisons.is_empty() {
         let series: Vec<(&str, &[(f64, f64)])> =
@@ -819,6 +824,67 @@ fn random_signals_of<'s>(
     beam.chain(mech).chain(gens.flatten())
 }
 
+/// `random_rms.svg` of a run under random excitation: the RMS against time of its
+/// displacement outputs (unit m: the attachments' beam points) over windows of 1/100 of the
+/// run, each with its stationary RMS as a level over the stationary part and the start of
+/// that part marked; `None` without such an output.
+fn random_rms_plot(
+    out: &Path,
+    sc: &HybridScenario,
+    random: &RandomRunReport,
+) -> Result<Option<OutputFile>, Error> {
+    let shown: Vec<&RmsHistory> = random.history.iter().filter(|h| h.unit == "m").collect();
+    if shown.is_empty() {
+        return Ok(None);
+    }
+    let t_end = sc.integrator.t_end;
+    let mut series: Vec<(String, Vec<(f64, f64)>)> = vec![];
+    let mut top: f64 = 0.0;
+    for h in &shown {
+        top = h.points.iter().fold(top, |m, p| m.max(p.1));
+        series.push((
+            format!(
+                "{}: RMS over windows of {} s",
+                h.name,
+                tick_label(t_end / 100.0)
+            ),
+            h.points.clone(),
+        ));
+        if let Some(o) = random.outputs.iter().find(|o| o.name == h.name) {
+            series.push((
+                format!(
+                    "{}: stationary RMS {} ± {} m",
+                    h.name,
+                    tick_label(o.rms.value),
+                    tick_label(o.rms.standard_error)
+                ),
+                vec![(random.from, o.rms.value), (t_end, o.rms.value)],
+            ));
+        }
+    }
+    series.push((
+        format!(
+            "start of the stationary part, {} s",
+            tick_label(random.from)
+        ),
+        vec![(random.from, 0.0), (random.from, top)],
+    ));
+    let refs: Vec<(&str, &[(f64, f64)])> =
+        series.iter().map(|(l, p)| (l.as_str(), &p[..])).collect();
+    let title = format!(
+        "RMS against time under random excitation: {}",
+        sc.description
+            .as_deref()
+            .unwrap_or(&sc.path.display().to_string())
+    );
+    let bytes = crate::report::plot::plot_xy_svg(&title, "t [s]", "RMS [m]", &refs, (false, false))
+        .map_err(ReportError::from)?;
+    Ok(Some(OutputFile {
+        path: out.join("random_rms.svg"),
+        bytes,
+    }))
+}
+
 /// The `random` block of the summary from the run's batch sums.
 fn random_report(
     model: &HybridModel,
@@ -854,6 +920,15 @@ fn random_report(
             rms: st.rms(k, *centred).into(),
         })
         .collect();
+    let history = names[..nout]
+        .iter()
+        .enumerate()
+        .map(|(k, (name, unit, centred))| RmsHistory {
+            name: name.clone(),
+            unit: unit.clone(),
+            points: st.history(k, *centred),
+        })
+        .collect();
     let mut generators = vec![];
     for (j, f) in model
         .forces
@@ -885,6 +960,7 @@ fn random_report(
         samples: st.samples(),
         outputs,
         generators,
+        history,
     }
 }
 

@@ -357,22 +357,24 @@ pub fn plot_xy_svg(
             }};
         }
         let log_y = log_y && log_range(y_lo, y_hi);
-        let y_log = (y_lo / 1.2..y_hi * 1.2)
-            .log_scale()
-            .with_key_points(log_ticks(y_lo / 1.2, y_hi * 1.2));
+        let y_log = || {
+            (y_lo / 1.2..y_hi * 1.2)
+                .log_scale()
+                .with_key_points(log_ticks(y_lo / 1.2, y_hi * 1.2))
+        };
         if log_x && log_range(x0, x1) {
             let x = (x0 / 1.1..x1 * 1.1)
                 .log_scale()
                 .with_key_points(log_ticks(x0 / 1.1, x1 * 1.1));
             if log_y {
-                chart_on!(x, y_log);
+                chart_on!(x, y_log());
             } else {
                 chart_on!(x, y0..y1);
             }
         } else {
             let (x0, x1) = pad(x0, x1);
             if log_y {
-                chart_on!(x0..x1, y_log);
+                chart_on!(x0..x1, y_log());
             } else {
                 chart_on!(x0..x1, y0..y1);
             }
@@ -419,6 +421,11 @@ pub fn plot_receptance_svg(
 /// decade, thinned to 1-3 or to the decades when it would give more than 12 ticks; the two
 /// ends are added when fewer than 3 values fall inside.
 pub(crate) fn log_ticks(a: f64, b: f64) -> Vec<f64> {
+    // Not a logarithmic range (a bound at or below zero, not finite, reversed): no ticks —
+    // never a loop over the decades down to log10(0).
+    if !(a > 0.0 && a <= b && b.is_finite()) {
+        return vec![];
+    }
     let (lo, hi) = (a.log10().floor() as i32, b.log10().ceil() as i32);
     let inside = |mantissas: &[f64]| -> Vec<f64> {
         (lo..=hi)
@@ -690,6 +697,21 @@ mod receptance_tests {
         // Less than a tick pair inside: the ends are added.
         assert_eq!(log_ticks(5.5, 7.5), vec![5.5, 7.5]);
         assert_eq!(log_ticks(4.5, 9.0), vec![4.5, 5.0, 9.0]);
+    }
+
+    /// A series that touches zero on a linear axis draws at once: the log axis it does not
+    /// use is not ticked (log10(0) once made that a loop over 2^31 decades), and a
+    /// non-logarithmic range has no log ticks.
+    #[test]
+    fn a_series_through_zero_draws_without_log_ticks() {
+        assert!(super::log_ticks(0.0, 1.0).is_empty());
+        assert!(super::log_ticks(-1.0, 1.0).is_empty());
+        assert!(super::log_ticks(1.0, f64::INFINITY).is_empty());
+        let line = [(0.0, 0.0), (1.0, 2e-4), (2.0, 1e-4)];
+        let svg = super::plot_xy_svg("t", "x", "y", &[("a", &line[..])], (false, false)).unwrap();
+        assert!(!svg.is_empty());
+        let svg = super::plot_xy_svg("t", "x", "y", &[("a", &line[..])], (false, true)).unwrap();
+        assert!(!svg.is_empty());
     }
 
     #[test]

@@ -156,9 +156,18 @@ pub struct RandomRunReport {
     pub outputs: Vec<RmsEstimate>,
     /// The generators (and their rotor speeds among the outputs).
     pub generators: Vec<GeneratorEstimate>,
+    /// Every output's RMS against time over the whole run (for `random_rms.svg`; not in the
+    /// summary).
+    #[serde(skip)]
+    pub history: Vec<RmsHistory>,
 }
 
-/// Streaming sums per batch of `n` signals.
+/// Windows of the whole run over which the RMS against time is drawn
+/// (`random_rms.svg`): each 1/100 of the run.
+pub const HISTORY_WINDOWS: usize = 100;
+
+/// Streaming sums per batch of `n` signals, and per window of the whole run (transient
+/// included) for the RMS against time.
 #[derive(Clone, Debug)]
 pub struct BatchStats {
     from: f64,
@@ -166,17 +175,53 @@ pub struct BatchStats {
     /// Per batch: count, then per signal (sum, sum of squares).
     count: Vec<u64>,
     sums: Vec<Vec<[f64; 2]>>,
+    /// Width of a history window (s).
+    window: f64,
+    /// Per history window: count, then per signal (sum, sum of squares).
+    window_count: Vec<u64>,
+    window_sums: Vec<Vec<[f64; 2]>>,
+}
+
+/// An output's RMS against time: over each window of the run, its RMS (about the window's
+/// mean where the output's statistic is centred), at the window's middle.
+#[derive(Clone, Debug)]
+pub struct RmsHistory {
+    /// The output, as `damper random` names it.
+    pub name: String,
+    /// SI unit.
+    pub unit: String,
+    /// `(t, RMS)` per window with samples.
+    pub points: Vec<(f64, f64)>,
 }
 
 impl BatchStats {
-    /// Sums of `n` signals over `[from, t_end]`.
+    /// Sums of `n` signals over `[from, t_end]` (and over the windows of `[0, t_end]`).
     pub fn new(n: usize, from: f64, t_end: f64) -> Self {
         BatchStats {
             from,
             width: (t_end - from) / BATCHES as f64,
             count: vec![0; BATCHES],
             sums: vec![vec![[0.0; 2]; n]; BATCHES],
+            window: t_end / HISTORY_WINDOWS as f64,
+            window_count: vec![0; HISTORY_WINDOWS],
+            window_sums: vec![vec![[0.0; 2]; n]; HISTORY_WINDOWS],
         }
+    }
+
+    /// Signal `k`'s RMS (about each window's mean when `centred`) per window of the run:
+    /// `(middle of the window, RMS)`, windows without samples left out.
+    pub fn history(&self, k: usize, centred: bool) -> Vec<(f64, f64)> {
+        self.window_count
+            .iter()
+            .zip(&self.window_sums)
+            .enumerate()
+            .filter(|(_, (c, _))| **c > 0)
+            .map(|(w, (&c, s))| {
+                let (m, ms) = (s[k][0] / c as f64, s[k][1] / c as f64);
+                let second = if centred { (ms - m * m).max(0.0) } else { ms };
+                ((w as f64 + 0.5) * self.window, second.sqrt())
+            })
+            .collect()
     }
 
     /// Start of the stationary part.
@@ -186,14 +231,27 @@ impl BatchStats {
 
     /// Adds the sample `x` (one value per signal) at `t` (ignored in the transient).
     pub fn push(&mut self, t: f64, x: impl Iterator<Item = f64>) {
-        if t < self.from || self.width <= 0.0 {
-            return;
+        let window = (self.window > 0.0 && t >= 0.0)
+            .then(|| ((t / self.window) as usize).min(HISTORY_WINDOWS - 1));
+        let batch = (t >= self.from && self.width > 0.0)
+            .then(|| (((t - self.from) / self.width) as usize).min(BATCHES - 1));
+        if let Some(w) = window {
+            self.window_count[w] += 1;
         }
-        let b = (((t - self.from) / self.width) as usize).min(BATCHES - 1);
-        self.count[b] += 1;
-        for (s, v) in self.sums[b].iter_mut().zip(x) {
-            s[0] += v;
-            s[1] += v * v;
+        if let Some(b) = batch {
+            self.count[b] += 1;
+        }
+        for (k, v) in x.enumerate() {
+            if let Some(w) = window {
+                let s = &mut self.window_sums[w][k];
+                s[0] += v;
+                s[1] += v * v;
+            }
+            if let Some(b) = batch {
+                let s = &mut self.sums[b][k];
+                s[0] += v;
+                s[1] += v * v;
+            }
         }
     }
 
@@ -253,6 +311,17 @@ mod tests {
             );
         }
         assert_eq!(s.samples(), 90_001);
+        // The RMS against time: every window of the run (transient included) holds 50
+        // periods of the sine: its centred RMS sqrt(2), its mean square's root sqrt(11).
+        let h = s.history(0, true);
+        assert_eq!(h.len(), HISTORY_WINDOWS);
+        assert!((h[0].0 - 0.5).abs() < 1e-12 && (h[99].0 - 99.5).abs() < 1e-12);
+        assert!(
+            h.iter().all(|(_, r)| (r - 2f64.sqrt()).abs() < 1e-3),
+            "{h:?}"
+        );
+        let raw = s.history(0, false);
+        assert!(raw.iter().all(|(_, r)| (r - 11f64.sqrt()).abs() < 1e-3));
         // Each batch holds 225 periods and one sample more (its start): the moments are
         // exact to about 1 / 4500 of the sine's swing per batch.
         let [r, se] = s.rms(0, true);

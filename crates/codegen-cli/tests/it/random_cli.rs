@@ -253,6 +253,17 @@ fn base_white_noise_time_domain_agrees_with_the_linear_response() {
     let summary: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
     let r = &summary["random"];
+    // The RMS against time: the tip's windows, its stationary level with its standard
+    // error and where the stationary part starts, every label inside the view.
+    let svg = std::fs::read_to_string(out.join("random_rms.svg")).unwrap();
+    for needle in [
+        "w(x=1): RMS over windows of",
+        "w(x=1): stationary RMS",
+        "start of the stationary part,",
+        "RMS [m]",
+    ] {
+        assert!(svg.contains(needle), "random_rms.svg lacks {needle:?}");
+    }
     // One shape for outputs and powers alike: `{value, standard_error}`.
     let pair = |v: &serde_json::Value| {
         [
