@@ -5,6 +5,7 @@
 
 pub mod csv;
 pub mod digest;
+pub mod frf;
 pub mod hybrid;
 pub mod lock;
 pub mod map;

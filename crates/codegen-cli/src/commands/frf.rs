@@ -52,29 +52,17 @@
 //! the nonlinear runs can take, `M * max_periods * steps_per_period`, at most 2e7; above
 //! them the command is refused unless `--allow-long`.
 //!
-//! The command is this module (arguments, checks, the order of the steps); the analysis
-//! (`analysis.rs`: the output and excitation resolved against the model, the linear and
-//! nonlinear responses) and the report (`report.rs`: the files, through the one CSV writer
-//! [`crate::report::rows::CsvRows`] and [`crate::report::plot::plot_receptance_svg`]) are
-//! its two halves.
-
-mod analysis;
-mod report;
+//! The command is this module (arguments → [`FrfRequest`], the result → files and the
+//! summary line); the analysis is [`crate::analysis::frf`], the files
+//! [`crate::report::frf`] (through the one CSV writer and the plots).
 
 use std::path::PathBuf;
 
 use crate::Error;
-use crate::budget::{self, Quantity};
+use crate::analysis::frf::{Frf, FrfRequest, LinearRow, analyse, check};
+use crate::report::frf::{outputs, smallest};
 use crate::report::{OutputLock, ReportError, commit_files};
-use crate::scenario::{self, Scenario};
-use crate::setup::{Linearizable, tangents_for};
-use hybrid_core::hybrid::Linearization;
-
-pub(crate) use analysis::parse_output;
-pub use analysis::{LinearRow, NonlinearRow, Receptance, grid};
-use analysis::{linear_rows, nonlinear_rows, resolve, usage};
-pub use report::NonlinearColumn;
-use report::outputs;
+use crate::scenario;
 
 /// Arguments of `damper frf`.
 #[derive(clap::Args, Debug)]
@@ -133,143 +121,35 @@ pub struct Args {
     pub allow_long: bool,
 }
 
-/// The responses of a loaded scenario as [`run`] computes them before writing its files.
-pub struct Analysis {
-    lz: Linearizable,
-    lin: Linearization,
-    io: analysis::Io,
-    /// The frequencies of the linear response (Hz).
-    pub freqs: Vec<f64>,
-    /// The linear response, one row per frequency.
-    pub linear: Vec<LinearRow>,
-    /// The nonlinear steady states (`--nonlinear`).
-    pub nonlinear: Option<Vec<NonlinearRow>>,
-}
-
-impl Analysis {
-    /// The response's unit per unit force (`m/N`, `rad/N`, ..).
-    pub fn unit(&self) -> String {
-        self.io.unit()
+impl Args {
+    /// The analysis these arguments ask for.
+    pub fn request(&self) -> FrfRequest {
+        FrfRequest {
+            file: self.scenario.display().to_string(),
+            output: self.output.clone(),
+            from: self.from,
+            to: self.to,
+            points: self.points,
+            log: self.log,
+            nonlinear: self.nonlinear,
+            excitation: self.excitation.clone(),
+            force: self.force,
+            steps_per_period: self.steps_per_period,
+            tolerance: self.tolerance,
+            max_periods: self.max_periods,
+            progress: !self.quiet,
+            allow_long: self.allow_long,
+        }
     }
-
-    /// The columns of `frf.csv` (the same headers), one number per frequency.
-    pub fn columns(&self) -> Vec<(String, Vec<f64>)> {
-        report::linear_columns(&self.io, &self.linear)
-    }
-
-    /// With `--nonlinear`, the columns of `frf_nonlinear.csv` (the same headers, the same
-    /// values; built by the code that writes the file), one cell per frequency, typed as
-    /// the cells read ([`NonlinearColumn`]: numbers with `None` for an empty cell, `periods` as
-    /// counts, `settled` as flags, `error` as text).
-    pub fn nonlinear_columns(&self) -> Option<Vec<(String, NonlinearColumn)>> {
-        let nl = self.nonlinear.as_deref()?;
-        Some(report::nonlinear_columns(&self.io, &self.linear, nl))
-    }
-}
-
-/// The linear (and with `args.nonlinear` the nonlinear) frequency response of `sc` as
-/// `args` asks (its scenario path and output directory unused): what `damper frf` writes.
-pub fn analyse(args: &Args, sc: &Scenario) -> Result<Analysis, Error> {
-    let file = args.scenario.display().to_string();
-    if matches!(sc, Scenario::Mechanism(_)) {
-        return Err(usage(format!(
-            "{file}: `damper frf` needs a `damper` or `hybrid` scenario (a beam to respond)"
-        )));
-    }
-    let lz = tangents_for(sc)?;
-    let linear_error = |what: &str, e: hybrid_core::hybrid::LinearError| {
-        usage(format!("{file}: linearisation {what}: {e}"))
-    };
-    let lin = lz
-        .linearize(&lz.model)
-        .map_err(|e| linear_error("with generator", e))?;
-    let io = resolve(args, &lz, &lin)?;
-    if args.nonlinear.is_some() && io.scenario_excitation.is_none() && args.force.is_none() {
-        return Err(usage(
-            "--nonlinear: the scenario has no harmonic excitation: give the force amplitude at the output point with --force F (N, or N m on a revolute coordinate)",
-        ));
-    }
-    let off_model = lz.model.generators_disconnected();
-    let lin_off = lz
-        .linearize(&off_model)
-        .map_err(|e| linear_error("generator disconnected", e))?;
-    let f_with = lin.force_vector(&io.excitation.target);
-    let f_off = lin_off.force_vector(&io.excitation.target);
-    let freqs = grid(args.from, args.to, args.points, args.log);
-    let linear = linear_rows(&lz.model, &lin, &lin_off, &io, (&f_with, &f_off), &freqs)?;
-    let nonlinear = match args.nonlinear {
-        None => None,
-        Some(m) => Some(nonlinear_rows(args, &lz, &lin, &io, &f_with, m)?),
-    };
-    Ok(Analysis {
-        lz,
-        lin,
-        io,
-        freqs,
-        linear,
-        nonlinear,
-    })
-}
-
-/// Checks the options of `args` that do not need the scenario (the range, the counts, the
-/// limits of [`crate::budget`]).
-pub fn check(args: &Args) -> Result<(), Error> {
-    let file = args.scenario.display().to_string();
-    // Frequencies a structure can have: 1e-9 Hz (a period of 30 years) to 1e12 Hz; the
-    // bounds keep the geometric spacing and the logarithmic axis finite.
-    let (lo, hi) = (1e-9, 1e12);
-    let ok_range = args.from.is_finite()
-        && args.to.is_finite()
-        && args.from >= lo
-        && args.to <= hi
-        && args.to > args.from;
-    if !ok_range {
-        return Err(usage(format!(
-            "--from {} --to {}: give {lo:e} <= from < to <= {hi:e} (Hz)",
-            args.from, args.to
-        )));
-    }
-    if args.points < 2 {
-        return Err(usage("--points: at least 2"));
-    }
-    if args.nonlinear == Some(0) {
-        return Err(usage("--nonlinear: at least 1 frequency"));
-    }
-    if !(args.tolerance > 0.0 && args.tolerance < 1.0) {
-        return Err(usage("--tolerance: between 0 and 1"));
-    }
-    if args.steps_per_period < 8 {
-        return Err(usage("--steps-per-period: at least 8"));
-    }
-    let frequencies = args.points as f64 + args.nonlinear.unwrap_or(0) as f64;
-    let mut work = vec![Quantity::bytes(
-        "memory",
-        frequencies * budget::FRF_BYTES_PER_FREQUENCY,
-        budget::MAX_MEMORY,
-    )];
-    if let Some(m) = args.nonlinear {
-        work.push(Quantity::count(
-            "time steps",
-            m as f64 * args.max_periods as f64 * args.steps_per_period as f64,
-            budget::MAX_STEPS,
-        ));
-    }
-    budget::refuse_above(
-        &file,
-        &work,
-        "use fewer --points or --nonlinear frequencies, or a smaller --max-periods or --steps-per-period",
-        args.allow_long,
-    )?;
-    Ok(())
 }
 
 /// Runs `damper frf`.
 pub fn run(args: Args) -> Result<(), Error> {
-    check(&args)?;
-    let file = args.scenario.display().to_string();
+    let req = args.request();
+    check(&req)?;
+    let file = req.file.clone();
     let loaded = scenario::load_with(&args.scenario, &args.set)?;
     crate::budget::structure(&loaded.scenario, &file, args.allow_long)?;
-    let sc = loaded.scenario.clone();
     let stem = args
         .scenario
         .file_stem()
@@ -279,42 +159,36 @@ pub fn run(args: Args) -> Result<(), Error> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(&stem));
     if std::fs::metadata(&out).is_ok_and(|m| !m.is_dir()) {
-        return Err(usage(format!(
+        return Err(Error::Usage(format!(
             "output directory {} is not a directory",
             out.display()
         )));
     }
     // One run at a time into a directory; the files a killed run left are removed here.
     let _lock = OutputLock::acquire(&out).map_err(ReportError::from)?;
-    let Analysis {
-        lz,
-        lin,
+    let frf = analyse(&req, &loaded.scenario)?;
+    let overrides = args.set.iter().map(scenario::Override::record).collect();
+    let files = outputs(&req, overrides, &out, &frf)?;
+    for w in frf.warnings.iter().filter(|w| w.note) {
+        eprintln!("{w}");
+    }
+    commit_files(&files).map_err(ReportError::from)?;
+    for w in frf.warnings.iter().filter(|w| !w.note) {
+        eprintln!("{w}");
+    }
+    crate::print(&summary(&req, &out, &frf))
+}
+
+/// The line `damper frf` prints: the peaks, the smallest admissible loads, the nonlinear
+/// runs' outcome and the output directory.
+fn summary(req: &FrfRequest, out: &std::path::Path, frf: &Frf) -> String {
+    let Frf {
         io,
         freqs,
         linear,
         nonlinear,
-    } = analyse(&args, &sc)?;
-    let generators = lz
-        .model
-        .forces
-        .iter()
-        .filter(|f| f.generator().is_some())
-        .count();
-    let warnings = band_edge_warnings(&linear, &io.unit());
-    let files = outputs(
-        &args,
-        &out,
-        &file,
-        (&lz, &lin, &io),
-        &linear,
-        nonlinear.as_deref(),
-        generators,
-        &warnings,
-    )?;
-    commit_files(&files).map_err(ReportError::from)?;
-    for w in &warnings {
-        eprintln!("warning: {file}: {w}");
-    }
+        ..
+    } = frf;
     let peak_of = |of: fn(&LinearRow) -> f64| {
         linear
             .iter()
@@ -325,23 +199,24 @@ pub fn run(args: Args) -> Result<(), Error> {
     let peak_off = peak_of(|r| r.generator_disconnected.magnitude);
     let unit = io.unit();
     let mut text = format!(
-        "{file}: {} frequencies {}-{} Hz; peak |H| with generator {:.4e} {unit} at {:.4} Hz, generator disconnected {:.4e} {unit} at {:.4} Hz",
+        "{}: {} frequencies {}-{} Hz; peak |H| with generator {:.4e} {unit} at {:.4} Hz, generator disconnected {:.4e} {unit} at {:.4} Hz",
+        req.file,
         freqs.len(),
-        args.from,
-        args.to,
+        req.from,
+        req.to,
         peak.with_generator.magnitude,
         peak.f_hz,
         peak_off.generator_disconnected.magnitude,
         peak_off.f_hz
     );
     for (k, l) in io.limits.iter().enumerate() {
-        let (f, v) = report::smallest(&linear, k);
+        let (f, v) = smallest(linear, k);
         text += &format!(
             "; smallest max force ({}, reach {:.4e} m) {v:.4e} {} at {f:.4} Hz",
             l.name, l.reach, io.force_unit
         );
     }
-    if let Some(rows) = &nonlinear {
+    if let Some(rows) = nonlinear {
         let settled = rows.iter().filter(|r| r.settled).count();
         let failed = rows.iter().filter(|r| r.error.is_some()).count();
         text += &format!(
@@ -349,43 +224,5 @@ pub fn run(args: Args) -> Result<(), Error> {
             rows.len()
         );
     }
-    text += &format!("; outputs in {}\n", out.display());
-    crate::print(&text)
-}
-
-/// A warning for each linear response (with the generator, generator disconnected) whose
-/// largest magnitude over the band lies at its first or last frequency: the peak the user is
-/// after may lie outside the band (below it when at the first, above when at the last).
-fn band_edge_warnings(linear: &[LinearRow], unit: &str) -> Vec<String> {
-    type Of = fn(&LinearRow) -> f64;
-    let responses: [(&str, Of); 2] = [
-        ("with generator", |r| r.with_generator.magnitude),
-        ("generator disconnected", |r| {
-            r.generator_disconnected.magnitude
-        }),
-    ];
-    let n = linear.len();
-    responses
-        .iter()
-        .filter_map(|(label, of)| {
-            let k = (0..n).max_by(|&a, &b| of(&linear[a]).total_cmp(&of(&linear[b])))?;
-            let side = if k == 0 {
-                "first"
-            } else if k + 1 == n {
-                "last"
-            } else {
-                return None;
-            };
-            let (below, widen) = if k == 0 {
-                ("below", "--from")
-            } else {
-                ("above", "--to")
-            };
-            Some(format!(
-                "the largest |H| {label} ({:.4e} {unit}) is at the {side} frequency of the band, {} Hz: the peak may lie {below} the band (widen it with {widen})",
-                of(&linear[k]),
-                linear[k].f_hz
-            ))
-        })
-        .collect()
+    text + &format!("; outputs in {}\n", out.display())
 }
