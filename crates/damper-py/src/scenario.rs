@@ -10,8 +10,9 @@ use std::path::{Path, PathBuf};
 use codegen_cli::Error;
 use codegen_cli::analysis::frf::{self as frf_analysis, FrfRequest};
 use codegen_cli::analysis::linearize::{self as linearize_analysis, LinearizeRequest, Linearized};
+use codegen_cli::analysis::optimization::OptimizeRequest;
 use codegen_cli::analysis::stationary::{self, RandomRequest};
-use codegen_cli::commands::sweep;
+use codegen_cli::analysis::sweep::{self, SweepRequest};
 use codegen_cli::report::frf::NonlinearColumn;
 use codegen_cli::scenario::{self, Loaded, Override, Scenario};
 use hybrid_core::hybrid::EigenMethod;
@@ -132,16 +133,10 @@ pub fn simulate<'py>(
     allow_long: bool,
 ) -> PyResult<(Bound<'py, PyAny>, Columns<'py>, Vec<(String, Columns<'py>)>)> {
     let src = Source::new(text, file, base, sets)?;
+    let request = codegen_cli::run::SimulateRequest { allow_long };
     let out = interruptible(py, || {
         let loaded = src.load(allow_long)?;
-        let records = loaded.applied.records();
-        match &loaded.scenario {
-            Scenario::Hybrid(sc) => codegen_cli::run_hybrid::in_memory(sc, allow_long, records),
-            Scenario::Mechanism(sc) => {
-                codegen_cli::commands::simulate::mechanism_in_memory(sc, allow_long, records)
-            }
-        }
-        .map_err(|e| remapped(&loaded, e))
+        codegen_cli::run::simulate_in_memory(&request, &loaded)
     })?
     .map_err(|e| to_py(py, e, Input::Scenario))?;
     let summary = json(py, &out.summary)?;
@@ -366,57 +361,28 @@ pub fn sweep_grid<'py>(
         .iter()
         .map(|(p, v)| axis_spec(p, v))
         .collect::<PyResult<_>>()?;
-    let path = src.path();
-    let (grid, results) = interruptible(py, || {
+    let request = SweepRequest {
+        scenario: src.path(),
+        text: Some(src.text.clone()),
+        fixed: src.overrides.clone(),
+        sets: specs,
+        shard: None,
+        t_end: None,
+        time_domain,
+        constraints: vec![],
+        map: "linear.zeta1".into(),
+        minimize: false,
+        threads,
+        allow_long,
+    };
+    let (sweep::Sweep { grid, results, .. }, warnings) = interruptible(py, || {
         // The scenario and the fixed overrides must load before any point.
         src.check()?;
-        let shape = sweep::Shape::of(&specs)?;
-        let points = shape.shard_points(0, 1);
-        let subject = format!("sweep of {}", src.file);
-        let memory = shape.memory(points);
-        // Count and memory before the grid's values are allocated.
-        codegen_cli::budget::sweep(&subject, points as f64, memory, None, None, allow_long)?;
-        let grid = sweep::Grid::parse(&specs)?;
-        // The first point stands for the others: its structure and its time steps, as
-        // `damper sweep` estimates them.
-        let first = (points > 0)
-            .then(|| {
-                let mut overrides = src.overrides.clone();
-                overrides.extend(grid.overrides(0));
-                scenario::parse_with(&src.text, &path, &overrides).ok()
-            })
-            .flatten();
-        let steps = first
-            .as_ref()
-            .filter(|_| time_domain)
-            .and_then(|l| codegen_cli::budget::steps_per_run(&l.scenario));
-        codegen_cli::budget::sweep(
-            &subject,
-            points as f64,
-            memory,
-            steps,
-            first.as_ref().map(|l| &l.scenario),
-            allow_long,
-        )?;
-        let indices: Vec<usize> = (0..grid.len()).collect();
-        let options = codegen_cli::sweep_point::PointOptions {
-            time_domain,
-            allow_long,
-        };
-        let results = sweep::evaluate_points(
-            &path,
-            &src.text,
-            &src.overrides,
-            &grid,
-            &indices,
-            None,
-            &options,
-            sweep::threads(threads),
-            &|| {},
-        )?;
-        Ok((grid, results))
+        let plan = sweep::plan(&request)?;
+        Ok((sweep::evaluate(&request, &plan, &|| {})?, plan.warnings))
     })?
     .map_err(|e| to_py(py, e, Input::Scenario))?;
+    warn(py, &warnings)?;
     let rows: Vec<&sweep::PointResult> = results.iter().collect();
     let heads = sweep::figure_heads(&rows);
     let mut out: Vec<(String, Bound<'py, PyAny>)> = vec![];
@@ -550,17 +516,17 @@ pub fn optimize<'py>(
     let src = Source::new(text, file, base, sets)?;
     let path = src.path();
     let outcome = interruptible(py, || {
-        codegen_cli::commands::optimize::solve(
-            &path,
-            &src.text,
-            &src.overrides,
-            &vary,
-            &objective,
+        codegen_cli::analysis::optimization::solve(&OptimizeRequest {
+            scenario: path.clone(),
+            text: src.text.clone(),
+            fixed: src.overrides.clone(),
+            vary: vary.clone(),
+            objective: objective.clone(),
             maximize,
-            &constraints,
+            constraints: constraints.clone(),
             grid,
             allow_long,
-        )
+        })
         .map(|(outcome, _)| outcome)
     })?
     .map_err(|e| to_py(py, e, Input::Scenario))?;

@@ -11,7 +11,9 @@ pub mod eval;
 pub mod figures;
 pub mod frf;
 pub mod linearize;
+pub mod optimization;
 pub mod stationary;
+pub mod sweep;
 
 use serde::Serialize;
 

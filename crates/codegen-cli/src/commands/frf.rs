@@ -59,8 +59,8 @@
 use std::path::PathBuf;
 
 use crate::Error;
-use crate::analysis::frf::{Frf, FrfRequest, LinearRow, analyse, check};
-use crate::report::frf::{outputs, smallest};
+use crate::analysis::frf::{FrfRequest, analyse, check};
+use crate::report::frf::{outputs, summary};
 use crate::report::{OutputLock, ReportError, commit_files};
 use crate::scenario;
 
@@ -177,52 +177,4 @@ pub fn run(args: Args) -> Result<(), Error> {
         eprintln!("{w}");
     }
     crate::print(&summary(&req, &out, &frf))
-}
-
-/// The line `damper frf` prints: the peaks, the smallest admissible loads, the nonlinear
-/// runs' outcome and the output directory.
-fn summary(req: &FrfRequest, out: &std::path::Path, frf: &Frf) -> String {
-    let Frf {
-        io,
-        freqs,
-        linear,
-        nonlinear,
-        ..
-    } = frf;
-    let peak_of = |of: fn(&LinearRow) -> f64| {
-        linear
-            .iter()
-            .max_by(|a, b| of(a).total_cmp(&of(b)))
-            .expect("at least two frequencies")
-    };
-    let peak = peak_of(|r| r.with_generator.magnitude);
-    let peak_off = peak_of(|r| r.generator_disconnected.magnitude);
-    let unit = io.unit();
-    let mut text = format!(
-        "{}: {} frequencies {}-{} Hz; peak |H| with generator {:.4e} {unit} at {:.4} Hz, generator disconnected {:.4e} {unit} at {:.4} Hz",
-        req.file,
-        freqs.len(),
-        req.from,
-        req.to,
-        peak.with_generator.magnitude,
-        peak.f_hz,
-        peak_off.generator_disconnected.magnitude,
-        peak_off.f_hz
-    );
-    for (k, l) in io.limits.iter().enumerate() {
-        let (f, v) = smallest(linear, k);
-        text += &format!(
-            "; smallest max force ({}, reach {:.4e} m) {v:.4e} {} at {f:.4} Hz",
-            l.name, l.reach, io.force_unit
-        );
-    }
-    if let Some(rows) = nonlinear {
-        let settled = rows.iter().filter(|r| r.settled).count();
-        let failed = rows.iter().filter(|r| r.error.is_some()).count();
-        text += &format!(
-            "; nonlinear: {} frequencies, {settled} settled, {failed} stopped",
-            rows.len()
-        );
-    }
-    text + &format!("; outputs in {}\n", out.display())
 }

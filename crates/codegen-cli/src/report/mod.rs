@@ -9,12 +9,14 @@ pub mod frf;
 pub mod hybrid;
 pub mod lock;
 pub mod map;
+pub mod mechanism;
 pub mod plot;
 pub mod random_run;
 pub mod rows;
 pub mod steady_power;
 pub mod stream;
 pub mod summary;
+pub mod sweep;
 pub mod writer;
 
 pub use lock::{LockError, OutputLock};
