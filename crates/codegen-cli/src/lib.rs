@@ -136,7 +136,7 @@ pub enum Error {
     Usage(String),
     /// Invalid `--set PATH=VALUES` or `--shard` options of a sweep.
     #[error(transparent)]
-    Sweep(#[from] commands::sweep::SpecError),
+    Sweep(#[from] analysis::sweep::SpecError),
     /// The run was asked to stop ([`interrupt::StopToken::stop`]); nothing was written.
     #[error("interrupted")]
     Interrupted,

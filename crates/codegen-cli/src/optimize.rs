@@ -27,7 +27,7 @@
 use rayon::prelude::*;
 
 use crate::analysis::figures::{Bound, Constraint};
-use crate::commands::sweep::SpecError;
+use crate::analysis::sweep::SpecError;
 use crate::scenario::Override;
 use crate::scenario::overrides::parse_value;
 use crate::sweep_point::{self, Figure, PointError, PointOptions};

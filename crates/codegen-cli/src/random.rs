@@ -30,7 +30,7 @@ use hybrid_core::hybrid::{
 use serde::Serialize;
 
 use crate::Error;
-use crate::commands::frf::parse_output;
+use crate::analysis::frf::parse_output;
 use crate::scenario::Scenario;
 use crate::setup::Linearizable;
 

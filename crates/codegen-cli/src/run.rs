@@ -1,7 +1,8 @@
 //! Running a rigid closed-loop mechanism scenario (`kind = "mechanism"`, eqs. 14–25):
 //! scenario → model → hybrid-core → observer, on the compiled-in generated code or the DAG
 //! interpreter, every output row passed to an observer. (Damper and hybrid scenarios run
-//! through [`crate::run_hybrid`].)
+//! through [`crate::run_hybrid`].) The run of a loaded scenario in memory, either kind, is
+//! [`simulate_in_memory`].
 
 use hybrid_core::closed_loop::{
     self, AssemblyOptions, Event, OutputRow, PartitionChange, Settings, Simulator, Stats, System,
@@ -12,8 +13,42 @@ use indicatif::ProgressBar;
 use mbs_symbolic::model::Model;
 use mbs_symbolic::runtime::CoordinateUnit;
 
+use std::time::Instant;
+
+use hybrid_core::closed_loop::Method;
+
 use crate::Error;
-use crate::scenario::MechanismScenario;
+use crate::budget::{self, Estimate};
+use crate::report::ReportError;
+use crate::report::summary::{
+    ChangeSummary, DriftSummary, FinalState, IntegratorSummary, MechanismSettings,
+    MechanismSummary, PartitionSummary, Requested, json_bytes,
+};
+use crate::run_hybrid::InMemory;
+use crate::scenario::{Loaded, MechanismScenario, OverrideRecord, Scenario};
+
+/// What to run: a loaded scenario as `damper simulate` runs it, held in memory.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SimulateRequest {
+    /// Run even above the limits of [`crate::budget`] (steps, rows, memory).
+    pub allow_long: bool,
+}
+
+/// Runs the loaded scenario (its structure already within the budget) as `damper simulate`
+/// does, in memory: the summary's bytes, the columns of the time history and of every
+/// comparison run ([`crate::run_hybrid::in_memory`], [`mechanism_in_memory`]); a problem
+/// found against the model names the file and the overrides the user wrote.
+pub fn simulate_in_memory(req: &SimulateRequest, loaded: &Loaded) -> Result<InMemory, Error> {
+    let records = loaded.applied.records();
+    match &loaded.scenario {
+        Scenario::Hybrid(sc) => crate::run_hybrid::in_memory(sc, req.allow_long, records),
+        Scenario::Mechanism(sc) => mechanism_in_memory(sc, req.allow_long, records),
+    }
+    .map_err(|e| match e {
+        Error::Input(d) => Error::Input(loaded.remap(d)),
+        e => e,
+    })
+}
 
 /// A finished (or stopped) closed-loop mechanism run.
 #[derive(Debug)]
@@ -142,4 +177,215 @@ pub fn mechanism(
         last_row,
         result,
     })
+}
+
+/// Runs a closed-loop mechanism scenario within the step limit of [`crate::budget`] (unless
+/// `allow_long`), every output row to `observer`; a run that stopped is the error (naming
+/// the time reached). Returns the scenario as run (its step limit capped) and the outcome.
+pub fn mechanism_run(
+    sc: &MechanismScenario,
+    model: &mbs_symbolic::model::Model,
+    progress: bool,
+    allow_long: bool,
+    observer: &mut RowObserver<'_>,
+) -> Result<(MechanismScenario, MechanismOutcome), Error> {
+    let estimate = Estimate::mechanism(sc, model.dof());
+    estimate.check(&sc.file, allow_long)?;
+    // The adaptive step count is only estimated: the step limit is the guard that holds.
+    let capped = budget::capped_max_steps(sc.settings.max_steps, allow_long);
+    let was_capped = capped < sc.settings.max_steps;
+    let mut sc = sc.clone();
+    sc.settings.max_steps = capped;
+    let mut outcome = mechanism(&sc, model, progress, &mut |names, units, row| {
+        if !crate::interrupt::stop_requested() {
+            observer(names, units, row)
+        }
+    })?;
+    if crate::interrupt::stop_requested() {
+        return Err(Error::Interrupted);
+    }
+    if let Err(error) = std::mem::replace(&mut outcome.result, Ok(())) {
+        let t = outcome
+            .last_row
+            .as_ref()
+            .map_or(outcome.settings.t_start, |r| r.t);
+        return Err(match error {
+            hybrid_core::closed_loop::SimError::TooManySteps { .. } if was_capped => {
+                Error::TooLong(format!(
+                    "{}: simulation stopped at t = {t} (nothing written): {error}, above the estimate ({estimate}); pass --allow-long to lift the limit of {:.0e} steps",
+                    sc.file,
+                    budget::MAX_STEPS
+                ))
+            }
+            error => Error::Stopped {
+                file: sc.file.clone(),
+                t,
+                error,
+            },
+        });
+    }
+    Ok((sc, outcome))
+}
+
+/// A closed-loop mechanism scenario run as `damper simulate` runs it, held in memory (no file
+/// written, no plot drawn): `<stem>_summary.json` byte for byte and the columns of
+/// `<stem>.csv` ([`crate::report::csv::mechanism_header`]). [`Error::Interrupted`] when
+/// [`crate::interrupt::StopToken::stop`] is called during the run.
+pub fn mechanism_in_memory(
+    sc: &MechanismScenario,
+    allow_long: bool,
+    overrides: Vec<OverrideRecord>,
+) -> Result<crate::run_hybrid::InMemory, Error> {
+    use crate::report::rows::{ColumnRows, RowSink};
+    let started = Instant::now();
+    let model = mbs_symbolic::model::load(&sc.model)?;
+    let mut rows: Option<ColumnRows> = None;
+    let mut cells = vec![];
+    let (sc, outcome) = mechanism_run(sc, &model, false, allow_long, &mut |names, units, row| {
+        let sink = rows.get_or_insert_with(|| {
+            ColumnRows::new(&crate::report::csv::mechanism_header(names, units))
+        });
+        crate::report::csv::mechanism_cells(row, &mut cells);
+        let _ = sink.write_row(&cells);
+    })?;
+    let rows = rows.unwrap_or_else(|| {
+        ColumnRows::new(&crate::report::csv::mechanism_header(
+            &outcome.names,
+            &outcome.units,
+        ))
+    });
+    let summary = mechanism_summary(
+        &sc,
+        &model,
+        &outcome,
+        rows.rows() as usize,
+        started.elapsed().as_secs_f64(),
+        overrides,
+    );
+    Ok(crate::run_hybrid::InMemory {
+        summary: json_bytes(&summary).map_err(ReportError::from)?,
+        rows,
+        comparisons: vec![],
+    })
+}
+
+/// The summary of a closed-loop mechanism run.
+pub fn mechanism_summary(
+    sc: &MechanismScenario,
+    model: &mbs_symbolic::model::Model,
+    o: &MechanismOutcome,
+    rows: usize,
+    wall: f64,
+    overrides: Vec<OverrideRecord>,
+) -> MechanismSummary {
+    let (stats, settings, names) = (&o.stats, &o.settings, &o.names);
+    let integrator = match settings.method {
+        Method::Dopri5 {
+            rtol,
+            atol,
+            initial_step,
+            max_step,
+        } => IntegratorSummary::Dopri5 {
+            rtol,
+            atol,
+            initial_step,
+            max_step,
+        },
+        Method::Rk4 { step } => IntegratorSummary::Rk4 { step },
+    };
+    let ps = &settings.partition;
+    let independent = match &ps.independent {
+        Some(idx) => Requested::Names(idx.iter().map(|&i| names[i].clone()).collect()),
+        None => Requested::Automatic("automatic"),
+    };
+    let e0 = stats.initial_energy;
+    let scale = e0.map(|e| e.abs().max(stats.max_kinetic_energy));
+    let final_drift = match (o.last_row.as_ref().and_then(|r| r.total_energy()), e0) {
+        (Some(e), Some(e0)) => Some(e - e0),
+        _ => None,
+    };
+    let max_relative_drift = match (stats.max_energy_error, scale) {
+        (Some(d), Some(s)) if s > 0.0 => Some(d / s),
+        // No energy at all (no gravity, at rest): nothing drifted; 0/0 is not reported.
+        (Some(0.0), Some(_)) => Some(0.0),
+        _ => None,
+    };
+    let named = |values: &[f64]| names.iter().cloned().zip(values.iter().copied()).collect();
+    let final_state = match &o.last_row {
+        Some(r) => FinalState {
+            t: r.t,
+            q: named(&r.q),
+            qd: named(&r.qd),
+        },
+        None => FinalState {
+            t: settings.t_start,
+            q: Default::default(),
+            qd: Default::default(),
+        },
+    };
+    MechanismSummary {
+        scenario: sc.file.clone(),
+        overrides,
+        description: sc.description.clone(),
+        model: sc.model.display().to_string(),
+        model_name: model.name.clone(),
+        model_hash: model.source.hash.clone(),
+        backend: o.backend,
+        status: if o.result.is_ok() {
+            "completed"
+        } else {
+            "stopped"
+        },
+        error: o.result.as_ref().err().map(|e| e.to_string()),
+        settings: MechanismSettings {
+            integrator,
+            t_start: settings.t_start,
+            t_end: settings.t_end,
+            output_step: settings.output_step,
+            projection_tol: settings.projection_tol,
+            max_steps: settings.max_steps,
+            partition: PartitionSummary {
+                independent,
+                allow_redundant: ps.allow_redundant,
+                repartition: ps.repartition,
+                switch_ratio: ps.switch_ratio,
+                max_condition: ps.max_condition,
+                singular_condition: ps.singular_condition,
+                rank_tol: ps.rank_tol,
+            },
+        },
+        initial_independent: o.initial_independent.clone(),
+        final_independent: o.final_independent.clone(),
+        dropped_constraint_rows: o.dropped.clone(),
+        partition_changes: o
+            .changes
+            .iter()
+            .map(|c| ChangeSummary {
+                t: c.t,
+                from: c.from.clone(),
+                to: c.to.clone(),
+                cond_before: c.cond_before,
+                cond_after: c.cond_after,
+                log: c.to_string(),
+            })
+            .collect(),
+        energy: DriftSummary {
+            initial_total: e0,
+            max_abs_drift: stats.max_energy_error,
+            max_relative_drift,
+            relative_to: "max(|E(t_start)|, max kinetic energy)",
+            final_drift,
+        },
+        max_constraint_residual_norm: stats.max_residual,
+        steps_accepted: stats.steps_accepted,
+        steps_rejected: stats.steps_rejected,
+        rhs_evaluations: stats.rhs_evaluations,
+        newton_iterations: stats.newton_iterations,
+        min_step: stats.min_step,
+        max_step: stats.max_step,
+        output_rows: rows,
+        final_time: stats.final_time,
+        final_state,
+        wall_time_s: wall,
+    }
 }

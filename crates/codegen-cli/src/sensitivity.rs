@@ -565,7 +565,7 @@ impl Adjoint<'_> {
                 .collect();
             let bw = DMatrix::from_fn(ss.b.nrows(), ss.b.ncols(), |i, j| ss.b[(i, j)] * w[j]);
             let q = &bw * ss.b.transpose();
-            let (target, _, _) = crate::commands::frf::parse_output(m, output)?;
+            let (target, _, _) = crate::analysis::frf::parse_output(m, output)?;
             let c = ss.row(&StateOutput::position(pt.lin.force_vector(&target)));
             Ok((
                 ss.a,

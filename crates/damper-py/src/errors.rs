@@ -11,6 +11,10 @@
 //! - invalid arguments (`ValueError`; `TypeError` for a wrong type), every other failure
 //!   `DamperError`.
 //!
+//! - a warning of an analysis (a result still computed: a peak at an edge of the frf band)
+//!   is issued through `warnings.warn` as a `DamperWarning` (a subclass of `UserWarning`)
+//!   carrying `file` and `entity` (`None` where not known) ([`warn`]).
+//!
 //! The exceptions belong to the public module `damper` (their `__module__`), so that they
 //! pickle: `multiprocessing` and `concurrent.futures` bring a worker's exception to the
 //! parent as it was raised, with its attributes.
@@ -45,6 +49,33 @@ pyo3::create_exception!(
     DamperError,
     "A run stopped at a singular (toggle) position: `time` (s), `distance` (m, the displacement of the mechanism's first attached beam point), `reach` (m or None), `mechanism`."
 );
+
+pyo3::create_exception!(
+    damper,
+    DamperWarning,
+    pyo3::exceptions::PyUserWarning,
+    "A warning of an analysis whose result is still computed (a peak at an edge of the band): `file`, `entity` (None where not known)."
+);
+
+/// Issues every warning of a result through Python's `warnings.warn`, as a `DamperWarning`
+/// with `file` and `entity`, attributed to the caller of the public function (`stacklevel`
+/// 2: the user's code, not the package's wrapper).
+pub fn warn(py: Python<'_>, warnings: &[codegen_cli::analysis::Warning]) -> PyResult<()> {
+    let module = py.import("warnings")?;
+    for w in warnings {
+        let message = match (&w.file, w.note) {
+            (Some(file), false) => format!("{file}: {}", w.message),
+            _ => w.message.clone(),
+        };
+        let value = py.get_type::<DamperWarning>().call1((message,))?;
+        value.setattr("file", w.file.clone())?;
+        value.setattr("entity", w.entity.clone())?;
+        let kwargs = pyo3::types::PyDict::new(py);
+        kwargs.set_item("stacklevel", 2)?;
+        module.call_method("warn", (value,), Some(&kwargs))?;
+    }
+    Ok(())
+}
 
 /// Which kind of input file a diagnostic is about.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -26,6 +26,7 @@ fn _damper(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ScenarioError", py.get_type::<errors::ScenarioError>())?;
     m.add("ModelError", py.get_type::<errors::ModelError>())?;
     m.add("DamperError", py.get_type::<errors::DamperError>())?;
+    m.add("DamperWarning", py.get_type::<errors::DamperWarning>())?;
     m.add(
         "SingularPosition",
         py.get_type::<errors::SingularPosition>(),

@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use codegen_cli::Error;
-use codegen_cli::commands::eval;
+use codegen_cli::analysis::eval::{self, Backend, EvalRequest};
 use mbs_symbolic::emit::{EmitOptions, generate};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -57,17 +57,12 @@ pub fn model_eval<'py>(
             "q and qd: give one value per coordinate of the model (an empty vector is not a state)",
         ));
     }
-    let backend = match backend {
-        "interp" => eval::Backend::Interp,
-        "numeric" => eval::Backend::Numeric,
-        "generated" => eval::Backend::Generated,
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "backend {other:?}: expected \"interp\", \"numeric\" or \"generated\""
-            )));
-        }
-    };
-    let args = eval::Args {
+    let backend = Backend::parse(backend).ok_or_else(|| {
+        PyValueError::new_err(format!(
+            "backend {backend:?}: expected \"interp\", \"numeric\" or \"generated\""
+        ))
+    })?;
+    let request = EvalRequest {
         model: path,
         q,
         qd,
@@ -75,8 +70,8 @@ pub fn model_eval<'py>(
         params,
         backend,
     };
-    let value =
-        interruptible(py, || eval::evaluation(&args))?.map_err(|e| to_py(py, e, Input::Model))?;
+    let value = interruptible(py, || eval::evaluation(&request))?
+        .map_err(|e| to_py(py, e, Input::Model))?;
     to_python(py, &value)
 }
 

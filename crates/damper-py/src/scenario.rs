@@ -8,17 +8,21 @@
 use std::path::{Path, PathBuf};
 
 use codegen_cli::Error;
-use codegen_cli::commands::frf as frf_command;
-use codegen_cli::commands::sweep;
+use codegen_cli::analysis::frf::{self as frf_analysis, FrfRequest};
+use codegen_cli::analysis::linearize::{self as linearize_analysis, LinearizeRequest, Linearized};
+use codegen_cli::analysis::optimization::OptimizeRequest;
+use codegen_cli::analysis::stationary::{self, RandomRequest};
+use codegen_cli::analysis::sweep::{self, SweepRequest};
+use codegen_cli::report::frf::NonlinearColumn;
 use codegen_cli::scenario::{self, Loaded, Override, Scenario};
-use hybrid_core::hybrid::{EigenMethod, Matrix};
+use hybrid_core::hybrid::EigenMethod;
 use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyList;
 
 use crate::convert::{array1, array2, axis_spec, json, matrix, overrides, to_python};
-use crate::errors::{Input, to_py};
+use crate::errors::{Input, to_py, warn};
 use crate::watch::interruptible;
 
 /// A scenario as the Python side holds it.
@@ -129,16 +133,10 @@ pub fn simulate<'py>(
     allow_long: bool,
 ) -> PyResult<(Bound<'py, PyAny>, Columns<'py>, Vec<(String, Columns<'py>)>)> {
     let src = Source::new(text, file, base, sets)?;
+    let request = codegen_cli::run::SimulateRequest { allow_long };
     let out = interruptible(py, || {
         let loaded = src.load(allow_long)?;
-        let records = loaded.applied.records();
-        match &loaded.scenario {
-            Scenario::Hybrid(sc) => codegen_cli::run_hybrid::in_memory(sc, allow_long, records),
-            Scenario::Mechanism(sc) => {
-                codegen_cli::commands::simulate::mechanism_in_memory(sc, allow_long, records)
-            }
-        }
-        .map_err(|e| remapped(&loaded, e))
+        codegen_cli::run::simulate_in_memory(&request, &loaded)
     })?
     .map_err(|e| to_py(py, e, Input::Scenario))?;
     let summary = json(py, &out.summary)?;
@@ -218,39 +216,22 @@ pub fn linearize<'py>(
     if modes == 0 {
         return Err(PyValueError::new_err("modes must be at least 1"));
     }
-    let method: EigenMethod = codegen_cli::commands::linearize::parse_method(&method)
+    let method: EigenMethod = codegen_cli::analysis::linearize::parse_method(&method)
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let src = Source::new(text, file, base, sets)?;
-    let (report, dense) = interruptible(py, || {
+    let request = LinearizeRequest {
+        file: src.file.clone(),
+        modes,
+        method,
+        matrices,
+        allow_long,
+    };
+    let Linearized {
+        report,
+        matrices: dense,
+    } = interruptible(py, || {
         let loaded = src.load(allow_long)?;
-        let input =
-            codegen_cli::setup::tangents_for(&loaded.scenario).map_err(|e| remapped(&loaded, e))?;
-        codegen_cli::commands::linearize::check_work(&src.file, &input, modes, method, allow_long)?;
-        let (mut report, lin) =
-            codegen_cli::linear::analyse_linearization(&src.file, &input, modes, method)
-                .map_err(|e| remapped(&loaded, e))?;
-        report.overrides = loaded.applied.records();
-        let dense = if matrices {
-            let d = lin.dim() as f64;
-            codegen_cli::budget::refuse_above(
-                &src.file,
-                &[codegen_cli::budget::Quantity::bytes(
-                    "memory of M_R, C_R, K_R",
-                    3.0 * 8.0 * d * d,
-                    codegen_cli::budget::MAX_MEMORY,
-                )],
-                &format!("{d} reduced coordinates: use fewer beam elements or matrices=False"),
-                allow_long,
-            )?;
-            Some((
-                lin.dense(Matrix::Mass),
-                lin.dense(Matrix::Damping),
-                lin.dense(Matrix::Stiffness),
-            ))
-        } else {
-            None
-        };
-        Ok((report, dense))
+        linearize_analysis::linearize(&request, &loaded)
     })?
     .map_err(|e| to_py(py, e, Input::Scenario))?;
     let with = shapes(py, &report.modes)?;
@@ -297,8 +278,8 @@ pub fn frf<'py>(
     allow_long: bool,
 ) -> PyResult<(Columns<'py>, Option<Vec<(String, Bound<'py, PyAny>)>>)> {
     let src = Source::new(text, file, base, sets)?;
-    let args = frf_command::Args {
-        scenario: PathBuf::from(&src.file),
+    let request = FrfRequest {
+        file: src.file.clone(),
         output,
         from: f_from,
         to: f_to,
@@ -307,22 +288,21 @@ pub fn frf<'py>(
         nonlinear,
         excitation,
         force,
-        set: vec![],
         steps_per_period,
         tolerance,
         max_periods,
-        out: None,
-        quiet: true,
+        progress: false,
         allow_long,
     };
-    let (cols, nl) = interruptible(py, || {
-        frf_command::check(&args)?;
+    let (cols, nl, warnings) = interruptible(py, || {
+        frf_analysis::check(&request)?;
         let loaded = src.load(allow_long)?;
-        let analysis =
-            frf_command::analyse(&args, &loaded.scenario).map_err(|e| remapped(&loaded, e))?;
-        Ok((analysis.columns(), analysis.nonlinear_columns()))
+        let frf =
+            frf_analysis::analyse(&request, &loaded.scenario).map_err(|e| remapped(&loaded, e))?;
+        Ok((frf.columns(), frf.nonlinear_columns(), frf.warnings))
     })?
     .map_err(|e| to_py(py, e, Input::Scenario))?;
+    warn(py, &warnings)?;
     let nl = nl
         .map(|cols| {
             cols.into_iter()
@@ -337,11 +317,8 @@ pub fn frf<'py>(
 }
 
 /// A column of `frf_nonlinear.csv` as Python holds it (see [`frf`]).
-fn nonlinear_column(
-    py: Python<'_>,
-    column: frf_command::NonlinearColumn,
-) -> PyResult<Bound<'_, PyAny>> {
-    use frf_command::NonlinearColumn as C;
+fn nonlinear_column(py: Python<'_>, column: NonlinearColumn) -> PyResult<Bound<'_, PyAny>> {
+    use NonlinearColumn as C;
     Ok(match column {
         C::Numbers(v) => {
             array1(py, v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect()).into_any()
@@ -384,57 +361,28 @@ pub fn sweep_grid<'py>(
         .iter()
         .map(|(p, v)| axis_spec(p, v))
         .collect::<PyResult<_>>()?;
-    let path = src.path();
-    let (grid, results) = interruptible(py, || {
+    let request = SweepRequest {
+        scenario: src.path(),
+        text: Some(src.text.clone()),
+        fixed: src.overrides.clone(),
+        sets: specs,
+        shard: None,
+        t_end: None,
+        time_domain,
+        constraints: vec![],
+        map: "linear.zeta1".into(),
+        minimize: false,
+        threads,
+        allow_long,
+    };
+    let (sweep::Sweep { grid, results, .. }, warnings) = interruptible(py, || {
         // The scenario and the fixed overrides must load before any point.
         src.check()?;
-        let shape = sweep::Shape::of(&specs)?;
-        let points = shape.shard_points(0, 1);
-        let subject = format!("sweep of {}", src.file);
-        let memory = shape.memory(points);
-        // Count and memory before the grid's values are allocated.
-        codegen_cli::budget::sweep(&subject, points as f64, memory, None, None, allow_long)?;
-        let grid = sweep::Grid::parse(&specs)?;
-        // The first point stands for the others: its structure and its time steps, as
-        // `damper sweep` estimates them.
-        let first = (points > 0)
-            .then(|| {
-                let mut overrides = src.overrides.clone();
-                overrides.extend(grid.overrides(0));
-                scenario::parse_with(&src.text, &path, &overrides).ok()
-            })
-            .flatten();
-        let steps = first
-            .as_ref()
-            .filter(|_| time_domain)
-            .and_then(|l| codegen_cli::budget::steps_per_run(&l.scenario));
-        codegen_cli::budget::sweep(
-            &subject,
-            points as f64,
-            memory,
-            steps,
-            first.as_ref().map(|l| &l.scenario),
-            allow_long,
-        )?;
-        let indices: Vec<usize> = (0..grid.len()).collect();
-        let options = codegen_cli::sweep_point::PointOptions {
-            time_domain,
-            allow_long,
-        };
-        let results = sweep::evaluate_points(
-            &path,
-            &src.text,
-            &src.overrides,
-            &grid,
-            &indices,
-            None,
-            &options,
-            sweep::threads(threads),
-            &|| {},
-        )?;
-        Ok((grid, results))
+        let plan = sweep::plan(&request)?;
+        Ok((sweep::evaluate(&request, &plan, &|| {})?, plan.warnings))
     })?
     .map_err(|e| to_py(py, e, Input::Scenario))?;
+    warn(py, &warnings)?;
     let rows: Vec<&sweep::PointResult> = results.iter().collect();
     let heads = sweep::figure_heads(&rows);
     let mut out: Vec<(String, Bound<'py, PyAny>)> = vec![];
@@ -512,21 +460,18 @@ pub fn random<'py>(
         return Err(PyValueError::new_err("modes must be at least 1"));
     }
     let src = Source::new(text, file, base, sets)?;
+    let request = RandomRequest {
+        file: src.file.clone(),
+        options: codegen_cli::random::RandomOptions {
+            method,
+            modes,
+            outputs,
+        },
+        allow_long,
+    };
     let report = interruptible(py, || {
         let loaded = src.load(allow_long)?;
-        let input =
-            codegen_cli::setup::tangents_for(&loaded.scenario).map_err(|e| remapped(&loaded, e))?;
-        codegen_cli::commands::random::check_work(&src.file, &input, method, modes, allow_long)?;
-        codegen_cli::random::analyse(
-            &src.file,
-            &loaded.scenario,
-            &codegen_cli::random::RandomOptions {
-                method,
-                modes,
-                outputs: outputs.clone(),
-            },
-        )
-        .map_err(|e| remapped(&loaded, e))
+        stationary::random(&request, &loaded)
     })?
     .map_err(|e| to_py(py, e, Input::Scenario))?;
     to_python(py, &report)
@@ -571,17 +516,17 @@ pub fn optimize<'py>(
     let src = Source::new(text, file, base, sets)?;
     let path = src.path();
     let outcome = interruptible(py, || {
-        codegen_cli::commands::optimize::solve(
-            &path,
-            &src.text,
-            &src.overrides,
-            &vary,
-            &objective,
+        codegen_cli::analysis::optimization::solve(&OptimizeRequest {
+            scenario: path.clone(),
+            text: src.text.clone(),
+            fixed: src.overrides.clone(),
+            vary: vary.clone(),
+            objective: objective.clone(),
             maximize,
-            &constraints,
+            constraints: constraints.clone(),
             grid,
             allow_long,
-        )
+        })
         .map(|(outcome, _)| outcome)
     })?
     .map_err(|e| to_py(py, e, Input::Scenario))?;

@@ -168,3 +168,33 @@ def test_figures_equal_the_cli(monkeypatch: pytest.MonkeyPatch, root: Path) -> N
         names = [f["name"] for f in listed]
         assert "linear.zeta1" in names
         assert ("random.load_power" in names) == ("random" in rel)
+
+
+def test_frf_band_edge_warnings_reach_python(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, root: Path) -> None:
+    """The band 7-12 Hz lies above the damper's first mode (5.94 Hz): the largest |H| of both
+    responses is at the first frequency. The command line prints two `warning:` lines;
+    Python issues the same texts as `DamperWarning`s with the file and the response; a band
+    around the mode gives neither."""
+    monkeypatch.chdir(root)
+    args = ["scenarios/damper.toml", "--output", "1.0", "--from", "7", "--to", "12", "--points", "30"]
+    run = cli("frf", *args, "-o", str(tmp_path / "edge"))
+    lines = [l for l in run.stderr.splitlines() if l.startswith("warning: ")]
+    assert len(lines) == 2, run.stderr
+    sc = damper.Scenario.load("scenarios/damper.toml")
+    with pytest.warns(damper.DamperWarning) as caught:
+        sc.frf(1.0, 7.0, 12.0, points=30)
+    got = [w for w in caught if issubclass(w.category, damper.DamperWarning)]
+    assert [str(w.message) for w in got] == [l[len("warning: "):] for l in lines]
+    assert [w.message.entity for w in got] == ["|H| with generator", "|H| generator disconnected"]
+    assert all(w.message.file == "scenarios/damper.toml" for w in got)
+    assert issubclass(damper.DamperWarning, UserWarning)
+    # Attributed to the caller (this file), not to the package's wrapper.
+    assert all(Path(w.filename).name == "test_linear.py" for w in got)
+    quiet = cli("frf", "scenarios/damper.toml", "--output", "1.0", "--from", "2", "--to", "12", "--points", "30",
+                "-o", str(tmp_path / "inside"))
+    assert "warning:" not in quiet.stderr
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", damper.DamperWarning)
+        sc.frf(1.0, 2.0, 12.0, points=30)

@@ -6,10 +6,7 @@
 //! generators' velocity amplification at the equilibrium. A table on standard output, or the
 //! whole report as JSON with `--json`.
 //!
-//! **Limits** (`crate::budget`): before the eigen-solves, their memory and work are
-//! estimated from the number of states (`2 (beam DOFs + mechanism coordinates) +
-//! generators`, an upper bound), `--modes` and the method (dense: every state; Arnoldi:
-//! `2 K + 20` Krylov vectors), for the three variants; above 1 GiB or 1e12 flops the command
+//! The analysis and its limits are [`crate::analysis::linearize`]; above them the command
 //! is refused unless `--allow-long`.
 
 use std::fmt::Write as _;
@@ -18,12 +15,12 @@ use std::path::PathBuf;
 use hybrid_core::hybrid::{EigenMethod, ModeKind};
 
 use crate::Error;
-use crate::budget::{self, Quantity};
-use crate::linear::{LinearReport, ModeReport, analyse_model};
+use crate::analysis::linearize::{LinearizeRequest, check, linearize, parse_method};
+use crate::budget;
+use crate::linear::{LinearReport, ModeReport};
 use crate::report::ReportError;
 use crate::report::summary::json_bytes;
 use crate::scenario::{self, Override};
-use crate::setup::{Linearizable, tangents_for};
 
 /// Arguments of `damper linearize`.
 #[derive(clap::Args, Debug)]
@@ -48,75 +45,24 @@ pub struct Args {
     pub allow_long: bool,
 }
 
-/// A `--method` that is not one of the eigen-solvers.
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("unknown method {0:?}: expected auto, dense or shift-invert")]
-pub struct UnknownMethod(String);
-
-/// The eigen-solver named `auto`, `dense` or `shift-invert`.
-pub fn parse_method(s: &str) -> Result<EigenMethod, UnknownMethod> {
-    match s {
-        "auto" => Ok(EigenMethod::Auto),
-        "dense" => Ok(EigenMethod::Dense),
-        "shift-invert" => Ok(EigenMethod::ShiftInvert),
-        other => Err(UnknownMethod(other.to_string())),
-    }
-}
-
 /// Runs `damper linearize`.
 pub fn run(args: Args) -> Result<(), Error> {
-    if args.modes == 0 {
-        return Err(Error::Usage("--modes must be at least 1".into()));
-    }
-    let loaded = scenario::load_with(&args.scenario, &args.set)?;
-    let file = args.scenario.display().to_string();
-    budget::structure(&loaded.scenario, &file, args.allow_long)?;
-    let remap = |e: Error| match e {
-        Error::Input(d) => Error::Input(loaded.remap(d)),
-        e => e,
+    let req = LinearizeRequest {
+        file: args.scenario.display().to_string(),
+        modes: args.modes,
+        method: args.method,
+        matrices: false,
+        allow_long: args.allow_long,
     };
-    let input = tangents_for(&loaded.scenario).map_err(remap)?;
-    check_work(&file, &input, args.modes, args.method, args.allow_long)?;
-    let mut report = analyse_model(&file, &input, args.modes, args.method).map_err(remap)?;
-    report.overrides = loaded.applied.records();
+    check(&req)?;
+    let loaded = scenario::load_with(&args.scenario, &args.set)?;
+    budget::structure(&loaded.scenario, &req.file, args.allow_long)?;
+    let report = linearize(&req, &loaded)?.report;
     if args.json {
         let bytes = json_bytes(&report).map_err(ReportError::Json)?;
         return crate::print(&String::from_utf8_lossy(&bytes));
     }
     crate::print(&table(&report))
-}
-
-/// Refuses eigen-solves estimated above the limits unless `--allow-long` (module
-/// documentation).
-/// Refuses the eigen-solves of `modes` modes with `method` estimated above the limits
-/// unless `allow_long` (the command line and the Python package).
-pub fn check_work(
-    file: &str,
-    input: &Linearizable,
-    modes: usize,
-    method: EigenMethod,
-    allow_long: bool,
-) -> Result<(), Error> {
-    let states = input.first_order_states();
-    let dense = match method {
-        EigenMethod::Auto => states <= 600,
-        EigenMethod::Dense => true,
-        EigenMethod::ShiftInvert => false,
-    };
-    let (bytes, flops) = budget::eigen_work(states, modes, dense);
-    budget::refuse_above(
-        file,
-        &[
-            Quantity::bytes("memory", bytes, budget::MAX_MEMORY),
-            Quantity::count("flops", 3.0 * flops, budget::MAX_FLOPS),
-        ],
-        &format!(
-            "{states} states, {} modes, {} eigen-solver: ask fewer --modes, use --method shift-invert or a coarser beam",
-            modes,
-            if dense { "dense" } else { "Arnoldi" }
-        ),
-        allow_long,
-    )
 }
 
 fn mode_rows(out: &mut String, title: &str, modes: &[ModeReport]) {

@@ -15,14 +15,15 @@
 //! (`crate::budget`: 1 GiB, 1e6 points) unless `--allow-long`. A list of missing shards
 //! names the first few and the count.
 
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use crate::Error;
 use crate::budget::{self, Quantity};
 use crate::report::{OutputLock, ReportError, commit_files};
 
-use super::sweep::{Grid, Part, PointResult, Shape, outputs, part_name, shard_points};
+use crate::analysis::sweep::part::{check_parts, part_size, parts_in, read_part};
+use crate::analysis::sweep::{Grid, Part, Shape};
+use crate::report::sweep::outputs;
 
 /// Arguments of `damper merge`.
 #[derive(clap::Args, Debug)]
@@ -37,63 +38,6 @@ pub struct Args {
     /// limits (`codegen_cli::budget`).
     #[arg(long)]
     pub allow_long: bool,
-}
-
-/// The part files in a directory (`sweep.part-*-of-*.json`), sorted by name.
-fn parts_in(dir: &Path) -> Result<Vec<PathBuf>, Error> {
-    let entries = std::fs::read_dir(dir)
-        .map_err(|e| Error::Usage(format!("cannot read the directory {}: {e}", dir.display())))?;
-    let mut parts: Vec<PathBuf> = entries
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| {
-            p.file_name()
-                .and_then(|n| n.to_str())
-                .is_some_and(|n| n.starts_with("sweep.part-") && n.ends_with(".json"))
-        })
-        .collect();
-    parts.sort();
-    if parts.is_empty() {
-        return Err(Error::Usage(format!(
-            "no sweep.part-I-of-N.json in {}",
-            dir.display()
-        )));
-    }
-    Ok(parts)
-}
-
-/// The size of a part file, checked to be a regular file before it is opened (a fifo or a
-/// device would block or never end).
-fn part_size(path: &Path) -> Result<u64, Error> {
-    let meta = std::fs::metadata(path)
-        .map_err(|e| Error::Usage(format!("cannot read {}: {e}", path.display())))?;
-    if !meta.is_file() {
-        return Err(Error::Usage(format!(
-            "{}: not a regular file (merge reads sweep part files only)",
-            path.display()
-        )));
-    }
-    Ok(meta.len())
-}
-
-fn read_part(path: &Path) -> Result<Part, Error> {
-    let bytes = std::fs::read(path)
-        .map_err(|e| Error::Usage(format!("cannot read {}: {e}", path.display())))?;
-    let part: Part = serde_json::from_slice(&bytes).map_err(|e| {
-        Error::Usage(format!(
-            "{}: not a complete sweep part file: {e}",
-            path.display()
-        ))
-    })?;
-    // The figures first (the more precise message), then the checksum.
-    part.results()
-        .map_err(|e| Error::Usage(format!("{}: {e}", path.display())))?;
-    if part.checksum() != part.checksum {
-        return Err(Error::Usage(format!(
-            "{}: the content does not match its checksum (the part was edited or damaged after it was written): run its shard again",
-            path.display()
-        )));
-    }
-    Ok(part)
 }
 
 /// Runs `damper merge`.
@@ -152,7 +96,7 @@ pub fn run(args: Args) -> Result<(), Error> {
         "merge a smaller sweep",
         args.allow_long,
     )?;
-    let results = check(&parts)?;
+    let results = check_parts(&parts)?;
     let grid = Grid::parse(&first.sweep.sets)?;
     let files = outputs(&out, &first.sweep, &grid, &results)?;
     commit_files(&files).map_err(ReportError::from)?;
@@ -168,92 +112,4 @@ pub fn run(args: Args) -> Result<(), Error> {
             .join(", ")
     );
     Ok(())
-}
-
-/// Checks that the parts are the N shards of one sweep, each once, and returns their rows.
-fn check(parts: &[(PathBuf, Part)]) -> Result<Vec<PointResult>, Error> {
-    let (first_path, first) = &parts[0];
-    let n = first.shards;
-    let mut seen: BTreeMap<usize, &Path> = BTreeMap::new();
-    let mut results = vec![];
-    for (path, p) in parts {
-        let differ = |what: &str| {
-            Error::Usage(format!(
-                "{} and {} are parts of different sweeps (different {what})",
-                first_path.display(),
-                path.display()
-            ))
-        };
-        if p.sweep.scenario_hash != first.sweep.scenario_hash {
-            return Err(differ("scenario content"));
-        }
-        if p.sweep.sets != first.sweep.sets {
-            return Err(differ("--set specs"));
-        }
-        if p.sweep != first.sweep {
-            return Err(differ("options"));
-        }
-        if p.shards != n {
-            return Err(differ("shard counts"));
-        }
-        if p.shard >= n {
-            return Err(Error::Usage(format!(
-                "{}: shard {} of {n} is out of range",
-                path.display(),
-                p.shard
-            )));
-        }
-        if let Some(other) = seen.insert(p.shard, path) {
-            return Err(Error::Usage(format!(
-                "shard {} of {n} given twice ({} and {})",
-                p.shard,
-                other.display(),
-                path.display()
-            )));
-        }
-        if p.rows
-            .iter()
-            .any(|r| r.index % n != p.shard || r.index >= p.sweep.grid_size)
-        {
-            return Err(Error::Usage(format!(
-                "{}: holds points that are not in shard {} of {n}",
-                path.display(),
-                p.shard
-            )));
-        }
-        let expected = shard_points(p.sweep.grid_size, p.shard, n);
-        if p.rows.len() != expected {
-            return Err(Error::Usage(format!(
-                "{}: holds {} of the {expected} point(s) of shard {} of {n}",
-                path.display(),
-                p.rows.len(),
-                p.shard
-            )));
-        }
-        let rows = p
-            .results()
-            .map_err(|e| Error::Usage(format!("{}: {e}", path.display())))?;
-        results.extend(rows);
-    }
-    // At most `seen.len()` shards are present, so the first few missing ones are found
-    // within that many more (never a walk over N).
-    let absent = n - seen.len();
-    if absent > 0 {
-        let first: Vec<String> = (0..n)
-            .filter(|i| !seen.contains_key(i))
-            .take(budget::LISTED)
-            .map(|i| part_name(i, n))
-            .collect();
-        let more = absent - first.len();
-        let tail = if more > 0 {
-            format!(" and {more} more")
-        } else {
-            String::new()
-        };
-        return Err(Error::Usage(format!(
-            "missing shard(s) of {n}: {}{tail}",
-            first.join(", ")
-        )));
-    }
-    Ok(results)
 }

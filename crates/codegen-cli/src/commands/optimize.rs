@@ -16,9 +16,9 @@
 use std::path::PathBuf;
 
 use crate::Error;
-use crate::analysis::figures::{self, Bound, Constraint, Entities};
-use crate::budget::{self, Quantity};
-use crate::optimize::{self, MAX_EVALS, MAX_GRID, MAX_STARTS, Problem, Variable};
+use crate::analysis::figures::{Bound, Constraint};
+use crate::analysis::optimization::{OptimizeRequest, solve};
+use crate::optimize::{self, Variable};
 use crate::report::csv::cell;
 use crate::report::rows::CsvRows;
 use crate::report::{OutputFile, OutputLock, ReportError, commit_files};
@@ -68,9 +68,6 @@ pub struct Args {
     pub allow_long: bool,
 }
 
-/// Most evaluations without `--allow-long` (each a linearisation: milliseconds).
-const MAX_EVALUATIONS: f64 = 1e4;
-
 /// Runs `damper optimize`.
 pub fn run(args: Args) -> Result<(), Error> {
     let file = args.scenario.display().to_string();
@@ -82,7 +79,7 @@ pub fn run(args: Args) -> Result<(), Error> {
         .collect::<Result<_, _>>()?;
     for c in &args.constraints {
         c.parse::<Constraint>()
-            .map_err(crate::commands::sweep::SpecError::from)?;
+            .map_err(crate::analysis::sweep::SpecError::from)?;
     }
     let text = scenario::read(&args.scenario)?;
     let (objective, maximize) = match (&args.maximize, &args.minimize) {
@@ -91,17 +88,17 @@ pub fn run(args: Args) -> Result<(), Error> {
         _ => return Err(Error::Usage("give one of --maximize or --minimize".into())),
     };
     let started = std::time::Instant::now();
-    let (outcome, constraints) = solve(
-        &args.scenario,
-        &text,
-        &args.set,
-        &args.vary,
-        &objective,
+    let (outcome, constraints) = solve(&OptimizeRequest {
+        scenario: args.scenario.clone(),
+        text: text.clone(),
+        fixed: args.set.clone(),
+        vary: args.vary.clone(),
+        objective,
         maximize,
-        &args.constraints,
-        args.grid,
-        args.allow_long,
-    )?;
+        constraints: args.constraints.clone(),
+        grid: args.grid,
+        allow_long: args.allow_long,
+    })?;
     let _lock = match &args.out {
         Some(out) => Some(OutputLock::acquire(out).map_err(ReportError::from)?),
         None => None,
@@ -236,74 +233,6 @@ pub fn run(args: Args) -> Result<(), Error> {
         started.elapsed().as_secs_f64()
     ));
     crate::print(&text)
-}
-
-/// The optimum of the scenario `text` (the file `path`) with the `fixed` overrides: `vary`
-/// (`PATH=LO:HI`), the `objective` figure maximised or minimised, under the `constraints`
-/// (`FIGURE>=VALUE`), from a start grid of `grid` points per variable; above the
-/// evaluation limit unless `allow_long`. Returns the outcome and the constraints, their
-/// figure names expanded.
-pub fn solve(
-    path: &std::path::Path,
-    text: &str,
-    fixed: &[Override],
-    vary: &[String],
-    objective: &str,
-    maximize: bool,
-    constraints: &[String],
-    grid: usize,
-    allow_long: bool,
-) -> Result<(optimize::Outcome, Vec<Constraint>), Error> {
-    let file = path.display().to_string();
-    let vary: Vec<Variable> = vary.iter().map(|v| v.parse()).collect::<Result<_, _>>()?;
-    if vary.is_empty() {
-        return Err(Error::Usage(format!(
-            "{file}: {}",
-            optimize::OptimizeError::NoVariables
-        )));
-    }
-    // The fixed overrides and the scenario must load, the figures be the scenario's and the
-    // variables' PATHs fields it takes, before any search.
-    let loaded = scenario::parse_with(text, path, fixed)?;
-    budget::structure(&loaded.scenario, &file, allow_long)?;
-    let entities = Entities::of(&loaded.scenario);
-    let spec_error = crate::commands::sweep::SpecError::from;
-    let constraints: Vec<Constraint> = constraints
-        .iter()
-        .map(|c| c.parse::<Constraint>()?.resolve(Some(&entities)))
-        .collect::<Result<_, _>>()
-        .map_err(spec_error)?;
-    let goal = if maximize { "--maximize" } else { "--minimize" };
-    let objective = figures::resolve(objective, Some(&entities))
-        .map_err(|e| Error::Usage(format!("{goal}: {e}")))?
-        .name;
-    crate::commands::sweep::check_paths(
-        path,
-        text,
-        fixed,
-        vary.iter().map(|v| (v.path.as_str(), v.lo)),
-    )?;
-    let d = vary.len();
-    let evaluations = (MAX_GRID as f64).min((grid.max(2) as f64).powi(d as i32))
-        + (MAX_STARTS * (MAX_EVALS + 4 * d)) as f64;
-    budget::refuse_above(
-        &format!("optimize of {file}"),
-        &[Quantity::count("evaluations", evaluations, MAX_EVALUATIONS)],
-        "use fewer variables",
-        allow_long,
-    )?;
-    let problem = Problem {
-        path,
-        text,
-        fixed,
-        variables: &vary,
-        objective,
-        maximize,
-        constraints: &constraints,
-        grid,
-    };
-    let outcome = optimize::optimize(&problem).map_err(|e| Error::Usage(format!("{file}: {e}")))?;
-    Ok((outcome, constraints))
 }
 
 /// What `--json` prints and `optimize.json` holds.

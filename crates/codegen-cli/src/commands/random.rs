@@ -5,21 +5,19 @@
 //! power. A table on standard output, or one JSON object with `--json` (`outputs`,
 //! `generators`, `method`, and the accuracy figures).
 //!
-//! **Limits** (`crate::budget`): the memory and work of the modes (as `linearize` estimates
-//! them) and, dense, of the Lyapunov equation (complex Schur form: about `100 N^3` flops and
-//! `10` complex `N x N` matrices for `N` first-order states); above 1 GiB or 1e12 flops the
-//! command is refused unless `--allow-long`.
+//! The analysis and its limits are [`crate::analysis::stationary`]; above them the command
+//! is refused unless `--allow-long`.
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use crate::Error;
-use crate::budget::{self, Quantity};
-use crate::random::{DENSE_STATES, RandomMethod, RandomOptions, RandomReport, analyse};
+use crate::analysis::stationary::{RandomRequest, check, random};
+use crate::budget;
+use crate::random::{RandomMethod, RandomOptions, RandomReport};
 use crate::report::ReportError;
 use crate::report::summary::json_bytes;
 use crate::scenario::{self, Override};
-use crate::setup::{Linearizable, tangents_for};
 
 /// Arguments of `damper random`.
 #[derive(clap::Args, Debug)]
@@ -56,28 +54,19 @@ pub fn run(args: Args) -> Result<(), Error> {
             args.method
         ))
     })?;
-    if args.modes == 0 {
-        return Err(Error::Usage("--modes must be at least 1".into()));
-    }
-    let loaded = scenario::load_with(&args.scenario, &args.set)?;
-    let file = args.scenario.display().to_string();
-    budget::structure(&loaded.scenario, &file, args.allow_long)?;
-    let remap = |e: Error| match e {
-        Error::Input(d) => Error::Input(loaded.remap(d)),
-        e => e,
-    };
-    let input = tangents_for(&loaded.scenario).map_err(remap)?;
-    check_work(&file, &input, method, args.modes, args.allow_long)?;
-    let report = analyse(
-        &file,
-        &loaded.scenario,
-        &RandomOptions {
+    let req = RandomRequest {
+        file: args.scenario.display().to_string(),
+        options: RandomOptions {
             method,
             modes: args.modes,
             outputs: args.output.clone(),
         },
-    )
-    .map_err(remap)?;
+        allow_long: args.allow_long,
+    };
+    check(&req)?;
+    let loaded = scenario::load_with(&args.scenario, &args.set)?;
+    budget::structure(&loaded.scenario, &req.file, args.allow_long)?;
+    let report = random(&req, &loaded)?;
     if args.json {
         let bytes = json_bytes(&report).map_err(ReportError::Json)?;
         return crate::print(&String::from_utf8_lossy(&bytes));
@@ -133,36 +122,4 @@ fn table(r: &RandomReport) -> String {
         );
     }
     out
-}
-
-/// Refuses the random response's solves (`method`, `modes`) estimated above the limits
-/// unless `allow_long` (the command line and the Python package).
-pub fn check_work(
-    file: &str,
-    input: &Linearizable,
-    method: RandomMethod,
-    modes: usize,
-    allow_long: bool,
-) -> Result<(), Error> {
-    let states = input.first_order_states();
-    let dense = match method {
-        RandomMethod::Auto => states <= DENSE_STATES,
-        RandomMethod::Dense => true,
-        _ => false,
-    };
-    let (mut bytes, mut flops) = budget::eigen_work(states, modes, states <= 600);
-    if dense {
-        let n = states as f64;
-        bytes += 10.0 * 16.0 * n * n;
-        flops += 100.0 * n * n * n;
-    }
-    budget::refuse_above(
-        file,
-        &[
-            Quantity::bytes("memory", bytes, budget::MAX_MEMORY),
-            Quantity::count("flops", flops, budget::MAX_FLOPS),
-        ],
-        &format!("{states} states: use --method modal or a coarser beam"),
-        allow_long,
-    )
 }

@@ -5,15 +5,18 @@
 
 pub mod csv;
 pub mod digest;
+pub mod frf;
 pub mod hybrid;
 pub mod lock;
 pub mod map;
+pub mod mechanism;
 pub mod plot;
 pub mod random_run;
 pub mod rows;
 pub mod steady_power;
 pub mod stream;
 pub mod summary;
+pub mod sweep;
 pub mod writer;
 
 pub use lock::{LockError, OutputLock};

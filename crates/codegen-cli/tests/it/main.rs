@@ -19,6 +19,7 @@ mod fuzz;
 mod generate_cli;
 mod generator_datasheet;
 mod hybrid_cli;
+mod layout;
 mod linear_vs_time_domain;
 mod linearize_cli;
 mod modes_cli;

@@ -7,7 +7,7 @@ use crate::common;
 
 use std::path::{Path, PathBuf};
 
-use codegen_cli::commands::sweep::{Grid, parse_values};
+use codegen_cli::analysis::sweep::{Grid, parse_values};
 use common::{assert_bad_input, damper, root};
 use toml_edit::Value;
 
@@ -574,7 +574,7 @@ fn two_parts(dir: &Path, set: &str) -> [PathBuf; 2] {
 
 #[test]
 fn merge_refuses_edited_deleted_non_finite_truncated_and_foreign_parts() {
-    use codegen_cli::commands::sweep::Part;
+    use codegen_cli::analysis::sweep::Part;
     let dir = scratch("tamper");
     let good = two_parts(&dir.join("good"), "generator.load_resistance=1,10,100");
     let other = two_parts(&dir.join("other"), "generator.load_resistance=1,10,1000");

@@ -17,7 +17,10 @@ Example::
 Errors: ``ScenarioError`` / ``ModelError`` (subclasses of ``ValueError``) carry ``file``,
 ``line``, ``column``, ``entity`` and ``message``; a run stopped at the singular (toggle)
 position raises ``SingularPosition`` (``time``, ``distance``); other failures raise
-``DamperError``; an argument of the wrong type raises ``TypeError``. The exceptions pickle
+``DamperError``; an argument of the wrong type raises ``TypeError``. A warning about a result
+that is still computed (the command line's ``warning:`` lines, e.g. a frequency response whose
+largest value is at an edge of the band) is issued with ``warnings.warn`` as a
+``DamperWarning`` (a ``UserWarning``) carrying ``file`` and ``entity``. The exceptions pickle
 with their attributes (``multiprocessing`` shows a worker's own exception). Long calls
 release the GIL; Ctrl-C stops the call of the main thread (``KeyboardInterrupt``), calls of
 other threads run to their end.
@@ -31,10 +34,11 @@ from typing import Any, Dict, Iterable, Iterator, List, Mapping, Optional, Seque
 import numpy as np
 
 from . import _damper
-from ._damper import DamperError, ModelError, ScenarioError, SingularPosition
+from ._damper import DamperError, DamperWarning, ModelError, ScenarioError, SingularPosition
 
 __all__ = [
     "DamperError",
+    "DamperWarning",
     "Linearization",
     "Mode",
     "Model",
@@ -328,7 +332,8 @@ class Scenario:
         empty), ``"periods"`` an int array, ``"settled"`` a bool array, ``"error"`` a list of
         ``str`` or ``None``. The runs release the GIL and Ctrl-C stops them
         (``KeyboardInterrupt``); above the command's limits they are refused
-        (``DamperError``) unless ``allow_long``."""
+        (``DamperError``) unless ``allow_long``. The command's warnings (a largest ``|H|`` at
+        an edge of the band) are issued as ``DamperWarning``."""
         if not isinstance(output, str):
             output = repr(_real(output, "output"))
         cols, nl = _damper.frf(

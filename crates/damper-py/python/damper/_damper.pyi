@@ -7,6 +7,7 @@ import numpy.typing as npt
 
 __all__ = [
     "DamperError",
+    "DamperWarning",
     "ModelError",
     "ScenarioError",
     "SingularPosition",
@@ -43,6 +44,10 @@ class ModelError(ValueError):
     message: Optional[str]
 
 class DamperError(Exception): ...
+
+class DamperWarning(UserWarning):
+    file: Optional[str]
+    entity: Optional[str]
 
 class SingularPosition(DamperError):
     time: float

@@ -7,9 +7,8 @@ use std::path::Path;
 use hybrid_core::hybrid::Linearization;
 use serde::Serialize;
 
-use super::Args;
-use super::analysis::{Io, LinearRow, NonlinearRow};
 use crate::Error;
+use crate::analysis::frf::{Frf, FrfRequest, Io, LinearRow, NonlinearRow};
 use crate::report::plot::{PlotError, plot_receptance_svg, plot_xy_svg};
 use crate::report::rows::CsvRows;
 use crate::report::summary::json_bytes;
@@ -40,7 +39,7 @@ struct FrfJson<'a> {
     /// `max_force` of every linear row, in this order).
     load_limits: Vec<LoadLimitJson<'a>>,
     /// The largest response at an edge of the band (the peak may lie outside it).
-    warnings: &'a [String],
+    warnings: &'a [&'a str],
     linear: &'a [LinearRow],
     #[serde(skip_serializing_if = "Option::is_none")]
     nonlinear: Option<&'a [NonlinearRow]>,
@@ -82,7 +81,7 @@ impl From<PlotFailed> for Error {
 
 /// The columns of `frf.csv`: every linear value under its header (`f [Hz]`, `|H|` and phase
 /// with the generator and disconnected, real and imaginary parts, the admissible loads).
-pub(super) fn linear_columns(io: &Io, linear: &[LinearRow]) -> Vec<(String, Vec<f64>)> {
+fn linear_columns(io: &Io, linear: &[LinearRow]) -> Vec<(String, Vec<f64>)> {
     let unit = io.unit();
     let force_unit = io.force_unit;
     let column = |name: String, of: &dyn Fn(&LinearRow) -> f64| -> (String, Vec<f64>) {
@@ -186,7 +185,7 @@ impl NonlinearColumn {
 /// The columns of `frf_nonlinear.csv`: the frequency, the measured amplitude, `|H|` and
 /// phase, the linear ones at the same frequency, periods, settled, distortion, time step,
 /// per connected generator the measured and linear load powers, and the error.
-pub(super) fn nonlinear_columns(
+fn nonlinear_columns(
     io: &Io,
     linear: &[LinearRow],
     nl: &[NonlinearRow],
@@ -252,18 +251,41 @@ fn columns_bytes<C>(
     Ok(w.into_inner()?)
 }
 
-/// Every output file, in memory.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn outputs(
-    args: &Args,
+impl Frf {
+    /// The columns of `frf.csv` (the same headers), one number per frequency.
+    pub fn columns(&self) -> Vec<(String, Vec<f64>)> {
+        linear_columns(&self.io, &self.linear)
+    }
+
+    /// With `nonlinear`, the columns of `frf_nonlinear.csv` (the same headers, the same
+    /// values; built by the code that writes the file), one cell per frequency, typed as
+    /// the cells read ([`NonlinearColumn`]: numbers with `None` for an empty cell, `periods`
+    /// as counts, `settled` as flags, `error` as text).
+    pub fn nonlinear_columns(&self) -> Option<Vec<(String, NonlinearColumn)>> {
+        let nl = self.nonlinear.as_deref()?;
+        Some(nonlinear_columns(&self.io, &self.linear, nl))
+    }
+}
+
+/// Every output file of `frf` (computed for `args`, the scenario loaded with `overrides`)
+/// into the directory `out`, in memory.
+pub fn outputs(
+    args: &FrfRequest,
+    overrides: Vec<scenario::OverrideRecord>,
     out: &Path,
-    file: &str,
-    (lz, lin, io): (&Linearizable, &Linearization, &Io),
-    linear: &[LinearRow],
-    nonlinear: Option<&[NonlinearRow]>,
-    generators: usize,
-    warnings: &[String],
+    frf: &Frf,
 ) -> Result<Vec<OutputFile>, Error> {
+    let file = args.file.as_str();
+    let (lz, lin, io): (&Linearizable, &Linearization, &Io) = (&frf.lz, &frf.lin, &frf.io);
+    let linear = &frf.linear[..];
+    let nonlinear = frf.nonlinear.as_deref();
+    let generators = frf.generators();
+    let warnings: Vec<&str> = frf
+        .warnings
+        .iter()
+        .filter(|w| !w.note)
+        .map(|w| w.message.as_str())
+        .collect();
     let unit = io.unit();
     let columns = linear_columns(io, linear);
     let mut files = vec![OutputFile {
@@ -280,7 +302,7 @@ pub(super) fn outputs(
     }
     let json = FrfJson {
         scenario: file.to_string(),
-        overrides: args.set.iter().map(scenario::Override::record).collect(),
+        overrides,
         output: &io.output_label,
         response_unit: io.response_unit,
         force_unit: io.force_unit,
@@ -318,7 +340,7 @@ pub(super) fn outputs(
                 }
             })
             .collect(),
-        warnings,
+        warnings: &warnings,
         linear,
         nonlinear,
     };
@@ -372,7 +394,7 @@ pub(super) fn outputs(
 }
 
 /// The smallest admissible load of limit `k` over the band: `(f (Hz), max_force)`.
-pub(super) fn smallest(linear: &[LinearRow], k: usize) -> (f64, f64) {
+pub fn smallest(linear: &[LinearRow], k: usize) -> (f64, f64) {
     linear
         .iter()
         .map(|r| (r.f_hz, r.max_force[k]))
@@ -383,7 +405,12 @@ pub(super) fn smallest(linear: &[LinearRow], k: usize) -> (f64, f64) {
 /// `frf_max_force.svg`: the admissible load of every mechanism against the frequency (on a
 /// log axis: it spans decades), and the excitation's own amplitude as a horizontal line (the design fails where a curve
 /// goes below it).
-fn max_force_svg(args: &Args, stem: &str, io: &Io, linear: &[LinearRow]) -> Result<Vec<u8>, Error> {
+fn max_force_svg(
+    args: &FrfRequest,
+    stem: &str,
+    io: &Io,
+    linear: &[LinearRow],
+) -> Result<Vec<u8>, Error> {
     let curves: Vec<(String, Vec<(f64, f64)>)> = io
         .limits
         .iter()
@@ -423,4 +450,52 @@ fn max_force_svg(args: &Args, stem: &str, io: &Io, linear: &[LinearRow]) -> Resu
         (args.log, true),
     )
     .map_err(|e: PlotError| PlotFailed("frf_max_force.svg", e.message().to_string()).into())
+}
+
+/// The line `damper frf` prints: the peaks, the smallest admissible loads, the nonlinear
+/// runs' outcome and the output directory.
+pub fn summary(req: &FrfRequest, out: &std::path::Path, frf: &Frf) -> String {
+    let Frf {
+        io,
+        freqs,
+        linear,
+        nonlinear,
+        ..
+    } = frf;
+    let peak_of = |of: fn(&LinearRow) -> f64| {
+        linear
+            .iter()
+            .max_by(|a, b| of(a).total_cmp(&of(b)))
+            .expect("at least two frequencies")
+    };
+    let peak = peak_of(|r| r.with_generator.magnitude);
+    let peak_off = peak_of(|r| r.generator_disconnected.magnitude);
+    let unit = io.unit();
+    let mut text = format!(
+        "{}: {} frequencies {}-{} Hz; peak |H| with generator {:.4e} {unit} at {:.4} Hz, generator disconnected {:.4e} {unit} at {:.4} Hz",
+        req.file,
+        freqs.len(),
+        req.from,
+        req.to,
+        peak.with_generator.magnitude,
+        peak.f_hz,
+        peak_off.generator_disconnected.magnitude,
+        peak_off.f_hz
+    );
+    for (k, l) in io.limits.iter().enumerate() {
+        let (f, v) = smallest(linear, k);
+        text += &format!(
+            "; smallest max force ({}, reach {:.4e} m) {v:.4e} {} at {f:.4} Hz",
+            l.name, l.reach, io.force_unit
+        );
+    }
+    if let Some(rows) = nonlinear {
+        let settled = rows.iter().filter(|r| r.settled).count();
+        let failed = rows.iter().filter(|r| r.error.is_some()).count();
+        text += &format!(
+            "; nonlinear: {} frequencies, {settled} settled, {failed} stopped",
+            rows.len()
+        );
+    }
+    text + &format!("; outputs in {}\n", out.display())
 }

@@ -1,7 +1,10 @@
-//! The analysis of `damper frf`: the output and the excitation resolved against the
+//! The frequency response ([`FrfRequest`] → [`analyse`] → [`Frf`]), what `damper frf` and
+//! Python's `Scenario.frf` compute: the output and the excitation resolved against the
 //! model, the linear receptances (with the generator and with it disconnected) from the
-//! linearisation about the static equilibrium, and the nonlinear steady states from
-//! time-domain runs.
+//! linearisation about the static equilibrium, `H(f) = z_out(f) / F` with
+//! `(K - omega^2 M + i omega C) z = f_F`, and the nonlinear steady states from time-domain
+//! runs (amplitude and phase of the fundamental, `|H| = A / |F|`); the warnings (a largest
+//! response at an edge of the band, excitations the nonlinear runs leave out) as data.
 
 use fem_beam::TimeFunction;
 use hybrid_core::hybrid::{
@@ -11,28 +14,31 @@ use hybrid_core::hybrid::{
 use nalgebra::Complex;
 use serde::Serialize;
 
-use super::Args;
+use super::Warning;
 use crate::Error;
+use crate::budget::{self, Quantity};
 use crate::linear::{LoadLimit, generator_phasors};
+use crate::scenario::Scenario;
 use crate::setup::Linearizable;
+use crate::setup::tangents_for;
 
 /// The response and the force, resolved against the model.
-pub(super) struct Io {
-    pub(super) output: ExcitationTarget,
-    pub(super) output_label: String,
-    pub(super) response_unit: &'static str,
-    pub(super) force_unit: &'static str,
-    pub(super) excitation: Excitation,
+pub(crate) struct Io {
+    pub(crate) output: ExcitationTarget,
+    pub(crate) output_label: String,
+    pub(crate) response_unit: &'static str,
+    pub(crate) force_unit: &'static str,
+    pub(crate) excitation: Excitation,
     /// Index of a scenario excitation, `None` for the force at the output point.
-    pub(super) scenario_excitation: Option<usize>,
+    pub(crate) scenario_excitation: Option<usize>,
     /// The mechanisms with a reach and an attachment, at the equilibrium with the
     /// generator: the admissible load.
-    pub(super) limits: Vec<LoadLimit>,
+    pub(crate) limits: Vec<LoadLimit>,
 }
 
 impl Io {
     /// The receptance's unit: `m/N`, `rad/(N m)`, ...
-    pub(super) fn unit(&self) -> String {
+    pub(crate) fn unit(&self) -> String {
         if self.force_unit.contains(' ') {
             format!("{}/({})", self.response_unit, self.force_unit)
         } else {
@@ -150,7 +156,7 @@ pub fn grid(a: f64, b: f64, n: usize, log: bool) -> Vec<f64> {
         .collect()
 }
 
-pub(super) fn usage(msg: impl Into<String>) -> Error {
+pub(crate) fn usage(msg: impl Into<String>) -> Error {
     Error::Usage(msg.into())
 }
 
@@ -212,7 +218,11 @@ pub(crate) fn parse_output(
 
 /// Resolves `--output`, `--excitation` and `--force` against the model (`lin`: its
 /// linearisation with the generator, whose equilibrium gives the remaining reaches).
-pub(super) fn resolve(args: &Args, lz: &Linearizable, lin: &Linearization) -> Result<Io, Error> {
+pub(crate) fn resolve(
+    args: &FrfRequest,
+    lz: &Linearizable,
+    lin: &Linearization,
+) -> Result<Io, Error> {
     let model = &lz.model;
     let (output, output_label, response_unit) = parse_output(model, &args.output)?;
     let harmonic = |e: &Excitation| matches!(e.time, TimeFunction::Harmonic { .. });
@@ -315,7 +325,7 @@ fn output_of(lin: &Linearization, output: &ExcitationTarget, z: &[Complex<f64>])
 
 /// The linear receptances at `freqs` (Hz) with the generator (`lin`, force vector `f_with`)
 /// and with it disconnected (`lin_off`, `f_off`).
-pub(super) fn linear_rows(
+pub(crate) fn linear_rows(
     model: &HybridModel,
     lin: &Linearization,
     lin_off: &Linearization,
@@ -348,13 +358,14 @@ pub(super) fn linear_rows(
 }
 
 /// The nonlinear steady states at `m` frequencies.
-pub(super) fn nonlinear_rows(
-    args: &Args,
+pub(crate) fn nonlinear_rows(
+    args: &FrfRequest,
     lz: &Linearizable,
     lin: &Linearization,
     io: &Io,
     f_with: &[f64],
     m: usize,
+    warnings: &mut Vec<Warning>,
 ) -> Result<Vec<NonlinearRow>, Error> {
     let mut model: HybridModel = lz.model.clone();
     // Constant excitations stay (they are part of the equilibrium); the driving one is put
@@ -366,16 +377,16 @@ pub(super) fn nonlinear_rows(
         - model.excitations.len()
         - usize::from(io.scenario_excitation.is_some());
     if dropped > 0 {
-        eprintln!(
-            "note: the nonlinear runs leave out {dropped} other time-dependent excitation(s) of the scenario"
-        );
+        warnings.push(Warning::note(format!(
+            "the nonlinear runs leave out {dropped} other time-dependent excitation(s) of the scenario"
+        )));
     }
     model.excitations.push(io.excitation.clone());
     let excitation = model.excitations.len() - 1;
     let start = rest_state(&mut model, &lin.equilibrium).map_err(|e| {
         usage(format!(
             "{}: the rest state at the static equilibrium: {e}",
-            args.scenario.display()
+            args.file
         ))
     })?;
     let options = SteadyOptions {
@@ -390,7 +401,7 @@ pub(super) fn nonlinear_rows(
     };
     let freqs = grid(args.from, args.to, m, args.log);
     let bar = crate::progress::bar_or_hidden(
-        !args.quiet,
+        args.progress,
         freqs.len() as u64,
         "frf nonlinear [{bar:40}] {pos}/{len} ETA {eta}",
     );
@@ -463,4 +474,216 @@ pub(super) fn nonlinear_rows(
         });
     }
     Ok(rows)
+}
+
+/// What to compute: the frequency response of a loaded scenario (the fields of
+/// `damper frf`'s options that the analysis reads).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrfRequest {
+    /// The scenario file as messages name it.
+    pub file: String,
+    /// The response: a beam abscissa in m (`1.0`), or `MECHANISM/COORDINATE`.
+    pub output: String,
+    /// Lowest frequency (Hz).
+    pub from: f64,
+    /// Highest frequency (Hz).
+    pub to: f64,
+    /// Frequencies of the linear response.
+    pub points: usize,
+    /// Geometric spacing of the frequencies.
+    pub log: bool,
+    /// Also the nonlinear steady state at this many frequencies.
+    pub nonlinear: Option<usize>,
+    /// The scenario excitation that drives the system (default: its only harmonic one).
+    pub excitation: Option<String>,
+    /// Force amplitude at the output point (or the amplitude of `excitation`).
+    pub force: Option<f64>,
+    /// Time steps per excitation period of the nonlinear runs.
+    pub steps_per_period: usize,
+    /// Settle tolerance of the nonlinear runs.
+    pub tolerance: f64,
+    /// Periods run at most per frequency.
+    pub max_periods: usize,
+    /// A progress bar for the nonlinear runs (on a terminal).
+    pub progress: bool,
+    /// Run even above the limits of [`crate::budget`].
+    pub allow_long: bool,
+}
+
+/// The frequency response of a loaded scenario ([`analyse`]): what `damper frf` writes.
+pub struct Frf {
+    pub(crate) lz: Linearizable,
+    pub(crate) lin: Linearization,
+    pub(crate) io: Io,
+    /// The frequencies of the linear response (Hz).
+    pub freqs: Vec<f64>,
+    /// The linear response, one row per frequency.
+    pub linear: Vec<LinearRow>,
+    /// The nonlinear steady states (`nonlinear`).
+    pub nonlinear: Option<Vec<NonlinearRow>>,
+    /// What the user should know about the result, in the order found.
+    pub warnings: Vec<Warning>,
+}
+
+impl Frf {
+    /// The response's unit per unit force (`m/N`, `rad/N`, ..).
+    pub fn unit(&self) -> String {
+        self.io.unit()
+    }
+
+    /// The number of generators of the model.
+    pub fn generators(&self) -> usize {
+        self.lz
+            .model
+            .forces
+            .iter()
+            .filter(|f| f.generator().is_some())
+            .count()
+    }
+}
+
+/// The linear (and with `req.nonlinear` the nonlinear) frequency response of `sc`.
+pub fn analyse(req: &FrfRequest, sc: &Scenario) -> Result<Frf, Error> {
+    let file = &req.file;
+    if matches!(sc, Scenario::Mechanism(_)) {
+        return Err(usage(format!(
+            "{file}: `damper frf` needs a `damper` or `hybrid` scenario (a beam to respond)"
+        )));
+    }
+    let lz = tangents_for(sc)?;
+    let linear_error = |what: &str, e: hybrid_core::hybrid::LinearError| {
+        usage(format!("{file}: linearisation {what}: {e}"))
+    };
+    let lin = lz
+        .linearize(&lz.model)
+        .map_err(|e| linear_error("with generator", e))?;
+    let io = resolve(req, &lz, &lin)?;
+    if req.nonlinear.is_some() && io.scenario_excitation.is_none() && req.force.is_none() {
+        return Err(usage(
+            "--nonlinear: the scenario has no harmonic excitation: give the force amplitude at the output point with --force F (N, or N m on a revolute coordinate)",
+        ));
+    }
+    let off_model = lz.model.generators_disconnected();
+    let lin_off = lz
+        .linearize(&off_model)
+        .map_err(|e| linear_error("generator disconnected", e))?;
+    let f_with = lin.force_vector(&io.excitation.target);
+    let f_off = lin_off.force_vector(&io.excitation.target);
+    let freqs = grid(req.from, req.to, req.points, req.log);
+    let linear = linear_rows(&lz.model, &lin, &lin_off, &io, (&f_with, &f_off), &freqs)?;
+    let mut warnings = vec![];
+    let nonlinear = match req.nonlinear {
+        None => None,
+        Some(m) => Some(nonlinear_rows(
+            req,
+            &lz,
+            &lin,
+            &io,
+            &f_with,
+            m,
+            &mut warnings,
+        )?),
+    };
+    warnings.extend(band_edge_warnings(file, &linear, &io.unit()));
+    Ok(Frf {
+        lz,
+        lin,
+        io,
+        freqs,
+        linear,
+        nonlinear,
+        warnings,
+    })
+}
+
+/// Checks the options of `req` that do not need the scenario (the range, the counts, the
+/// limits of [`crate::budget`]).
+pub fn check(req: &FrfRequest) -> Result<(), Error> {
+    // Frequencies a structure can have: 1e-9 Hz (a period of 30 years) to 1e12 Hz; the
+    // bounds keep the geometric spacing and the logarithmic axis finite.
+    let (lo, hi) = (1e-9, 1e12);
+    let ok_range = req.from.is_finite()
+        && req.to.is_finite()
+        && req.from >= lo
+        && req.to <= hi
+        && req.to > req.from;
+    if !ok_range {
+        return Err(usage(format!(
+            "--from {} --to {}: give {lo:e} <= from < to <= {hi:e} (Hz)",
+            req.from, req.to
+        )));
+    }
+    if req.points < 2 {
+        return Err(usage("--points: at least 2"));
+    }
+    if req.nonlinear == Some(0) {
+        return Err(usage("--nonlinear: at least 1 frequency"));
+    }
+    if !(req.tolerance > 0.0 && req.tolerance < 1.0) {
+        return Err(usage("--tolerance: between 0 and 1"));
+    }
+    if req.steps_per_period < 8 {
+        return Err(usage("--steps-per-period: at least 8"));
+    }
+    let frequencies = req.points as f64 + req.nonlinear.unwrap_or(0) as f64;
+    let mut work = vec![Quantity::bytes(
+        "memory",
+        frequencies * budget::FRF_BYTES_PER_FREQUENCY,
+        budget::MAX_MEMORY,
+    )];
+    if let Some(m) = req.nonlinear {
+        work.push(Quantity::count(
+            "time steps",
+            m as f64 * req.max_periods as f64 * req.steps_per_period as f64,
+            budget::MAX_STEPS,
+        ));
+    }
+    budget::refuse_above(
+        &req.file,
+        &work,
+        "use fewer --points or --nonlinear frequencies, or a smaller --max-periods or --steps-per-period",
+        req.allow_long,
+    )?;
+    Ok(())
+}
+
+/// A warning for each linear response (with the generator, generator disconnected) whose
+/// largest magnitude over the band lies at its first or last frequency: the peak the user is
+/// after may lie outside the band (below it when at the first, above when at the last).
+fn band_edge_warnings(file: &str, linear: &[LinearRow], unit: &str) -> Vec<Warning> {
+    type Of = fn(&LinearRow) -> f64;
+    let responses: [(&str, Of); 2] = [
+        ("with generator", |r| r.with_generator.magnitude),
+        ("generator disconnected", |r| {
+            r.generator_disconnected.magnitude
+        }),
+    ];
+    let n = linear.len();
+    responses
+        .iter()
+        .filter_map(|(label, of)| {
+            let k = (0..n).max_by(|&a, &b| of(&linear[a]).total_cmp(&of(&linear[b])))?;
+            let side = if k == 0 {
+                "first"
+            } else if k + 1 == n {
+                "last"
+            } else {
+                return None;
+            };
+            let (below, widen) = if k == 0 {
+                ("below", "--from")
+            } else {
+                ("above", "--to")
+            };
+            Some(Warning::about(
+                file,
+                format!("|H| {label}"),
+                format!(
+                    "the largest |H| {label} ({:.4e} {unit}) is at the {side} frequency of the band, {} Hz: the peak may lie {below} the band (widen it with {widen})",
+                    of(&linear[k]),
+                    linear[k].f_hz
+                ),
+            ))
+        })
+        .collect()
 }
