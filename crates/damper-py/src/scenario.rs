@@ -420,6 +420,7 @@ pub fn sweep_grid<'py>(
         let options = codegen_cli::sweep_point::PointOptions {
             time_domain,
             allow_long,
+            ..Default::default()
         };
         let results = sweep::evaluate_points(
             &path,
@@ -580,6 +581,7 @@ pub fn optimize<'py>(
             maximize,
             &constraints,
             grid,
+            codegen_cli::random::RandomMethod::Auto,
             allow_long,
         )
         .map(|(outcome, _)| outcome)

@@ -38,6 +38,7 @@ use toml_edit::Value;
 use crate::Error;
 use crate::analysis::figures::{self, Constraint, ConstraintError, Entities, UnknownFigure};
 use crate::budget::{self, Quantity};
+use crate::random::RandomMethod;
 use crate::report::csv::cell;
 use crate::report::{OutputFile, OutputLock, ReportError, commit_files};
 use crate::scenario::overrides::PathError;
@@ -74,8 +75,9 @@ pub struct Args {
     /// No progress bar even on a terminal.
     #[arg(long)]
     pub quiet: bool,
-    /// A design constraint on a figure, `FIGURE>=VALUE` or `FIGURE<=VALUE` (repeatable; e.g.
-    /// `linear.zeta1>=0.08`, `linear.reach>=0.002`): the best feasible point is reported and,
+    /// A design constraint on a figure, `FIGURE>=VALUE` or `FIGURE<=VALUE`, or between two
+    /// figures, `FIGURE>=K*FIGURE` or `FIGURE<=K*FIGURE` (repeatable; e.g.
+    /// `linear.zeta1>=0.08`, `linear.reach>=4*random.rms:1.0`): the best feasible point is reported and,
     /// on a two-axis sweep, the constraint's contour drawn on the design map, the points
     /// that break it hatched.
     #[arg(long = "constraint", value_name = "FIGURE>=VALUE")]
@@ -88,6 +90,11 @@ pub struct Args {
     /// largest).
     #[arg(long)]
     pub minimize: bool,
+    /// How the random figures are computed: `auto` (PSD tables by quadrature, white noise
+    /// by the Lyapunov equation, dense up to 600 first-order states, modal above), `dense`,
+    /// `modal` or `quadrature`, as `damper random --method`.
+    #[arg(long, default_value = "auto")]
+    pub method: String,
     /// Run even when the estimated grid points (1e5 a shard), memory (1 GiB), time steps
     /// (2e7 a point), core time (an hour a shard) or beam elements (1e5) are above the
     /// limits (`codegen_cli::budget`).
@@ -555,20 +562,33 @@ pub struct SweepSpec {
     /// `--minimize`.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub minimize: bool,
+    /// `--method` of the random figures when not `auto`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub method: Option<String>,
 }
 
 fn default_map() -> String {
     "linear.zeta1".into()
 }
 
+/// The random figures' `--method` (`auto`, `dense`, `modal`, `quadrature`).
+pub fn parse_method(name: &str) -> Result<RandomMethod, Error> {
+    RandomMethod::parse(name).ok_or_else(|| {
+        Error::Usage(format!(
+            "--method {name:?}: expected auto, dense, modal or quadrature"
+        ))
+    })
+}
+
 /// How far the point `r` is inside the constraint `c` (`>= 0`: satisfied; in the figure's
 /// unit); `None` when the point does not give the figure.
 pub fn margin(c: &Constraint, r: &PointResult) -> Option<f64> {
-    r.figures
-        .iter()
-        .find(|f| f.name == c.figure)
-        .and_then(|f| f.value)
-        .map(|v| c.margin_of(v))
+    c.margin(|name| {
+        r.figures
+            .iter()
+            .find(|f| f.name == name)
+            .and_then(|f| f.value)
+    })
 }
 
 /// The result of one point.
@@ -610,6 +630,7 @@ pub fn run(args: Args) -> Result<(), Error> {
     if args.threads == Some(0) {
         return Err(Error::Usage("--threads must be at least 1".into()));
     }
+    let method = parse_method(&args.method)?;
     let file = args.scenario.display().to_string();
     let (shard_i, shards) = shard.unwrap_or((0, 1));
     let points = shape.shard_points(shard_i, shards);
@@ -659,7 +680,11 @@ pub fn run(args: Args) -> Result<(), Error> {
         .collect::<Result<_, _>>()
         .map_err(SpecError::from)?;
     let mut requested = vec![map.clone()];
-    requested.extend(constraints.iter().map(|c| c.figure.clone()));
+    requested.extend(
+        constraints
+            .iter()
+            .flat_map(|c| c.figures().map(str::to_string)),
+    );
     let t_end = args.t_end.map(|t| {
         Override::new("integrator.t_end", Value::from(t), &cell(Some(t))).expect("a valid PATH")
     });
@@ -693,6 +718,7 @@ pub fn run(args: Args) -> Result<(), Error> {
         constraints: constraints.iter().map(|c| c.text.clone()).collect(),
         map,
         minimize: args.minimize,
+        method: (method != RandomMethod::Auto).then(|| args.method.clone()),
     };
     let mut indices: Vec<usize> = Vec::new();
     indices
@@ -702,6 +728,8 @@ pub fn run(args: Args) -> Result<(), Error> {
     let options = PointOptions {
         time_domain: args.time_domain,
         allow_long: args.allow_long,
+        method,
+        only_requested: false,
     };
     let bar = progress_bar(!args.quiet, indices.len());
     let results = evaluate_points_requesting(
