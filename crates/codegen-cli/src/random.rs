@@ -725,7 +725,7 @@ fn modal_variances(
     let g = phi.clone().lu().solve(&b)?;
     // The normwise backward error of the solve.
     let residual = (&phi * &g - &b).norm();
-    if !(residual <= MODAL_SOLVE * (phi.norm() * g.norm() + b.norm())) {
+    if residual.is_nan() || residual > MODAL_SOLVE * (phi.norm() * g.norm() + b.norm()) {
         return None;
     }
     // (G W G^H)_ij / -(lambda_i + conj lambda_j), then the rows' quadratic forms.
