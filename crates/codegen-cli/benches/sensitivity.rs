@@ -82,6 +82,7 @@ fn sensitivity(c: &mut Criterion) {
             maximize: true,
             constraints: &[],
             grid: 2,
+            method: Default::default(),
         };
         g.bench_function(format!("{name}_adjoint"), |b| {
             b.iter(|| gradients(&problem, &x).unwrap())

@@ -262,10 +262,35 @@ fn modes_of(
     k: usize,
     method: EigenMethod,
 ) -> Result<Vec<ModeReport>, Error> {
-    let found = modes(lin, k, method).map_err(|error| Error::Linear {
+    modes_keeping(file, lin, model, k, method, None)
+}
+
+/// [`modes_of`]; with `all`, every mode of the dense eigen-solution is kept there (the
+/// same first `k`: the dense solution sorts every eigenvalue, then truncates) for the
+/// random figures of the same point ([`crate::random::figures_of`]), where the dense
+/// solution is the method (`Auto` up to 600 states).
+fn modes_keeping(
+    file: &str,
+    lin: &Linearization,
+    model: &HybridModel,
+    k: usize,
+    method: EigenMethod,
+    all: Option<&mut Vec<Mode>>,
+) -> Result<Vec<ModeReport>, Error> {
+    let error = |error| Error::Linear {
         file: file.to_string(),
         error,
-    })?;
+    };
+    let states = crate::random::states(lin);
+    let dense = matches!(method, EigenMethod::Dense)
+        || (matches!(method, EigenMethod::Auto) && states <= crate::random::DENSE_STATES);
+    let found = match all {
+        Some(all) if dense => {
+            *all = modes(lin, states, EigenMethod::Dense).map_err(error)?;
+            all[..k.min(all.len())].to_vec()
+        }
+        _ => modes(lin, k, method).map_err(error)?,
+    };
     Ok(found
         .iter()
         .enumerate()
@@ -293,9 +318,11 @@ pub fn analyse_with_max_force(
     sc: &Scenario,
     k: usize,
     method: EigenMethod,
+    comparisons: bool,
+    all: Option<&mut Vec<Mode>>,
 ) -> Result<(LinearReport, Option<MaxForce>, Linearizable, Linearization), Error> {
     let input = tangents_for(sc)?;
-    let (report, lin) = analyse_linearization(file, &input, k, method)?;
+    let (report, lin) = analyse_linearization_with(file, &input, k, method, comparisons, all)?;
     let max_force = match report.modes.first() {
         Some(m) => max_force_at(&input.model, &lin, m.natural_frequency_hz).map_err(|error| {
             Error::Linear {
@@ -316,12 +343,26 @@ pub fn analyse_linearization(
     k: usize,
     method: EigenMethod,
 ) -> Result<(LinearReport, Linearization), Error> {
+    analyse_linearization_with(file, input, k, method, true, None)
+}
+
+/// [`analyse_linearization`], the comparison variants (generator(s) disconnected, bare
+/// beam: two more linearisations and eigen-solutions) only when `comparisons`; with `all`,
+/// every mode of the dense eigen-solution kept there ([`modes_keeping`]).
+pub fn analyse_linearization_with(
+    file: &str,
+    input: &Linearizable,
+    k: usize,
+    method: EigenMethod,
+    comparisons: bool,
+    all: Option<&mut Vec<Mode>>,
+) -> Result<(LinearReport, Linearization), Error> {
     let refs = input.tangent_refs();
     let model = &input.model;
     let lin = linearise(file, model, &refs)?;
-    let with = modes_of(file, &lin, model, k, method)?;
+    let with = modes_keeping(file, &lin, model, k, method, all)?;
     let has_generator = model.forces.iter().any(|f| f.generator().is_some());
-    let generator_disconnected = if has_generator {
+    let generator_disconnected = if has_generator && comparisons {
         let off = input.model.generators_disconnected();
         let lin_off = linearise(file, &off, &refs)?;
         Some(modes_of(file, &lin_off, &off, k, method)?)
@@ -329,7 +370,7 @@ pub fn analyse_linearization(
         None
     };
     let bare_beam = match &model.beam {
-        Some(b) if !model.mechanisms.is_empty() => {
+        Some(b) if !model.mechanisms.is_empty() && comparisons => {
             let bare = HybridModel::new(Some(b.clone()), vec![], vec![], vec![], vec![])
                 .expect("a beam alone is a valid hybrid model");
             let lin_bare = linearise(file, &bare, &[])?;

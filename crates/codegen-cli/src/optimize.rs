@@ -15,25 +15,52 @@
 //! margin by its bound (or 1 for a zero bound).
 //!
 //! **Result.** The best feasible point found over all starts (a point feasible when every
-//! margin is `>= 0`), every constraint's value and margin and whether it is active (margin
-//! below `ACTIVE` of its scale, or a variable at a bound), the evaluations, and the KKT
-//! residual at the optimum: the objective's gradient in the scaled variables (the adjoint of
-//! the linear model where the figure has one, else differences: [`crate::sensitivity`])
-//! minus its least-squares combination of the active constraints' and bounds' gradients,
-//! relative to the gradient's norm (0 at a KKT point; the combination's multipliers are
-//! reported, and must be `>= 0`). The gradients themselves are reported, with the method
-//! each came from.
+//! margin is `>= 0`; a constraint between figures `A>=k*B` has the margin `A - k B`), every
+//! constraint's value, right-hand side and margin, and the certificate of the optimum
+//! (`docs/theory.md`, "The certificate of an optimum"):
+//!
+//! - the **active set**: a constraint whose margin is below [`ACTIVE`] of its scale, a
+//!   variable within [`ACTIVE`] of its range from a bound;
+//! - the **KKT residual** on that set: with `g` the objective's gradient (to minimise) in the
+//!   scaled variables, `a_j` the gradients of the active margins (each over its scale) and
+//!   the bounds' normals (`+e_i` at a lower bound, `-e_i` at an upper one), the multipliers
+//!   `mu` of the least-squares `g ~ sum mu_j a_j` and `r = |g - sum mu_j a_j|`: the part of
+//!   the objective's change per range of the variables that the active set does not
+//!   balance, in units of the objective's spread over the start grid (0 at a KKT point);
+//!   a KKT point also has every `mu_j >= 0` (checked to [`SIGN_TOL`]);
+//! - the **starts that reached it**: the COBYLA runs whose best point feasible to [`ACTIVE`]
+//!   is no worse than the optimum by more than [`AGREE`] of the objective's spread over the
+//!   start grid.
+//!
+//! The gradients are the adjoint of the linear model where the figure has one, else
+//! differences ([`crate::sensitivity`]), reported with the method each came from; the
+//! margin of `A>=k*B` has the gradient `dA - k dB`.
 
 use rayon::prelude::*;
 
-use crate::analysis::figures::{Bound, Constraint};
+use crate::analysis::figures::Constraint;
 use crate::analysis::sweep::SpecError;
 use crate::scenario::Override;
 use crate::scenario::overrides::parse_value;
 use crate::sweep_point::{self, Figure, PointError, PointOptions};
 
-/// A margin below this fraction of its scale counts as active.
-pub const ACTIVE: f64 = 1e-6;
+/// A margin below this fraction of its scale counts as active, and a variable within this
+/// fraction of its range from a bound is at the bound: COBYLA ends within about 1e-6 to 1e-5
+/// of an active constraint when it stops on its evaluation cap (measured), far below any
+/// margin that matters to a design; a constraint counted active that does not bind gets a
+/// multiplier of about 0, not a wrong certificate.
+pub const ACTIVE: f64 = 1e-4;
+/// A KKT multiplier above `-SIGN_TOL` (relative to the largest one, at least 1) counts as
+/// non-negative.
+pub const SIGN_TOL: f64 = 1e-6;
+/// A start reached the optimum when its best point feasible to [`ACTIVE`] is no worse than
+/// the optimum by more than this fraction of the objective's spread over the start grid (a
+/// point on an active constraint to within `ACTIVE` may be slightly better than the best
+/// strictly feasible one).
+pub const AGREE: f64 = 1e-5;
+/// A KKT residual below this is called stationary in the report's sentence (the gradients'
+/// difference formulas are good to about 1e-8 of the gradient; COBYLA's end to 1e-6).
+pub const KKT_STATIONARY: f64 = 1e-4;
 /// Step of the gradients' difference formulas in the scaled variables (a fraction of each
 /// variable's range, [`crate::sensitivity::stencil`]): it balances their truncation
 /// (`O(step^2)`) against the linearisations' rounding divided by the step (the adjoint
@@ -104,6 +131,24 @@ pub struct Problem<'a> {
     pub constraints: &'a [Constraint],
     /// Points per variable of the start grid.
     pub grid: usize,
+    /// How the random figures are computed.
+    pub method: crate::random::RandomMethod,
+}
+
+impl Problem<'_> {
+    /// The figures whose gradients the certificate needs, each once, in order: the
+    /// objective, every constraint's figure, then the right-hand figures of the constraints
+    /// between figures ([`crate::sensitivity::gradients`] gives them in this order).
+    pub fn gradient_figures(&self) -> Vec<String> {
+        let mut names = vec![self.objective.clone()];
+        names.extend(self.constraints.iter().map(|c| c.figure.clone()));
+        for b in self.constraints.iter().filter_map(|c| c.other.as_ref()) {
+            if !names.contains(b) {
+                names.push(b.clone());
+            }
+        }
+        names
+    }
 }
 
 /// One evaluation: the variables, the objective, every constraint's margin (`None`: the
@@ -116,6 +161,10 @@ pub struct Evaluation {
     pub objective: Option<f64>,
     /// Per constraint: its figure's value.
     pub values: Vec<Option<f64>>,
+    /// Per constraint: the value of its right-hand figure `B` (`A>=k*B`), `None` for a
+    /// constraint against a number.
+    #[serde(skip)]
+    pub others: Vec<Option<f64>>,
     /// Per constraint: margin (`>= 0` satisfied).
     pub margins: Vec<Option<f64>>,
     /// Why the point failed.
@@ -129,6 +178,23 @@ pub struct Evaluation {
 }
 
 impl Evaluation {
+    /// The value of the figure `name` of the problem `p` at this point (the objective or a
+    /// constraint's figure).
+    pub fn value_of(&self, p: &Problem<'_>, name: &str) -> Option<f64> {
+        if name == p.objective {
+            return self.objective;
+        }
+        let k = p.constraints.iter().position(|c| c.figure == name);
+        if let Some(k) = k {
+            return self.values[k];
+        }
+        let k = p
+            .constraints
+            .iter()
+            .position(|c| c.other.as_deref() == Some(name))?;
+        self.others[k]
+    }
+
     /// Every margin known and `>= 0`, and the objective known.
     pub fn feasible(&self) -> bool {
         self.objective.is_some() && self.margins.iter().all(|m| m.is_some_and(|m| m >= 0.0))
@@ -158,8 +224,13 @@ pub struct ConstraintReport {
     pub constraint: String,
     /// The figure's value.
     pub value: f64,
+    /// The right-hand side: the bound, or `k B` of a constraint between figures.
+    pub rhs: f64,
     /// The margin (`>= 0`).
     pub margin: f64,
+    /// The scale the margin is measured against (the bound's magnitude, or the largest
+    /// `|k B|` over the start grid; 1 for a zero bound).
+    pub scale: f64,
     /// Whether it is active (margin below [`ACTIVE`] of its scale).
     pub active: bool,
     /// Its KKT multiplier when active.
@@ -172,8 +243,11 @@ pub struct ConstraintReport {
 pub struct Outcome {
     /// The optimum: variable path and value.
     pub optimum: Vec<(String, f64)>,
-    /// Variables at a bound: path and `lower`/`upper`.
+    /// Variables at a bound (within [`ACTIVE`] of the range): path and `lower`/`upper`.
     pub at_bounds: Vec<(String, &'static str)>,
+    /// The KKT multiplier of each variable at a bound (as `at_bounds`), when the gradients
+    /// are known.
+    pub bound_multipliers: Vec<f64>,
     /// The objective figure and its value.
     pub objective: (String, f64),
     /// Every constraint at the optimum.
@@ -181,6 +255,15 @@ pub struct Outcome {
     /// The KKT residual (see the module documentation); `None` without the gradients
     /// (`gradient_error` says why).
     pub kkt_residual: Option<f64>,
+    /// Whether every multiplier of the active set is `>= 0` (to [`SIGN_TOL`]); `None`
+    /// without the gradients.
+    pub multipliers_nonnegative: Option<bool>,
+    /// The certificate in one or two plain sentences (what the residual and the
+    /// multipliers' signs say).
+    pub certificate: String,
+    /// The tolerances of the certificate: `active` ([`ACTIVE`]), `agree` ([`AGREE`]),
+    /// `sign` ([`SIGN_TOL`]).
+    pub tolerances: Tolerances,
     /// The gradients of the objective and of every constraint's figure at the optimum
     /// ([`crate::sensitivity::gradients`]), in the variables' units.
     pub gradients: Vec<crate::sensitivity::Gradient>,
@@ -189,12 +272,24 @@ pub struct Outcome {
     pub gradient_error: Option<String>,
     /// Whether the first mode is overdamped at the optimum (its damping ratio reads 1).
     pub overdamped: bool,
-    /// COBYLA runs that ended at this optimum (objective within 1e-6 relative).
+    /// COBYLA runs that reached this optimum (their best point feasible to [`ACTIVE`] no
+    /// worse by more than [`AGREE`] of the objective's spread over the grid).
     pub starts_agreeing: usize,
     /// COBYLA runs.
     pub starts: usize,
     /// Every evaluation, in order.
     pub history: Vec<Evaluation>,
+}
+
+/// The tolerances the certificate is decided with (module documentation).
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct Tolerances {
+    /// [`ACTIVE`].
+    pub active: f64,
+    /// [`AGREE`].
+    pub agree: f64,
+    /// [`SIGN_TOL`].
+    pub sign: f64,
 }
 
 /// Why no optimum was found.
@@ -231,18 +326,24 @@ pub fn overrides_at<'a>(
     overrides
 }
 
-/// Evaluates the figures of the problem at `x`.
+/// Evaluates the figures of the problem at `x` (only these: the random figures only when
+/// one of them is random).
 pub fn evaluate(p: &Problem<'_>, x: &[f64], stage: &str) -> Evaluation {
     let overrides = overrides_at(p.fixed, p.variables.iter().map(|v| v.path.as_str()).zip(x));
     let mut names: Vec<&str> = vec![p.objective.as_str()];
-    for c in p.constraints {
-        if !names.contains(&c.figure.as_str()) {
-            names.push(&c.figure);
+    for name in p.constraints.iter().flat_map(Constraint::figures) {
+        if !names.contains(&name) {
+            names.push(name);
         }
     }
     let names: Vec<String> = names.into_iter().map(str::to_string).collect();
+    let options = PointOptions {
+        method: p.method,
+        only_requested: true,
+        ..PointOptions::default()
+    };
     let point = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        sweep_point::evaluate_with(p.path, p.text, &overrides, &PointOptions::default(), &names)
+        sweep_point::evaluate_with(p.path, p.text, &overrides, &options, &names)
     }))
     .unwrap_or(Err(PointError::Panicked));
     let figure = |figures: &[Figure], name: &str| {
@@ -251,39 +352,57 @@ pub fn evaluate(p: &Problem<'_>, x: &[f64], stage: &str) -> Evaluation {
             .find(|f| f.name == name)
             .and_then(|f| f.value)
     };
+    let nc = p.constraints.len();
     match point {
         Ok(e) => {
-            let values: Vec<Option<f64>> = p
-                .constraints
-                .iter()
-                .map(|c| figure(&e.figures, &c.figure))
-                .collect();
-            let margins = p
-                .constraints
-                .iter()
-                .zip(&values)
-                .map(|(c, v)| v.map(|v| c.margin_of(v)))
-                .collect();
+            let value = |name: &str| figure(&e.figures, name);
             Evaluation {
                 x: x.to_vec(),
-                objective: figure(&e.figures, &p.objective),
-                values,
-                margins,
+                objective: value(&p.objective),
+                values: p.constraints.iter().map(|c| value(&c.figure)).collect(),
+                others: p
+                    .constraints
+                    .iter()
+                    .map(|c| c.other.as_deref().and_then(value))
+                    .collect(),
+                margins: p.constraints.iter().map(|c| c.margin(value)).collect(),
                 error: None,
                 stage: stage.to_string(),
-                overdamped: figure(&e.figures, "linear.overdamped1").map(|v| v > 0.5),
+                overdamped: value("linear.overdamped1").map(|v| v > 0.5),
             }
         }
         Err(e) => Evaluation {
             x: x.to_vec(),
             objective: None,
-            values: vec![None; p.constraints.len()],
-            margins: vec![None; p.constraints.len()],
+            values: vec![None; nc],
+            others: vec![None; nc],
+            margins: vec![None; nc],
             error: Some(e.to_string().replace('\n', "; ")),
             stage: stage.to_string(),
             overdamped: None,
         },
     }
+}
+
+/// The scale of each constraint's margin: the bound's magnitude (1 for a zero bound); for
+/// `A>=k*B`, the largest `|k B|` over the evaluations `grid` (else the largest `|A|`, else 1).
+fn scales_of(constraints: &[Constraint], grid: &[Evaluation]) -> Vec<f64> {
+    let positive = |v: f64| (v.is_finite() && v > 0.0).then_some(v);
+    constraints
+        .iter()
+        .enumerate()
+        .map(|(k, c)| match c.other {
+            None => positive(c.value.abs()).unwrap_or(1.0),
+            Some(_) => {
+                let largest = |f: &dyn Fn(&Evaluation) -> Option<f64>| {
+                    grid.iter().filter_map(f).map(f64::abs).fold(0.0, f64::max)
+                };
+                positive(largest(&|e| e.others[k].map(|b| c.value * b)))
+                    .or_else(|| positive(largest(&|e| e.values[k])))
+                    .unwrap_or(1.0)
+            }
+        })
+        .collect()
 }
 
 /// The start grid: `n` points per variable (the bounds included), at most [`MAX_GRID`].
@@ -317,11 +436,6 @@ pub fn optimize(p: &Problem<'_>) -> Result<Outcome, OptimizeError> {
     if d == 0 {
         return Err(OptimizeError::NoVariables);
     }
-    let scales: Vec<f64> = p
-        .constraints
-        .iter()
-        .map(|c| if c.value != 0.0 { c.value.abs() } else { 1.0 })
-        .collect();
     // The grid, in parallel (collected in grid order: the same result on any thread count).
     // Each point on rayon's threads as work of this call (its stop token).
     let token = crate::interrupt::current();
@@ -329,6 +443,7 @@ pub fn optimize(p: &Problem<'_>) -> Result<Outcome, OptimizeError> {
         .par_iter()
         .map(|x| crate::interrupt::with_current(token.clone(), || evaluate(p, x, "grid")))
         .collect();
+    let scales = scales_of(p.constraints, &history);
     let sign = if p.maximize { -1.0 } else { 1.0 };
     let (omin, omax) = history
         .iter()
@@ -367,15 +482,33 @@ pub fn optimize(p: &Problem<'_>) -> Result<Outcome, OptimizeError> {
             .map(|(u, v)| v.lo + (v.hi - v.lo) * u.clamp(0.0, 1.0))
             .collect()
     };
-    let mut ends: Vec<Option<f64>> = vec![];
+    // Per start: the best objective (to minimise: `sign f`) among its points feasible to
+    // `ACTIVE` of each constraint's scale.
+    let mut reached: Vec<Option<f64>> = vec![];
+    let nearly = |e: &Evaluation| {
+        e.objective.is_some()
+            && e.margins
+                .iter()
+                .zip(&scales)
+                .all(|(m, s)| m.is_some_and(|m| m >= -ACTIVE * s))
+    };
     for (s, x0) in starts.iter().enumerate() {
         let stage = format!("start {s}");
         let log = std::cell::RefCell::new(Vec::<Evaluation>::new());
         // One evaluation per distinct u: COBYLA asks the objective and then each constraint
         // at the same point.
+        let grid_points = &history;
         let at = |u: &[f64]| -> Evaluation {
-            if let Some(e) = log.borrow().iter().rev().find(|e| e.x == to_x(u)) {
+            let x = to_x(u);
+            if let Some(e) = log.borrow().iter().rev().find(|e| e.x == x) {
                 return e.clone();
+            }
+            // The start itself is a grid point, already evaluated.
+            if let Some(e) = grid_points.iter().find(|e| e.x == x) {
+                return Evaluation {
+                    stage: stage.clone(),
+                    ..e.clone()
+                };
             }
             let e = evaluate(p, &to_x(u), &stage);
             log.borrow_mut().push(e.clone());
@@ -417,18 +550,19 @@ pub fn optimize(p: &Problem<'_>) -> Result<Outcome, OptimizeError> {
             cobyla::RhoBeg::All(0.1),
             Some(stop),
         );
-        let end = match result {
+        match result {
             Ok((_, u, _)) | Err((_, u, _)) => at(&u),
         };
-        // Where this search ended, if feasible to 1e-9 of each constraint's scale (COBYLA
-        // ends on an active constraint to within its own tolerance).
-        let nearly = end.objective.is_some()
-            && end
-                .margins
+        // (The search's own points and its start, a grid point.)
+        let start = history.iter().find(|e| e.x == *x0);
+        reached.push(
+            log.borrow()
                 .iter()
-                .zip(&scales)
-                .all(|(m, s)| m.is_some_and(|m| m >= -1e-9 * s));
-        ends.push(end.objective.filter(|_| nearly));
+                .chain(start)
+                .filter(|e| nearly(e))
+                .filter_map(|e| e.objective.map(|v| sign * v))
+                .reduce(f64::min),
+        );
         drop(cons_ref);
         drop(cons);
         history.extend(log.borrow_mut().drain(..));
@@ -459,72 +593,99 @@ pub fn optimize(p: &Problem<'_>) -> Result<Outcome, OptimizeError> {
         });
     };
     let value = best.objective.unwrap_or_default();
-    let agreeing = ends
+    let agreeing = reached
         .iter()
-        .filter(|e| e.is_some_and(|v| (v - value).abs() <= 1e-6 * value.abs().max(1e-12)))
+        .filter(|r| r.is_some_and(|v| v <= sign * value + AGREE * oscale))
         .count();
-    // KKT at the optimum (scaled variables).
+    // The active set at the optimum (scaled variables).
     let u0 = to_u(&best.x);
     let active: Vec<bool> = best
         .margins
         .iter()
         .zip(&scales)
-        .map(|(m, s)| m.is_some_and(|m| m / s <= ACTIVE))
+        .map(|(m, s)| m.is_some_and(|m| m <= ACTIVE * s))
         .collect();
-    let mut at_bounds = vec![];
-    for (i, v) in p.variables.iter().enumerate() {
-        if u0[i] <= ACTIVE {
-            at_bounds.push((v.path.clone(), "lower"));
-        } else if u0[i] >= 1.0 - ACTIVE {
-            at_bounds.push((v.path.clone(), "upper"));
+    let bound_side = |u: f64| {
+        if u <= ACTIVE {
+            Some(("lower", 1.0))
+        } else if u >= 1.0 - ACTIVE {
+            Some(("upper", -1.0))
+        } else {
+            None
         }
-    }
+    };
+    let at_bounds: Vec<(String, &'static str)> = p
+        .variables
+        .iter()
+        .zip(&u0)
+        .filter_map(|(v, &u)| bound_side(u).map(|(side, _)| (v.path.clone(), side)))
+        .collect();
     // The gradients at the optimum (the adjoint where the figure has one, else
-    // differences: `crate::sensitivity`), in the scaled variables.
+    // differences: `crate::sensitivity`), in the order of `Problem::gradient_figures`.
     let (gradients, gradient_error) = match crate::sensitivity::gradients(p, &best.x) {
         Ok(g) => (g, None),
         Err(e) => (vec![], Some(e.to_string())),
     };
-    let scaled = |g: &crate::sensitivity::Gradient, factor: f64| -> Vec<f64> {
-        g.gradient
+    let of = |name: &str| {
+        gradients
             .iter()
+            .find(|g| g.figure == name)
+            .map(|g| g.gradient.as_slice())
+    };
+    // In the scaled variables: d/du = (hi - lo) d/dx.
+    let scaled = |g: &[f64], factor: f64| -> Vec<f64> {
+        g.iter()
             .zip(p.variables)
             .map(|(d, v)| factor * d * (v.hi - v.lo))
             .collect()
     };
     // The objective to minimise and the active constraints' margins (>= 0 feasible).
-    let grad_f = gradients.first().map(|g| scaled(g, sign / oscale));
+    let grad_f = of(&p.objective).map(|g| scaled(g, sign / oscale));
     let mut columns: Vec<Vec<f64>> = vec![];
+    let mut names: Vec<String> = vec![];
     let mut which: Vec<Option<usize>> = vec![];
-    for (k, a) in active.iter().enumerate() {
-        if let (true, Some(g)) = (*a, gradients.get(k + 1)) {
-            let side = match p.constraints[k].bound {
-                Bound::AtLeast => 1.0,
-                Bound::AtMost => -1.0,
-            };
-            columns.push(scaled(g, side / scales[k]));
+    for (k, c) in p.constraints.iter().enumerate() {
+        let db = c.other.as_deref().map(of);
+        if let (true, Some(da), false) = (active[k], of(&c.figure), db == Some(None)) {
+            columns.push(scaled(
+                &c.margin_gradient(da, db.flatten()),
+                1.0 / scales[k],
+            ));
+            names.push(c.text.clone());
             which.push(Some(k));
         }
     }
-    for (i, _) in p.variables.iter().enumerate() {
-        if u0[i] <= ACTIVE || u0[i] >= 1.0 - ACTIVE {
+    for (i, (v, &u)) in p.variables.iter().zip(&u0).enumerate() {
+        if let Some((side, normal)) = bound_side(u) {
             let mut g = vec![0.0; d];
-            g[i] = if u0[i] <= ACTIVE { 1.0 } else { -1.0 };
+            g[i] = normal;
             columns.push(g);
+            names.push(format!("{} at its {side} bound", v.path));
             which.push(None);
         }
     }
-    let (kkt, multipliers) = match grad_f {
+    let (kkt, multipliers) = match &grad_f {
         Some(g) => {
-            let (r, m) = kkt_residual(&g, &columns);
+            let (r, m) = kkt_residual(g, &columns);
             (Some(r), m)
         }
         None => (None, vec![]),
     };
+    let largest = multipliers.iter().map(|m| m.abs()).fold(1.0, f64::max);
+    let negative: Vec<&str> = names
+        .iter()
+        .zip(&multipliers)
+        .filter(|(_, m)| **m < -SIGN_TOL * largest)
+        .map(|(n, _)| n.as_str())
+        .collect();
+    let multipliers_nonnegative = kkt.map(|_| negative.is_empty());
+    let certificate = certificate_text(kkt, &names, &negative, gradient_error.is_some());
     let mut mult_of = vec![None; p.constraints.len()];
+    let mut bound_multipliers = vec![];
     for (w, m) in which.iter().zip(&multipliers) {
-        if let Some(k) = w {
-            mult_of[*k] = Some(*m);
+        match w {
+            Some(k) => mult_of[*k] = Some(*m),
+            None => bound_multipliers.push(*m),
         }
     }
     let constraints = p
@@ -534,7 +695,9 @@ pub fn optimize(p: &Problem<'_>) -> Result<Outcome, OptimizeError> {
         .map(|(k, c)| ConstraintReport {
             constraint: c.text.clone(),
             value: best.values[k].unwrap_or(f64::NAN),
+            rhs: c.rhs(best.others[k]).unwrap_or(f64::NAN),
             margin: best.margins[k].unwrap_or(f64::NAN),
+            scale: scales[k],
             active: active[k],
             multiplier: mult_of[k],
         })
@@ -547,9 +710,17 @@ pub fn optimize(p: &Problem<'_>) -> Result<Outcome, OptimizeError> {
             .map(|(v, x)| (v.path.clone(), *x))
             .collect(),
         at_bounds,
+        bound_multipliers,
         objective: (p.objective.clone(), value),
         constraints,
         kkt_residual: kkt,
+        multipliers_nonnegative,
+        certificate,
+        tolerances: Tolerances {
+            active: ACTIVE,
+            agree: AGREE,
+            sign: SIGN_TOL,
+        },
         gradients,
         gradient_error,
         overdamped: best.overdamped.unwrap_or(false),
@@ -559,14 +730,56 @@ pub fn optimize(p: &Problem<'_>) -> Result<Outcome, OptimizeError> {
     })
 }
 
+/// The certificate in plain sentences: the residual `kkt` on the active set `active` (its
+/// members' names), the members whose multipliers are negative.
+fn certificate_text(
+    kkt: Option<f64>,
+    active: &[String],
+    negative: &[&str],
+    no_gradients: bool,
+) -> String {
+    let Some(r) = kkt else {
+        return if no_gradients {
+            "No certificate: the gradients at the optimum could not be computed.".into()
+        } else {
+            "No certificate: the objective has no gradient at the optimum.".into()
+        };
+    };
+    let mut text = if active.is_empty() {
+        format!(
+            "KKT residual {r:.1e} (nothing active): the objective's gradient, per range of the variables, is {r:.1e} of the objective's spread over the start grid."
+        )
+    } else {
+        format!(
+            "KKT residual {r:.1e} on the active set ({}): the active gradients balance the objective's gradient up to {r:.1e} of the objective's spread over the start grid per range of the variables.",
+            active.join("; ")
+        )
+    };
+    if r > KKT_STATIONARY {
+        text.push_str(
+            " That is not small: not a stationary point (a kink, a plateau or a search cut short).",
+        );
+    } else if !negative.is_empty() {
+        text.push_str(&format!(
+            " But the multiplier of {} is negative: leaving it improves the objective, so this is not a local optimum.",
+            negative.join(", ")
+        ));
+    } else if active.is_empty() {
+        text.push_str(" Stationary: a local optimum inside the bounds.");
+    } else {
+        text.push_str(" Every multiplier is >= 0: no feasible move improves the objective to first order, a local optimum.");
+    }
+    text
+}
+
 /// `grad f = A mu` in the least-squares sense (A's columns: the gradients of the active
-/// constraints, `>= 0` feasible): `|grad f - A mu| / |grad f|` and `mu` (`mu >= 0` at a
-/// KKT point of a minimisation).
+/// constraints, `>= 0` feasible): `|grad f - A mu|` and `mu` (`mu >= 0` at a KKT point of a
+/// minimisation).
 pub fn kkt_residual(g: &[f64], columns: &[Vec<f64>]) -> (f64, Vec<f64>) {
     let d = g.len();
     let norm = g.iter().map(|x| x * x).sum::<f64>().sqrt();
     if columns.is_empty() {
-        return (if norm > 0.0 { 1.0 } else { 0.0 }, vec![]);
+        return (norm, vec![]);
     }
     let a = nalgebra::DMatrix::from_fn(d, columns.len(), |r, c| columns[c][r]);
     let b = nalgebra::DVector::from_column_slice(g);
@@ -575,8 +788,7 @@ pub fn kkt_residual(g: &[f64], columns: &[Vec<f64>]) -> (f64, Vec<f64>) {
         .solve(&b, 1e-12)
         .unwrap_or_else(|_| nalgebra::DVector::zeros(columns.len()));
     let r = &b - &a * &mu;
-    let rel = if norm > 0.0 { r.norm() / norm } else { 0.0 };
-    (rel, mu.iter().copied().collect())
+    (r.norm(), mu.iter().copied().collect())
 }
 
 /// A point in one line: its variables, objective and every constraint's value.
@@ -596,9 +808,19 @@ pub fn describe(p: &Problem<'_>, e: &Evaluation) -> String {
         )),
         (None, None) => parts.push(format!("no {}", p.objective)),
     }
-    for (c, v) in p.constraints.iter().zip(&e.values) {
-        let shown = v.map_or("n/a".to_string(), |v| crate::report::csv::cell(Some(v)));
-        parts.push(format!("{} = {shown} (needs {})", c.figure, c.text));
+    let shown =
+        |v: &Option<f64>| v.map_or("n/a".to_string(), |v| crate::report::csv::cell(Some(v)));
+    for ((c, v), b) in p.constraints.iter().zip(&e.values).zip(&e.others) {
+        let rhs = match &c.other {
+            Some(other) => format!(", {other} = {}", shown(b)),
+            None => String::new(),
+        };
+        parts.push(format!(
+            "{} = {}{rhs} (needs {})",
+            c.figure,
+            shown(v),
+            c.text
+        ));
     }
     parts.join(", ")
 }
@@ -612,8 +834,52 @@ mod tests {
         let (r, mu) = kkt_residual(&[2.0, 0.0], &[vec![1.0, 0.0]]);
         assert!(r < 1e-15 && (mu[0] - 2.0).abs() < 1e-15);
         let (r, _) = kkt_residual(&[1.0, 1.0], &[vec![1.0, 0.0]]);
-        assert!((r - 0.5f64.sqrt()).abs() < 1e-15);
+        assert!((r - 1.0).abs() < 1e-15);
         assert_eq!(kkt_residual(&[0.0, 0.0], &[]).0, 0.0);
+        assert_eq!(kkt_residual(&[3.0, 4.0], &[]).0, 5.0);
+        // A gradient pointing out of the feasible side: a negative multiplier.
+        let (r, mu) = kkt_residual(&[-2.0, 0.0], &[vec![1.0, 0.0]]);
+        assert!(r < 1e-15 && (mu[0] + 2.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn the_certificate_says_what_the_residual_and_the_signs_mean() {
+        let active = ["reach>=0.002".to_string()];
+        let ok = certificate_text(Some(1e-9), &active, &[], false);
+        assert!(
+            ok.contains("on the active set (reach>=0.002)") && ok.contains("a local optimum"),
+            "{ok}"
+        );
+        let neg = certificate_text(Some(1e-9), &active, &["reach>=0.002"], false);
+        assert!(
+            neg.contains("multiplier of reach>=0.002 is negative"),
+            "{neg}"
+        );
+        let big = certificate_text(Some(0.3), &[], &[], false);
+        assert!(
+            big.contains("(nothing active)") && big.contains("not a stationary point"),
+            "{big}"
+        );
+        let none = certificate_text(None, &[], &[], true);
+        assert!(none.starts_with("No certificate"), "{none}");
+    }
+
+    #[test]
+    fn margins_of_a_constraint_between_figures_are_scaled_by_the_largest_right_hand_side() {
+        let c: Constraint = "linear.reach>=4*random.rms:1.0".parse().unwrap();
+        let n: Constraint = "linear.zeta1>=0".parse().unwrap();
+        let point = |b: Option<f64>| Evaluation {
+            x: vec![],
+            objective: Some(1.0),
+            values: vec![Some(1.0), Some(1.0)],
+            others: vec![b, None],
+            margins: vec![None, None],
+            error: None,
+            stage: "grid".into(),
+            overdamped: None,
+        };
+        let scales = scales_of(&[c, n], &[point(Some(-3.0)), point(Some(2.0)), point(None)]);
+        assert_eq!(scales, vec![12.0, 1.0]);
     }
 
     #[test]

@@ -24,7 +24,7 @@
 
 use fem_beam::TimeFunction;
 use hybrid_core::hybrid::{
-    EigenMethod, ExcitationTarget, Linearization, PsdInput, StateOutput, StateSpace, modes,
+    EigenMethod, ExcitationTarget, Linearization, Mode, PsdInput, StateOutput, StateSpace, modes,
     psd_variances,
 };
 use serde::Serialize;
@@ -35,10 +35,12 @@ use crate::scenario::Scenario;
 use crate::setup::Linearizable;
 
 /// How the white-noise response is computed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum RandomMethod {
-    /// Dense up to [`DENSE_STATES`] states, modal above.
+    /// PSD tables alone by quadrature; white noise dense up to [`DENSE_STATES`] states,
+    /// modal above.
+    #[default]
     Auto,
     /// The Lyapunov equation of the whole first-order form.
     Dense,
@@ -49,6 +51,16 @@ pub enum RandomMethod {
 }
 
 impl RandomMethod {
+    /// The `--method` name of the method (`auto`, `dense`, `modal`, `quadrature`).
+    pub fn name(self) -> &'static str {
+        match self {
+            RandomMethod::Auto => "auto",
+            RandomMethod::Dense => "dense",
+            RandomMethod::Modal => "modal",
+            RandomMethod::Quadrature => "quadrature",
+        }
+    }
+
     /// `auto`, `dense`, `modal` or `quadrature` (the command's `--method` names).
     pub fn parse(name: &str) -> Option<RandomMethod> {
         Some(match name {
@@ -219,6 +231,37 @@ pub fn analyse_linearised(
     lin: &Linearization,
     opts: &RandomOptions,
 ) -> Result<RandomReport, Error> {
+    analyse_with(file, input, lin, opts, None)
+}
+
+/// [`analyse_linearised`] for design figures ([`crate::sweep_point`]): the same variances,
+/// without the diagnostics no figure reads (the `out_of_band` share of a white noise, one
+/// more quadrature; the Lyapunov residual), and, by the dense method, from the complete
+/// modal decomposition already computed instead of the Lyapunov equation's Schur form
+/// ([`modal_variances`], where it applies).
+///
+/// `all`: every mode of the point's dense eigen-solution when the caller has it (the
+/// linear figures' [`crate::linear::analyse_with_max_force`]): not computed again.
+pub fn figures_of(
+    file: &str,
+    input: &Linearizable,
+    lin: &Linearization,
+    all: Option<&[Mode]>,
+    opts: &RandomOptions,
+) -> Result<RandomReport, Error> {
+    analyse_with(file, input, lin, opts, Some(all))
+}
+
+/// The analysis; `given`: `None` for `damper random` (every diagnostic), `Some` for figures
+/// (with the point's modes when the caller has them).
+fn analyse_with(
+    file: &str,
+    input: &Linearizable,
+    lin: &Linearization,
+    opts: &RandomOptions,
+    given: Option<Option<&[Mode]>>,
+) -> Result<RandomReport, Error> {
+    let diagnostics = given.is_none();
     let usage = |m: String| Error::Usage(format!("{file}: {m}"));
     let model = &input.model;
     let random: Vec<_> = model
@@ -308,7 +351,15 @@ pub fn analyse_linearised(
     }
     let no = outputs.len();
     let nstates = states(lin);
+    // Automatic: PSD tables alone by quadrature on the pencil (banded plus low rank: O(n)
+    // per frequency, against the state space's O(n^3) decomposition and O(n^2) per
+    // frequency; no Lyapunov equation applies to a table), white noise by the Lyapunov
+    // equation, dense up to `DENSE_STATES` states.
+    let only_tables = random
+        .iter()
+        .all(|e| !matches!(e.time, TimeFunction::WhiteNoise { .. }));
     let method = match opts.method {
+        RandomMethod::Auto if only_tables => RandomMethod::Quadrature,
         RandomMethod::Auto if nstates <= DENSE_STATES => RandomMethod::Dense,
         RandomMethod::Auto => RandomMethod::Modal,
         m => m,
@@ -316,8 +367,14 @@ pub fn analyse_linearised(
     // Modes: the modal basis and the quadrature's breakpoints.
     let k = opts.modes.min(lin.dim()).max(1);
     // Dense: every mode at once (the complete basis below), the first `k` for the cuts.
-    let all = if method == RandomMethod::Dense {
-        modes(lin, lin.dim(), EigenMethod::Dense).map_err(linear_error(file))?
+    // (For figures, every eigenvalue: an overdamped mode's two real roots count as two
+    // modes, and the modal variances need the complete set; the first `dim` are the same.)
+    let given = given.flatten().filter(|m| m.len() >= k);
+    let all = if let (RandomMethod::Dense, Some(m)) = (method, given) {
+        m.to_vec()
+    } else if method == RandomMethod::Dense {
+        let count = if diagnostics { lin.dim() } else { nstates };
+        modes(lin, count, EigenMethod::Dense).map_err(linear_error(file))?
     } else {
         modes(lin, k, EigenMethod::Auto).map_err(linear_error(file))?
     };
@@ -482,19 +539,33 @@ pub fn analyse_linearised(
     } else {
         // On a basis: the complete modal one (dense) or the first modes' (modal).
         let solve = |basis: Option<nalgebra::DMatrix<f64>>,
+                     modal: Option<&[Mode]>,
                      report: &mut RandomReport|
          -> Result<Vec<f64>, Error> {
+            let v_basis = basis.clone();
             let ss = StateSpace::new(lin, &forces, basis).map_err(linear_error(file))?;
             let rows: Vec<_> = outputs.iter().map(|o| ss.row(o)).collect();
             let mut v = vec![0.0; no];
-            if has_white {
-                let w: Vec<f64> = ideal.iter().map(|g| 0.5 * g).collect();
+            let w: Vec<f64> = ideal.iter().map(|g| 0.5 * g).collect();
+            // For figures: the white noises from the complete modal decomposition.
+            let by_modes = match modal {
+                Some(all) if has_white && !diagnostics => {
+                    modal_variances(&ss, v_basis.as_ref(), all, &w, &rows)
+                }
+                _ => None,
+            };
+            if let Some(by_modes) = by_modes {
+                add(&mut v, &by_modes);
+            } else if has_white {
                 let (p, res) = ss.covariance(&w).map_err(linear_error(file))?;
                 let lyap: Vec<f64> = rows
                     .iter()
                     .map(|c| (c.transpose() * &p * c)[(0, 0)])
                     .collect();
                 report.lyapunov_residual = Some(res);
+                add(&mut v, &lyap);
+            }
+            if has_white && diagnostics {
                 // The band-limited share: the written white noises over their bands.
                 let (lo, hi, cuts) = span(&is_white);
                 let q = ss
@@ -507,13 +578,13 @@ pub fn analyse_linearised(
                         QUAD_INTERVALS,
                     )
                     .map_err(linear_error(file))?;
+                // (`v` holds the white noises' Lyapunov variances alone here.)
                 report.out_of_band = Some(
-                    lyap.iter()
+                    v.iter()
                         .zip(&q.variances)
                         .map(|(a, b)| if *a > 0.0 { (a - b).max(0.0) / a } else { 0.0 })
                         .fold(0.0, f64::max),
                 );
-                add(&mut v, &lyap);
             }
             if has_table {
                 let (lo, hi, cuts) = span(&|t| !is_white(t));
@@ -537,17 +608,18 @@ pub fn analyse_linearised(
             // The complete basis of every mode (the dense eigen-solver): the same solution as
             // on z itself, but the Schur form of the modal state matrix resolves the slow
             // modes to their own rounding, not to the fastest ones'.
-            let basis = StateSpace::modal_basis(lin, &all, &forces).map_err(linear_error(file))?;
+            let first = &all[..all.len().min(lin.dim())];
+            let basis = StateSpace::modal_basis(lin, first, &forces).map_err(linear_error(file))?;
             let complete = basis.ncols() == lin.dim();
-            variances = solve(complete.then_some(basis), &mut report)?;
+            variances = solve(complete.then_some(basis), Some(&all), &mut report)?;
             report.basis = None;
             methods.push("lyapunov dense");
         } else {
             let half = StateSpace::modal_basis(lin, &found[..found.len().div_ceil(2)], &forces)
                 .map_err(linear_error(file))?;
-            let vh = solve(Some(half), &mut report)?;
+            let vh = solve(Some(half), None, &mut report)?;
             let basis = StateSpace::modal_basis(lin, found, &forces).map_err(linear_error(file))?;
-            variances = solve(Some(basis), &mut report)?;
+            variances = solve(Some(basis), None, &mut report)?;
             report.truncation = Some(
                 variances
                     .iter()
@@ -589,4 +661,97 @@ pub fn analyse_linearised(
         })
         .collect();
     Ok(report)
+}
+
+/// Largest relative residual of a mode accepted by [`modal_variances`].
+const MODAL_RESIDUAL: f64 = 1e-10;
+/// Largest normwise backward error of `Phi G = B` accepted by [`modal_variances`]
+/// (`|Phi G - B| / (|Phi| |G| + |B|)`, a few hundred times the rounding unit).
+const MODAL_SOLVE: f64 = 1e-12;
+
+/// The white-noise variances `c^T P c` of the rows `rows` of the first-order form `ss` (on
+/// the basis `basis`, `None`: `z` itself) from its complete eigen-decomposition instead of
+/// the Lyapunov equation's Schur form (`docs/theory.md`, "Random figures from one modal
+/// decomposition"): with `A = Phi Lambda Phi^-1` (the state eigenvectors `(y, lambda y)`
+/// of every mode and its conjugate), `G = Phi^-1 B` and the noise intensities `W = diag(w)`,
+///
+/// ```text
+/// P = Phi Ptilde Phi^H,   Ptilde_ij = (G W G^H)_ij / -(lambda_i + conj lambda_j)
+/// c^T P c = sum_ij (c^T phi_i) Ptilde_ij conj(c^T phi_j)
+/// ```
+///
+/// — one complex LU of `Phi` and `O(n^2)` a row, against the Schur form's `O(n^3)` with a
+/// large constant. `None` (the caller solves the Lyapunov equation) where it does not apply:
+/// electrical states, modes that do not make a complete basis (an overdamped pair cut by
+/// the mode count, a multiple eigenvalue), a mode refined to more than `MODAL_RESIDUAL`,
+/// an unstable mode, or `Phi G = B` solved worse than `MODAL_SOLVE`.
+fn modal_variances(
+    ss: &StateSpace,
+    basis: Option<&nalgebra::DMatrix<f64>>,
+    modes: &[Mode],
+    w: &[f64],
+    rows: &[nalgebra::DVector<f64>],
+) -> Option<Vec<f64>> {
+    use nalgebra::{Complex, DMatrix};
+    type C = Complex<f64>;
+    let n = ss.a.nrows();
+    let r = ss.basis_size();
+    if n != 2 * r || n == 0 {
+        return None;
+    }
+    let mut lambdas: Vec<C> = Vec::with_capacity(n);
+    let mut vectors: Vec<Vec<C>> = Vec::with_capacity(n);
+    for m in modes {
+        let l = m.lambda();
+        if !(m.residual <= MODAL_RESIDUAL && l.re < 0.0) {
+            return None;
+        }
+        let phi = m.shape_complex();
+        let y: Vec<C> = match basis {
+            Some(v) if v.nrows() == phi.len() && v.ncols() == r => (0..r)
+                .map(|c| (0..phi.len()).map(|i| phi[i] * v[(i, c)]).sum())
+                .collect(),
+            None if phi.len() == r => phi,
+            _ => return None,
+        };
+        if l.im != 0.0 {
+            lambdas.push(l.conj());
+            vectors.push(y.iter().map(|c| c.conj()).collect());
+        }
+        lambdas.push(l);
+        vectors.push(y);
+    }
+    if lambdas.len() != n {
+        return None;
+    }
+    let phi = DMatrix::<C>::from_fn(n, n, |i, j| {
+        if i < r {
+            vectors[j][i]
+        } else {
+            lambdas[j] * vectors[j][i - r]
+        }
+    });
+    let b = ss.b.map(|v| C::new(v, 0.0));
+    let g = phi.clone().lu().solve(&b)?;
+    // The normwise backward error of the solve.
+    let residual = (&phi * &g - &b).norm();
+    if residual.is_nan() || residual > MODAL_SOLVE * (phi.norm() * g.norm() + b.norm()) {
+        return None;
+    }
+    // (G W G^H)_ij / -(lambda_i + conj lambda_j), then the rows' quadratic forms.
+    let gw = DMatrix::<C>::from_fn(n, g.ncols(), |i, k| g[(i, k)] * w[k]);
+    let mut core = &gw * g.adjoint();
+    for j in 0..n {
+        for i in 0..n {
+            core[(i, j)] /= -(lambdas[i] + lambdas[j].conj());
+        }
+    }
+    let out = rows
+        .iter()
+        .map(|c| {
+            let a = phi.tr_mul(&c.map(|v| C::new(v, 0.0)));
+            (a.transpose() * &core * a.map(|v| v.conj()))[(0, 0)].re
+        })
+        .collect();
+    Some(out)
 }

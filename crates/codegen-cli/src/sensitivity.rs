@@ -114,11 +114,11 @@ fn linear_error(p: &Problem<'_>) -> impl Fn(LinearError) -> Error {
     }
 }
 
-/// The gradients of the objective and of every constraint's figure at `x` (in that order),
-/// by the adjoint where the figure has one, else by differences (module documentation).
+/// The gradients of the figures of [`Problem::gradient_figures`] at `x` (the objective, every
+/// constraint's figure, then the right-hand figures of constraints between figures), by the
+/// adjoint where the figure has one, else by differences (module documentation).
 pub fn gradients(p: &Problem<'_>, x: &[f64]) -> Result<Vec<Gradient>, Error> {
-    let mut names = vec![p.objective.clone()];
-    names.extend(p.constraints.iter().map(|c| c.figure.clone()));
+    let names = p.gradient_figures();
     let base = linearised(p, x)?;
     let stencils: Vec<Vec<(f64, f64)>> = p
         .variables
@@ -164,7 +164,7 @@ pub fn gradients(p: &Problem<'_>, x: &[f64]) -> Result<Vec<Gradient>, Error> {
     };
     let mut evaluations: Option<(Evaluation, Vec<Vec<Evaluation>>)> = None;
     let mut out = vec![];
-    for (index, name) in names.iter().enumerate() {
+    for name in &names {
         if let Some(Ok((value, gradient))) = adjoint.figure(name) {
             out.push(Gradient {
                 figure: name.clone(),
@@ -175,14 +175,8 @@ pub fn gradients(p: &Problem<'_>, x: &[f64]) -> Result<Vec<Gradient>, Error> {
             continue;
         }
         let (at, around) = evaluations.get_or_insert_with(|| differences_points(p, x, &stencils));
-        // The figure of an evaluation: the objective, or constraint `index - 1`'s.
-        let read = |e: &Evaluation| {
-            if index == 0 {
-                e.objective
-            } else {
-                e.values[index - 1]
-            }
-        };
+        // The figure of an evaluation.
+        let read = |e: &Evaluation| e.value_of(p, name);
         let value = read(at).ok_or_else(|| {
             Error::Usage(format!(
                 "{}: the figure {name} is not available at the point",

@@ -39,6 +39,7 @@ use hybrid_core::hybrid::EigenMethod;
 use crate::Error;
 use crate::analysis::figures;
 use crate::budget::{self, Quantity};
+use crate::random::RandomMethod;
 use crate::scenario::{self, Loaded, Override, Scenario};
 use crate::setup::Linearizable;
 use hybrid_core::hybrid::Linearization;
@@ -103,6 +104,11 @@ pub struct PointOptions {
     pub time_domain: bool,
     /// Run a time-domain point even above the `simulate` step limit.
     pub allow_long: bool,
+    /// How the random figures are computed (`--method`; automatic by default).
+    pub method: crate::random::RandomMethod,
+    /// Compute the random figures only when a requested figure is one (the optimiser's
+    /// points: its objective and constraints), not as default columns (a sweep's).
+    pub only_requested: bool,
 }
 
 /// The figures of a point, and why its time-domain run failed when it did (the linearised
@@ -161,10 +167,35 @@ pub fn evaluate_with(
             e => e,
         })
     };
-    if let Some((input, lin)) = linearised(path, &loaded, &mut figures).map_err(remap)? {
+    // The comparison variants' figures (generator(s) disconnected, bare beam) unless only
+    // the requested figures are wanted and none of them is one.
+    let comparisons = !options.only_requested
+        || requested
+            .iter()
+            .any(|n| n.ends_with("_generator_disconnected") || n.ends_with("_bare_beam"));
+    // The random figures: wanted unless only the requested ones are and none is random.
+    let wanted = !options.only_requested
+        || requested.iter().any(|n| {
+            figures::resolve(n, None).is_ok_and(|r| r.entry.producer == figures::Producer::Random)
+        });
+    let has_random = match &loaded.scenario {
+        Scenario::Hybrid(h) => h.excitations.iter().any(|e| e.time.is_random()),
+        Scenario::Mechanism(_) => false,
+    };
+    // One dense modal decomposition for the linear and the random figures.
+    let mut all = vec![];
+    let keep = (wanted && has_random && options.method != RandomMethod::Modal).then_some(&mut all);
+    if let Some((input, lin)) =
+        linearised(path, &loaded, comparisons, keep, &mut figures).map_err(remap)?
+    {
         let file = path.display().to_string();
         figures.extend(on_request(&file, &input, &lin, requested).map_err(remap)?);
-        figures.extend(random(&file, &input, &lin, requested).map_err(remap)?);
+        if wanted {
+            let given = (!all.is_empty()).then_some(all.as_slice());
+            figures.extend(
+                random(&file, &input, &lin, requested, options.method, given).map_err(remap)?,
+            );
+        }
     }
     finite(&figures)?;
     let mut time_domain_error = None;
@@ -224,8 +255,8 @@ fn on_request(
 }
 
 /// The random figures of a scenario with a random excitation (none otherwise), from one
-/// stationary random response of the point's linearisation ([`crate::random`]: automatic
-/// method, 20 modes where modal): `random.rms:OUTPUT` of every requested output, the mean
+/// stationary random response of the point's linearisation ([`crate::random`]: `method`,
+/// automatic by default; 20 modes where modal): `random.rms:OUTPUT` of every requested output, the mean
 /// load and dissipated powers of all generators and of each, each generator's RMS current,
 /// and per mechanism with a reach `a` and an attachment whose displacement `x` has RMS
 /// `sigma_x` and rate RMS `sigma_v`:
@@ -243,6 +274,8 @@ fn random(
     input: &Linearizable,
     lin: &Linearization,
     requested: &[String],
+    method: RandomMethod,
+    all: Option<&[hybrid_core::hybrid::Mode]>,
 ) -> Result<Vec<Figure>, Error> {
     let model = &input.model;
     if !model.excitations.iter().any(|e| e.time.is_random()) {
@@ -258,12 +291,13 @@ fn random(
         .filter_map(|n| n.strip_prefix("random.rms:"))
         .collect();
     outputs.extend(asked.iter().map(|o| o.to_string()));
-    let report = crate::random::analyse_linearised(
+    let report = crate::random::figures_of(
         file,
         input,
         lin,
+        all,
         &crate::random::RandomOptions {
-            method: crate::random::RandomMethod::Auto,
+            method,
             modes: 20,
             outputs,
         },
@@ -330,19 +364,29 @@ fn finite(figures: &[Figure]) -> Result<(), PointError> {
     }
 }
 
-/// The linearised figures of a loaded scenario (see the module documentation), and the
-/// system and its linearisation they come from (`None` for a mechanism scenario).
+/// The linearised figures of a loaded scenario (see the module documentation), those of the
+/// comparison variants only with `comparisons` (else absent), every mode of the dense
+/// eigen-solution kept in `all` when given, and the system and its linearisation they come
+/// from (`None` for a mechanism scenario).
 fn linearised(
     path: &Path,
     loaded: &Loaded,
+    comparisons: bool,
+    all: Option<&mut Vec<hybrid_core::hybrid::Mode>>,
     figures: &mut Vec<Figure>,
 ) -> Result<Option<(Linearizable, Linearization)>, Error> {
     if let Scenario::Mechanism(_) = loaded.scenario {
         return Ok(None);
     }
     let file = path.display().to_string();
-    let (r, max_force, input, lin) =
-        crate::linear::analyse_with_max_force(&file, &loaded.scenario, 1, EigenMethod::Auto)?;
+    let (r, max_force, input, lin) = crate::linear::analyse_with_max_force(
+        &file,
+        &loaded.scenario,
+        1,
+        EigenMethod::Auto,
+        comparisons,
+        all,
+    )?;
     let first = |modes: &Option<Vec<crate::linear::ModeReport>>| {
         modes
             .as_ref()

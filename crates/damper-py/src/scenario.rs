@@ -373,6 +373,7 @@ pub fn sweep_grid<'py>(
         map: "linear.zeta1".into(),
         minimize: false,
         threads,
+        method: codegen_cli::random::RandomMethod::Auto,
         allow_long,
     };
     let (sweep::Sweep { grid, results, .. }, warnings) = interruptible(py, || {
@@ -525,6 +526,7 @@ pub fn optimize<'py>(
             maximize,
             constraints: constraints.clone(),
             grid,
+            method: codegen_cli::random::RandomMethod::Auto,
             allow_long,
         })
         .map(|(outcome, _)| outcome)

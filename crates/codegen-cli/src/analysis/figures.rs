@@ -12,7 +12,8 @@
 //! canonical name, and an unknown name is an error that lists the nearest valid names
 //! (edit distance), before any work.
 //!
-//! Constraints are `FIGURE>=VALUE` or `FIGURE<=VALUE` ([`Constraint`]).
+//! Constraints are `FIGURE>=VALUE` or `FIGURE<=VALUE`, or between two figures,
+//! `FIGURE>=K*FIGURE` or `FIGURE<=K*FIGURE` (`A>=B` for `K = 1`) ([`Constraint`]).
 
 use crate::scenario::{Scenario, hybrid::HybridScenario};
 
@@ -779,13 +780,16 @@ pub enum Bound {
 /// Why a `--constraint` cannot be read.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum ConstraintError {
-    /// Not `FIGURE>=VALUE` or `FIGURE<=VALUE` with a finite VALUE.
-    #[error("--constraint {text}: expected FIGURE>=VALUE or FIGURE<=VALUE (a finite number)")]
+    /// Not `FIGURE>=VALUE`, `FIGURE<=VALUE` (a finite VALUE), `FIGURE>=K*FIGURE` or
+    /// `FIGURE<=K*FIGURE` (a finite K).
+    #[error(
+        "--constraint {text}: expected FIGURE>=VALUE, FIGURE<=VALUE (a finite number), FIGURE>=K*FIGURE or FIGURE<=K*FIGURE (a finite factor K)"
+    )]
     Syntax {
         /// The option's value.
         text: String,
     },
-    /// The figure is unknown.
+    /// A figure is unknown.
     #[error("--constraint {text}: {unknown}")]
     Figure {
         /// The option's value.
@@ -795,15 +799,25 @@ pub enum ConstraintError {
     },
 }
 
-/// A design constraint: `FIGURE>=VALUE` or `FIGURE<=VALUE`.
+/// A design constraint between a figure `A` and a number or another figure `B`:
+///
+/// ```text
+/// A >= VALUE    margin = A - VALUE        A <= VALUE    margin = VALUE - A
+/// A >= k B      margin = A - k B          A <= k B      margin = k B - A
+/// ```
+///
+/// (`A>=B` is `k = 1`); satisfied where the margin is `>= 0`, in `A`'s unit. The margin's
+/// gradient is `dA - k dB` (or its negative), exact where both figures' gradients are.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Constraint {
-    /// The figure (its canonical name once [`Constraint::resolve`]d).
+    /// The figure `A` (its canonical name once [`Constraint::resolve`]d).
     pub figure: String,
     /// Which side.
     pub bound: Bound,
-    /// The bound.
+    /// The bound `VALUE`, or the factor `k` of a constraint between figures.
     pub value: f64,
+    /// The figure `B` of `A>=k*B` (canonical once resolved); `None` for a number.
+    pub other: Option<String>,
     /// As written.
     pub text: String,
 }
@@ -815,7 +829,7 @@ impl std::str::FromStr for Constraint {
         let bad = || ConstraintError::Syntax {
             text: text.to_string(),
         };
-        let (figure, bound, value) = if let Some((f, v)) = text.split_once(">=") {
+        let (figure, bound, rhs) = if let Some((f, v)) = text.split_once(">=") {
             (f, Bound::AtLeast, v)
         } else if let Some((f, v)) = text.split_once("<=") {
             (f, Bound::AtMost, v)
@@ -823,39 +837,97 @@ impl std::str::FromStr for Constraint {
             return Err(bad());
         };
         let figure = figure.trim();
-        let value: f64 = value.trim().parse().map_err(|_| bad())?;
-        if figure.is_empty() || !value.is_finite() {
+        let rhs = rhs.trim();
+        // A number, `K*FIGURE` or `FIGURE` (a figure name never reads as a number).
+        let (value, other) = match rhs.parse::<f64>() {
+            Ok(v) => (v, None),
+            Err(_) => match rhs.split_once('*') {
+                Some((k, b)) => (k.trim().parse().map_err(|_| bad())?, Some(b.trim())),
+                None => (1.0, Some(rhs)),
+            },
+        };
+        let named = |n: &str| !n.is_empty() && !n.contains(['<', '>', '=', '*', ' ']);
+        if !named(figure) || !value.is_finite() || other.is_some_and(|b| !named(b)) {
             return Err(bad());
         }
         Ok(Constraint {
             figure: figure.to_string(),
             bound,
             value,
+            other: other.map(str::to_string),
             text: text.trim().to_string(),
         })
     }
 }
 
 impl Constraint {
-    /// The constraint with its figure checked against the catalogue (and the scenario's
+    /// The constraint with its figures checked against the catalogue (and the scenario's
     /// entities when given) and spelt canonically.
     pub fn resolve(self, entities: Option<&Entities>) -> Result<Constraint, ConstraintError> {
-        let r = resolve(&self.figure, entities).map_err(|unknown| ConstraintError::Figure {
-            text: self.text.clone(),
-            unknown,
-        })?;
+        let check = |name: &str| {
+            resolve(name, entities)
+                .map(|r| r.name)
+                .map_err(|unknown| ConstraintError::Figure {
+                    text: self.text.clone(),
+                    unknown,
+                })
+        };
+        let figure = check(&self.figure)?;
+        let other = self.other.as_deref().map(check).transpose()?;
         Ok(Constraint {
-            figure: r.name,
+            figure,
+            other,
             ..self
         })
     }
 
-    /// How far a figure's value `v` is inside the constraint (`>= 0`: satisfied; in the
-    /// figure's unit).
-    pub fn margin_of(&self, v: f64) -> f64 {
+    /// The figures the constraint reads: `A`, then `B` when it has one.
+    pub fn figures(&self) -> impl Iterator<Item = &str> {
+        std::iter::once(self.figure.as_str()).chain(self.other.as_deref())
+    }
+
+    /// `+1` for `A>=..`, `-1` for `A<=..`: the margin is `side (A - rhs)`.
+    pub fn side(&self) -> f64 {
         match self.bound {
-            Bound::AtLeast => v - self.value,
-            Bound::AtMost => self.value - v,
+            Bound::AtLeast => 1.0,
+            Bound::AtMost => -1.0,
+        }
+    }
+
+    /// The right-hand side: `VALUE`, or `k B` with `B`'s value `b` (`None` without it).
+    pub fn rhs(&self, b: Option<f64>) -> Option<f64> {
+        match self.other {
+            None => Some(self.value),
+            Some(_) => b.map(|b| self.value * b),
+        }
+    }
+
+    /// How far a point is inside the constraint (`>= 0`: satisfied; in `A`'s unit), from
+    /// the value of each figure the point gives (`value_of(name)`); `None` when it lacks
+    /// one of the constraint's figures.
+    pub fn margin(&self, value_of: impl Fn(&str) -> Option<f64>) -> Option<f64> {
+        let a = value_of(&self.figure)?;
+        let rhs = self.rhs(self.other.as_deref().and_then(&value_of))?;
+        Some(self.side() * (a - rhs))
+    }
+
+    /// How far a figure's value `v` is inside a constraint against a number (`>= 0`:
+    /// satisfied; in the figure's unit); for a constraint between figures, see
+    /// [`Constraint::margin`].
+    pub fn margin_of(&self, v: f64) -> f64 {
+        self.side() * (v - self.value)
+    }
+
+    /// The margin's gradient `side (dA - k dB)` from the figures' gradients (`dB` only
+    /// for a constraint between figures).
+    pub fn margin_gradient(&self, da: &[f64], db: Option<&[f64]>) -> Vec<f64> {
+        match (self.other.is_some(), db) {
+            (true, Some(db)) => da
+                .iter()
+                .zip(db)
+                .map(|(a, b)| self.side() * (a - self.value * b))
+                .collect(),
+            _ => da.iter().map(|a| self.side() * a).collect(),
         }
     }
 }
@@ -907,5 +979,79 @@ mod tests {
             }
         }
         assert_eq!(levenshtein("kitten", "sitting"), 3);
+    }
+
+    #[test]
+    fn constraints_between_figures_parse_resolve_and_give_margins_and_gradients() {
+        let c: Constraint = "reach>=4*rms:1.0".parse().unwrap();
+        assert_eq!(
+            (c.figure.as_str(), c.bound, c.value, c.other.as_deref()),
+            ("reach", Bound::AtLeast, 4.0, Some("rms:1.0"))
+        );
+        let c = c.resolve(None).unwrap();
+        assert_eq!(c.figure, "linear.reach");
+        assert_eq!(c.other.as_deref(), Some("random.rms:1.0"));
+        let value = |n: &str| match n {
+            "linear.reach" => Some(3e-3),
+            "random.rms:1.0" => Some(5e-4),
+            _ => None,
+        };
+        // 3e-3 - 4 * 5e-4 = 1e-3, exactly representable steps aside.
+        assert!((c.margin(value).unwrap() - 1e-3).abs() < 1e-18);
+        assert_eq!(c.margin(|n| (n == "linear.reach").then_some(1.0)), None);
+        assert_eq!(
+            c.margin_gradient(&[1.0, 2.0], Some(&[0.5, -1.0])),
+            vec![-1.0, 6.0]
+        );
+        let c: Constraint = " random.power <= 2.5 * random.load_power ".parse().unwrap();
+        assert_eq!((c.bound, c.value), (Bound::AtMost, 2.5));
+        assert_eq!(
+            c.margin(|n| Some(if n == "random.power" { 2.0 } else { 1.0 })),
+            Some(0.5)
+        );
+        assert_eq!(c.margin_gradient(&[1.0], Some(&[1.0])), vec![1.5]);
+        // `A>=B`: k = 1; a number stays a number.
+        let c: Constraint = "linear.f1>=linear.f1_bare_beam".parse().unwrap();
+        assert_eq!(
+            (c.value, c.other.as_deref()),
+            (1.0, Some("linear.f1_bare_beam"))
+        );
+        let c: Constraint = "linear.f1>=-2e-3".parse().unwrap();
+        assert_eq!((c.value, c.other.as_deref()), (-2e-3, None));
+        assert_eq!(c.margin_gradient(&[3.0], None), vec![3.0]);
+        for bad in [
+            "reach>=4*",
+            "reach>=*rms:1.0",
+            "reach>=x*rms:1.0",
+            "reach>=inf*rms:1.0",
+            ">=4*rms:1.0",
+            "reach>=4*rms:1.0*2",
+            "reach>=4 * rms 1.0",
+            "reach=4",
+        ] {
+            assert!(
+                matches!(
+                    bad.parse::<Constraint>(),
+                    Err(ConstraintError::Syntax { .. })
+                ),
+                "{bad}"
+            );
+        }
+        // Both names are checked, the nearest named.
+        let e = "reach>=4*rms_x:1.0"
+            .parse::<Constraint>()
+            .unwrap()
+            .resolve(None)
+            .unwrap_err();
+        assert!(
+            matches!(&e, ConstraintError::Figure { unknown, .. } if unknown.name == "rms_x:1.0"),
+            "{e}"
+        );
+        let e = "reech>=linear.f1"
+            .parse::<Constraint>()
+            .unwrap()
+            .resolve(None)
+            .unwrap_err();
+        assert!(e.to_string().contains("did you mean"), "{e}");
     }
 }

@@ -27,10 +27,12 @@ pub struct OptimizeRequest {
     pub objective: String,
     /// Maximise (else minimise) the objective.
     pub maximize: bool,
-    /// The constraints `FIGURE>=VALUE`, as written.
+    /// The constraints `FIGURE>=VALUE` or `FIGURE>=K*FIGURE`, as written.
     pub constraints: Vec<String>,
     /// Start-grid points per variable.
     pub grid: usize,
+    /// How the random figures are computed (`damper random --method`).
+    pub method: crate::random::RandomMethod,
     /// Run even above the evaluation limit.
     pub allow_long: bool,
 }
@@ -50,6 +52,7 @@ pub fn solve(req: &OptimizeRequest) -> Result<(optimize::Outcome, Vec<Constraint
         maximize,
         constraints,
         grid,
+        method,
         allow_long,
     } = req;
     let (path, text, fixed) = (path.as_path(), text.as_str(), &fixed[..]);
@@ -101,6 +104,7 @@ pub fn solve(req: &OptimizeRequest) -> Result<(optimize::Outcome, Vec<Constraint
         maximize,
         constraints: &constraints,
         grid,
+        method: *method,
     };
     let outcome = optimize::optimize(&problem).map_err(|e| Error::Usage(format!("{file}: {e}")))?;
     Ok((outcome, constraints))

@@ -9,7 +9,7 @@
 //! many local searches agreed and the evaluations; `--json` prints the same as one object
 //! (`optimum`, `objective`, `constraints`, `kkt_residual`, `history`). With `-o DIR`:
 //! `optimize.json` and `optimize_history.csv` (every evaluation: stage, variables,
-//! objective, constraint values, error). An infeasible problem is an error naming the least
+//! objective, constraint values, the right-hand figures of constraints between figures, error). An infeasible problem is an error naming the least
 //! infeasible point (exit status 2). `--verify` runs the optimum in the time domain (a free
 //! decay from the amplitude of a `reach>=A` constraint) and reports its figures (`verify`).
 
@@ -40,7 +40,9 @@ pub struct Args {
     /// Minimise this figure (the same names).
     #[arg(long, value_name = "FIGURE")]
     pub minimize: Option<String>,
-    /// A constraint `FIGURE>=VALUE` or `FIGURE<=VALUE` (repeatable; e.g. `reach>=0.002`).
+    /// A constraint `FIGURE>=VALUE` or `FIGURE<=VALUE`, or between two figures,
+    /// `FIGURE>=K*FIGURE` or `FIGURE<=K*FIGURE` (repeatable; e.g. `reach>=0.002`,
+    /// `linear.reach>=4*random.rms:1.0`).
     #[arg(long = "constraint", value_name = "FIGURE>=VALUE")]
     pub constraints: Vec<String>,
     /// A fixed override of the scenario: `--set PATH=VALUE` (repeatable).
@@ -49,6 +51,10 @@ pub struct Args {
     /// Points per variable of the start grid (at most 125 points in all).
     #[arg(long, default_value_t = 5)]
     pub grid: usize,
+    /// How the random figures are computed, as `damper random --method` (`auto`, `dense`,
+    /// `modal`, `quadrature`).
+    #[arg(long, default_value = "auto")]
+    pub method: String,
     /// Print the result as one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -97,6 +103,7 @@ pub fn run(args: Args) -> Result<(), Error> {
         maximize,
         constraints: args.constraints.clone(),
         grid: args.grid,
+        method: crate::commands::sweep::parse_method(&args.method)?,
         allow_long: args.allow_long,
     })?;
     let _lock = match &args.out {
@@ -117,6 +124,7 @@ pub fn run(args: Args) -> Result<(), Error> {
         header.extend(vary.iter().map(|v| v.path.clone()));
         header.push(outcome.objective.0.clone());
         header.extend(constraints.iter().map(|c| c.figure.clone()));
+        header.extend(constraints.iter().filter_map(|c| c.other.clone()));
         header.push("error".into());
         let csv_err = |e: ::csv::Error| Error::from(ReportError::from(e));
         let mut csv = CsvRows::new(vec![], &header).map_err(csv_err)?;
@@ -125,6 +133,13 @@ pub fn run(args: Args) -> Result<(), Error> {
             row.extend(e.x.iter().map(|x| cell(Some(*x))));
             row.push(cell(e.objective));
             row.extend(e.values.iter().map(|v| cell(*v)));
+            row.extend(
+                constraints
+                    .iter()
+                    .zip(&e.others)
+                    .filter(|(c, _)| c.other.is_some())
+                    .map(|(_, b)| cell(*b)),
+            );
             row.push(e.error.clone().unwrap_or_default());
             csv.write_text_row(&row).map_err(csv_err)?;
         }
@@ -162,16 +177,28 @@ pub fn run(args: Args) -> Result<(), Error> {
     if outcome.overdamped {
         text.push_str("  the first mode is overdamped at the optimum (zeta1 reads 1 there: maximise decay1 for the fastest decay)\n");
     }
-    for (p, side) in &outcome.at_bounds {
-        text.push_str(&format!("  {p} at its {side} bound\n"));
+    for (k, (p, side)) in outcome.at_bounds.iter().enumerate() {
+        let mult = outcome
+            .bound_multipliers
+            .get(k)
+            .map_or(String::new(), |m| format!(", multiplier {m:.3e}"));
+        text.push_str(&format!("  {p} at its {side} bound{mult}\n"));
     }
-    for c in &outcome.constraints {
+    for (c, spec) in outcome.constraints.iter().zip(&constraints) {
         let state = if c.active { "active" } else { "inactive" };
         let mult = c
             .multiplier
             .map_or(String::new(), |m| format!(", multiplier {m:.3e}"));
+        let rhs = match &spec.other {
+            Some(b) => format!(
+                " against {} * {b} = {}",
+                cell(Some(spec.value)),
+                cell(Some(c.rhs))
+            ),
+            None => String::new(),
+        };
         text.push_str(&format!(
-            "  {}: value {}, margin {:.3e}, {state}{mult}\n",
+            "  {}: value {}{rhs}, margin {:.3e}, {state}{mult}\n",
             c.constraint,
             cell(Some(c.value)),
             c.margin
@@ -222,11 +249,9 @@ pub fn run(args: Args) -> Result<(), Error> {
             }
         }
     }
-    let kkt = outcome
-        .kkt_residual
-        .map_or_else(|| "n/a".to_string(), |r| format!("{r:.1e}"));
+    text.push_str(&format!("  {}\n", outcome.certificate));
     text.push_str(&format!(
-        "  KKT residual {kkt}; {} of {} local search(es) ended here; {} evaluations in {:.1} s\n",
+        "  {} of {} local search(es) reached this optimum; {} evaluations in {:.1} s\n",
         outcome.starts_agreeing,
         outcome.starts,
         outcome.history.len(),
@@ -270,7 +295,7 @@ fn verify(
     let amplitude = args.verify_amplitude.or_else(|| {
         constraints
             .iter()
-            .find(|c| c.figure == "linear.reach" && c.bound == Bound::AtLeast)
+            .find(|c| c.figure == "linear.reach" && c.bound == Bound::AtLeast && c.other.is_none())
             .map(|c| c.value)
     });
     let has_initial = text.lines().any(|l| l.trim() == "[initial]");
@@ -288,6 +313,7 @@ fn verify(
     let options = crate::sweep_point::PointOptions {
         time_domain: true,
         allow_long: args.allow_long,
+        ..Default::default()
     };
     let line = |e: &dyn std::fmt::Display| e.to_string().replace('\n', "; ");
     match crate::sweep_point::evaluate(&args.scenario, text, &overrides, &options) {

@@ -31,8 +31,9 @@ pub struct Args {
     /// Print the report as one JSON object.
     #[arg(long)]
     pub json: bool,
-    /// `auto` (dense up to 600 first-order states, modal above), `dense`, `modal` or
-    /// `quadrature` (every input by PSD integration).
+    /// `auto` (PSD tables alone by quadrature; white noise dense up to 600 first-order
+    /// states, modal above), `dense`, `modal` or `quadrature` (every input by PSD
+    /// integration).
     #[arg(long, default_value = "auto")]
     pub method: String,
     /// Modes of the modal basis (and of the quadrature's breakpoints).

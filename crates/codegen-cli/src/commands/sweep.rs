@@ -56,8 +56,9 @@ pub struct Args {
     /// No progress bar even on a terminal.
     #[arg(long)]
     pub quiet: bool,
-    /// A design constraint on a figure, `FIGURE>=VALUE` or `FIGURE<=VALUE` (repeatable; e.g.
-    /// `linear.zeta1>=0.08`, `linear.reach>=0.002`): the best feasible point is reported and,
+    /// A design constraint on a figure, `FIGURE>=VALUE` or `FIGURE<=VALUE`, or between two
+    /// figures, `FIGURE>=K*FIGURE` or `FIGURE<=K*FIGURE` (repeatable; e.g.
+    /// `linear.zeta1>=0.08`, `linear.reach>=4*random.rms:1.0`): the best feasible point is reported and,
     /// on a two-axis sweep, the constraint's contour drawn on the design map, the points
     /// that break it hatched.
     #[arg(long = "constraint", value_name = "FIGURE>=VALUE")]
@@ -70,6 +71,11 @@ pub struct Args {
     /// largest).
     #[arg(long)]
     pub minimize: bool,
+    /// How the random figures are computed: `auto` (PSD tables by quadrature, white noise
+    /// by the Lyapunov equation, dense up to 600 first-order states, modal above), `dense`,
+    /// `modal` or `quadrature`, as `damper random --method`.
+    #[arg(long, default_value = "auto")]
+    pub method: String,
     /// Run even when the estimated grid points (1e5 a shard), memory (1 GiB), time steps
     /// (2e7 a point), core time (an hour a shard) or beam elements (1e5) are above the
     /// limits (`codegen_cli::budget`).
@@ -92,9 +98,19 @@ impl Args {
             map: self.map.clone(),
             minimize: self.minimize,
             threads: self.threads,
+            method: parse_method(&self.method)?,
             allow_long: self.allow_long,
         })
     }
+}
+
+/// The random figures' `--method` (`auto`, `dense`, `modal`, `quadrature`).
+pub fn parse_method(name: &str) -> Result<crate::random::RandomMethod, Error> {
+    crate::random::RandomMethod::parse(name).ok_or_else(|| {
+        Error::Usage(format!(
+            "--method {name:?}: expected auto, dense, modal or quadrature"
+        ))
+    })
 }
 
 /// Runs `damper sweep`.

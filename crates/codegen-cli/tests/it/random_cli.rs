@@ -340,7 +340,8 @@ fn psd_table_file_matches_the_band_limited_white_noise() {
     std::fs::write(dir.join("wind.csv"), "f,G\n0.5,1e-4\n500,1e-4\n").unwrap();
     let t = json(&["random", &p, "--json"]);
     let w = json(&["random", "scenarios/random_damper.toml", "--json"]);
-    assert_eq!(t["method"], "lyapunov dense + quadrature");
+    // A PSD table alone: `auto` integrates it on the pencil (no Lyapunov equation applies).
+    assert_eq!(t["method"], "quadrature");
     let oob = w["out_of_band"].as_f64().unwrap();
     for (a, b) in t["outputs"]
         .as_array()
@@ -559,4 +560,191 @@ fn the_optimal_load_under_noise_is_the_closed_form() {
         "{value} vs {}",
         closed(rl)
     );
+}
+
+/// The value of the figure `name` of an evaluated sweep point.
+fn value_of(point: &codegen_cli::sweep_point::Evaluated, name: &str) -> f64 {
+    point
+        .figures
+        .iter()
+        .find(|f| f.name == name)
+        .and_then(|f| f.value)
+        .unwrap_or_else(|| panic!("no figure {name}"))
+}
+
+/// Issue #29: `random.toggle_rate:MECHANISM`, Rice's one-sided rate of up-crossings of the
+/// reach `a` by the attachment's displacement, `(1/2π)(σ_v/σ_x) exp(-a²/2σ_x²)`, against
+/// the up-crossings of `a` counted in a long seeded realisation of the same linear system
+/// (`scenarios/random_damper.toml` under 400 times its PSD: the reach about 1.5 RMS of the
+/// tip's motion, so the tip crosses it about twice a second).
+///
+/// The realisation is the exact discretisation `x_{k+1} = Φ x_k + w_k`, `Φ = exp(A Δt)`,
+/// `w_k` Gaussian of covariance `P - Φ P Φᵀ` (P the stationary covariance of the ideal white
+/// noise, so the sampled process is exactly the stationary one), started in the stationary
+/// distribution, 250 s, fixed seed — of the state on the modal basis of the first 4 modes
+/// (and the force's static response), whose tip σ_x and σ_v are the full model's to 1e-3
+/// (checked), so that Δt can be 20 µs: the tip's velocity is driven by the white noise
+/// directly (the first mode is damped at ζ ≈ 0.3), so crossings shorter than a sample are
+/// missed in proportion to `sqrt(4 ζ ω Δt)`, 15 % at 1 ms, 2 % here. The count N is compared
+/// with the figure's rate times the duration within 3√N (three standard deviations of the
+/// count were the crossings a Poisson process; they cluster little at this damping) plus the
+/// reduced model's own difference of rate.
+#[test]
+fn the_toggle_rate_is_the_rate_of_reach_crossings_of_a_seeded_realisation() {
+    use codegen_cli::sweep_point::{PointOptions, evaluate};
+    use hybrid_core::hybrid::{EigenMethod, ExcitationTarget, StateOutput, StateSpace, modes};
+    use nalgebra::{DMatrix, DVector};
+    let path = root().join("scenarios/random_damper.toml");
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("psd = 1e-4,", "psd = 4e-2,");
+    assert!(text.contains("psd = 4e-2,"));
+    let point = evaluate(&path, &text, &[], &PointOptions::default()).unwrap();
+    let figure = |name: &str| value_of(&point, name);
+    let rate = figure("random.toggle_rate:damper");
+    let reach_sigma = figure("random.reach_sigma:damper");
+    assert!((1.2..2.5).contains(&reach_sigma), "{reach_sigma}");
+    // The linear system of the point, its tip output and the noise's intensity G/2.
+    let file = path.display().to_string();
+    let loaded = codegen_cli::scenario::parse_with(&text, &path, &[]).unwrap();
+    let (input, lin) = codegen_cli::linear::linearise_scenario(&file, &loaded.scenario).unwrap();
+    let limit = &codegen_cli::linear::LoadLimit::of(&input.model, &lin)[0];
+    let a = limit.reach;
+    let excitation = &input.model.excitations[0];
+    let fem_beam::TimeFunction::WhiteNoise { psd, .. } = excitation.time else {
+        panic!("white noise expected")
+    };
+    let force = lin.force_vector(&excitation.target);
+    let first = modes(&lin, 4, EigenMethod::Dense).unwrap();
+    let basis = StateSpace::modal_basis(&lin, &first, std::slice::from_ref(&force)).unwrap();
+    let ss = StateSpace::new(&lin, &[force], Some(basis)).unwrap();
+    let target = ExcitationTarget::Beam(limit.point.clone());
+    let c = ss.row(&StateOutput::position(lin.force_vector(&target)));
+    let cv = ss.row(&StateOutput::rate(lin.force_vector(&target)));
+    let (p, _) = ss.covariance(&[0.5 * psd]).unwrap();
+    let sigma = (c.transpose() * &p * &c)[(0, 0)].sqrt();
+    let sigma_v = (cv.transpose() * &p * &cv)[(0, 0)].sqrt();
+    assert!(
+        (a / sigma - reach_sigma).abs() < 1e-3 * reach_sigma,
+        "{} vs {reach_sigma}",
+        a / sigma
+    );
+    let reduced = sigma_v / sigma * (-a * a / (2.0 * sigma * sigma)).exp() / std::f64::consts::TAU;
+    assert!((reduced - rate).abs() < 1e-2 * rate, "{reduced} vs {rate}");
+    // The exact discretisation and its noise's square root (from the symmetric eigen-solution:
+    // the covariance is positive semi-definite up to rounding).
+    let dt = 2e-5;
+    let phi = (&ss.a * dt).exp();
+    let root_of = |m: DMatrix<f64>| {
+        let m = (&m + m.transpose()) * 0.5;
+        let e = m.symmetric_eigen();
+        &e.eigenvectors * DMatrix::from_diagonal(&e.eigenvalues.map(|v| v.max(0.0).sqrt()))
+    };
+    let l = root_of(&p - &phi * &p * phi.transpose());
+    let n = ss.a.nrows();
+    let mut rng = mbs_symbolic::samples::SplitMix64::new(2029);
+    let mut gauss = |v: &mut DVector<f64>| {
+        for k in (0..n).step_by(2) {
+            let (u1, u2) = (1.0 - rng.next_f64(), rng.next_f64());
+            let r = (-2.0 * u1.ln()).sqrt();
+            let t = std::f64::consts::TAU * u2;
+            v[k] = r * t.cos();
+            if k + 1 < n {
+                v[k + 1] = r * t.sin();
+            }
+        }
+    };
+    let mut xi = DVector::zeros(n);
+    gauss(&mut xi);
+    let mut x = root_of(p.clone()) * &xi;
+    let mut next = DVector::zeros(n);
+    let duration = 250.0;
+    let steps = (duration / dt) as usize;
+    let (mut crossings, mut y_prev) = (0usize, c.dot(&x));
+    for _ in 0..steps {
+        gauss(&mut xi);
+        next.gemv(1.0, &phi, &x, 0.0);
+        next.gemv(1.0, &l, &xi, 1.0);
+        std::mem::swap(&mut x, &mut next);
+        let y = c.dot(&x);
+        if y_prev < a && y >= a {
+            crossings += 1;
+        }
+        y_prev = y;
+    }
+    let expected = rate * duration;
+    let tolerance = 3.0 * (crossings as f64).sqrt() + (reduced - rate).abs() * duration;
+    println!(
+        "reach/sigma {reach_sigma:.4}: toggle rate {rate:.4}/s (reduced model {reduced:.4}/s), {expected:.1} crossings expected in {duration} s, {crossings} counted (tolerance {tolerance:.1})"
+    );
+    assert!(crossings > 300, "{crossings}");
+    assert!(
+        (crossings as f64 - expected).abs() <= tolerance,
+        "{crossings} crossings counted, {expected:.1} expected"
+    );
+}
+
+/// Issue #29: the random figures of a sweep point (white noise: from the point's complete
+/// modal decomposition, shared with the linear figures, not the Lyapunov equation's Schur
+/// form) equal `damper random --method quadrature` (the PSD integrated over [0, ∞) on the
+/// pencil, relative error estimate 1e-10) to 1e-8, and `damper random`'s dense Lyapunov
+/// solution to 1e-9, at three designs of the paper's damper.
+#[test]
+fn random_figures_of_a_point_equal_the_quadrature_and_the_lyapunov_solution() {
+    use codegen_cli::sweep_point::{PointOptions, evaluate_with};
+    let path = root().join("scenarios/random_damper.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    for (angle, load) in [("6", "0.5"), ("10", "3.5"), ("20", "15")] {
+        let sets = [
+            format!("mechanism[0].placement.half_angle_deg={angle}"),
+            format!("force[0].load_resistance={load}"),
+        ];
+        let overrides: Vec<codegen_cli::scenario::Override> =
+            sets.iter().map(|s| s.parse().unwrap()).collect();
+        let point = evaluate_with(
+            &path,
+            &text,
+            &overrides,
+            &PointOptions::default(),
+            &["random.rms:1.0".to_string()],
+        )
+        .unwrap();
+        let figure = |name: &str| value_of(&point, name);
+        for (method, tol) in [("quadrature", 1e-8), ("dense", 1e-9)] {
+            let mut args = vec![
+                "random",
+                "scenarios/random_damper.toml",
+                "--json",
+                "--method",
+                method,
+                "--output",
+                "1.0",
+            ];
+            for s in &sets {
+                args.extend(["--set", s.as_str()]);
+            }
+            let r = json(&args);
+            let g = &r["generators"][0];
+            let pairs = [
+                ("random.rms:1.0", r["outputs"][0]["rms"].as_f64().unwrap()),
+                (
+                    "random.rms_current:generator",
+                    g["rms_current"].as_f64().unwrap(),
+                ),
+                ("random.load_power", g["mean_power_load"].as_f64().unwrap()),
+                ("random.power", g["mean_power_dissipated"].as_f64().unwrap()),
+            ];
+            for (name, reference) in pairs {
+                let v = figure(name);
+                let err = (v - reference).abs() / reference;
+                println!(
+                    "{angle} deg, {load} ohm, {name}: {v:e} vs {method} {reference:e}: {err:e}"
+                );
+                assert!(
+                    err < tol,
+                    "{angle} deg, {load} ohm, {name}: {v} vs {method} {reference}: {err:e}"
+                );
+            }
+        }
+    }
 }

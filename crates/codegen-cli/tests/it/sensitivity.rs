@@ -99,6 +99,58 @@ fn gradients_equal_central_differences_of_the_figures_on_every_bundled_hybrid_sc
     for (file, vars, figures) in cases() {
         let path = root().join("scenarios").join(file);
         let text = std::fs::read_to_string(&path).unwrap();
+        check(file, &path, &text, &vars, &figures, &mut rng);
+    }
+}
+
+/// Every random figure, `random.toggle_rate` included, where the toggle is near: the paper's
+/// damper under a white-noise tip force 225 times `random_damper.toml`'s PSD (the reach
+/// about 2 RMS of the tip's motion, so the toggle rate is about 0.1 of the first mode's
+/// frequency and its gradient is not lost in `exp(-a^2 / 2 sigma^2)`), with the ratio
+/// constraint's figures.
+#[test]
+fn gradients_of_every_random_figure_equal_extrapolated_differences_near_the_toggle() {
+    let mut rng = SplitMix64::new(29);
+    let path = root().join("scenarios/random_damper.toml");
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("psd = 1e-4,", "psd = 2.25e-2,");
+    assert!(text.contains("psd = 2.25e-2,"));
+    let vars = vec![
+        ("mechanism[0].placement.half_angle_deg", 8.0, 12.0),
+        ("force[0].load_resistance", 2.0, 6.0),
+    ];
+    let figures = vec![
+        "random.rms:1.0",
+        "random.load_power",
+        "random.power",
+        "random.load_power:generator",
+        "random.rms_current:generator",
+        "random.reach_sigma:damper",
+        "random.toggle_rate:damper",
+    ];
+    check(
+        "random_damper.toml (225 G)",
+        &path,
+        &text,
+        &vars,
+        &figures,
+        &mut rng,
+    );
+}
+
+/// The gradients of `figures` (as constraints `FIGURE>=0`) over `vars` at two random points
+/// against Richardson-extrapolated central differences (module documentation).
+fn check(
+    file: &str,
+    path: &std::path::Path,
+    text: &str,
+    vars: &[(&str, f64, f64)],
+    figures: &[&str],
+    rng: &mut SplitMix64,
+) {
+    {
+        let (path, text) = (path.to_path_buf(), text.to_string());
         let variables: Vec<Variable> = vars
             .iter()
             .map(|&(p, lo, hi)| Variable {
@@ -120,6 +172,7 @@ fn gradients_equal_central_differences_of_the_figures_on_every_bundled_hybrid_sc
             maximize: true,
             constraints: &constraints,
             grid: 2,
+            method: Default::default(),
         };
         for _ in 0..2 {
             // Inside the bounds by more than the reference's steps.

@@ -64,6 +64,8 @@ pub struct SweepRequest {
     pub minimize: bool,
     /// Worker threads (`None`: every core).
     pub threads: Option<usize>,
+    /// How the random figures are computed (`damper random --method`).
+    pub method: crate::random::RandomMethod,
     /// Run even above the limits of [`crate::budget`].
     pub allow_long: bool,
 }
@@ -162,7 +164,11 @@ pub fn evaluate(req: &SweepRequest, plan: &Plan, done: &(dyn Fn() + Sync)) -> Re
         .collect::<Result<_, _>>()
         .map_err(SpecError::from)?;
     let mut requested = vec![map.clone()];
-    requested.extend(constraints.iter().map(|c| c.figure.clone()));
+    requested.extend(
+        constraints
+            .iter()
+            .flat_map(|c| c.figures().map(str::to_string)),
+    );
     let t_end = req.t_end.map(|t| {
         Override::new("integrator.t_end", Value::from(t), &cell(Some(t))).expect("a valid PATH")
     });
@@ -197,6 +203,8 @@ pub fn evaluate(req: &SweepRequest, plan: &Plan, done: &(dyn Fn() + Sync)) -> Re
         constraints: constraints.iter().map(|c| c.text.clone()).collect(),
         map,
         minimize: req.minimize,
+        method: (req.method != crate::random::RandomMethod::Auto)
+            .then(|| req.method.name().to_string()),
     };
     let mut indices: Vec<usize> = Vec::new();
     indices
@@ -206,6 +214,8 @@ pub fn evaluate(req: &SweepRequest, plan: &Plan, done: &(dyn Fn() + Sync)) -> Re
     let options = PointOptions {
         time_domain: req.time_domain,
         allow_long: req.allow_long,
+        method: req.method,
+        only_requested: false,
     };
     let results = evaluate_points_requesting(
         path,

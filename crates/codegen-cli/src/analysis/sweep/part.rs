@@ -40,6 +40,9 @@ pub struct SweepSpec {
     /// `--minimize`.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub minimize: bool,
+    /// `--method` of the random figures when not `auto`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub method: Option<String>,
 }
 
 fn default_map() -> String {

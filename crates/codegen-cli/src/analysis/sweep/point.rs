@@ -19,11 +19,12 @@ use crate::sweep_point::{self, Figure, PointOptions};
 /// How far the point `r` is inside the constraint `c` (`>= 0`: satisfied; in the figure's
 /// unit); `None` when the point does not give the figure.
 pub fn margin(c: &Constraint, r: &PointResult) -> Option<f64> {
-    r.figures
-        .iter()
-        .find(|f| f.name == c.figure)
-        .and_then(|f| f.value)
-        .map(|v| c.margin_of(v))
+    c.margin(|name| {
+        r.figures
+            .iter()
+            .find(|f| f.name == name)
+            .and_then(|f| f.value)
+    })
 }
 
 /// The result of one point.
