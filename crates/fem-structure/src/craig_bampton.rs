@@ -31,6 +31,8 @@ pub struct Reduced {
     pub mass: DMatrix<f64>,
     /// `T^T K T`.
     pub stiffness: DMatrix<f64>,
+    /// `T^T B T` (zero when the full model is undamped).
+    pub damping: DMatrix<f64>,
     /// The fixed-interface modes kept.
     pub fixed_interface: SparseModes,
 }
@@ -65,11 +67,13 @@ fn project(t: &DMatrix<f64>, a: &SparseSym) -> DMatrix<f64> {
     (&r + r.transpose()) * 0.5
 }
 
-/// Reduces `(K, M)` to the interface DOFs `interface` and `modes` fixed-interface modes
-/// (`modes` is capped at the number of interior DOFs).
+/// Reduces `(K, M, B)` to the interface DOFs `interface` and `modes` fixed-interface modes
+/// (`modes` is capped at the number of interior DOFs); `damping` is `B` (`None`:
+/// undamped).
 pub fn craig_bampton(
     k: &SparseSym,
     m: &SparseSym,
+    damping: Option<&SparseSym>,
     interface: &[usize],
     modes: usize,
 ) -> Result<Reduced, StructureError> {
@@ -118,11 +122,13 @@ pub fn craig_bampton(
     }
     let mass = project(&t, m);
     let stiffness = project(&t, k);
+    let damping = damping.map_or_else(|| DMatrix::zeros(nr, nr), |b| project(&t, b));
     Ok(Reduced {
         interface: b,
         transform: t,
         mass,
         stiffness,
+        damping,
         fixed_interface: fixed,
     })
 }

@@ -158,7 +158,7 @@ fn symmetrize(a: DMatrix<f64>) -> DMatrix<f64> {
 
 /// `K Q = M Q Lambda` for small dense symmetric `K`, positive definite `M`: eigenvalues
 /// ascending, `Q^T M Q = I`.
-pub(crate) fn generalized_eigen(
+pub fn generalized_eigen(
     k: DMatrix<f64>,
     m: DMatrix<f64>,
 ) -> Result<(Vec<f64>, DMatrix<f64>), StructureError> {

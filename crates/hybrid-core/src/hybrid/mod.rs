@@ -115,7 +115,7 @@ pub use steady::{
     warped_frequency,
 };
 pub use stochastic::{PsdInput, Quadrature, StateOutput, StateSpace, lyapunov, psd_variances};
-pub use structure::{LinearStructure, StructureError, StructureModes};
+pub use structure::{LinearStructure, StructureError, StructureModes, reduced_base_load};
 
 use crate::partition::choose_partition;
 use follow::Follower;

@@ -768,10 +768,7 @@ impl HybridModel {
         let Some(beam) = &self.beam else {
             return Vec::new();
         };
-        let r = beam.rigid_translation([0.0, 1.0]);
-        let mut out = vec![0.0; r.len()];
-        beam.mass_mul_add(-1.0, &r, &mut out);
-        out
+        beam.base_load([0.0, 1.0])
     }
 
     /// Adds the inertial load of the supports' acceleration at time `t` to mechanism

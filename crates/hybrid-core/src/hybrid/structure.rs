@@ -19,6 +19,12 @@
 //!   `-A r a(t)` of a support motion);
 //! - the lowest natural modes `C phi = omega^2 A phi`.
 //!
+//! Three implementations: the beam ([`BeamModel`], banded), an imported sparse model
+//! ([`ImportedStructure`], faer's sparse Cholesky; one sparse solve per step) and its
+//! Craig–Bampton reduction ([`Reduced`], small and dense; the reduced coordinates are the
+//! interface displacements then the fixed-interface modal amplitudes, so a point on the
+//! interface keeps its weight 1 on its own coordinate).
+//!
 //! The displacement of a point of the structure is a linear map of the coordinates,
 //! `w = sum_k weight_k q_k` ([`super::BeamPoint`]), the same for every structure.
 //!
@@ -26,6 +32,8 @@
 //! through a virtual call, so the interface costs the beam's step nothing.
 
 use fem_beam::{BandedFactor, BandedSym, BeamError, BeamModel, Dof, LinalgError};
+use fem_structure::{ImportedStructure, Reduced, SparseFactor, tables::NodeDof};
+use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
 /// The lowest natural modes of a structure: `C phi_i = omega_i^2 A phi_i`, ascending, shapes
 /// with unit modal mass `phi_i^T A phi_i = 1`.
@@ -38,15 +46,24 @@ pub struct StructureModes {
 }
 
 /// Why a structure operation failed.
-#[derive(Debug, thiserror::Error)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum StructureError {
-    /// A factorisation or a shape check failed.
+    /// A banded factorisation or a shape check of the beam failed.
     #[error(transparent)]
     Linalg(#[from] LinalgError),
-    /// The beam's modal analysis failed.
+    /// A sparse or dense operation on an imported structure failed.
     #[error(transparent)]
-    Beam(#[from] BeamError),
+    Imported(#[from] fem_structure::StructureError),
+    /// The beam's modal analysis failed (its message).
+    #[error("{0}")]
+    Beam(String),
+}
+
+impl From<BeamError> for StructureError {
+    fn from(e: BeamError) -> StructureError {
+        StructureError::Beam(e.to_string())
+    }
 }
 
 /// A linear structure `A q'' + B q' + C q = P(t)` as the engine sees it (see the module
@@ -77,15 +94,18 @@ pub trait LinearStructure {
     /// `x^T C x`.
     fn stiffness_quadratic_form(&self, x: &[f64]) -> f64;
 
-    /// The structure's own loads `P(t)` into `out` (overwritten).
-    fn load_into(&self, t: f64, out: &mut [f64]);
+    /// The structure's own loads `P(t)` into `out` (overwritten); by default none (an
+    /// imported model's loads are excitations).
+    fn load_into(&self, _t: f64, out: &mut [f64]) {
+        out.fill(0.0);
+    }
 
     /// Factorises the Newmark matrix `K = A + c_damping B + c_stiffness C`.
     fn factorize_newmark(
         &self,
         c_damping: f64,
         c_stiffness: f64,
-    ) -> Result<Self::Factor, LinalgError>;
+    ) -> Result<Self::Factor, StructureError>;
 
     /// `x <- K^-1 x` with a factor from [`LinearStructure::factorize_newmark`].
     fn solve_in_place(factor: &Self::Factor, x: &mut [f64]);
@@ -97,6 +117,16 @@ pub trait LinearStructure {
 
     /// The lowest `count` natural modes.
     fn modes(&self, count: usize) -> Result<StructureModes, StructureError>;
+
+    /// The load per unit support acceleration along `direction`, `-A r` with `r` the rigid
+    /// translation ([`LinearStructure::rigid_translation`]) of the full model (N per
+    /// m/s^2). Allocates: computed once at setup.
+    fn base_load(&self, direction: [f64; 2]) -> Vec<f64> {
+        let r = self.rigid_translation(direction);
+        let mut out = vec![0.0; r.len()];
+        self.mass_mul_add(-1.0, &r, &mut out);
+        out
+    }
 }
 
 /// The built-in beam (`fem-beam`): banded matrices, banded LDL^T eliminating from the end
@@ -148,11 +178,11 @@ impl LinearStructure for BeamModel {
         &self,
         c_damping: f64,
         c_stiffness: f64,
-    ) -> Result<BandedFactor, LinalgError> {
+    ) -> Result<BandedFactor, StructureError> {
         let mut k: BandedSym = self.mass().clone();
         k.scaled_add(c_damping, self.damping())?;
         k.scaled_add(c_stiffness, self.stiffness())?;
-        self.factorize(&k)
+        Ok(self.factorize(&k)?)
     }
 
     #[inline]
@@ -176,6 +206,206 @@ impl LinearStructure for BeamModel {
             shapes: (0..m.len()).map(|i| m.shape(i).to_vec()).collect(),
         })
     }
+}
+
+/// `y += s A x` for a dense symmetric `A`.
+fn dense_mul_add(a: &DMatrix<f64>, s: f64, x: &[f64], y: &mut [f64]) {
+    for (j, &xj) in x.iter().enumerate() {
+        let c = s * xj;
+        if c != 0.0 {
+            for (yi, aij) in y.iter_mut().zip(a.column(j).iter()) {
+                *yi += aij * c;
+            }
+        }
+    }
+}
+
+/// `x^T A x` for a dense `A`.
+fn dense_quadratic(a: &DMatrix<f64>, x: &[f64]) -> f64 {
+    let mut s = 0.0;
+    for (j, &xj) in x.iter().enumerate() {
+        let c: f64 = a.column(j).iter().zip(x).map(|(aij, xi)| aij * xi).sum();
+        s += xj * c;
+    }
+    s
+}
+
+/// The rigid translation of an imported model: `d . e_k` on each translational DOF along
+/// the unit axis `e_k` (its `x`, `y` components: the mechanisms' plane), 0 on rotations.
+fn imported_translation(s: &ImportedStructure, direction: [f64; 2]) -> Vec<f64> {
+    s.dofs
+        .of_equation
+        .iter()
+        .map(|&(_, dof)| match dof {
+            NodeDof::Ux => direction[0],
+            NodeDof::Uy => direction[1],
+            _ => 0.0,
+        })
+        .collect()
+}
+
+/// An imported sparse model: products by its sparse matrices, the Newmark matrix
+/// factorised by faer's sparse Cholesky. Without loads of its own (its loads are
+/// excitations).
+impl LinearStructure for ImportedStructure {
+    type Factor = SparseFactor;
+
+    fn dof_count(&self) -> usize {
+        ImportedStructure::dof_count(self)
+    }
+
+    fn mass_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]) {
+        self.mass.mul_add_into(s, x, y);
+    }
+
+    fn damping_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]) {
+        if let Some(b) = &self.damping {
+            b.mul_add_into(s, x, y);
+        }
+    }
+
+    fn stiffness_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]) {
+        self.stiffness.mul_add_into(s, x, y);
+    }
+
+    fn mass_quadratic_form(&self, x: &[f64]) -> f64 {
+        self.mass.quadratic_form(x)
+    }
+
+    fn damping_quadratic_form(&self, x: &[f64]) -> f64 {
+        self.damping.as_ref().map_or(0.0, |b| b.quadratic_form(x))
+    }
+
+    fn stiffness_quadratic_form(&self, x: &[f64]) -> f64 {
+        self.stiffness.quadratic_form(x)
+    }
+
+    fn factorize_newmark(
+        &self,
+        c_damping: f64,
+        c_stiffness: f64,
+    ) -> Result<SparseFactor, StructureError> {
+        let mut k = self.mass.combination(1.0, &self.stiffness, c_stiffness);
+        if let Some(b) = &self.damping {
+            k = k.combination(1.0, b, c_damping);
+        }
+        Ok(k.factorize("Newmark matrix")?)
+    }
+
+    fn solve_in_place(factor: &SparseFactor, x: &mut [f64]) {
+        factor.solve_in_place(x);
+    }
+
+    fn rigid_translation(&self, direction: [f64; 2]) -> Vec<f64> {
+        imported_translation(self, direction)
+    }
+
+    fn modes(&self, count: usize) -> Result<StructureModes, StructureError> {
+        let m = fem_structure::lowest_modes(&self.stiffness, &self.mass, count)?;
+        Ok(StructureModes {
+            eigenvalues: m.eigenvalues.clone(),
+            shapes: m
+                .shapes
+                .column_iter()
+                .map(|c| c.iter().copied().collect())
+                .collect(),
+        })
+    }
+}
+
+/// A Craig–Bampton reduced model: dense `T^T M T`, `T^T B T`, `T^T K T` and a dense
+/// Cholesky factorisation. Its support load is `T^T (-M r)`, which needs the full model:
+/// [`Reduced`] alone has no rigid translation (see [`reduced_base_load`]).
+impl LinearStructure for Reduced {
+    type Factor = Cholesky<f64, Dyn>;
+
+    fn dof_count(&self) -> usize {
+        Reduced::dof_count(self)
+    }
+
+    fn mass_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]) {
+        dense_mul_add(&self.mass, s, x, y);
+    }
+
+    fn damping_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]) {
+        dense_mul_add(&self.damping, s, x, y);
+    }
+
+    fn stiffness_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]) {
+        dense_mul_add(&self.stiffness, s, x, y);
+    }
+
+    fn mass_quadratic_form(&self, x: &[f64]) -> f64 {
+        dense_quadratic(&self.mass, x)
+    }
+
+    fn damping_quadratic_form(&self, x: &[f64]) -> f64 {
+        dense_quadratic(&self.damping, x)
+    }
+
+    fn stiffness_quadratic_form(&self, x: &[f64]) -> f64 {
+        dense_quadratic(&self.stiffness, x)
+    }
+
+    fn factorize_newmark(
+        &self,
+        c_damping: f64,
+        c_stiffness: f64,
+    ) -> Result<Cholesky<f64, Dyn>, StructureError> {
+        let k = &self.mass + &self.damping * c_damping + &self.stiffness * c_stiffness;
+        Cholesky::new(k).ok_or_else(|| {
+            StructureError::Imported(fem_structure::StructureError::NotPositiveDefinite {
+                what: "reduced Newmark matrix".into(),
+            })
+        })
+    }
+
+    fn solve_in_place(factor: &Cholesky<f64, Dyn>, x: &mut [f64]) {
+        let mut v = nalgebra::DVectorViewMut::from_slice(x, x.len());
+        factor.solve_mut(&mut v);
+    }
+
+    fn rigid_translation(&self, _direction: [f64; 2]) -> Vec<f64> {
+        vec![0.0; Reduced::dof_count(self)]
+    }
+
+    fn base_load(&self, _direction: [f64; 2]) -> Vec<f64> {
+        vec![0.0; Reduced::dof_count(self)]
+    }
+
+    fn modes(&self, count: usize) -> Result<StructureModes, StructureError> {
+        let n = Reduced::dof_count(self);
+        if count > n {
+            return Err(fem_structure::StructureError::TooManyModes { count, n }.into());
+        }
+        let (lambda, q) =
+            fem_structure::generalized_eigen(self.stiffness.clone(), self.mass.clone())?;
+        Ok(StructureModes {
+            eigenvalues: lambda[..count].to_vec(),
+            shapes: (0..count)
+                .map(|i| {
+                    let c = q.column(i);
+                    let big = c
+                        .iter()
+                        .fold(0.0f64, |a, &v| if v.abs() > a.abs() { v } else { a });
+                    c.iter().map(|v| v * big.signum()).collect()
+                })
+                .collect(),
+        })
+    }
+}
+
+/// The support load of a reduced model, `T^T (-M r)` with `r` the full model's rigid
+/// translation along `direction` (N per m/s^2, reduced coordinates).
+pub fn reduced_base_load(
+    full: &ImportedStructure,
+    reduced: &Reduced,
+    direction: [f64; 2],
+) -> Vec<f64> {
+    let p = full.base_load(direction);
+    (reduced.transform.transpose() * DVector::from_column_slice(&p))
+        .as_slice()
+        .to_vec()
 }
 
 #[cfg(test)]
