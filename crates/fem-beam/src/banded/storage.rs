@@ -46,6 +46,22 @@ impl BandedSym {
         Ok(b)
     }
 
+    /// The stored non-zero entries of the lower triangle, `(row, column, value)` 0-based,
+    /// sorted by column then row: the export of a beam matrix (e.g. as a Matrix Market
+    /// file for the `matrices` structure).
+    pub fn lower_triplets(&self) -> Vec<(usize, usize, f64)> {
+        let mut out = Vec::new();
+        for j in 0..self.n {
+            for i in j..self.n.min(j + self.kd + 1) {
+                let v = self.get(i, j);
+                if v != 0.0 {
+                    out.push((i, j, v));
+                }
+            }
+        }
+        out
+    }
+
     /// The dense symmetric matrix (for small problems and tests only: `O(n^2)` memory).
     pub fn to_dense(&self) -> DMatrix<f64> {
         let mut m = DMatrix::zeros(self.n, self.n);
@@ -278,6 +294,20 @@ fn mul_add_kd3(data: &[f64], alpha: f64, x: &[f64], y: &mut [f64]) {
 mod tests {
     use super::super::sample;
     use super::*;
+
+    #[test]
+    fn lower_triplets_are_the_dense_lower_triangle() {
+        let a = sample(7, 2);
+        let d = a.to_dense();
+        let t = a.lower_triplets();
+        for j in 0..7 {
+            for i in j..7 {
+                let v = t.iter().find(|e| e.0 == i && e.1 == j).map_or(0.0, |e| e.2);
+                assert_eq!(v, d[(i, j)]);
+            }
+        }
+        assert!(t.windows(2).all(|w| (w[0].1, w[0].0) < (w[1].1, w[1].0)));
+    }
 
     #[test]
     fn storage_round_trips_through_dense() {

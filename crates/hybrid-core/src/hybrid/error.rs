@@ -87,10 +87,10 @@ pub enum HybridError {
         /// Their rank.
         rank: usize,
     },
-    /// A beam matrix could not be factorised (the kernel's typed cause: the pivot or the
-    /// non-finite entry, with its index).
-    #[error("beam matrix factorisation failed: {0}")]
-    Factorization(fem_beam::LinalgError),
+    /// The structure's Newmark matrix could not be factorised (the typed cause: for the
+    /// beam the pivot or the non-finite entry, with its index).
+    #[error("structure matrix factorisation failed: {0}")]
+    Factorization(super::structure::StructureError),
 }
 
 fn reach_note(reach: Option<f64>) -> String {

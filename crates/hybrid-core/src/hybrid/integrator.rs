@@ -3,13 +3,14 @@
 //! [`crate::hybrid`]). A step costs one banded solve, `O(n)` vector work and a few
 //! mechanism evaluations, and allocates nothing.
 
-use fem_beam::{BandedFactor, BandedSym};
+use fem_beam::BeamModel;
 use nalgebra::{DMatrix, DVector};
 
 use super::error::HybridError;
 use super::follow::{CurrentRule, FollowError, Follower};
 use super::method::Method;
 use super::model::{ExcitationTarget, HybridModel};
+use super::structure::LinearStructure;
 use crate::partition::choose_partition;
 use crate::partition::dense::{lu_in_place, lu_solve};
 
@@ -145,7 +146,8 @@ pub struct Integrator {
     alpha: f64,
     beta: f64,
     gamma: f64,
-    factor: Option<BandedFactor>,
+    /// The factorised Newmark matrix of the structure ([`LinearStructure::factorize_newmark`]).
+    factor: Option<<BeamModel as LinearStructure>::Factor>,
     nb: usize,
     nz: usize,
     /// `K^-1 n_k` for each attachment, column-major `n x nb`.
@@ -248,15 +250,10 @@ impl Integrator {
         let n = model.beam_dofs();
         let nb = model.attachments.len();
         let factor = match &model.beam {
-            Some(beam) => {
-                let fail = HybridError::Factorization;
-                let mut k: BandedSym = beam.mass().clone();
-                k.scaled_add((1.0 + alpha) * gamma * h, beam.damping())
-                    .map_err(fail)?;
-                k.scaled_add((1.0 + alpha) * beta * h * h, beam.stiffness())
-                    .map_err(fail)?;
-                Some(beam.factorize(&k).map_err(fail)?)
-            }
+            Some(beam) => Some(
+                beam.factorize_newmark((1.0 + alpha) * gamma * h, (1.0 + alpha) * beta * h * h)
+                    .map_err(HybridError::Factorization)?,
+            ),
             None => None,
         };
         let mut zcols = vec![0.0; n * nb];
@@ -265,7 +262,7 @@ impl Integrator {
             for (k, a) in model.attachments.iter().enumerate() {
                 let col = &mut zcols[k * n..(k + 1) * n];
                 a.beam.add_force(1.0, col);
-                f.solve_in_place(col);
+                BeamModel::solve_in_place(f, col);
             }
             for (i, a) in model.attachments.iter().enumerate() {
                 for k in 0..nb {
@@ -342,7 +339,7 @@ impl Integrator {
     /// supports' inertial load `base_load a_b(t)`.
     fn load_into(model: &HybridModel, base_load: &[f64], t: f64, out: &mut [f64]) {
         if let Some(beam) = &model.beam {
-            beam.load_into(t, out);
+            LinearStructure::load_into(beam, t, out);
         }
         model.add_beam_excitations(t, out);
         if !base_load.is_empty() {
@@ -618,10 +615,10 @@ impl Integrator {
             Self::load_into(model, &self.base_load, state.t, &mut self.p_new);
             self.p_new_t = Some(state.t);
             self.r0.copy_from_slice(&self.p_new);
-            beam.damping().mul_add_into(-1.0, &state.v, &mut self.r0);
-            beam.stiffness().mul_add_into(-1.0, &state.q, &mut self.r0);
+            beam.damping_mul_add(-1.0, &state.v, &mut self.r0);
+            beam.stiffness_mul_add(-1.0, &state.q, &mut self.r0);
             if let Some(f) = &self.factor {
-                f.solve_in_place(&mut self.r0);
+                BeamModel::solve_in_place(f, &mut self.r0);
             }
         }
         self.predict_mechanisms(model, state);
@@ -765,9 +762,8 @@ impl Integrator {
             Self::load_into(model, &self.base_load, t_new, &mut self.p_new);
             self.p_new_t = Some(t_new);
             self.r0.copy_from_slice(&self.p_new);
-            beam.damping().mul_add_into(-1.0, &self.v_hat, &mut self.r0);
-            beam.stiffness()
-                .mul_add_into(-1.0, &self.q_hat, &mut self.r0);
+            beam.damping_mul_add(-1.0, &self.v_hat, &mut self.r0);
+            beam.stiffness_mul_add(-1.0, &self.q_hat, &mut self.r0);
             if alpha != 0.0 {
                 for x in self.r0.iter_mut() {
                     *x *= 1.0 + alpha;
@@ -775,11 +771,11 @@ impl Integrator {
                 for (r, p) in self.r0.iter_mut().zip(&self.p_old) {
                     *r -= alpha * p;
                 }
-                beam.damping().mul_add_into(alpha, &state.v, &mut self.r0);
-                beam.stiffness().mul_add_into(alpha, &state.q, &mut self.r0);
+                beam.damping_mul_add(alpha, &state.v, &mut self.r0);
+                beam.stiffness_mul_add(alpha, &state.q, &mut self.r0);
             }
             if let Some(f) = &self.factor {
-                f.solve_in_place(&mut self.r0);
+                BeamModel::solve_in_place(f, &mut self.r0);
             }
         }
         self.predict_mechanisms(model, state);
@@ -840,7 +836,7 @@ impl Integrator {
                 *m = 0.5 * (*m + v);
             }
             let acc = &mut state.account;
-            acc.dissipated_structure += h * beam.damping().quadratic_form(&self.v_mid);
+            acc.dissipated_structure += h * beam.damping_quadratic_form(&self.v_mid);
             // Beam loads: P (which includes the beam excitations) at the two ends.
             let mut work = 0.0;
             for ((po, pn), m) in self.p_old.iter().zip(&self.p_new).zip(&self.v_mid) {
@@ -944,8 +940,8 @@ impl Integrator {
     /// Stored energies at `state`, into `out` (allocation-free once `out` has the sizes).
     pub fn stored_into(&mut self, model: &HybridModel, state: &HybridState, out: &mut Stored) {
         if let Some(beam) = &model.beam {
-            out.beam_kinetic = 0.5 * beam.mass().quadratic_form(&state.v);
-            out.beam_potential = 0.5 * beam.stiffness().quadratic_form(&state.q);
+            out.beam_kinetic = 0.5 * beam.mass_quadratic_form(&state.v);
+            out.beam_potential = 0.5 * beam.stiffness_quadratic_form(&state.q);
         }
         out.mechanism_kinetic.resize(model.mechanisms.len(), 0.0);
         out.mechanism_potential.resize(model.mechanisms.len(), 0.0);

@@ -90,6 +90,7 @@ mod run;
 mod sensitivity;
 mod steady;
 mod stochastic;
+mod structure;
 mod variants;
 
 pub use eigen::{EigenMethod, Mode, ModeKind, modes};
@@ -114,6 +115,7 @@ pub use steady::{
     warped_frequency,
 };
 pub use stochastic::{PsdInput, Quadrature, StateOutput, StateSpace, lyapunov, psd_variances};
+pub use structure::{LinearStructure, StructureError, StructureModes, reduced_base_load};
 
 use crate::partition::choose_partition;
 use follow::Follower;

@@ -6,6 +6,7 @@ use fem_beam::{BeamModel, ShapeAt, TimeFunction};
 use mbs_symbolic::runtime::{System, Workspace};
 use nalgebra::{DMatrix, DVector};
 
+use super::structure::LinearStructure;
 use crate::generator::GeneratorSpec;
 
 /// Where a mechanism's ground frame sits in the beam's plane: the beam frame has `x` along
@@ -767,16 +768,7 @@ impl HybridModel {
         let Some(beam) = &self.beam else {
             return Vec::new();
         };
-        let n = beam.dof_count();
-        let r: Vec<f64> = (0..n)
-            .map(|k| match beam.dofs().node_dof(k) {
-                Some((_, fem_beam::Dof::Transverse)) => 1.0,
-                _ => 0.0,
-            })
-            .collect();
-        let mut out = vec![0.0; n];
-        beam.mass().mul_add_into(-1.0, &r, &mut out);
-        out
+        beam.base_load([0.0, 1.0])
     }
 
     /// Adds the inertial load of the supports' acceleration at time `t` to mechanism

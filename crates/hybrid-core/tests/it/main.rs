@@ -21,4 +21,5 @@ mod linearize;
 mod oracle;
 mod sensitivity;
 mod step_alloc;
+mod structures;
 mod variants;

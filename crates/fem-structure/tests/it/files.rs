@@ -1,0 +1,134 @@
+//! The files: a structure read back from files, Rayleigh damping from ratios, and each
+//! kind of bad input as one line naming the file (and line).
+
+use std::path::{Path, PathBuf};
+
+use fem_structure::mtx::write_matrix_market;
+use fem_structure::{DampingInput, ImportedStructure, MatrixFiles, lowest_modes};
+
+use crate::chain::chain;
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("fem-structure-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn write(d: &Path, name: &str, text: &str) -> PathBuf {
+    let p = d.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// A 4-mass chain written out, its nodes along x, one `ux` each.
+fn files(d: &Path) -> MatrixFiles {
+    let (k, m) = chain(4, 100.0, 2.0);
+    MatrixFiles {
+        mass: write(d, "M.mtx", &write_matrix_market(&m.lower())),
+        stiffness: write(d, "K.mtx", &write_matrix_market(&k.lower())),
+        nodes: write(d, "nodes.csv", "id,x,y\n1,0,0\n2,1,0\n3,2,0\n4,3,0\n"),
+        dofs: write(
+            d,
+            "dofs.csv",
+            "eq,node,dof\n0,1,ux\n1,2,ux\n2,3,ux\n3,4,ux\n",
+        ),
+        damping: DampingInput::Ratios([(1, 0.01), (2, 0.03)]),
+    }
+}
+
+#[test]
+fn a_structure_from_files_with_rayleigh_damping() {
+    let d = dir("ok");
+    let s = ImportedStructure::from_files(&files(&d)).unwrap();
+    assert_eq!(s.dof_count(), 4);
+    assert_eq!(s.dofs.equation[&(3, fem_structure::tables::NodeDof::Ux)], 2);
+    let modes = lowest_modes(&s.stiffness, &s.mass, 2).unwrap();
+    let b = s.damping.as_ref().unwrap();
+    for (i, z) in [(0, 0.01), (1, 0.03)] {
+        let phi = modes.shapes.column(i);
+        let zeta = b.quadratic_form(phi.as_slice()) / (2.0 * modes.eigenvalues[i].sqrt());
+        assert!((zeta - z).abs() < 1e-12, "{zeta} vs {z}");
+    }
+    std::fs::remove_dir_all(d).unwrap();
+}
+
+fn error(f: &MatrixFiles) -> String {
+    let e = ImportedStructure::from_files(f).unwrap_err().to_string();
+    assert!(!e.contains('\n'), "one line: {e}");
+    e
+}
+
+#[test]
+fn bad_input_is_one_line_naming_file_and_line() {
+    let d = dir("bad");
+    let good = files(&d);
+    let h = "%%MatrixMarket matrix coordinate real symmetric\n";
+    let f = MatrixFiles {
+        mass: write(
+            &d,
+            "Mneg.mtx",
+            &format!("{h}4 4 4\n1 1 1\n2 2 -1\n3 3 1\n4 4 1\n"),
+        ),
+        ..good.clone()
+    };
+    let e = error(&f);
+    assert!(
+        e.contains("Mneg.mtx: the mass matrix is not positive definite"),
+        "{e}"
+    );
+    let f = MatrixFiles {
+        stiffness: write(&d, "K3.mtx", &format!("{h}3 3 3\n1 1 1\n2 2 1\n3 3 1\n")),
+        ..good.clone()
+    };
+    let e = error(&f);
+    assert!(e.contains("K3.mtx: 3 rows, but the mass matrix"), "{e}");
+    let f = MatrixFiles {
+        dofs: write(
+            &d,
+            "d1.csv",
+            "eq,node,dof\n0,1,ux\n1,2,ux\n1,3,ux\n3,4,ux\n",
+        ),
+        ..good.clone()
+    };
+    let e = error(&f);
+    assert!(
+        e.contains("d1.csv:4: equation 1 listed twice (first on line 3)"),
+        "{e}"
+    );
+    let f = MatrixFiles {
+        dofs: write(&d, "d2.csv", "eq,node,dof\n0,1,ux\n1,2,ux\n3,4,ux\n"),
+        ..good.clone()
+    };
+    let e = error(&f);
+    assert!(
+        e.contains("d2.csv: 1 equation(s) of the matrices have no row: 2"),
+        "{e}"
+    );
+    let f = MatrixFiles {
+        dofs: write(
+            &d,
+            "d3.csv",
+            "eq,node,dof\n0,1,ux\n1,2,ux\n2,9,ux\n3,4,ux\n",
+        ),
+        ..good.clone()
+    };
+    let e = error(&f);
+    assert!(e.contains("d3.csv:4: unknown node 9"), "{e}");
+    let f = MatrixFiles {
+        stiffness: write(
+            &d,
+            "Kg.mtx",
+            "%%MatrixMarket matrix coordinate real general\n4 4 2\n1 1 1\n1 2 0.5\n",
+        ),
+        ..good.clone()
+    };
+    let e = error(&f);
+    assert!(e.contains("Kg.mtx:4: the matrix is not symmetric"), "{e}");
+    let f = MatrixFiles {
+        mass: write(&d, "Mbig.mtx", &format!("{h}4000 4000 10000000\n")),
+        ..good.clone()
+    };
+    let e = error(&f);
+    assert!(e.contains("Mbig.mtx:2: 10000000 entries declared"), "{e}");
+    std::fs::remove_dir_all(d).unwrap();
+}

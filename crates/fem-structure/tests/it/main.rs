@@ -1,0 +1,6 @@
+//! Integration tests of fem-structure: modes against closed forms, Craig–Bampton against
+//! the full model, the files and their errors.
+
+mod chain;
+mod files;
+mod reduction;

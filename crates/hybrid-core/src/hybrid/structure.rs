@@ -1,0 +1,494 @@
+//! The structure interface: how the engine sees the linear host structure it couples the
+//! mechanisms to (docs/theory.md section 13). Any structure whose equations are
+//!
+//! ```text
+//! A q'' + B q' + C q = P(t) - J^c^T lambda                                          (44)
+//! ```
+//!
+//! over its own coordinates `q` (supports already eliminated) is one implementation of
+//! [`LinearStructure`]: the built-in Euler–Bernoulli beam (`fem-beam`, banded storage) is
+//! the first. The engine touches the structure only through
+//!
+//! - the products `A x`, `B x`, `C x` and the quadratic forms `x^T A x`, `x^T B x`,
+//!   `x^T C x` (residuals, energies);
+//! - its own loads `P(t)` as a vector;
+//! - the factorisation of the Newmark matrix `A + c_B B + c_C C` and solves with it (the
+//!   step's low-rank updates `Z = K^-1 N`, `S = N^T Z` are built from these solves by the
+//!   integrator);
+//! - the rigid translation `r` of the supports along a direction (the inertial load
+//!   `-A r a(t)` of a support motion);
+//! - the lowest natural modes `C phi = omega^2 A phi`.
+//!
+//! Three implementations: the beam ([`BeamModel`], banded), an imported sparse model
+//! ([`ImportedStructure`], faer's sparse Cholesky; one sparse solve per step) and its
+//! Craig–Bampton reduction ([`Reduced`], small and dense; the reduced coordinates are the
+//! interface displacements then the fixed-interface modal amplitudes, so a point on the
+//! interface keeps its weight 1 on its own coordinate).
+//!
+//! The displacement of a point of the structure is a linear map of the coordinates,
+//! `w = sum_k weight_k q_k` ([`super::BeamPoint`]), the same for every structure.
+//!
+//! The step calls these methods through generic code monomorphised for each structure, not
+//! through a virtual call, so the interface costs the beam's step nothing.
+
+use fem_beam::{BandedFactor, BandedSym, BeamError, BeamModel, Dof, LinalgError};
+use fem_structure::{ImportedStructure, Reduced, SparseFactor, tables::NodeDof};
+use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
+
+/// The lowest natural modes of a structure: `C phi_i = omega_i^2 A phi_i`, ascending, shapes
+/// with unit modal mass `phi_i^T A phi_i = 1`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StructureModes {
+    /// The eigenvalues `omega_i^2` (rad^2/s^2), ascending.
+    pub eigenvalues: Vec<f64>,
+    /// The shapes, one vector of the structure's coordinates per mode.
+    pub shapes: Vec<Vec<f64>>,
+}
+
+/// Why a structure operation failed.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum StructureError {
+    /// A banded factorisation or a shape check of the beam failed.
+    #[error(transparent)]
+    Linalg(#[from] LinalgError),
+    /// A sparse or dense operation on an imported structure failed.
+    #[error(transparent)]
+    Imported(#[from] fem_structure::StructureError),
+    /// The beam's modal analysis failed (its message).
+    #[error("{0}")]
+    Beam(String),
+}
+
+impl From<BeamError> for StructureError {
+    fn from(e: BeamError) -> StructureError {
+        StructureError::Beam(e.to_string())
+    }
+}
+
+/// A linear structure `A q'' + B q' + C q = P(t)` as the engine sees it (see the module
+/// documentation). Products add into caller buffers and allocate nothing.
+pub trait LinearStructure {
+    /// A factorisation of a symmetric positive definite combination of the structure's
+    /// matrices (the Newmark matrix), able to solve in place.
+    type Factor: Clone + std::fmt::Debug + Send + Sync;
+
+    /// Number of coordinates `n`.
+    fn dof_count(&self) -> usize;
+
+    /// `y += s A x`.
+    fn mass_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]);
+
+    /// `y += s B x`.
+    fn damping_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]);
+
+    /// `y += s C x`.
+    fn stiffness_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]);
+
+    /// `x^T A x`.
+    fn mass_quadratic_form(&self, x: &[f64]) -> f64;
+
+    /// `x^T B x`.
+    fn damping_quadratic_form(&self, x: &[f64]) -> f64;
+
+    /// `x^T C x`.
+    fn stiffness_quadratic_form(&self, x: &[f64]) -> f64;
+
+    /// The structure's own loads `P(t)` into `out` (overwritten); by default none (an
+    /// imported model's loads are excitations).
+    fn load_into(&self, _t: f64, out: &mut [f64]) {
+        out.fill(0.0);
+    }
+
+    /// Factorises the Newmark matrix `K = A + c_damping B + c_stiffness C`.
+    fn factorize_newmark(
+        &self,
+        c_damping: f64,
+        c_stiffness: f64,
+    ) -> Result<Self::Factor, StructureError>;
+
+    /// `x <- K^-1 x` with a factor from [`LinearStructure::factorize_newmark`].
+    fn solve_in_place(factor: &Self::Factor, x: &mut [f64]);
+
+    /// The rigid translation `r` of the structure by a unit displacement along `direction`
+    /// (a unit vector in the plane of the mechanisms): the coordinates' values when every
+    /// support moves by `direction` (1 on translations along it, 0 on rotations).
+    fn rigid_translation(&self, direction: [f64; 2]) -> Vec<f64>;
+
+    /// The lowest `count` natural modes.
+    fn modes(&self, count: usize) -> Result<StructureModes, StructureError>;
+
+    /// The load per unit support acceleration along `direction`, `-A r` with `r` the rigid
+    /// translation ([`LinearStructure::rigid_translation`]) of the full model (N per
+    /// m/s^2). Allocates: computed once at setup.
+    fn base_load(&self, direction: [f64; 2]) -> Vec<f64> {
+        let r = self.rigid_translation(direction);
+        let mut out = vec![0.0; r.len()];
+        self.mass_mul_add(-1.0, &r, &mut out);
+        out
+    }
+}
+
+/// The built-in beam (`fem-beam`): banded matrices, banded LDL^T eliminating from the end
+/// farther from the supports ([`BeamModel::factorize`]). The beam moves transversely only:
+/// its rigid translation takes the `y` component of a direction.
+impl LinearStructure for BeamModel {
+    type Factor = BandedFactor;
+
+    fn dof_count(&self) -> usize {
+        BeamModel::dof_count(self)
+    }
+
+    #[inline]
+    fn mass_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]) {
+        self.mass().mul_add_into(s, x, y);
+    }
+
+    #[inline]
+    fn damping_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]) {
+        self.damping().mul_add_into(s, x, y);
+    }
+
+    #[inline]
+    fn stiffness_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]) {
+        self.stiffness().mul_add_into(s, x, y);
+    }
+
+    #[inline]
+    fn mass_quadratic_form(&self, x: &[f64]) -> f64 {
+        self.mass().quadratic_form(x)
+    }
+
+    #[inline]
+    fn damping_quadratic_form(&self, x: &[f64]) -> f64 {
+        self.damping().quadratic_form(x)
+    }
+
+    #[inline]
+    fn stiffness_quadratic_form(&self, x: &[f64]) -> f64 {
+        self.stiffness().quadratic_form(x)
+    }
+
+    #[inline]
+    fn load_into(&self, t: f64, out: &mut [f64]) {
+        BeamModel::load_into(self, t, out);
+    }
+
+    fn factorize_newmark(
+        &self,
+        c_damping: f64,
+        c_stiffness: f64,
+    ) -> Result<BandedFactor, StructureError> {
+        let mut k: BandedSym = self.mass().clone();
+        k.scaled_add(c_damping, self.damping())?;
+        k.scaled_add(c_stiffness, self.stiffness())?;
+        Ok(self.factorize(&k)?)
+    }
+
+    #[inline]
+    fn solve_in_place(factor: &BandedFactor, x: &mut [f64]) {
+        factor.solve_in_place(x);
+    }
+
+    fn rigid_translation(&self, direction: [f64; 2]) -> Vec<f64> {
+        (0..BeamModel::dof_count(self))
+            .map(|k| match self.dofs().node_dof(k) {
+                Some((_, Dof::Transverse)) => direction[1],
+                _ => 0.0,
+            })
+            .collect()
+    }
+
+    fn modes(&self, count: usize) -> Result<StructureModes, StructureError> {
+        let m = BeamModel::modes(self, count)?;
+        Ok(StructureModes {
+            eigenvalues: m.eigenvalues().to_vec(),
+            shapes: (0..m.len()).map(|i| m.shape(i).to_vec()).collect(),
+        })
+    }
+}
+
+/// `y += s A x` for a dense symmetric `A`.
+fn dense_mul_add(a: &DMatrix<f64>, s: f64, x: &[f64], y: &mut [f64]) {
+    for (j, &xj) in x.iter().enumerate() {
+        let c = s * xj;
+        if c != 0.0 {
+            for (yi, aij) in y.iter_mut().zip(a.column(j).iter()) {
+                *yi += aij * c;
+            }
+        }
+    }
+}
+
+/// `x^T A x` for a dense `A`.
+fn dense_quadratic(a: &DMatrix<f64>, x: &[f64]) -> f64 {
+    let mut s = 0.0;
+    for (j, &xj) in x.iter().enumerate() {
+        let c: f64 = a.column(j).iter().zip(x).map(|(aij, xi)| aij * xi).sum();
+        s += xj * c;
+    }
+    s
+}
+
+/// The rigid translation of an imported model: `d . e_k` on each translational DOF along
+/// the unit axis `e_k` (its `x`, `y` components: the mechanisms' plane), 0 on rotations.
+fn imported_translation(s: &ImportedStructure, direction: [f64; 2]) -> Vec<f64> {
+    s.dofs
+        .of_equation
+        .iter()
+        .map(|&(_, dof)| match dof {
+            NodeDof::Ux => direction[0],
+            NodeDof::Uy => direction[1],
+            _ => 0.0,
+        })
+        .collect()
+}
+
+/// An imported sparse model: products by its sparse matrices, the Newmark matrix
+/// factorised by faer's sparse Cholesky. Without loads of its own (its loads are
+/// excitations).
+impl LinearStructure for ImportedStructure {
+    type Factor = SparseFactor;
+
+    fn dof_count(&self) -> usize {
+        ImportedStructure::dof_count(self)
+    }
+
+    fn mass_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]) {
+        self.mass.mul_add_into(s, x, y);
+    }
+
+    fn damping_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]) {
+        if let Some(b) = &self.damping {
+            b.mul_add_into(s, x, y);
+        }
+    }
+
+    fn stiffness_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]) {
+        self.stiffness.mul_add_into(s, x, y);
+    }
+
+    fn mass_quadratic_form(&self, x: &[f64]) -> f64 {
+        self.mass.quadratic_form(x)
+    }
+
+    fn damping_quadratic_form(&self, x: &[f64]) -> f64 {
+        self.damping.as_ref().map_or(0.0, |b| b.quadratic_form(x))
+    }
+
+    fn stiffness_quadratic_form(&self, x: &[f64]) -> f64 {
+        self.stiffness.quadratic_form(x)
+    }
+
+    fn factorize_newmark(
+        &self,
+        c_damping: f64,
+        c_stiffness: f64,
+    ) -> Result<SparseFactor, StructureError> {
+        let mut k = self.mass.combination(1.0, &self.stiffness, c_stiffness);
+        if let Some(b) = &self.damping {
+            k = k.combination(1.0, b, c_damping);
+        }
+        Ok(k.factorize("Newmark matrix")?)
+    }
+
+    fn solve_in_place(factor: &SparseFactor, x: &mut [f64]) {
+        factor.solve_in_place(x);
+    }
+
+    fn rigid_translation(&self, direction: [f64; 2]) -> Vec<f64> {
+        imported_translation(self, direction)
+    }
+
+    fn modes(&self, count: usize) -> Result<StructureModes, StructureError> {
+        let m = fem_structure::lowest_modes(&self.stiffness, &self.mass, count)?;
+        Ok(StructureModes {
+            eigenvalues: m.eigenvalues.clone(),
+            shapes: m
+                .shapes
+                .column_iter()
+                .map(|c| c.iter().copied().collect())
+                .collect(),
+        })
+    }
+}
+
+/// A Craig–Bampton reduced model: dense `T^T M T`, `T^T B T`, `T^T K T` and a dense
+/// Cholesky factorisation. Its support load is `T^T (-M r)`, which needs the full model:
+/// [`Reduced`] alone has no rigid translation (see [`reduced_base_load`]).
+impl LinearStructure for Reduced {
+    type Factor = Cholesky<f64, Dyn>;
+
+    fn dof_count(&self) -> usize {
+        Reduced::dof_count(self)
+    }
+
+    fn mass_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]) {
+        dense_mul_add(&self.mass, s, x, y);
+    }
+
+    fn damping_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]) {
+        dense_mul_add(&self.damping, s, x, y);
+    }
+
+    fn stiffness_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]) {
+        dense_mul_add(&self.stiffness, s, x, y);
+    }
+
+    fn mass_quadratic_form(&self, x: &[f64]) -> f64 {
+        dense_quadratic(&self.mass, x)
+    }
+
+    fn damping_quadratic_form(&self, x: &[f64]) -> f64 {
+        dense_quadratic(&self.damping, x)
+    }
+
+    fn stiffness_quadratic_form(&self, x: &[f64]) -> f64 {
+        dense_quadratic(&self.stiffness, x)
+    }
+
+    fn factorize_newmark(
+        &self,
+        c_damping: f64,
+        c_stiffness: f64,
+    ) -> Result<Cholesky<f64, Dyn>, StructureError> {
+        let k = &self.mass + &self.damping * c_damping + &self.stiffness * c_stiffness;
+        Cholesky::new(k).ok_or_else(|| {
+            StructureError::Imported(fem_structure::StructureError::NotPositiveDefinite {
+                what: "reduced Newmark matrix".into(),
+            })
+        })
+    }
+
+    fn solve_in_place(factor: &Cholesky<f64, Dyn>, x: &mut [f64]) {
+        let mut v = nalgebra::DVectorViewMut::from_slice(x, x.len());
+        factor.solve_mut(&mut v);
+    }
+
+    fn rigid_translation(&self, _direction: [f64; 2]) -> Vec<f64> {
+        vec![0.0; Reduced::dof_count(self)]
+    }
+
+    fn base_load(&self, _direction: [f64; 2]) -> Vec<f64> {
+        vec![0.0; Reduced::dof_count(self)]
+    }
+
+    fn modes(&self, count: usize) -> Result<StructureModes, StructureError> {
+        let n = Reduced::dof_count(self);
+        if count > n {
+            return Err(fem_structure::StructureError::TooManyModes { count, n }.into());
+        }
+        let (lambda, q) =
+            fem_structure::generalized_eigen(self.stiffness.clone(), self.mass.clone())?;
+        Ok(StructureModes {
+            eigenvalues: lambda[..count].to_vec(),
+            shapes: (0..count)
+                .map(|i| {
+                    let c = q.column(i);
+                    let big = c
+                        .iter()
+                        .fold(0.0f64, |a, &v| if v.abs() > a.abs() { v } else { a });
+                    c.iter().map(|v| v * big.signum()).collect()
+                })
+                .collect(),
+        })
+    }
+}
+
+/// The support load of a reduced model, `T^T (-M r)` with `r` the full model's rigid
+/// translation along `direction` (N per m/s^2, reduced coordinates).
+pub fn reduced_base_load(
+    full: &ImportedStructure,
+    reduced: &Reduced,
+    direction: [f64; 2],
+) -> Vec<f64> {
+    let p = full.base_load(direction);
+    (reduced.transform.transpose() * DVector::from_column_slice(&p))
+        .as_slice()
+        .to_vec()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fem_beam::Beam;
+    use nalgebra::{DMatrix, DVector};
+
+    fn beam() -> BeamModel {
+        let text = r#"
+[[segment]]
+length = 1.0
+youngs_modulus = 210e9
+density = 7850.0
+width = 0.04
+height = 0.008
+elements = 6
+[[support]]
+x = 0.0
+kind = "clamped"
+[damping]
+ratios = [{ mode = 1, ratio = 0.01 }, { mode = 2, ratio = 0.02 }]
+"#;
+        BeamModel::new(&Beam::from_toml_str(text, "c.toml").unwrap()).unwrap()
+    }
+
+    /// The Newmark solve against a dense solve of `A + c_B B + c_C C` assembled from the
+    /// products (an independent formulation), to round-off scaled by the condition.
+    #[test]
+    fn newmark_solve_matches_a_dense_solve() {
+        let b = beam();
+        let n = LinearStructure::dof_count(&b);
+        let (cb, cc) = (3e-4, 2.5e-9);
+        let mut k = DMatrix::zeros(n, n);
+        for j in 0..n {
+            let mut e = vec![0.0; n];
+            e[j] = 1.0;
+            let mut col = vec![0.0; n];
+            b.mass_mul_add(1.0, &e, &mut col);
+            b.damping_mul_add(cb, &e, &mut col);
+            b.stiffness_mul_add(cc, &e, &mut col);
+            k.set_column(j, &DVector::from_vec(col));
+        }
+        let rhs: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin() + 0.1).collect();
+        let dense = k
+            .clone()
+            .lu()
+            .solve(&DVector::from_column_slice(&rhs))
+            .unwrap();
+        let f = b.factorize_newmark(cb, cc).unwrap();
+        let mut x = rhs.clone();
+        BeamModel::solve_in_place(&f, &mut x);
+        let scale = dense.amax();
+        for (a, d) in x.iter().zip(dense.iter()) {
+            assert!((a - d).abs() <= 1e-10 * scale, "{a} vs {d}");
+        }
+        // Quadratic forms agree with the products.
+        let mut ax = vec![0.0; n];
+        b.stiffness_mul_add(1.0, &rhs, &mut ax);
+        let q: f64 = ax.iter().zip(&rhs).map(|(a, r)| a * r).sum();
+        assert!((b.stiffness_quadratic_form(&rhs) - q).abs() <= 1e-12 * q.abs());
+    }
+
+    /// The rigid translation of a clamped beam along y: 1 on each free transverse DOF (6),
+    /// 0 on the rotations; along x the beam (transverse only) does not move.
+    #[test]
+    fn rigid_translation_of_the_beam() {
+        let b = beam();
+        let r = b.rigid_translation([0.0, 1.0]);
+        assert_eq!(r.iter().filter(|&&x| x == 1.0).count(), 6);
+        assert_eq!(r.iter().filter(|&&x| x == 0.0).count(), 6);
+        assert!(b.rigid_translation([1.0, 0.0]).iter().all(|&x| x == 0.0));
+    }
+
+    /// The interface's modes are the beam's, unit modal mass.
+    #[test]
+    fn modes_are_the_beams() {
+        let b = beam();
+        let m = LinearStructure::modes(&b, 3).unwrap();
+        let own = BeamModel::modes(&b, 3).unwrap();
+        assert_eq!(m.eigenvalues, own.eigenvalues());
+        for phi in &m.shapes {
+            assert!((b.mass_quadratic_form(phi) - 1.0).abs() < 1e-12);
+        }
+    }
+}
