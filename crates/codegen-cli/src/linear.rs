@@ -348,7 +348,7 @@ pub fn analyse_linearization(
 
 /// [`analyse_linearization`], the comparison variants (generator(s) disconnected, bare
 /// beam: two more linearisations and eigen-solutions) only when `comparisons`; with `all`,
-/// every mode of the dense eigen-solution kept there ([`modes_keeping`]).
+/// every mode of the dense eigen-solution kept there (`modes_keeping`).
 pub fn analyse_linearization_with(
     file: &str,
     input: &Linearizable,

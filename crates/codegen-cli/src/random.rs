@@ -238,7 +238,7 @@ pub fn analyse_linearised(
 /// without the diagnostics no figure reads (the `out_of_band` share of a white noise, one
 /// more quadrature; the Lyapunov residual), and, by the dense method, from the complete
 /// modal decomposition already computed instead of the Lyapunov equation's Schur form
-/// ([`modal_variances`], where it applies).
+/// (`modal_variances`, where it applies).
 ///
 /// `all`: every mode of the point's dense eigen-solution when the caller has it (the
 /// linear figures' [`crate::linear::analyse_with_max_force`]): not computed again.
