@@ -11,8 +11,10 @@
 //! call returns, so nothing is half-written.
 //!
 //! At interpreter exit a daemon thread's call cannot take the GIL any more
-//! (`Python::try_attach` fails): the call is stopped and its thread ends with the process,
-//! without touching Python.
+//! (`Python::try_attach` fails): the call is stopped and its thread parks until it ends
+//! with the process, without touching Python again (returning would re-take the GIL, and a
+//! finalizing CPython ends such a thread by a forced unwind, which aborts the process when
+//! it meets the binding's panic guard).
 
 use std::sync::mpsc;
 use std::time::Duration;
@@ -69,8 +71,16 @@ where
                         raised = Some(e);
                         token.stop();
                     }
-                    // The interpreter is shutting down: stop the call, touch nothing.
-                    None => token.stop(),
+                    // The interpreter is shutting down: stop the call and never return
+                    // to Python (re-taking the GIL there would end this thread by a forced
+                    // unwind through the binding's frames: an abort, "exception not
+                    // rethrown"); the thread ends with the process.
+                    None => {
+                        token.stop();
+                        loop {
+                            std::thread::park();
+                        }
+                    }
                 }
             }
             Ok::<_, PyErr>(worker.join())
