@@ -27,8 +27,7 @@ pub use grid::{
 };
 pub use part::{Part, PartFigure, PartRow, PartRowError, SweepSpec, fnv1a_hex, part_name};
 pub use point::{
-    PointResult, check_paths, evaluate_points, evaluate_points_requesting, figure_heads, margin,
-    threads,
+    PointResult, check_paths, evaluate_points_requesting, figure_heads, margin, threads,
 };
 
 use crate::Error;

@@ -106,32 +106,6 @@ fn nearest_field(mut d: diagnostic::Diagnostic) -> diagnostic::Diagnostic {
     d
 }
 
-/// [`evaluate_points_requesting`] without figures on request.
-pub fn evaluate_points(
-    path: &Path,
-    text: &str,
-    fixed: &[Override],
-    grid: &Grid,
-    indices: &[usize],
-    t_end: Option<&Override>,
-    options: &PointOptions,
-    threads: usize,
-    done: &(dyn Fn() + Sync),
-) -> Result<Vec<PointResult>, Error> {
-    evaluate_points_requesting(
-        path,
-        text,
-        fixed,
-        grid,
-        indices,
-        t_end,
-        options,
-        &[],
-        threads,
-        done,
-    )
-}
-
 /// Evaluates the points `indices` of `grid` on `threads` worker threads (0: every core), each
 /// point the scenario `text` (the file `path`) with the `fixed` overrides, the point's and
 /// `t_end`'s applied in that order ([`sweep_point::evaluate`]); the results in the order of
