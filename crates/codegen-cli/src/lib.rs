@@ -131,9 +131,14 @@ pub enum Error {
     /// `--allow-long`).
     #[error("{0}")]
     TooLong(String),
-    /// Invalid command-line input.
+    /// Invalid command-line input (the command layer's own checks; the analyses say why
+    /// they refuse a request with [`Error::Analysis`]).
     #[error("{0}")]
     Usage(String),
+    /// An analysis refuses the request or cannot give its result (typed: the argument, the
+    /// name and its nearest valid names, the file).
+    #[error(transparent)]
+    Analysis(#[from] analysis::AnalysisError),
     /// Invalid `--set PATH=VALUES` or `--shard` options of a sweep.
     #[error(transparent)]
     Sweep(#[from] analysis::sweep::SpecError),

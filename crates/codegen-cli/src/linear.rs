@@ -14,6 +14,7 @@ use nalgebra::Complex;
 use serde::Serialize;
 
 use crate::Error;
+use crate::analysis::AnalysisError;
 use crate::scenario::Scenario;
 use crate::setup::{Linearizable, tangents_for};
 
@@ -523,14 +524,17 @@ pub fn peak_input(
     lin: &Linearization,
     spec: &PeakSpec,
 ) -> Result<(BeamPoint, Vec<f64>), Error> {
-    let usage = |m: String| Error::Usage(format!("{file}: {m}"));
+    let unavailable = |m: String| Error::from(AnalysisError::unavailable(file, m));
     let Some(e) = model.excitations.first() else {
-        return Err(usage(
+        return Err(unavailable(
             "a peak objective needs an excitation in the scenario".into(),
         ));
     };
     let Some(point) = model.beam.as_ref().and_then(|b| BeamPoint::on(b, spec.x)) else {
-        return Err(usage(format!("peak: x = {} is not on the beam", spec.x)));
+        return Err(unavailable(format!(
+            "peak: x = {} is not on the beam",
+            spec.x
+        )));
     };
     Ok((point, lin.force_vector(&e.target)))
 }
@@ -746,9 +750,9 @@ pub fn harmonic_responses(
     model: &HybridModel,
     lin: &Linearization,
 ) -> Result<Vec<HarmonicResponse>, Error> {
-    let usage = |m: String| Error::Usage(format!("{file}: {m}"));
+    let unavailable = |m: String| Error::from(AnalysisError::unavailable(file, m));
     if model.excitations.is_empty() {
-        return Err(usage(
+        return Err(unavailable(
             "the power objective needs a harmonic excitation".into(),
         ));
     }
@@ -757,7 +761,7 @@ pub fn harmonic_responses(
         .iter()
         .map(|e| {
             let (omega, scale) = harmonic_of(e).ok_or_else(|| {
-                usage(format!(
+                unavailable(format!(
                     "excitation \"{}\": the power objective needs harmonic excitations",
                     e.name
                 ))

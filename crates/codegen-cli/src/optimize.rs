@@ -293,7 +293,7 @@ pub struct Tolerances {
 }
 
 /// Why no optimum was found.
-#[derive(Debug, thiserror::Error)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum OptimizeError {
     /// No variable to vary: the search would have nothing to move (the derivative-free

@@ -30,6 +30,7 @@ use hybrid_core::hybrid::{
 use serde::Serialize;
 
 use crate::Error;
+use crate::analysis::AnalysisError;
 use crate::analysis::frf::parse_output;
 use crate::scenario::Scenario;
 use crate::setup::Linearizable;
@@ -101,7 +102,13 @@ pub fn output_rms_of(
     let first = report
         .outputs
         .first()
-        .ok_or_else(|| Error::Usage(format!("{file}: rms:{output}: no such output")))?;
+        .ok_or_else(|| AnalysisError::UnknownName {
+            what: "output",
+            name: output.to_string(),
+            nearest: vec![],
+            file: Some(file.to_string()),
+            message: format!("{file}: rms:{output}: no such output"),
+        })?;
     Ok((first.rms, first.unit.clone()))
 }
 
@@ -262,7 +269,7 @@ fn analyse_with(
     given: Option<Option<&[Mode]>>,
 ) -> Result<RandomReport, Error> {
     let diagnostics = given.is_none();
-    let usage = |m: String| Error::Usage(format!("{file}: {m}"));
+    let unavailable = |m: String| Error::from(AnalysisError::unavailable(file, m));
     let model = &input.model;
     let random: Vec<_> = model
         .excitations
@@ -270,7 +277,7 @@ fn analyse_with(
         .filter(|e| e.time.is_random())
         .collect();
     if random.is_empty() {
-        return Err(usage(
+        return Err(unavailable(
             "no random excitation: give one `time = { kind = \"white_noise\", psd = G, band = [F1, F2] }` or `{ kind = \"psd\", table = [[f, G], ...] }`".into(),
         ));
     }

@@ -41,6 +41,7 @@ use nalgebra::{Complex, DMatrix};
 use serde::Serialize;
 
 use crate::Error;
+use crate::analysis::AnalysisError;
 use crate::linear::{HarmonicResponse, LoadLimit, PeakSpec};
 use crate::optimize::{Evaluation, FD_STEP, Problem, Variable};
 use crate::setup::Linearizable;
@@ -178,10 +179,10 @@ pub fn gradients(p: &Problem<'_>, x: &[f64]) -> Result<Vec<Gradient>, Error> {
         // The figure of an evaluation.
         let read = |e: &Evaluation| e.value_of(p, name);
         let value = read(at).ok_or_else(|| {
-            Error::Usage(format!(
-                "{}: the figure {name} is not available at the point",
-                p.path.display()
-            ))
+            AnalysisError::unavailable(
+                p.path.display().to_string(),
+                format!("the figure {name} is not available at the point"),
+            )
         })?;
         let mut gradient = vec![];
         for (st, evals) in stencils.iter().zip(around.iter()) {
@@ -189,11 +190,13 @@ pub fn gradients(p: &Problem<'_>, x: &[f64]) -> Result<Vec<Gradient>, Error> {
             for (&(offset, w), e) in st.iter().zip(evals) {
                 let v = if offset == 0.0 { Some(value) } else { read(e) };
                 g += w * v.ok_or_else(|| {
-                    Error::Usage(format!(
-                        "{}: the figure {name} is not available near the point ({})",
-                        p.path.display(),
-                        e.error.clone().unwrap_or_default()
-                    ))
+                    AnalysisError::unavailable(
+                        p.path.display().to_string(),
+                        format!(
+                            "the figure {name} is not available near the point ({})",
+                            e.error.clone().unwrap_or_default()
+                        ),
+                    )
                 })?;
             }
             gradient.push(g);
@@ -304,10 +307,7 @@ impl Adjoint<'_> {
         let err = linear_error(self.p);
         let found = modes(lin, 1, EigenMethod::Auto).map_err(&err)?;
         let mode = found.first().ok_or_else(|| {
-            Error::Usage(format!(
-                "{}: the linearised system has no mode",
-                self.file()
-            ))
+            AnalysisError::unavailable(self.file(), "the linearised system has no mode")
         })?;
         let sens = EigenSensitivity::new(lin, mode).map_err(&err)?;
         let d = self
@@ -414,7 +414,7 @@ impl Adjoint<'_> {
             .iter()
             .map(|r| self.pencil(C64::new(0.0, r.omega)))
             .collect::<Result<_, _>>()?;
-        let usage = |m: &str| Error::Usage(format!("{file}: {m}"));
+        let unavailable = |m: &str| Error::from(AnalysisError::unavailable(&file, m));
         let harmonic = |s: &Shifted<'_>, e: usize| {
             s.point
                 .input
@@ -422,7 +422,7 @@ impl Adjoint<'_> {
                 .excitations
                 .get(e)
                 .and_then(crate::linear::harmonic_of)
-                .ok_or_else(|| usage("the excitations change with the variable"))
+                .ok_or_else(|| unavailable("the excitations change with the variable"))
         };
         let mut gradient = vec![];
         for k in 0..self.shifted.len() {
@@ -435,8 +435,9 @@ impl Adjoint<'_> {
                     .iter()
                     .map(|s| {
                         let ex = s.point.input.model.excitations.get(e);
-                        let ex =
-                            ex.ok_or_else(|| usage("the excitations change with the variable"))?;
+                        let ex = ex.ok_or_else(|| {
+                            unavailable("the excitations change with the variable")
+                        })?;
                         Ok(s.point.lin.force_vector(&ex.target))
                     })
                     .collect::<Result<Vec<_>, Error>>()?;
@@ -469,8 +470,9 @@ impl Adjoint<'_> {
         let (model, lin) = (&self.base.input.model, &self.base.lin);
         let file = self.file();
         let none = || {
-            Error::Usage(format!(
-                "{file}: no admissible load (no excitation or reach)"
+            Error::from(AnalysisError::unavailable(
+                &file,
+                "no admissible load (no excitation or reach)",
             ))
         };
         let e = model.excitations.first().ok_or_else(none)?;

@@ -37,6 +37,7 @@ use std::path::Path;
 use hybrid_core::hybrid::EigenMethod;
 
 use crate::Error;
+use crate::analysis::AnalysisError;
 use crate::analysis::figures;
 use crate::budget::{self, Quantity};
 use crate::random::RandomMethod;
@@ -503,9 +504,11 @@ fn time_domain(path: &Path, loaded: &Loaded, figures: &mut Vec<Figure>) -> Resul
             ]);
             Ok(())
         }
-        Scenario::Mechanism(_) => Err(Error::Usage(
-            "sweeps evaluate `kind = \"damper\"` and `kind = \"hybrid\"` scenarios (a rigid mechanism has no sweep figures yet)".into(),
-        )),
+        Scenario::Mechanism(_) => Err(AnalysisError::Unavailable {
+            file: None,
+            message: "sweeps evaluate `kind = \"damper\"` and `kind = \"hybrid\"` scenarios (a rigid mechanism has no sweep figures yet)".into(),
+        }
+        .into()),
     }
 }
 

@@ -31,6 +31,7 @@ fn _damper(m: &Bound<'_, PyModule>) -> PyResult<()> {
         "SingularPosition",
         py.get_type::<errors::SingularPosition>(),
     )?;
+    errors::register(m)?;
     m.add_function(wrap_pyfunction!(scenario::read_scenario, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::check, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::simulate, m)?)?;

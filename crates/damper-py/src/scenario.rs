@@ -213,9 +213,6 @@ pub fn linearize<'py>(
     Option<Vec<Shapes<'py>>>,
     Option<Dense<'py>>,
 )> {
-    if modes == 0 {
-        return Err(PyValueError::new_err("modes must be at least 1"));
-    }
     let method: EigenMethod = codegen_cli::analysis::linearize::parse_method(&method)
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let src = Source::new(text, file, base, sets)?;
@@ -226,6 +223,7 @@ pub fn linearize<'py>(
         matrices,
         allow_long,
     };
+    linearize_analysis::check(&request).map_err(|e| to_py(py, e, Input::Scenario))?;
     let Linearized {
         report,
         matrices: dense,
@@ -457,9 +455,6 @@ pub fn random<'py>(
             "method {method:?}: expected auto, dense, modal or quadrature"
         ))
     })?;
-    if modes == 0 {
-        return Err(PyValueError::new_err("modes must be at least 1"));
-    }
     let src = Source::new(text, file, base, sets)?;
     let request = RandomRequest {
         file: src.file.clone(),
@@ -470,6 +465,7 @@ pub fn random<'py>(
         },
         allow_long,
     };
+    stationary::check(&request).map_err(|e| to_py(py, e, Input::Scenario))?;
     let report = interruptible(py, || {
         let loaded = src.load(allow_long)?;
         stationary::random(&request, &loaded)

@@ -6,7 +6,7 @@ long strings, unicode), plus the regression corpus of that harness, and given to
 package: ``Scenario.from_str`` (the loader), then ``linearize`` and a short ``simulate`` of
 a scenario that loads; ``Model.load`` and ``Model.evaluate`` of a model. Every case must
 return, or raise a documented exception (``ScenarioError``, ``ModelError``,
-``DamperError``, ``ValueError``, ``TypeError``), within ``CASE_LIMIT`` seconds.
+``DamperError`` and its subclasses, ``ValueError``, ``TypeError``), within ``CASE_LIMIT`` seconds.
 
 The cases run in a child process that reports each case's start and outcome on a pipe; the
 parent is the watchdog: a case that does not end within its limit is a *hang* (the child is
@@ -56,7 +56,23 @@ REPLACEMENTS = [
 # Time limit of one case (s): a case takes milliseconds to a second; only a hang trips it.
 CASE_LIMIT = 30.0
 # The documented exceptions of the package.
-DOCUMENTED = ("ScenarioError", "ModelError", "DamperError", "SingularPosition", "ValueError", "TypeError")
+DOCUMENTED = (
+    "ScenarioError",
+    "ModelError",
+    "DamperError",
+    "SingularPosition",
+    "ArgumentError",
+    "UnknownName",
+    "NotAvailable",
+    "NumericalError",
+    "OptimizationError",
+    "MergeError",
+    "ResourceError",
+    "WorkLimitError",
+    "SimulationError",
+    "ValueError",
+    "TypeError",
+)
 # Outcomes that fail the run.
 FAILURES = ("crash", "hang", "undocumented", "non-finite", "empty")
 

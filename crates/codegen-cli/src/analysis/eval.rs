@@ -27,13 +27,15 @@ use mbs_symbolic::runtime::{Backend as RtBackend, System};
 use serde_json::{Map, Value, json};
 
 use crate::Error;
+use crate::analysis::AnalysisError;
 
 type Result<T> = std::result::Result<T, Error>;
 
-/// Returns a usage error (the command line asks for something the model cannot give).
+/// Returns an argument error of `argument` (the command line asks for something the model
+/// cannot give).
 macro_rules! bail {
-    ($($t:tt)*) => {
-        return Err(Error::Usage(format!($($t)*)))
+    ($argument:expr, $($t:tt)*) => {
+        return Err(AnalysisError::argument($argument, format!($($t)*)).into())
     };
 }
 
@@ -91,6 +93,7 @@ fn apply_params(model: &mut Model, overrides: &[String]) -> Result<Vec<usize>> {
     for o in overrides {
         let Some((name, value)) = o.split_once('=') else {
             bail!(
+                "--param",
                 "--param {:?}: expected NAME=VALUE",
                 diagnostic::truncate(o, 80)
             );
@@ -102,21 +105,34 @@ fn apply_params(model: &mut Model, overrides: &[String]) -> Result<Vec<usize>> {
             .ok()
             .filter(|v: &f64| v.is_finite())
             .ok_or_else(|| {
-                Error::Usage(format!(
-                    "--param {shown}: {:?} is not a finite number",
-                    diagnostic::truncate(value.trim(), 80)
-                ))
+                AnalysisError::argument(
+                    "--param",
+                    format!(
+                        "--param {shown}: {:?} is not a finite number",
+                        diagnostic::truncate(value.trim(), 80)
+                    ),
+                )
             })?;
         let Some(k) = model.param_index(name) else {
-            let known: Vec<&str> = model.parameters.iter().map(|p| p.name.as_str()).collect();
-            bail!(
-                "--param {shown}: no such parameter in model {:?} (known: {})",
-                model.name,
-                known.join(", ")
-            );
+            let known: Vec<String> = model.parameters.iter().map(|p| p.name.clone()).collect();
+            return Err(AnalysisError::UnknownName {
+                what: "parameter",
+                message: format!(
+                    "--param {shown}: no such parameter in model {:?} (known: {})",
+                    model.name,
+                    known.join(", ")
+                ),
+                name: shown.to_string(),
+                nearest: known,
+                file: Some(model.source.path.clone()),
+            }
+            .into());
         };
         if model.parameters[k].derived {
-            bail!("--param {shown}: parameter is derived from other parameters; set those instead");
+            bail!(
+                "--param",
+                "--param {shown}: parameter is derived from other parameters; set those instead"
+            );
         }
         model.parameters[k].value = value;
         applied.push(k);
@@ -130,12 +146,16 @@ fn state(name: &str, v: &[f64], n: usize) -> Result<Vec<f64>> {
     }
     if v.len() != n {
         bail!(
+            format!("--{name}"),
             "--{name}: expected {n} values (one per joint coordinate), got {}",
             v.len()
         );
     }
     if let Some(bad) = v.iter().find(|x| !x.is_finite()) {
-        bail!("--{name}: {bad} is not a finite number");
+        bail!(
+            format!("--{name}"),
+            "--{name}: {bad} is not a finite number"
+        );
     }
     Ok(v.to_vec())
 }
@@ -146,7 +166,13 @@ fn count_json(c: OpCount) -> Value {
 
 fn finite(name: &str, v: &[f64]) -> Result<()> {
     if v.iter().any(|x| !x.is_finite()) {
-        bail!("{name} is not finite at this state (check the parameters: a zero length or mass?)");
+        return Err(AnalysisError::Numerical {
+            file: None,
+            message: format!(
+                "{name} is not finite at this state (check the parameters: a zero length or mass?)"
+            ),
+        }
+        .into());
     }
     Ok(())
 }
@@ -203,6 +229,7 @@ fn system(args: &EvalRequest, model: &Model, overrides: &[usize]) -> Result<Box<
                 let p = &model.parameters[k];
                 if !p.runtime {
                     bail!(
+                        "--param",
                         "--param {}: parameter is folded into the generated code (not `runtime = true` in the model), so it cannot be changed with --backend generated; use --backend interp or numeric",
                         p.name
                     );
@@ -212,15 +239,19 @@ fn system(args: &EvalRequest, model: &Model, overrides: &[usize]) -> Result<Box<
         }
     };
     let resolved = crate::system_for(model, Some(backend)).map_err(|e| match e {
-        model_registry::RegistryError::NotCompiled { .. } => Error::Usage(format!(
-            "model {} is not compiled into this binary (compiled in: {}); use --backend interp or numeric, or rebuild",
-            args.model.display(),
-            model_registry::compiled()
-                .iter()
-                .map(|c| c.name)
-                .collect::<Vec<_>>()
-                .join(", ")
-        )),
+        model_registry::RegistryError::NotCompiled { .. } => AnalysisError::argument(
+            "--backend",
+            format!(
+                "model {} is not compiled into this binary (compiled in: {}); use --backend interp or numeric, or rebuild",
+                args.model.display(),
+                model_registry::compiled()
+                    .iter()
+                    .map(|c| c.name)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        )
+        .into(),
         other => Error::Registry(other),
     })?;
     Ok(resolved.system)
@@ -234,7 +265,7 @@ pub fn evaluation(args: &EvalRequest) -> Result<Value> {
     // lengths finite), at the overridden values.
     model::check_parameter_values(&model, &model.default_params(), "--param")?;
     if !args.t.is_finite() {
-        bail!("--t: the time must be a finite number");
+        bail!("--t", "--t: the time must be a finite number");
     }
     let n = model.dof();
     let q = state("q", &args.q, n)?;

@@ -14,7 +14,7 @@ use hybrid_core::hybrid::{
 use nalgebra::Complex;
 use serde::Serialize;
 
-use super::Warning;
+use super::{AnalysisError, Warning};
 use crate::Error;
 use crate::budget::{self, Quantity};
 use crate::linear::{LoadLimit, generator_phasors};
@@ -156,8 +156,22 @@ pub fn grid(a: f64, b: f64, n: usize, log: bool) -> Vec<f64> {
         .collect()
 }
 
-pub(crate) fn usage(msg: impl Into<String>) -> Error {
-    Error::Usage(msg.into())
+/// An argument error of `argument` (its whole text `msg`).
+fn argument(argument: &str, msg: impl Into<String>) -> Error {
+    AnalysisError::argument(argument, msg).into()
+}
+
+/// An unknown `what` (a mechanism, a coordinate, an excitation) named `name`, with the
+/// valid names `known` to suggest (the text `msg` lists them).
+fn unknown<S: AsRef<str>>(what: &'static str, name: &str, known: &[S], msg: String) -> Error {
+    AnalysisError::UnknownName {
+        what,
+        name: diagnostic::truncate(name, 80),
+        nearest: known.iter().map(|k| k.as_ref().to_string()).collect(),
+        file: None,
+        message: msg,
+    }
+    .into()
 }
 
 /// An output named as `--output` takes it (frf, random): a beam abscissa in m (`1.0`: the
@@ -170,38 +184,53 @@ pub(crate) fn parse_output(
     Ok(match output.split_once('/') {
         None => {
             let x: f64 = output.trim().parse().map_err(|_| {
-                usage(format!(
-                    "--output {:?}: give a beam abscissa in m (1.0) or MECHANISM/COORDINATE",
-                    output
-                ))
+                argument(
+                    "--output",
+                    format!(
+                        "--output {:?}: give a beam abscissa in m (1.0) or MECHANISM/COORDINATE",
+                        output
+                    ),
+                )
             })?;
             let beam = model
                 .beam
                 .as_ref()
-                .ok_or_else(|| usage("--output: the scenario has no beam"))?;
+                .ok_or_else(|| argument("--output", "--output: the scenario has no beam"))?;
             let p = BeamPoint::on(beam, x)
                 .filter(|p| !p.is_locked())
                 .ok_or_else(|| {
-                    usage(format!(
-                        "--output {x}: not a point of the beam that can move transversely"
-                    ))
+                    argument(
+                        "--output",
+                        format!("--output {x}: not a point of the beam that can move transversely"),
+                    )
                 })?;
             (ExcitationTarget::Beam(p), format!("beam w(x = {x} m)"), "m")
         }
         Some((mech, coord)) => {
             let names: Vec<&str> = model.mechanisms.iter().map(|m| m.name.as_str()).collect();
             let i = names.iter().position(|n| *n == mech).ok_or_else(|| {
-                usage(format!(
-                    "--output: no mechanism {mech:?} (mechanisms: {})",
-                    names.join(", ")
-                ))
+                unknown(
+                    "mechanism",
+                    mech,
+                    &names,
+                    format!(
+                        "--output: no mechanism {mech:?} (mechanisms: {})",
+                        names.join(", ")
+                    ),
+                )
             })?;
             let sys = &model.mechanisms[i].system;
             let j = sys.coordinate_index(coord).ok_or_else(|| {
-                usage(format!(
-                    "--output: mechanism {mech:?} has no coordinate {coord:?} (coordinates: {})",
-                    sys.coordinate_names().join(", ")
-                ))
+                let known = sys.coordinate_names();
+                unknown(
+                    "coordinate",
+                    coord,
+                    known,
+                    format!(
+                        "--output: mechanism {mech:?} has no coordinate {coord:?} (coordinates: {})",
+                        known.join(", ")
+                    ),
+                )
             })?;
             let unit = sys.coordinate_units()[j];
             (
@@ -235,14 +264,19 @@ pub(crate) fn resolve(
                 .ok_or_else(|| {
                     let known: Vec<&str> =
                         model.excitations.iter().map(|e| e.name.as_str()).collect();
-                    usage(format!(
-                        "--excitation: no excitation {name:?} in the scenario (excitations: {})",
-                        if known.is_empty() {
-                            "none".into()
-                        } else {
-                            known.join(", ")
-                        }
-                    ))
+                    unknown(
+                        "excitation",
+                        name,
+                        &known,
+                        format!(
+                            "--excitation: no excitation {name:?} in the scenario (excitations: {})",
+                            if known.is_empty() {
+                                "none".into()
+                            } else {
+                                known.join(", ")
+                            }
+                        ),
+                    )
                 })?,
         ),
         None => {
@@ -253,10 +287,13 @@ pub(crate) fn resolve(
                 0 => None,
                 1 => Some(h[0]),
                 _ => {
-                    return Err(usage(format!(
-                        "the scenario has {} harmonic excitations: choose one with --excitation",
-                        h.len()
-                    )));
+                    return Err(argument(
+                        "--excitation",
+                        format!(
+                            "the scenario has {} harmonic excitations: choose one with --excitation",
+                            h.len()
+                        ),
+                    ));
                 }
             }
         }
@@ -264,7 +301,10 @@ pub(crate) fn resolve(
     if let Some(f) = args.force
         && !f.is_finite()
     {
-        return Err(usage(format!("--force {f}: not a finite number")));
+        return Err(argument(
+            "--force",
+            format!("--force {f}: not a finite number"),
+        ));
     }
     let excitation = match chosen {
         Some(k) => {
@@ -299,8 +339,13 @@ pub(crate) fn resolve(
 
 /// The response per unit force for the force vector `f`, at `omega` (rad/s).
 fn response(lin: &Linearization, f: &[f64], omega: f64) -> Result<Vec<Complex<f64>>, Error> {
-    lin.harmonic_response(f, omega)
-        .map_err(|e| usage(format!("harmonic response at {omega} rad/s: {e}")))
+    lin.harmonic_response(f, omega).map_err(|e| {
+        AnalysisError::Numerical {
+            file: None,
+            message: format!("harmonic response at {omega} rad/s: {e}"),
+        }
+        .into()
+    })
 }
 
 /// The receptance at the output for the force vector `f`, at `omega` (rad/s).
@@ -384,10 +429,10 @@ pub(crate) fn nonlinear_rows(
     model.excitations.push(io.excitation.clone());
     let excitation = model.excitations.len() - 1;
     let start = rest_state(&mut model, &lin.equilibrium).map_err(|e| {
-        usage(format!(
-            "{}: the rest state at the static equilibrium: {e}",
-            args.file
-        ))
+        AnalysisError::numerical(
+            &args.file,
+            format!("the rest state at the static equilibrium: {e}"),
+        )
     })?;
     let options = SteadyOptions {
         excitation,
@@ -410,7 +455,9 @@ pub(crate) fn nonlinear_rows(
     let pool = rayon::ThreadPoolBuilder::new()
         .start_handler(move |_| crate::interrupt::adopt(token.clone()))
         .build()
-        .map_err(|e| usage(format!("cannot start the worker threads: {e}")))?;
+        .map_err(|e| AnalysisError::Resources {
+            message: format!("cannot start the worker threads: {e}"),
+        })?;
     let results = pool
         .install(|| steady_states(&model, &start, &io.output, &freqs, &options, &|| bar.inc(1)));
     bar.finish_and_clear();
@@ -546,20 +593,26 @@ impl Frf {
 pub fn analyse(req: &FrfRequest, sc: &Scenario) -> Result<Frf, Error> {
     let file = &req.file;
     if matches!(sc, Scenario::Mechanism(_)) {
-        return Err(usage(format!(
-            "{file}: `damper frf` needs a `damper` or `hybrid` scenario (a beam to respond)"
-        )));
+        return Err(AnalysisError::unavailable(
+            file,
+            "`damper frf` needs a `damper` or `hybrid` scenario (a beam to respond)",
+        )
+        .into());
     }
     let lz = tangents_for(sc)?;
     let linear_error = |what: &str, e: hybrid_core::hybrid::LinearError| {
-        usage(format!("{file}: linearisation {what}: {e}"))
+        Error::from(AnalysisError::numerical(
+            file,
+            format!("linearisation {what}: {e}"),
+        ))
     };
     let lin = lz
         .linearize(&lz.model)
         .map_err(|e| linear_error("with generator", e))?;
     let io = resolve(req, &lz, &lin)?;
     if req.nonlinear.is_some() && io.scenario_excitation.is_none() && req.force.is_none() {
-        return Err(usage(
+        return Err(argument(
+            "--force",
             "--nonlinear: the scenario has no harmonic excitation: give the force amplitude at the output point with --force F (N, or N m on a revolute coordinate)",
         ));
     }
@@ -608,22 +661,28 @@ pub fn check(req: &FrfRequest) -> Result<(), Error> {
         && req.to <= hi
         && req.to > req.from;
     if !ok_range {
-        return Err(usage(format!(
-            "--from {} --to {}: give {lo:e} <= from < to <= {hi:e} (Hz)",
-            req.from, req.to
-        )));
+        return Err(argument(
+            "--from",
+            format!(
+                "--from {} --to {}: give {lo:e} <= from < to <= {hi:e} (Hz)",
+                req.from, req.to
+            ),
+        ));
     }
     if req.points < 2 {
-        return Err(usage("--points: at least 2"));
+        return Err(argument("--points", "--points: at least 2"));
     }
     if req.nonlinear == Some(0) {
-        return Err(usage("--nonlinear: at least 1 frequency"));
+        return Err(argument("--nonlinear", "--nonlinear: at least 1 frequency"));
     }
     if !(req.tolerance > 0.0 && req.tolerance < 1.0) {
-        return Err(usage("--tolerance: between 0 and 1"));
+        return Err(argument("--tolerance", "--tolerance: between 0 and 1"));
     }
     if req.steps_per_period < 8 {
-        return Err(usage("--steps-per-period: at least 8"));
+        return Err(argument(
+            "--steps-per-period",
+            "--steps-per-period: at least 8",
+        ));
     }
     let frequencies = req.points as f64 + req.nonlinear.unwrap_or(0) as f64;
     let mut work = vec![Quantity::bytes(

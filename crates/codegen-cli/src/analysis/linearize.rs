@@ -15,6 +15,7 @@ use hybrid_core::hybrid::{EigenMethod, Matrix};
 use nalgebra::DMatrix;
 
 use crate::Error;
+use crate::analysis::AnalysisError;
 use crate::budget::{self, Quantity};
 use crate::linear::{LinearReport, analyse_linearization};
 use crate::scenario::Loaded;
@@ -61,7 +62,7 @@ pub fn parse_method(s: &str) -> Result<EigenMethod, UnknownMethod> {
 /// Checks the options of `req` that do not need the scenario.
 pub fn check(req: &LinearizeRequest) -> Result<(), Error> {
     if req.modes == 0 {
-        return Err(Error::Usage("--modes must be at least 1".into()));
+        return Err(AnalysisError::argument("--modes", "--modes must be at least 1").into());
     }
     Ok(())
 }

@@ -2,11 +2,13 @@
 //! Python (the layer between the scenario and the commands): [`frf`] (the frequency
 //! response), [`linearize`] (equilibrium and modes), [`stationary`] (the stationary random
 //! response), [`eval`] (a mechanism's equations at one state), and [`figures`], the
-//! catalogue of every figure a scenario can yield and the constraints on them.
+//! catalogue of every figure a scenario can yield and the constraints on them; [`error`],
+//! why an analysis refuses a request ([`AnalysisError`]).
 //!
 //! Results carry their warnings as data ([`Warning`]): the command line prints them on
 //! standard error, Python issues `warnings.warn`. Nothing here prints.
 
+pub mod error;
 pub mod eval;
 pub mod figures;
 pub mod frf;
@@ -16,6 +18,8 @@ pub mod stationary;
 pub mod sweep;
 
 use serde::Serialize;
+
+pub use error::AnalysisError;
 
 /// A warning of an analysis: what the user should know about a result that is still
 /// computed (a peak at an edge of the band, excitations left out).

@@ -7,6 +7,7 @@
 use std::path::PathBuf;
 
 use crate::Error;
+use crate::analysis::AnalysisError;
 use crate::analysis::figures::{self, Constraint, Entities};
 use crate::budget::{self, Quantity};
 use crate::optimize::{self, MAX_EVALS, MAX_GRID, MAX_STARTS, Problem, Variable};
@@ -60,10 +61,11 @@ pub fn solve(req: &OptimizeRequest) -> Result<(optimize::Outcome, Vec<Constraint
     let file = path.display().to_string();
     let vary: Vec<Variable> = vary.iter().map(|v| v.parse()).collect::<Result<_, _>>()?;
     if vary.is_empty() {
-        return Err(Error::Usage(format!(
-            "{file}: {}",
-            optimize::OptimizeError::NoVariables
-        )));
+        return Err(AnalysisError::argument(
+            "--vary",
+            format!("{file}: {}", optimize::OptimizeError::NoVariables),
+        )
+        .into());
     }
     // The fixed overrides and the scenario must load, the figures be the scenario's and the
     // variables' PATHs fields it takes, before any search.
@@ -78,7 +80,7 @@ pub fn solve(req: &OptimizeRequest) -> Result<(optimize::Outcome, Vec<Constraint
         .map_err(spec_error)?;
     let goal = if maximize { "--maximize" } else { "--minimize" };
     let objective = figures::resolve(objective, Some(&entities))
-        .map_err(|e| Error::Usage(format!("{goal}: {e}")))?
+        .map_err(|e| AnalysisError::unknown_figure(goal, &e))?
         .name;
     crate::analysis::sweep::check_paths(
         path,
@@ -106,6 +108,7 @@ pub fn solve(req: &OptimizeRequest) -> Result<(optimize::Outcome, Vec<Constraint
         grid,
         method: *method,
     };
-    let outcome = optimize::optimize(&problem).map_err(|e| Error::Usage(format!("{file}: {e}")))?;
+    let outcome = optimize::optimize(&problem)
+        .map_err(|error| AnalysisError::Optimization { file, error })?;
     Ok((outcome, constraints))
 }

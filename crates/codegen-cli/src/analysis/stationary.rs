@@ -11,6 +11,7 @@
 //! 1 GiB or 1e12 flops the request is refused unless `allow_long`.
 
 use crate::Error;
+use crate::analysis::AnalysisError;
 use crate::budget::{self, Quantity};
 use crate::random::{DENSE_STATES, RandomMethod, RandomOptions, RandomReport, analyse};
 use crate::scenario::Loaded;
@@ -30,7 +31,7 @@ pub struct RandomRequest {
 /// Checks the options of `req` that do not need the scenario.
 pub fn check(req: &RandomRequest) -> Result<(), Error> {
     if req.options.modes == 0 {
-        return Err(Error::Usage("--modes must be at least 1".into()));
+        return Err(AnalysisError::argument("--modes", "--modes must be at least 1").into());
     }
     Ok(())
 }

@@ -74,8 +74,8 @@ struct NonlinearSettings {
 struct PlotFailed(&'static str, String);
 
 impl From<PlotFailed> for Error {
-    fn from(e: PlotFailed) -> Error {
-        Error::Usage(e.to_string())
+    fn from(PlotFailed(file, message): PlotFailed) -> Error {
+        ReportError::Draw { file, message }.into()
     }
 }
 

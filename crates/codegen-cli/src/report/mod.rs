@@ -41,6 +41,20 @@ pub enum ReportError {
     /// The output directory is in use by another run, or cannot be locked.
     #[error(transparent)]
     Lock(#[from] LockError),
+    /// A plot could not be drawn: the file, plotters' message.
+    #[error("cannot draw {file}: {message}")]
+    Draw {
+        /// The plot's file name.
+        file: &'static str,
+        /// Plotters' message.
+        message: String,
+    },
+    /// The results of a sweep do not cover its grid of `points` exactly once.
+    #[error("the results do not cover the grid of {points} point(s) exactly once")]
+    Uncovered {
+        /// The grid's points.
+        points: usize,
+    },
 }
 
 /// A CSV that could not be written to `path`: an I/O error (a full disk) names the file.

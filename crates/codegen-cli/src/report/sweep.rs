@@ -72,10 +72,7 @@ pub fn outputs(
     let mut rows: Vec<&PointResult> = results.iter().collect();
     rows.sort_by_key(|r| r.index);
     if rows.len() != grid.len() || rows.iter().enumerate().any(|(i, r)| r.index != i) {
-        return Err(Error::Usage(format!(
-            "the results do not cover the grid of {} point(s) exactly once",
-            grid.len()
-        )));
+        return Err(ReportError::Uncovered { points: grid.len() }.into());
     }
     // The figure columns: every figure name in order of first appearance, in grid order.
     let heads = figure_heads(&rows);

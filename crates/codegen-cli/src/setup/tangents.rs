@@ -13,6 +13,7 @@ use hybrid_core::hybrid::Method;
 use hybrid_core::hybrid::{EquilibriumOptions, HybridModel, LinearError, Linearization};
 
 use crate::Error;
+use crate::analysis::AnalysisError;
 use crate::scenario::{HybridScenario, Scenario};
 
 /// A scenario built for linearisation.
@@ -46,10 +47,11 @@ pub fn tangents_for(scenario: &Scenario) -> Result<Linearizable, Error> {
                 dt: sc.integrator.dt,
             })
         }
-        Scenario::Mechanism(sc) => Err(Error::Usage(format!(
-            "{}: a `kind = \"mechanism\"` scenario has no beam to linearise: give a `damper` or `hybrid` scenario",
-            sc.file
-        ))),
+        Scenario::Mechanism(sc) => Err(AnalysisError::unavailable(
+            &sc.file,
+            "a `kind = \"mechanism\"` scenario has no beam to linearise: give a `damper` or `hybrid` scenario",
+        )
+        .into()),
     }
 }
 
@@ -115,8 +117,9 @@ pub fn tangent_derivations(hash: &str) -> usize {
 fn tangent(model: &Model, params: &[(String, f64)]) -> Result<TangentSystem, Error> {
     let mut t = derived(model);
     for (name, value) in params {
-        t.set_param(name, *value)
-            .map_err(|e| Error::Usage(format!("{}: parameter {name}: {e}", model.source.path)))?;
+        t.set_param(name, *value).map_err(|e| {
+            AnalysisError::unavailable(&model.source.path, format!("parameter {name}: {e}"))
+        })?;
     }
     Ok(t)
 }

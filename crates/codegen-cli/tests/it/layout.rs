@@ -1,6 +1,7 @@
 //! The application's layering (ARCHITECTURE.md): `commands/` only turns clap arguments into
 //! a request and a result into files, so nothing below it — the library's other modules and
-//! the Python binding — may import `commands::`.
+//! the Python binding — may import `commands::`; and the library below the commands says
+//! why it refuses a request with typed errors (`AnalysisError`), never `Error::Usage(String)`.
 
 use std::path::{Path, PathBuf};
 
@@ -20,6 +21,33 @@ fn sources(dir: &Path) -> Vec<PathBuf> {
     }
     out.sort();
     out
+}
+
+/// The lines of `file` that contain `needle`, as `file:line: text`.
+fn lines_with(file: &Path, needle: &str) -> Vec<String> {
+    let text = std::fs::read_to_string(file).expect("a readable source file");
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| l.contains(needle))
+        .map(|(i, l)| format!("{}:{}: {}", file.display(), i + 1, l.trim()))
+        .collect()
+}
+
+#[test]
+fn the_library_below_the_commands_raises_typed_errors() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let below = |p: &Path| !p.starts_with(src.join("commands")) && p != src.join("main.rs");
+    let files: Vec<PathBuf> = sources(&src).into_iter().filter(|p| below(p)).collect();
+    assert!(files.len() > 20, "the walk found the sources: {files:?}");
+    let uses: Vec<String> = files
+        .iter()
+        .flat_map(|f| lines_with(f, "Error::Usage("))
+        .collect();
+    assert!(
+        uses.is_empty(),
+        "Error::Usage outside commands/ (use analysis::AnalysisError):\n{}",
+        uses.join("\n")
+    );
 }
 
 /// The lines of `file` that name the `commands` module as a path (`commands::`), comments

@@ -16,8 +16,14 @@ Example::
 
 Errors: ``ScenarioError`` / ``ModelError`` (subclasses of ``ValueError``) carry ``file``,
 ``line``, ``column``, ``entity`` and ``message``; a run stopped at the singular (toggle)
-position raises ``SingularPosition`` (``time``, ``distance``); other failures raise
-``DamperError``; an argument of the wrong type raises ``TypeError``. A warning about a result
+position raises ``SingularPosition`` (``time``, ``distance``); other failures raise a
+subclass of ``DamperError`` with the fields of its kind: ``ArgumentError`` (``argument``,
+``option``) and ``UnknownName`` (``what``, ``name``, ``nearest``, ``file``), both also
+``ValueError``; ``NotAvailable``, ``NumericalError`` (``file``), ``OptimizationError``
+(``file``, ``evaluations``, ``least_infeasible``), ``MergeError`` (``path``),
+``ResourceError``, ``WorkLimitError`` (``allow_long=True`` insists), ``SimulationError``
+(``file``, ``time``); each carries ``message``. An argument of the wrong type raises
+``TypeError``. A warning about a result
 that is still computed (the command line's ``warning:`` lines, e.g. a frequency response whose
 largest value is at an edge of the band) is issued with ``warnings.warn`` as a
 ``DamperWarning`` (a ``UserWarning``) carrying ``file`` and ``entity``. The exceptions pickle
@@ -35,6 +41,17 @@ import numpy as np
 
 from . import _damper
 from ._damper import DamperError, DamperWarning, ModelError, ScenarioError, SingularPosition
+from ._damper import (  # the typed failures, subclasses of DamperError
+    ArgumentError,
+    MergeError,
+    NotAvailable,
+    NumericalError,
+    OptimizationError,
+    ResourceError,
+    SimulationError,
+    UnknownName,
+    WorkLimitError,
+)
 
 __all__ = [
     "DamperError",
@@ -47,6 +64,17 @@ __all__ = [
     "Scenario",
     "ScenarioError",
     "SingularPosition",
+]
+__all__ += [
+    "ArgumentError",
+    "MergeError",
+    "NotAvailable",
+    "NumericalError",
+    "OptimizationError",
+    "ResourceError",
+    "SimulationError",
+    "UnknownName",
+    "WorkLimitError",
 ]
 
 PathLike = Union[str, "os.PathLike[str]"]

@@ -6,11 +6,20 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = [
+    "ArgumentError",
     "DamperError",
     "DamperWarning",
+    "MergeError",
     "ModelError",
+    "NotAvailable",
+    "NumericalError",
+    "OptimizationError",
+    "ResourceError",
     "ScenarioError",
+    "SimulationError",
     "SingularPosition",
+    "UnknownName",
+    "WorkLimitError",
     "check",
     "figures",
     "frf",
@@ -54,6 +63,48 @@ class SingularPosition(DamperError):
     distance: float
     reach: Optional[float]
     mechanism: str
+    file: str
+
+class ArgumentError(DamperError, ValueError):
+    argument: str
+    option: str
+    message: str
+
+class UnknownName(DamperError, ValueError):
+    what: str
+    name: str
+    nearest: List[str]
+    file: Optional[str]
+    message: str
+
+class NotAvailable(DamperError):
+    file: Optional[str]
+    message: str
+
+class NumericalError(DamperError):
+    file: Optional[str]
+    message: str
+
+class OptimizationError(DamperError):
+    file: str
+    evaluations: Optional[int]
+    least_infeasible: Optional[str]
+    message: str
+
+class MergeError(DamperError):
+    path: str
+    message: str
+
+class ResourceError(DamperError):
+    message: str
+
+class WorkLimitError(DamperError):
+    message: str
+
+class SimulationError(DamperError):
+    file: str
+    time: Optional[float]
+    message: str
 
 def read_scenario(path: str) -> str: ...
 def check(text: str, file: str, base: str, sets: _Sets) -> str: ...

@@ -31,6 +31,7 @@ pub use point::{
 };
 
 use crate::Error;
+use crate::analysis::AnalysisError;
 use crate::analysis::Warning;
 use crate::analysis::figures::{self, Constraint, Entities};
 use crate::budget::{self, Quantity};
@@ -99,12 +100,14 @@ pub fn plan(req: &SweepRequest) -> Result<Plan, Error> {
     if let Some(t) = req.t_end
         && !(t.is_finite() && t > 0.0)
     {
-        return Err(Error::Usage(format!(
-            "--t-end {t}: must be a positive time"
-        )));
+        return Err(AnalysisError::argument(
+            "--t-end",
+            format!("--t-end {t}: must be a positive time"),
+        )
+        .into());
     }
     if req.threads == Some(0) {
-        return Err(Error::Usage("--threads must be at least 1".into()));
+        return Err(AnalysisError::argument("--threads", "--threads must be at least 1").into());
     }
     let file = req.scenario.display().to_string();
     let (shard_i, shards) = req.shard.unwrap_or((0, 1));
@@ -208,7 +211,9 @@ pub fn evaluate(req: &SweepRequest, plan: &Plan, done: &(dyn Fn() + Sync)) -> Re
     let mut indices: Vec<usize> = Vec::new();
     indices
         .try_reserve_exact(points)
-        .map_err(|_| Error::Usage(format!("sweep: {points} points do not fit in memory")))?;
+        .map_err(|_| AnalysisError::Resources {
+            message: format!("sweep: {points} points do not fit in memory"),
+        })?;
     indices.extend((shard_i..grid.len()).step_by(shards));
     let options = PointOptions {
         time_domain: req.time_domain,

@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 use super::grid::shard_points;
 use super::point::PointResult;
 use crate::Error;
+use crate::analysis::AnalysisError;
 use crate::analysis::figures;
 use crate::budget;
 use crate::report::csv::cell;
@@ -242,10 +243,19 @@ impl Part {
     }
 }
 
+/// A merge error about `path` (a part file or the directory).
+fn merge(path: &Path, message: String) -> Error {
+    AnalysisError::merge(path, message).into()
+}
+
 /// The part files in a directory (`sweep.part-*-of-*.json`), sorted by name.
 pub fn parts_in(dir: &Path) -> Result<Vec<PathBuf>, Error> {
-    let entries = std::fs::read_dir(dir)
-        .map_err(|e| Error::Usage(format!("cannot read the directory {}: {e}", dir.display())))?;
+    let entries = std::fs::read_dir(dir).map_err(|e| {
+        merge(
+            dir,
+            format!("cannot read the directory {}: {e}", dir.display()),
+        )
+    })?;
     let mut parts: Vec<PathBuf> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| {
@@ -256,10 +266,10 @@ pub fn parts_in(dir: &Path) -> Result<Vec<PathBuf>, Error> {
         .collect();
     parts.sort();
     if parts.is_empty() {
-        return Err(Error::Usage(format!(
-            "no sweep.part-I-of-N.json in {}",
-            dir.display()
-        )));
+        return Err(merge(
+            dir,
+            format!("no sweep.part-I-of-N.json in {}", dir.display()),
+        ));
     }
     Ok(parts)
 }
@@ -268,12 +278,15 @@ pub fn parts_in(dir: &Path) -> Result<Vec<PathBuf>, Error> {
 /// device would block or never end).
 pub fn part_size(path: &Path) -> Result<u64, Error> {
     let meta = std::fs::metadata(path)
-        .map_err(|e| Error::Usage(format!("cannot read {}: {e}", path.display())))?;
+        .map_err(|e| merge(path, format!("cannot read {}: {e}", path.display())))?;
     if !meta.is_file() {
-        return Err(Error::Usage(format!(
-            "{}: not a regular file (merge reads sweep part files only)",
-            path.display()
-        )));
+        return Err(merge(
+            path,
+            format!(
+                "{}: not a regular file (merge reads sweep part files only)",
+                path.display()
+            ),
+        ));
     }
     Ok(meta.len())
 }
@@ -282,21 +295,24 @@ pub fn part_size(path: &Path) -> Result<u64, Error> {
 /// matching its content.
 pub fn read_part(path: &Path) -> Result<Part, Error> {
     let bytes = std::fs::read(path)
-        .map_err(|e| Error::Usage(format!("cannot read {}: {e}", path.display())))?;
+        .map_err(|e| merge(path, format!("cannot read {}: {e}", path.display())))?;
     let part: Part = serde_json::from_slice(&bytes).map_err(|e| {
-        Error::Usage(format!(
-            "{}: not a complete sweep part file: {e}",
-            path.display()
-        ))
+        merge(
+            path,
+            format!("{}: not a complete sweep part file: {e}", path.display()),
+        )
     })?;
     // The figures first (the more precise message), then the checksum.
     part.results()
-        .map_err(|e| Error::Usage(format!("{}: {e}", path.display())))?;
+        .map_err(|e| merge(path, format!("{}: {e}", path.display())))?;
     if part.checksum() != part.checksum {
-        return Err(Error::Usage(format!(
-            "{}: the content does not match its checksum (the part was edited or damaged after it was written): run its shard again",
-            path.display()
-        )));
+        return Err(merge(
+            path,
+            format!(
+                "{}: the content does not match its checksum (the part was edited or damaged after it was written): run its shard again",
+                path.display()
+            ),
+        ));
     }
     Ok(part)
 }
@@ -309,11 +325,14 @@ pub fn check_parts(parts: &[(PathBuf, Part)]) -> Result<Vec<PointResult>, Error>
     let mut results = vec![];
     for (path, p) in parts {
         let differ = |what: &str| {
-            Error::Usage(format!(
-                "{} and {} are parts of different sweeps (different {what})",
-                first_path.display(),
-                path.display()
-            ))
+            merge(
+                path,
+                format!(
+                    "{} and {} are parts of different sweeps (different {what})",
+                    first_path.display(),
+                    path.display()
+                ),
+            )
         };
         if p.sweep.scenario_hash != first.sweep.scenario_hash {
             return Err(differ("scenario content"));
@@ -328,42 +347,54 @@ pub fn check_parts(parts: &[(PathBuf, Part)]) -> Result<Vec<PointResult>, Error>
             return Err(differ("shard counts"));
         }
         if p.shard >= n {
-            return Err(Error::Usage(format!(
-                "{}: shard {} of {n} is out of range",
-                path.display(),
-                p.shard
-            )));
+            return Err(merge(
+                path,
+                format!(
+                    "{}: shard {} of {n} is out of range",
+                    path.display(),
+                    p.shard
+                ),
+            ));
         }
         if let Some(other) = seen.insert(p.shard, path) {
-            return Err(Error::Usage(format!(
-                "shard {} of {n} given twice ({} and {})",
-                p.shard,
-                other.display(),
-                path.display()
-            )));
+            return Err(merge(
+                path,
+                format!(
+                    "shard {} of {n} given twice ({} and {})",
+                    p.shard,
+                    other.display(),
+                    path.display()
+                ),
+            ));
         }
         if p.rows
             .iter()
             .any(|r| r.index % n != p.shard || r.index >= p.sweep.grid_size)
         {
-            return Err(Error::Usage(format!(
-                "{}: holds points that are not in shard {} of {n}",
-                path.display(),
-                p.shard
-            )));
+            return Err(merge(
+                path,
+                format!(
+                    "{}: holds points that are not in shard {} of {n}",
+                    path.display(),
+                    p.shard
+                ),
+            ));
         }
         let expected = shard_points(p.sweep.grid_size, p.shard, n);
         if p.rows.len() != expected {
-            return Err(Error::Usage(format!(
-                "{}: holds {} of the {expected} point(s) of shard {} of {n}",
-                path.display(),
-                p.rows.len(),
-                p.shard
-            )));
+            return Err(merge(
+                path,
+                format!(
+                    "{}: holds {} of the {expected} point(s) of shard {} of {n}",
+                    path.display(),
+                    p.rows.len(),
+                    p.shard
+                ),
+            ));
         }
         let rows = p
             .results()
-            .map_err(|e| Error::Usage(format!("{}: {e}", path.display())))?;
+            .map_err(|e| merge(path, format!("{}: {e}", path.display())))?;
         results.extend(rows);
     }
     // At most `seen.len()` shards are present, so the first few missing ones are found
@@ -381,10 +412,10 @@ pub fn check_parts(parts: &[(PathBuf, Part)]) -> Result<Vec<PointResult>, Error>
         } else {
             String::new()
         };
-        return Err(Error::Usage(format!(
-            "missing shard(s) of {n}: {}{tail}",
-            first.join(", ")
-        )));
+        return Err(merge(
+            first_path.parent().unwrap_or(first_path),
+            format!("missing shard(s) of {n}: {}{tail}", first.join(", ")),
+        ));
     }
     Ok(results)
 }

@@ -10,6 +10,7 @@ use toml_edit::Value;
 
 use super::grid::{Grid, SpecError};
 use crate::Error;
+use crate::analysis::AnalysisError;
 use crate::analysis::Warning;
 use crate::analysis::figures::{self, Constraint};
 use crate::scenario::overrides::value_text;
@@ -157,7 +158,9 @@ pub fn evaluate_points_requesting(
         .num_threads(threads)
         .start_handler(move |_| crate::interrupt::adopt(token.clone()))
         .build()
-        .map_err(|e| Error::Usage(format!("cannot start the worker threads: {e}")))?;
+        .map_err(|e| AnalysisError::Resources {
+            message: format!("cannot start the worker threads: {e}"),
+        })?;
     let results: Vec<PointResult> =
         pool.install(|| indices.par_iter().map(|&i| evaluate(i)).collect());
     if crate::interrupt::stop_requested() {
