@@ -31,7 +31,9 @@ pub enum AnalysisError {
         what: &'static str,
         /// The name as given (truncated to 80 characters).
         name: String,
-        /// The nearest valid names, closest first (empty where none is near).
+        /// The valid names to suggest: for a figure the nearest by edit distance, closest
+        /// first (empty where none is near); for a mechanism, coordinate, excitation or model
+        /// parameter every valid name (a scenario has few).
         nearest: Vec<String>,
         /// The scenario or model file, where known.
         file: Option<String>,
