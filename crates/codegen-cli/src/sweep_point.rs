@@ -388,65 +388,22 @@ fn linearised(
         comparisons,
         all,
     )?;
-    let first = |modes: &Option<Vec<crate::linear::ModeReport>>| {
-        modes
-            .as_ref()
-            .and_then(|m| m.first())
-            .map(|m| (m.natural_frequency_hz, m.damping_ratio))
-    };
-    let with = r
-        .modes
-        .first()
-        .map(|m| (m.natural_frequency_hz, m.damping_ratio));
-    let off = first(&r.generator_disconnected);
-    let bare = first(&r.bare_beam);
-    // The first mode's decay rate -Re(lambda): ordered on both sides of critical damping
-    // (it rises with the damping up to critical, then falls with the slow root of an
-    // overdamped mode), where the damping ratio of an overdamped mode reads 1 (a plateau).
-    let decay1 = r.modes.first().map(|m| m.decay_rate);
-    let overdamped1 = r.modes.first().map(|m| {
-        f64::from(u8::from(
-            m.kind == hybrid_core::hybrid::ModeKind::Overdamped,
-        ))
-    });
-    figures.extend([
-        Figure::of("linear.f1", with.map(|m| m.0)),
-        Figure::of("linear.zeta1", with.map(|m| m.1)),
-        Figure::of("linear.decay1", decay1),
-        Figure::of("linear.overdamped1", overdamped1),
-        Figure::of("linear.f1_generator_disconnected", off.map(|m| m.0)),
-        Figure::of("linear.zeta1_generator_disconnected", off.map(|m| m.1)),
-        Figure::of("linear.f1_bare_beam", bare.map(|m| m.0)),
-        Figure::of(
-            "linear.amplification",
-            r.amplification.first().map(|a| a.joint_per_displacement),
-        ),
-        Figure::of(
-            "linear.reach",
-            r.equilibrium
-                .mechanisms
-                .iter()
-                .filter_map(|m| m.reach)
-                .reduce(f64::min),
-        ),
-    ]);
-    // Absent (no column) without an excitation; without a reach, no value.
-    if let Scenario::Hybrid(h) = &loaded.scenario
-        && !h.excitations.is_empty()
-    {
-        figures.push(Figure {
-            unit: max_force.map_or("N", |m| m.unit),
-            ..Figure::of("linear.max_force", max_force.map(|m| m.value))
-        });
+    // Every figure read from the linear report, in the catalogue's order; the admissible
+    // load has its own analysis and its unit follows the excitation (absent, no column,
+    // without an excitation; without a reach, no value).
+    for e in figures::CATALOGUE {
+        if let Some(read) = e.from_linear {
+            figures.push(Figure::of(e.pattern, read(&r)));
+        } else if e.pattern == "linear.max_force"
+            && let Scenario::Hybrid(h) = &loaded.scenario
+            && !h.excitations.is_empty()
+        {
+            figures.push(Figure {
+                unit: max_force.map_or("N", |m| m.unit),
+                ..Figure::of(e.pattern, max_force.map(|m| m.value))
+            });
+        }
     }
-    figures.extend([Figure::of(
-        "linear.jacobian_condition",
-        r.equilibrium
-            .mechanisms
-            .iter()
-            .map(|m| m.jacobian_condition)
-            .reduce(f64::max),
-    )]);
     Ok(Some((input, lin)))
 }
 

@@ -110,6 +110,11 @@ pub struct Entry {
     /// Computed only when asked for (`--map`, `--constraint`, an objective), not a default
     /// column of a sweep.
     pub on_request: bool,
+    /// How a linearised figure is read from the point's linear report (`None`: computed
+    /// elsewhere — a figure with a parameter, one needing its own analysis). A figure read
+    /// from the report is added by its entry alone: the sweep's point evaluation, the
+    /// optimiser (gradients by differences) and `damper figures` take it from here.
+    pub from_linear: Option<fn(&LinearReport) -> Option<f64>>,
 }
 
 impl Entry {
@@ -165,7 +170,23 @@ const fn entry(
         producer,
         gradient,
         on_request: false,
+        from_linear: None,
     }
+}
+
+/// A linear entry read from the linear report by `read`.
+const fn read(e: Entry, read: fn(&LinearReport) -> Option<f64>) -> Entry {
+    Entry {
+        from_linear: Some(read),
+        ..e
+    }
+}
+
+/// The natural frequency (Hz) and damping ratio of the first mode of `modes`.
+fn first_mode(modes: Option<&[ModeReport]>) -> Option<(f64, f64)> {
+    modes
+        .and_then(|m| m.first())
+        .map(|m| (m.natural_frequency_hz, m.damping_ratio))
 }
 
 const fn with_param(e: Entry, param: Param) -> Entry {
@@ -183,91 +204,130 @@ const fn on_request(e: Entry) -> Entry {
     }
 }
 
+use crate::linear::{LinearReport, ModeReport};
 use Gradient::{Adjoint, Differences};
 use Producer::{Harmonic, Linear, Random, TimeDomain};
+use hybrid_core::hybrid::ModeKind;
 
 /// Every figure, in the order of a sweep's columns (consecutive entries with the same
 /// parameter kind are expanded entity by entity: `attachment.A.peak_displacement`,
 /// `attachment.A.final_amplitude`, `attachment.B.peak_displacement`, ...).
 pub static CATALOGUE: &[Entry] = &[
     aka(
-        entry(
-            "linear.f1",
-            &["Hz"],
-            Linear,
-            Adjoint,
-            "first mode's natural frequency, generator(s) connected",
+        read(
+            entry(
+                "linear.f1",
+                &["Hz"],
+                Linear,
+                Adjoint,
+                "first mode's natural frequency, generator(s) connected",
+            ),
+            |r| first_mode(Some(&r.modes)).map(|m| m.0),
         ),
         &["f1"],
     ),
     aka(
-        entry(
-            "linear.zeta1",
-            &["-"],
-            Linear,
-            Adjoint,
-            "first mode's damping ratio, generator(s) connected (1 when overdamped)",
+        read(
+            entry(
+                "linear.zeta1",
+                &["-"],
+                Linear,
+                Adjoint,
+                "first mode's damping ratio, generator(s) connected (1 when overdamped)",
+            ),
+            |r| first_mode(Some(&r.modes)).map(|m| m.1),
         ),
         &["zeta1"],
     ),
     aka(
-        entry(
-            "linear.decay1",
-            &["1/s"],
-            Linear,
-            Adjoint,
-            "first mode's decay rate -Re(lambda_1), ordered across critical damping",
+        read(
+            entry(
+                "linear.decay1",
+                &["1/s"],
+                Linear,
+                Adjoint,
+                "first mode's decay rate -Re(lambda_1), ordered across critical damping",
+            ),
+            |r| r.modes.first().map(|m| m.decay_rate),
         ),
         &["decay1"],
     ),
     aka(
-        entry(
-            "linear.overdamped1",
-            &["-"],
-            Linear,
-            Differences,
-            "1 when the first mode is overdamped, else 0",
+        read(
+            entry(
+                "linear.overdamped1",
+                &["-"],
+                Linear,
+                Differences,
+                "1 when the first mode is overdamped, else 0",
+            ),
+            |r| {
+                r.modes
+                    .first()
+                    .map(|m| f64::from(u8::from(m.kind == ModeKind::Overdamped)))
+            },
         ),
         &["overdamped1"],
     ),
-    entry(
-        "linear.f1_generator_disconnected",
-        &["Hz"],
-        Linear,
-        Differences,
-        "first mode's natural frequency, generator(s) disconnected",
-    ),
-    entry(
-        "linear.zeta1_generator_disconnected",
-        &["-"],
-        Linear,
-        Differences,
-        "first mode's damping ratio, generator(s) disconnected",
-    ),
-    entry(
-        "linear.f1_bare_beam",
-        &["Hz"],
-        Linear,
-        Differences,
-        "first natural frequency of the beam without mechanism",
-    ),
-    aka(
+    read(
         entry(
-            "linear.amplification",
-            &["rad/m"],
+            "linear.f1_generator_disconnected",
+            &["Hz"],
             Linear,
             Differences,
-            "first generator's amplification dq/dw at the equilibrium",
+            "first mode's natural frequency, generator(s) disconnected",
+        ),
+        |r| first_mode(r.generator_disconnected.as_deref()).map(|m| m.0),
+    ),
+    read(
+        entry(
+            "linear.zeta1_generator_disconnected",
+            &["-"],
+            Linear,
+            Differences,
+            "first mode's damping ratio, generator(s) disconnected",
+        ),
+        |r| first_mode(r.generator_disconnected.as_deref()).map(|m| m.1),
+    ),
+    read(
+        entry(
+            "linear.f1_bare_beam",
+            &["Hz"],
+            Linear,
+            Differences,
+            "first natural frequency of the beam without mechanism",
+        ),
+        |r| first_mode(r.bare_beam.as_deref()).map(|m| m.0),
+    ),
+    aka(
+        read(
+            entry(
+                "linear.amplification",
+                &["rad/m"],
+                Linear,
+                Differences,
+                "first generator's amplification dq/dw at the equilibrium",
+            ),
+            |r| r.amplification.first().map(|a| a.joint_per_displacement),
         ),
         &["amplification"],
     ),
     aka(
-        entry(
-            "linear.reach",
-            &["m"],
-            Linear,
-            Differences,
-            "smallest remaining reach of a mechanism to its singular (toggle) position",
+        read(
+            entry(
+                "linear.reach",
+                &["m"],
+                Linear,
+                Differences,
+                "smallest remaining reach of a mechanism to its singular (toggle) position",
+            ),
+            |r| {
+                r.equilibrium
+                    .mechanisms
+                    .iter()
+                    .filter_map(|m| m.reach)
+                    .reduce(f64::min)
+            },
         ),
         &["reach"],
     ),
@@ -282,12 +342,21 @@ pub static CATALOGUE: &[Entry] = &[
         &["max_force"],
     ),
     aka(
-        entry(
-            "linear.jacobian_condition",
-            &["-"],
-            Linear,
-            Differences,
-            "largest cond(J_d) of the mechanisms at the equilibrium",
+        read(
+            entry(
+                "linear.jacobian_condition",
+                &["-"],
+                Linear,
+                Differences,
+                "largest cond(J_d) of the mechanisms at the equilibrium",
+            ),
+            |r| {
+                r.equilibrium
+                    .mechanisms
+                    .iter()
+                    .map(|m| m.jacobian_condition)
+                    .reduce(f64::max)
+            },
         ),
         &["jacobian_condition"],
     ),
@@ -935,6 +1004,21 @@ impl Constraint {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn figures_read_from_the_linear_report_are_plain_linear_figures() {
+        let read: Vec<&str> = CATALOGUE
+            .iter()
+            .filter(|e| e.from_linear.is_some())
+            .map(|e| e.pattern)
+            .collect();
+        assert!(read.contains(&"linear.zeta1") && read.len() >= 9, "{read:?}");
+        for e in CATALOGUE.iter().filter(|e| e.from_linear.is_some()) {
+            assert_eq!(e.producer, Producer::Linear, "{}", e.pattern);
+            assert!(matches!(e.param, Param::None), "{}", e.pattern);
+            assert!(!e.on_request, "{}", e.pattern);
+        }
+    }
 
     #[test]
     fn aliases_resolve_to_one_canonical_name_and_unknown_names_list_the_nearest() {
