@@ -16,12 +16,14 @@
 #![warn(missing_docs)]
 
 mod input;
+mod suggest;
 
 use std::fmt;
 
 use serde::Serialize;
 
 pub use input::{MAX_INPUT_BYTES, check_input, read_input, read_input_bytes};
+pub use suggest::{closest, did_you_mean, levenshtein, nearest, suggest_field};
 
 /// What kind of problem a [`Diagnostic`] reports (machine-readable; serialised in
 /// `snake_case`).

@@ -796,8 +796,9 @@ pub fn unit_of(name: &str, unit: &str) -> Option<&'static str> {
     e.units.iter().find(|u| **u == unit).copied()
 }
 
-/// The (at most 3) valid names nearest to `name` by edit distance: the scenario's figures
-/// when known, else the catalogue's patterns, and the aliases.
+/// The (at most 3) valid names nearest to `name` by edit distance
+/// ([`diagnostic::nearest`]): the scenario's figures when known, else the catalogue's
+/// patterns, and the aliases.
 fn nearest(name: &str, entities: Option<&Entities>) -> Vec<String> {
     let mut candidates: Vec<String> = match entities {
         Some(en) => en.figures().into_iter().map(|(n, _)| n).collect(),
@@ -806,35 +807,7 @@ fn nearest(name: &str, entities: Option<&Entities>) -> Vec<String> {
     for e in CATALOGUE {
         candidates.extend(e.aliases.iter().map(|a| e.display_alias(a)));
     }
-    let mut scored: Vec<(usize, String)> = candidates
-        .into_iter()
-        .map(|c| (levenshtein(name, &c), c))
-        .collect();
-    scored.sort();
-    scored.dedup();
-    let limit = (name.chars().count() / 2).max(3);
-    scored
-        .into_iter()
-        .filter(|(d, _)| *d <= limit)
-        .take(3)
-        .map(|(_, c)| c)
-        .collect()
-}
-
-/// The edit (Levenshtein) distance between `a` and `b`, by characters.
-pub fn levenshtein(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut row: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut diag = row[0];
-        row[0] = i + 1;
-        for (j, cb) in b.iter().enumerate() {
-            let up = row[j + 1];
-            row[j + 1] = (diag + usize::from(ca != *cb)).min(row[j] + 1).min(up + 1);
-            diag = up;
-        }
-    }
-    row[b.len()]
+    diagnostic::nearest(name, candidates)
 }
 
 /// Whether a constraint bounds its figure from below or above.
@@ -1062,7 +1035,6 @@ mod tests {
                 assert_eq!(resolve(&n, Some(&en)).unwrap().name, n);
             }
         }
-        assert_eq!(levenshtein("kitten", "sitting"), 3);
     }
 
     #[test]

@@ -245,7 +245,8 @@ impl<'a> Doc<'a> {
         self.cascades.push(d);
     }
 
-    /// A problem at a span of the text (not recorded).
+    /// A problem at a span of the text (not recorded); an unknown field's gets the nearest
+    /// expected names ([`diagnostic::suggest_field`]: "did you mean `elements`?").
     pub(crate) fn diagnostic(
         &self,
         kind: Kind,
@@ -253,6 +254,7 @@ impl<'a> Doc<'a> {
         entity: Option<&str>,
         message: impl Into<String>,
     ) -> Diagnostic {
+        let message = diagnostic::suggest_field(&message.into());
         let mut d = Diagnostic::new(kind, self.file.clone(), message);
         if let Some(s) = span {
             d = d.at_offset(&self.index, s.start);

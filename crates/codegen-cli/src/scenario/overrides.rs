@@ -318,7 +318,12 @@ pub fn apply(text: &str, file: &str, overrides: &[Override]) -> Result<Applied, 
         Diagnostics::from(Diagnostic::new(kind, file, msg).entity(o.option()))
     };
     for o in overrides {
-        set(doc.as_table_mut(), &o.steps, o.value.clone()).map_err(|(k, m)| bad(o, k, m))?;
+        set(doc.as_table_mut(), &o.steps, o.value.clone()).map_err(|(k, m)| {
+            match suggest(&doc, o) {
+                Some(hint) => bad(o, Kind::UnknownField, format!("{m}{hint}")),
+                None => bad(o, k, m),
+            }
+        })?;
     }
     let edited = doc.to_string();
     let (lines, line_map) = follow_lines(text, &edited, overrides);
@@ -328,6 +333,77 @@ pub fn apply(text: &str, file: &str, overrides: &[Override]) -> Result<Applied, 
         lines,
         line_map,
     })
+}
+
+/// What to say after "no `x` in ..." when an override's PATH is not in the document: the
+/// same field's path in the other kind's form when the scenario is of the damper or the
+/// hybrid kind ([`super::preset::translate`]: "did you mean `force[0].load_resistance`?
+/// `generator.load_resistance` is the damper kind's path; ..."), else the PATHs
+/// with the first unknown key replaced by its closest names ([`diagnostic::closest`]); only
+/// a PATH this document takes is suggested.
+fn suggest(doc: &DocumentMut, o: &Override) -> Option<String> {
+    let takes = |steps: &[Step]| set(&mut doc.as_table().clone(), steps, o.value.clone()).is_ok();
+    let kind = doc.get("kind").map_or(Some("damper"), Item::as_str);
+    if let Some(kind @ ("damper" | "hybrid")) = kind {
+        let to_hybrid = kind == "hybrid";
+        let other = if to_hybrid { "damper" } else { "hybrid" };
+        if let Some(path) = super::preset::translate(&o.path, to_hybrid)
+            && parse_path(&path).is_ok_and(|steps| takes(&steps))
+        {
+            return Some(format!(
+                " (did you mean `{path}`? `{}` is the {other} kind's path; this scenario is of kind {kind})",
+                o.path
+            ));
+        }
+    }
+    for (k, step) in o.steps.iter().enumerate() {
+        let Step::Key(name) = step else { continue };
+        let keys = keys_at(doc.as_table(), &o.steps[..k])?;
+        if keys.contains(name) {
+            continue;
+        }
+        let paths: Vec<String> = diagnostic::closest(name, keys)
+            .into_iter()
+            .map(|key| {
+                let mut steps = o.steps.clone();
+                steps[k] = Step::Key(key);
+                steps
+            })
+            .filter(|steps| takes(steps))
+            .map(|steps| show(&steps))
+            .collect();
+        return (!paths.is_empty()).then(|| diagnostic::did_you_mean(&paths));
+    }
+    None
+}
+
+/// The keys of the table reached by `steps` below `root` (`None` when the steps do not
+/// reach a table).
+fn keys_at(root: &Table, steps: &[Step]) -> Option<Vec<String>> {
+    let mut node = At::Table(root);
+    for step in steps {
+        node = match (node, step) {
+            (At::Table(t), Step::Key(k)) | (At::Item(Item::Table(t)), Step::Key(k)) => {
+                At::Item(t.get(k)?)
+            }
+            (At::Item(Item::ArrayOfTables(a)), Step::Index(i)) => At::Table(a.get(*i)?),
+            (At::Item(Item::Value(v)) | At::Value(v), step) => match (v, step) {
+                (Value::InlineTable(t), Step::Key(k)) => At::Value(t.get(k)?),
+                (Value::Array(a), Step::Index(i)) => At::Value(a.get(*i)?),
+                _ => return None,
+            },
+            _ => return None,
+        };
+    }
+    match node {
+        At::Table(t) | At::Item(Item::Table(t)) => {
+            Some(t.iter().map(|(k, _)| k.to_string()).collect())
+        }
+        At::Item(Item::Value(Value::InlineTable(t))) | At::Value(Value::InlineTable(t)) => {
+            Some(t.iter().map(|(k, _)| k.to_string()).collect())
+        }
+        _ => None,
+    }
 }
 
 /// A node on the way down a PATH.
@@ -735,7 +811,7 @@ every = 10
         let err = |s: &str| apply(TEXT, "f.toml", &[o(s)]).unwrap_err().to_string();
         assert_eq!(
             err("mechanizm.x=1"),
-            "f.toml: --set mechanizm.x=1: no `mechanizm` in the scenario (an override sets a field of an existing table)"
+            "f.toml: --set mechanizm.x=1: no `mechanizm` in the scenario (an override sets a field of an existing table) (did you mean `mechanism.x`?)"
         );
         assert!(
             err("beam.segment[3].elements=1")
@@ -743,5 +819,27 @@ every = 10
         );
         assert!(err("kind.x=1").contains("`kind` is not a table"));
         assert!(err("beam.segment[0].ratios[2].ratio=1").contains("index 2 out of range"));
+    }
+
+    #[test]
+    fn a_path_not_in_the_document_gets_the_nearest_paths_or_the_other_kinds_path() {
+        let err = |s: &str| apply(TEXT, "f.toml", &[o(s)]).unwrap_err();
+        // The nearest key of the table where the PATH leaves the document, checked to apply.
+        let e = err("beam.segmnt[0].elements=3");
+        assert_eq!(e.0[0].kind, Kind::UnknownField);
+        assert!(
+            e.to_string()
+                .ends_with("(did you mean `beam.segment[0].elements`?)"),
+            "{e}"
+        );
+        // A hybrid-kind path in a damper-kind file: the damper kind's path.
+        let e = err("mechanism[0].placement.half_angle_deg=5").to_string();
+        assert!(e.contains("`mechanism` is not an array (did you mean `mechanism.half_angle_deg`? `mechanism[0].placement.half_angle_deg` is the hybrid kind's path; this scenario is of kind damper)"), "{e}");
+        // Nothing near: no suggestion.
+        let e = err("zzzzzzzzzz.x=1").to_string();
+        assert!(!e.contains("did you mean"), "{e}");
+        // A suggestion the document would not take is not made (no `[generator]` here).
+        let e = err("force[0].kt=1").to_string();
+        assert!(!e.contains("did you mean"), "{e}");
     }
 }

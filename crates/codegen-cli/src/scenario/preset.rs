@@ -36,6 +36,49 @@ pub const ATTACHMENT: &str = "pin";
 /// The name of the generator force element.
 pub const GENERATOR: &str = "generator";
 
+/// Where the damper kind's fields go in the hybrid form it expands to, as `--set` paths:
+/// (damper path, hybrid path), a path below either moving with it (`generator.kt` is
+/// `force[0].kt`). The expansion ([`expand`]) moves the fields by this table, and a `--set`
+/// path of the other kind is answered from it ([`translate`]); fields not listed
+/// (`beam`, `initial.displacement`, `integrator`, `output`, `[[excitation]]`) keep their path.
+pub const PATHS: [(&str, &str); 9] = [
+    ("mechanism.model", "mechanism[0].model"),
+    ("mechanism.parameters", "mechanism[0].parameters"),
+    ("mechanism.max_condition", "mechanism[0].max_condition"),
+    (
+        "mechanism.half_angle_deg",
+        "mechanism[0].placement.half_angle_deg",
+    ),
+    ("mechanism.pivot", "mechanism[0].placement.pivot"),
+    ("mechanism.point", "attachment[0].point"),
+    ("mechanism.x", "attachment[0].x"),
+    ("mechanism.generator_joint", "force[0].joint"),
+    ("generator", "force[0]"),
+];
+
+/// The fields of the damper kind's `[mechanism]`, from [`PATHS`].
+fn mechanism_fields() -> impl Iterator<Item = &'static str> {
+    PATHS
+        .iter()
+        .filter_map(|(d, _)| d.strip_prefix("mechanism."))
+}
+
+/// The path of the other kind's form for a `--set` `path`: a damper-kind path in the hybrid
+/// form (`to_hybrid`, `generator.load_resistance` -> `force[0].load_resistance`) or the
+/// reverse; `None` when no entry of [`PATHS`] is a prefix of it (the longest one is used).
+pub fn translate(path: &str, to_hybrid: bool) -> Option<String> {
+    PATHS
+        .iter()
+        .map(|&(d, h)| if to_hybrid { (d, h) } else { (h, d) })
+        .filter_map(|(from, to)| {
+            let rest = path.strip_prefix(from)?;
+            (rest.is_empty() || rest.starts_with(['.', '[']))
+                .then(|| (from.len(), format!("{to}{rest}")))
+        })
+        .max_by_key(|(n, _)| *n)
+        .map(|(_, p)| p)
+}
+
 /// The top-level keys of a damper scenario.
 const KEYS: [&str; 9] = [
     "kind",
@@ -132,17 +175,29 @@ pub(crate) fn expand(doc: &mut Doc<'_>) {
     if let Some((span, mut m)) = mechanism {
         let mut mech = DeTable::new();
         mech.insert(key(span.clone(), "name"), string(span.clone(), MECHANISM));
-        for k in ["model", "max_condition", "parameters"] {
-            carry(&mut m, k, &mut mech, k);
-        }
         let mut placement = DeTable::new();
-        placement.insert(
-            key(span.clone(), "attachment"),
-            string(span.clone(), ATTACHMENT),
-        );
-        let placed = carry(&mut m, "half_angle_deg", &mut placement, "half_angle_deg")
-            | carry(&mut m, "pivot", &mut placement, "pivot");
-        if !placed {
+        let mut pin = DeTable::new();
+        let mut force = DeTable::new();
+        x = m.get("x").cloned();
+        // Every `[mechanism]` field to where PATHS says it goes.
+        for (from, to) in PATHS {
+            let Some(field) = from.strip_prefix("mechanism.") else {
+                continue;
+            };
+            let (dst, leaf) = if let Some(leaf) = to.strip_prefix("mechanism[0].placement.") {
+                (&mut placement, leaf)
+            } else if let Some(leaf) = to.strip_prefix("mechanism[0].") {
+                (&mut mech, leaf)
+            } else if let Some(leaf) = to.strip_prefix("attachment[0].") {
+                (&mut pin, leaf)
+            } else if let Some(leaf) = to.strip_prefix("force[0].") {
+                (&mut force, leaf)
+            } else {
+                unreachable!("PATHS: `{to}` is not in a table the preset writes")
+            };
+            carry(&mut m, field, dst, leaf);
+        }
+        if placement.is_empty() {
             let msg = "missing half_angle_deg or pivot";
             doc.push(
                 Kind::MissingField,
@@ -151,33 +206,49 @@ pub(crate) fn expand(doc: &mut Doc<'_>) {
                 msg,
             );
         } else {
+            placement.insert(
+                key(span.clone(), "attachment"),
+                string(span.clone(), ATTACHMENT),
+            );
             mech.insert(
                 key(span.clone(), "placement"),
                 table(span.clone(), placement),
             );
         }
 
-        let mut pin = DeTable::new();
         pin.insert(key(span.clone(), "name"), string(span.clone(), ATTACHMENT));
         pin.insert(
             key(span.clone(), "mechanism"),
             string(span.clone(), MECHANISM),
         );
         pin.insert(key(span.clone(), "kind"), string(span.clone(), "pin"));
-        if !carry(&mut m, "point", &mut pin, "point") {
+        if !pin.contains_key("point") {
             pin.insert(key(span.clone(), "point"), string(span.clone(), "tip"));
         }
-        x = m.get("x").cloned();
-        carry(&mut m, "x", &mut pin, "x");
 
-        let mut force = DeTable::new();
         force.insert(key(span.clone(), "name"), string(span.clone(), GENERATOR));
         force.insert(
             key(span.clone(), "mechanism"),
             string(span.clone(), MECHANISM),
         );
-        if !carry(&mut m, "generator_joint", &mut force, "joint") {
+        if !force.contains_key("joint") {
             force.insert(key(span.clone(), "joint"), string(span.clone(), "crank"));
+        }
+        // A field near a damper-kind name is a typo of it: reported here, in the damper
+        // kind's words.
+        let unknown: Vec<(String, Range<usize>)> = m
+            .iter()
+            .map(|(k, _)| (k.get_ref().to_string(), k.span()))
+            .filter(|(k, _)| !diagnostic::nearest(k, mechanism_fields()).is_empty())
+            .collect();
+        for (k, kspan) in unknown {
+            m.remove(k.as_str());
+            let expected: Vec<String> = mechanism_fields().map(|f| format!("`{f}`")).collect();
+            let msg = format!(
+                "unknown field `{k}`, expected one of {}",
+                expected.join(", ")
+            );
+            doc.push(Kind::UnknownField, Some(kspan), Some("[mechanism]"), msg);
         }
         // Whatever is left is unknown to the damper kind: carried to the mechanism entry,
         // whose reader reports it at its own line.

@@ -404,3 +404,158 @@ fn a_damper_kind_with_an_excitation_is_its_hybrid_form_bit_for_bit() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `scenario::parse_with` of `text` (a file beside `scenarios/damper.toml`) with `--set`
+/// options, as the hybrid scenario it means.
+fn hybrid_with(text: &str, sets: &[String]) -> HybridScenario {
+    let overrides: Vec<scenario::Override> = sets.iter().map(|s| s.parse().unwrap()).collect();
+    match scenario::parse_with(text, &damper_file(), &overrides) {
+        Ok(l) => match l.scenario {
+            Scenario::Hybrid(sc) => *sc,
+            _ => panic!("not a hybrid scenario"),
+        },
+        Err(e) => panic!("{sets:?}: {e}"),
+    }
+}
+
+/// Every (damper path, hybrid path) pair the preset moves fields by is one field: the damper
+/// path set on the damper file and the hybrid path set on its hybrid form (to a value that
+/// changes the scenario where one can) both load, and give the same model and, bit for bit,
+/// the same trajectory; each path translates into the other.
+#[test]
+fn every_preset_path_pair_is_accepted_by_set_on_its_kind_and_means_the_same_field() {
+    use codegen_cli::scenario::preset::{PATHS, translate};
+    // A value for each pair (a leaf below a whole table for `generator`); a new pair
+    // needs its value here.
+    let value = |damper: &str| match damper {
+        "mechanism.model" => ("", "\"../models/double_bar.toml\""),
+        "mechanism.parameters" => ("", "{ m1 = 0.03 }"),
+        "mechanism.max_condition" => ("", "2e4"),
+        "mechanism.half_angle_deg" => ("", "12.0"),
+        "mechanism.pivot" => ("", "[0.0, -0.19]"),
+        "mechanism.point" => ("", "\"tip\""),
+        "mechanism.x" => ("", "1.0"),
+        "mechanism.generator_joint" => ("", "\"crank\""),
+        "generator" => (".load_resistance", "5.0"),
+        other => panic!("no test value for the preset's path `{other}`"),
+    };
+    for (damper, hybrid_path) in PATHS {
+        let (below, v) = value(damper);
+        let (d, h) = (format!("{damper}{below}"), format!("{hybrid_path}{below}"));
+        assert_eq!(translate(&d, true).as_deref(), Some(h.as_str()));
+        assert_eq!(translate(&h, false).as_deref(), Some(d.as_str()));
+        // `pivot` replaces `half_angle_deg`: both forms start from a pivot.
+        let pivot = damper.ends_with("pivot");
+        let (damper_text, placement) = if pivot {
+            (
+                edited(&[("half_angle_deg = 10.0", "pivot = [0.0, -0.19696]")]),
+                "pivot = [0.0, -0.19696]",
+            )
+        } else {
+            (edited(&[]), "half_angle_deg = 10.0")
+        };
+        let hand = by_hand(placement, GENERATOR, NEWMARK);
+        let a = hybrid_with(&damper_text, &[format!("{d}={v}")]);
+        let b = hybrid_with(&hand, &[format!("{h}={v}")]);
+        let (sa, sb) = (steps(&a, 50), steps(&b, 50));
+        assert_eq!(sa.q, sb.q, "{d} / {h}");
+        assert_eq!(sa.mechanisms[0].q, sb.mechanisms[0].q, "{d} / {h}");
+        assert_eq!(sa.currents, sb.currents, "{d} / {h}");
+        // The value reached the model: a changed one changes the trajectory.
+        if matches!(v, "12.0" | "5.0" | "{ m1 = 0.03 }" | "[0.0, -0.19]") {
+            let base = hybrid_with(&damper_text, &[]);
+            assert_ne!(steps(&base, 50).mechanisms[0].q, sa.mechanisms[0].q, "{d}");
+        }
+    }
+    assert_eq!(translate("beam.segment[0].elements", true), None);
+    assert_eq!(translate("generatorx.kt", true), None);
+}
+
+/// A `--set` path of the other kind is answered with this kind's path, both ways; a typo in
+/// a `--set` path or in a file's field is answered with the nearest names; one line each,
+/// naming the file and the option or line.
+#[test]
+fn paths_of_the_other_kind_and_typos_get_did_you_mean() {
+    use crate::common::assert_bad_input;
+    let out = std::env::temp_dir().join(format!("damper-didyoumean-{}", std::process::id()));
+    let out = out.to_str().unwrap();
+    let cases: [(&str, &str, &[&str]); 6] = [
+        (
+            "scenarios/forced_damper.toml",
+            "generator.load_resistance=3",
+            &[
+                "scenarios/forced_damper.toml",
+                "--set generator.load_resistance=3",
+                "did you mean `force[0].load_resistance`?",
+            ],
+        ),
+        (
+            "scenarios/forced_damper.toml",
+            "mechanism.half_angle_deg=12",
+            &["did you mean `mechanism[0].placement.half_angle_deg`?"],
+        ),
+        (
+            "scenarios/damper.toml",
+            "force[0].load_resistance=3",
+            &[
+                "scenarios/damper.toml",
+                "did you mean `generator.load_resistance`?",
+            ],
+        ),
+        (
+            "scenarios/damper.toml",
+            "mechanism[0].placement.half_angle_deg=12",
+            &["did you mean `mechanism.half_angle_deg`?"],
+        ),
+        (
+            "scenarios/damper.toml",
+            "mechanizm.half_angle_deg=12",
+            &[
+                "--set mechanizm.half_angle_deg=12",
+                "did you mean `mechanism.half_angle_deg`?",
+            ],
+        ),
+        (
+            "scenarios/damper.toml",
+            "generator.load_resistanc=3",
+            &[
+                "--set generator.load_resistanc=3",
+                "unknown field `load_resistanc`",
+                "did you mean `load_resistance`?",
+            ],
+        ),
+    ];
+    for (file, set, needles) in cases {
+        assert_bad_input(&["simulate", file, "--set", set, "-o", out], needles);
+    }
+    // A typo in a file's field: at its line, in the damper kind's words in `[mechanism]`.
+    let dir = std::env::temp_dir().join(format!("damper-typo-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = edited(&[
+        ("elements = 20", "element = 20"),
+        ("half_angle_deg = 10.0", "half_angle_dg = 10.0"),
+        ("load_resistance = 3.5", "load_resistanse = 3.5"),
+    ])
+    .replace(
+        "../models/",
+        &format!("{}/models/", crate::common::root().display()),
+    );
+    let file = dir.join("typo.toml");
+    std::fs::write(&file, &text).unwrap();
+    let line = |needle: &str| text.lines().position(|l| l.starts_with(needle)).unwrap() + 1;
+    let f = file.to_str().unwrap();
+    assert_bad_input(
+        &["simulate", f, "-o", out],
+        &[
+            &format!("{f}:{}:", line("element =")),
+            "unknown field `element`",
+            "did you mean `elements`?",
+            &format!("{f}:{}:", line("half_angle_dg")),
+            "[mechanism]: unknown field `half_angle_dg`",
+            "did you mean `half_angle_deg`?",
+            &format!("{f}:{}:", line("load_resistanse")),
+            "did you mean `load_resistance`?",
+        ],
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

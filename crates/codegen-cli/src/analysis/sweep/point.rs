@@ -12,7 +12,7 @@ use super::grid::{Grid, SpecError};
 use crate::Error;
 use crate::analysis::AnalysisError;
 use crate::analysis::Warning;
-use crate::analysis::figures::{self, Constraint};
+use crate::analysis::figures::Constraint;
 use crate::scenario::overrides::value_text;
 use crate::scenario::{self, Override};
 use crate::sweep_point::{self, Figure, PointOptions};
@@ -80,31 +80,11 @@ pub fn check_paths<'a, V: Into<Value>>(
                 })
                 .collect();
         if !bad.is_empty() {
-            let bad: Vec<diagnostic::Diagnostic> = bad.into_iter().map(nearest_field).collect();
+            // The loader's problem names the nearest valid field already.
             return Err(Error::Input(bad.into()));
         }
     }
     Ok(())
-}
-
-/// An unknown field's problem ("unknown field `x`, expected one of `a`, `b`") with the
-/// nearest valid field by edit distance appended ("did you mean `a`?").
-fn nearest_field(mut d: diagnostic::Diagnostic) -> diagnostic::Diagnostic {
-    let Some((head, list)) = d.message.split_once("expected one of ") else {
-        return d;
-    };
-    let Some(field) = head.split('`').nth(1) else {
-        return d;
-    };
-    let best = list
-        .split('`')
-        .skip(1)
-        .step_by(2)
-        .min_by_key(|c| figures::levenshtein(field, c));
-    if let Some(best) = best.filter(|b| figures::levenshtein(field, b) <= field.len() / 2 + 1) {
-        d.message = format!("{} (did you mean `{best}`?)", d.message);
-    }
-    d
 }
 
 /// Evaluates the points `indices` of `grid` on `threads` worker threads (0: every core), each
