@@ -38,7 +38,7 @@ pub const GENERATOR: &str = "generator";
 
 /// Where the damper kind's fields go in the hybrid form it expands to, as `--set` paths:
 /// (damper path, hybrid path), a path below either moving with it (`generator.kt` is
-/// `force[0].kt`). The expansion ([`expand`]) moves the fields by this table, and a `--set`
+/// `force[0].kt`). The expansion (`expand`) moves the fields by this table, and a `--set`
 /// path of the other kind is answered from it ([`translate`]); fields not listed
 /// (`beam`, `initial.displacement`, `integrator`, `output`, `[[excitation]]`) keep their path.
 pub const PATHS: [(&str, &str); 9] = [
