@@ -372,7 +372,7 @@ impl Integrator {
         };
         for f in self.followers.iter_mut() {
             let mech = f.mech;
-            f.follow(
+            f.follow_trial(
                 model,
                 t,
                 &self.pos,
@@ -429,7 +429,11 @@ impl Integrator {
     }
 
     /// The error of a non-converged iteration, naming the worst-conditioned mechanism.
-    fn no_convergence(&self, model: &HybridModel, t: f64, iterations: usize) -> HybridError {
+    fn no_convergence(&mut self, model: &HybridModel, t: f64, iterations: usize) -> HybridError {
+        // The trial evaluations do not measure the condition: measure it at the last one.
+        for f in self.followers.iter_mut() {
+            f.refresh_condition();
+        }
         let worst = self
             .followers
             .iter()
@@ -462,8 +466,27 @@ impl Integrator {
     }
 
     /// Solves the reduced equations at `t` for `z` (starting from `self.z`), leaving the
-    /// accepted trial in the followers, `phi` and `currents`.
+    /// accepted trial in the followers, `phi` and `currents`; then measures the condition of
+    /// every mechanism's `J_d` there, an error beyond its `max_condition` (measured once
+    /// per step, not at every trial evaluation).
     fn solve(
+        &mut self,
+        model: &HybridModel,
+        t: f64,
+        state: &HybridState,
+    ) -> Result<(), HybridError> {
+        self.iterate(model, t, state)?;
+        for f in self.followers.iter_mut() {
+            let mech = f.mech;
+            f.check_condition(model)
+                .map_err(|e| map_follow(model, &self.pos, mech, t, e))?;
+        }
+        Ok(())
+    }
+
+    /// The quasi-Newton iteration of [`Integrator::solve`] (trial evaluations without the
+    /// condition check).
+    fn iterate(
         &mut self,
         model: &HybridModel,
         t: f64,
