@@ -333,6 +333,10 @@ impl BandedFactor {
         let Some(groups) = &self.groups else {
             return;
         };
+        if self.uniform_group == 2 {
+            Self::permute_pairs(b);
+            return;
+        }
         b.reverse();
         match self.uniform_group {
             0 => {
@@ -347,13 +351,25 @@ impl BandedFactor {
                     groups.iter().for_each(|&m| restore(m));
                 }
             }
-            // The beam's nodes (w, theta): the pairs back in order, without a call each.
-            2 => b.chunks_exact_mut(2).for_each(|c| {
-                if let [x, y] = c {
-                    std::mem::swap(x, y);
-                }
-            }),
             m => b.chunks_exact_mut(m).for_each(<[f64]>::reverse),
+        }
+    }
+
+    /// [`BandedFactor::permute`] for groups of two (a beam's nodes `(w, theta)`), either
+    /// way: the pairs exchanged end for end in one pass, each keeping its order.
+    fn permute_pairs(b: &mut [f64]) {
+        let half = b.len() / 4 * 2;
+        let (lo, rest) = b.split_at_mut(half);
+        let hi_start = rest.len() - half;
+        for (x, y) in lo
+            .chunks_exact_mut(2)
+            .zip(rest[hi_start..].rchunks_exact_mut(2))
+        {
+            let (x0, x1) = (x[0], x[1]);
+            x[0] = y[0];
+            x[1] = y[1];
+            y[0] = x0;
+            y[1] = x1;
         }
     }
 
@@ -384,6 +400,23 @@ mod tests {
         for i in 0..9 {
             // Well-conditioned 9x9 matrix: both solutions agree to a few ulps.
             assert!((x[i] - xd[i]).abs() < 1e-14, "{i}: {} vs {}", x[i], xd[i]);
+        }
+    }
+
+    /// The one-pass exchange of node pairs is the group reversal's definition (reverse
+    /// everything, then each pair back in order), for odd and even node counts.
+    #[test]
+    fn pair_exchange_is_the_group_reversal() {
+        for nodes in 0..7 {
+            let b: Vec<f64> = (0..2 * nodes).map(|i| i as f64).collect();
+            let mut by_definition = b.clone();
+            by_definition.reverse();
+            by_definition.chunks_exact_mut(2).for_each(<[f64]>::reverse);
+            let mut fast = b.clone();
+            BandedFactor::permute_pairs(&mut fast);
+            assert_eq!(fast, by_definition, "{nodes} nodes");
+            BandedFactor::permute_pairs(&mut fast);
+            assert_eq!(fast, b, "{nodes} nodes: an involution");
         }
     }
 

@@ -480,9 +480,43 @@ impl Follower {
     /// Follows: `pos`, `vel`, `acc` hold the attachment displacements `w` (first the
     /// model's attachments, in order) then the free coordinates of every mechanism (global
     /// order); writes this mechanism's projected equations `phi` into the same layout, and
-    /// the currents of its force elements into `currents`.
+    /// the currents of its force elements into `currents`. Fails when `J_d` is beyond the
+    /// mechanism's `max_condition` ([`Follower::check_condition`]).
     #[allow(clippy::too_many_arguments)]
     pub fn follow(
+        &mut self,
+        model: &HybridModel,
+        t: f64,
+        pos: &[f64],
+        vel: &[f64],
+        acc: &[f64],
+        rule: CurrentRule<'_>,
+        currents: &mut [f64],
+        phi: &mut [f64],
+    ) -> Result<(), FollowError> {
+        self.follow_trial(model, t, pos, vel, acc, rule, currents, phi)?;
+        self.check_condition(model)
+    }
+
+    /// Measures the 2-norm condition of `J_d` at the last position solve into
+    /// [`Follower::condition`] and [`Follower::sigma_min`]; an error beyond the mechanism's
+    /// `max_condition`.
+    pub fn check_condition(&mut self, model: &HybridModel) -> Result<(), FollowError> {
+        self.measure_condition();
+        if self.condition > model.mechanisms[self.mech].max_condition {
+            return Err(FollowError::Singular {
+                condition: self.condition,
+                sigma_min: self.sigma_min,
+            });
+        }
+        Ok(())
+    }
+
+    /// [`Follower::follow`] without the condition measurement: the trial evaluations of the
+    /// integrator's iteration, which measures the condition once, at the accepted one
+    /// ([`Follower::check_condition`]). [`Follower::condition`] keeps its last measured value.
+    #[allow(clippy::too_many_arguments)]
+    pub fn follow_trial(
         &mut self,
         model: &HybridModel,
         t: f64,
@@ -498,13 +532,6 @@ impl Follower {
             self.q[c] = pos[off + k];
         }
         self.solve_positions(model, pos)?;
-        self.measure_condition();
-        if self.condition > model.mechanisms[self.mech].max_condition {
-            return Err(FollowError::Singular {
-                condition: self.condition,
-                sigma_min: self.sigma_min,
-            });
-        }
         // Velocities (18): J_d qd_d = E w' - J_f u'.
         for (k, &c) in self.free.iter().enumerate() {
             self.qd[c] = vel[off + k];

@@ -372,7 +372,7 @@ impl Integrator {
         };
         for f in self.followers.iter_mut() {
             let mech = f.mech;
-            f.follow(
+            f.follow_trial(
                 model,
                 t,
                 &self.pos,
@@ -429,7 +429,11 @@ impl Integrator {
     }
 
     /// The error of a non-converged iteration, naming the worst-conditioned mechanism.
-    fn no_convergence(&self, model: &HybridModel, t: f64, iterations: usize) -> HybridError {
+    fn no_convergence(&mut self, model: &HybridModel, t: f64, iterations: usize) -> HybridError {
+        // The trial evaluations do not measure the condition: measure it at the last one.
+        for f in self.followers.iter_mut() {
+            f.refresh_condition();
+        }
         let worst = self
             .followers
             .iter()
@@ -462,8 +466,27 @@ impl Integrator {
     }
 
     /// Solves the reduced equations at `t` for `z` (starting from `self.z`), leaving the
-    /// accepted trial in the followers, `phi` and `currents`.
+    /// accepted trial in the followers, `phi` and `currents`; then measures the condition of
+    /// every mechanism's `J_d` there, an error beyond its `max_condition` (measured once
+    /// per step, not at every trial evaluation).
     fn solve(
+        &mut self,
+        model: &HybridModel,
+        t: f64,
+        state: &HybridState,
+    ) -> Result<(), HybridError> {
+        self.iterate(model, t, state)?;
+        for f in self.followers.iter_mut() {
+            let mech = f.mech;
+            f.check_condition(model)
+                .map_err(|e| map_follow(model, &self.pos, mech, t, e))?;
+        }
+        Ok(())
+    }
+
+    /// The quasi-Newton iteration of [`Integrator::solve`] (trial evaluations without the
+    /// condition check).
+    fn iterate(
         &mut self,
         model: &HybridModel,
         t: f64,
@@ -624,33 +647,21 @@ impl Integrator {
         self.predict_mechanisms(model, state);
         self.prepare(model);
         self.solve(model, state.t, state)?;
-        self.accept(model, state, false);
+        self.accept(model, state);
         Ok(())
     }
 
     /// Writes the accepted solution into `state` (beam accelerations from
-    /// `a = a0 - K^-1 N phi_w`, mechanisms from the followers).
-    fn accept(&mut self, model: &HybridModel, state: &mut HybridState, integrate: bool) {
+    /// `a = a0 - K^-1 N phi_w`, mechanisms from the followers); the beam's positions and
+    /// velocities are [`Integrator::integrate_beam`]'s.
+    fn accept(&mut self, model: &HybridModel, state: &mut HybridState) {
         let n = state.q.len();
-        let (h, beta, gamma) = (self.h, self.beta, self.gamma);
         state.a.copy_from_slice(&self.r0);
         if n > 0 {
             for (col, phi) in self.zcols.chunks_exact(n).zip(&self.phi) {
                 for (a, z) in state.a.iter_mut().zip(col) {
                     *a -= z * phi;
                 }
-            }
-        }
-        if integrate {
-            let (cq, cv) = (beta * h * h, gamma * h);
-            for ((q, v), ((qh, vh), a)) in state
-                .q
-                .iter_mut()
-                .zip(&mut state.v)
-                .zip(self.q_hat.iter().zip(&self.v_hat).zip(&state.a))
-            {
-                *q = qh + cq * a;
-                *v = vh + cv * a;
             }
         }
         for (m, z) in self.zmax.iter_mut().zip(&self.z) {
@@ -675,6 +686,38 @@ impl Integrator {
                 _ => 0.0,
             };
         }
+    }
+
+    /// The beam's Newmark update from the accepted accelerations, `q = q^ + beta h^2 a`,
+    /// `v = v^ + gamma h a`, in one pass with what the energy account needs of it: the
+    /// midpoint velocity `v_mid = (v_n + v_{n+1}) / 2` (into `v_mid`) and the power of the
+    /// beam loads `sum (P_n + P_{n+1}) / 2 v_mid` (returned with whether the new positions
+    /// and velocities are finite).
+    fn integrate_beam(&mut self, state: &mut HybridState) -> (bool, f64) {
+        let (cq, cv) = (self.beta * self.h * self.h, self.gamma * self.h);
+        let mut finite = true;
+        let mut work = 0.0;
+        for (((q, v), (qh, vh)), ((a, m), (po, pn))) in state
+            .q
+            .iter_mut()
+            .zip(&mut state.v)
+            .zip(self.q_hat.iter().zip(&self.v_hat))
+            .zip(
+                state
+                    .a
+                    .iter()
+                    .zip(&mut self.v_mid)
+                    .zip(self.p_old.iter().zip(&self.p_new)),
+            )
+        {
+            let v_new = vh + cv * a;
+            *q = qh + cq * a;
+            *m = 0.5 * (*v + v_new);
+            *v = v_new;
+            finite &= q.is_finite() & v_new.is_finite();
+            work += 0.5 * (po + pn) * *m;
+        }
+        (finite, work)
     }
 
     /// The mechanism models' own force elements in the energy account (docs/theory.md section 8:
@@ -818,9 +861,9 @@ impl Integrator {
                 acc.excitation_work[k] += 0.5 * h * (old + new);
             }
         }
-        self.v_mid.copy_from_slice(&state.v);
-        self.accept(model, state, true);
-        let finite = state.q.iter().chain(&state.v).all(|x| x.is_finite())
+        self.accept(model, state);
+        let (beam_finite, work) = self.integrate_beam(state);
+        let finite = beam_finite
             && state
                 .mechanisms
                 .iter()
@@ -832,16 +875,8 @@ impl Integrator {
         // Energy account, part 2: midpoint velocity for the Rayleigh dissipation and the
         // beam loads (exact for the linear part under the average-acceleration rule).
         if let Some(beam) = &model.beam {
-            for (m, v) in self.v_mid.iter_mut().zip(&state.v) {
-                *m = 0.5 * (*m + v);
-            }
             let acc = &mut state.account;
             acc.dissipated_structure += h * beam.damping_quadratic_form(&self.v_mid);
-            // Beam loads: P (which includes the beam excitations) at the two ends.
-            let mut work = 0.0;
-            for ((po, pn), m) in self.p_old.iter().zip(&self.p_new).zip(&self.v_mid) {
-                work += 0.5 * (po + pn) * m;
-            }
             let mut excited = 0.0;
             let base_v: f64 = self
                 .base_load
