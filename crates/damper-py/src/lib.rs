@@ -37,6 +37,9 @@ fn _damper(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(scenario::linearize, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::frf, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::sweep_grid, m)?)?;
+    m.add_function(wrap_pyfunction!(scenario::sweep_shard, m)?)?;
+    m.add_function(wrap_pyfunction!(scenario::sweep_merge, m)?)?;
+    m.add_function(wrap_pyfunction!(scenario::sweep_points, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::optimize, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::random, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::figures, m)?)?;

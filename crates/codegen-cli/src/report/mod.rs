@@ -10,6 +10,7 @@ pub mod hybrid;
 pub mod lock;
 pub mod map;
 pub mod mechanism;
+pub mod optimize;
 pub mod plot;
 pub mod random_run;
 pub mod rows;

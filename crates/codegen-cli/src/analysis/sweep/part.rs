@@ -8,11 +8,11 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::grid::shard_points;
+use super::grid::{Grid, Shape, shard_points};
 use super::point::PointResult;
 use crate::Error;
 use crate::analysis::figures;
-use crate::budget;
+use crate::budget::{self, Quantity};
 use crate::report::csv::cell;
 use crate::sweep_point::Figure;
 
@@ -25,6 +25,11 @@ pub struct SweepSpec {
     pub scenario_hash: String,
     /// The `--set` specs, in command-line order.
     pub sets: Vec<String>,
+    /// The overrides applied to every point before the grid's, `PATH=VALUE` (a library
+    /// caller's, e.g. Python's `Scenario.with_set`; the command line's single values are
+    /// axes of one value, in `sets`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub fixed: Vec<String>,
     /// `--t-end` (s), when given, as the text that reads back to the same number.
     pub t_end: Option<String>,
     /// `--time-domain`.
@@ -279,23 +284,24 @@ pub fn part_size(path: &Path) -> Result<u64, Error> {
 }
 
 /// A part file read and checked: complete, its figures known and finite, its checksum
-/// matching its content.
+/// matching its content ([`parse_part`]).
 pub fn read_part(path: &Path) -> Result<Part, Error> {
     let bytes = std::fs::read(path)
         .map_err(|e| Error::Usage(format!("cannot read {}: {e}", path.display())))?;
-    let part: Part = serde_json::from_slice(&bytes).map_err(|e| {
-        Error::Usage(format!(
-            "{}: not a complete sweep part file: {e}",
-            path.display()
-        ))
-    })?;
+    parse_part(&bytes, &path.display().to_string())
+}
+
+/// The text of a part file (`name` in messages) read and checked: complete, its figures
+/// known and finite, its checksum matching its content.
+pub fn parse_part(bytes: &[u8], name: &str) -> Result<Part, Error> {
+    let part: Part = serde_json::from_slice(bytes)
+        .map_err(|e| Error::Usage(format!("{name}: not a complete sweep part file: {e}")))?;
     // The figures first (the more precise message), then the checksum.
     part.results()
-        .map_err(|e| Error::Usage(format!("{}: {e}", path.display())))?;
+        .map_err(|e| Error::Usage(format!("{name}: {e}")))?;
     if part.checksum() != part.checksum {
         return Err(Error::Usage(format!(
-            "{}: the content does not match its checksum (the part was edited or damaged after it was written): run its shard again",
-            path.display()
+            "{name}: the content does not match its checksum (the part was edited or damaged after it was written): run its shard again",
         )));
     }
     Ok(part)
@@ -320,6 +326,9 @@ pub fn check_parts(parts: &[(PathBuf, Part)]) -> Result<Vec<PointResult>, Error>
         }
         if p.sweep.sets != first.sweep.sets {
             return Err(differ("--set specs"));
+        }
+        if p.sweep.fixed != first.sweep.fixed {
+            return Err(differ("fixed overrides"));
         }
         if p.sweep != first.sweep {
             return Err(differ("options"));
@@ -387,4 +396,40 @@ pub fn check_parts(parts: &[(PathBuf, Part)]) -> Result<Vec<PointResult>, Error>
         )));
     }
     Ok(results)
+}
+
+/// The parts of one sweep (each read and checked, [`read_part`] / [`parse_part`]) joined:
+/// the grid's size counted from the specs (overflow-checked) and equal to the recorded one,
+/// the grid and its memory within the merge's limits unless `allow_long`, every shard there
+/// once ([`check_parts`]). Returns the sweep's record, its grid and every point's result —
+/// what [`crate::report::sweep::outputs`] writes as the files of the unsharded sweep.
+pub fn merge(
+    parts: &[(PathBuf, Part)],
+    allow_long: bool,
+) -> Result<(SweepSpec, Grid, Vec<PointResult>), Error> {
+    let Some((first_path, first)) = parts.first() else {
+        return Err(Error::Usage("merge: no sweep part given".into()));
+    };
+    let shape = Shape::of(&first.sweep.sets)
+        .map_err(|e| Error::Usage(format!("{}: {e}", first_path.display())))?;
+    if shape.points != first.sweep.grid_size {
+        return Err(Error::Usage(format!(
+            "{}: grid size {} does not match its specs ({} points)",
+            first_path.display(),
+            first.sweep.grid_size,
+            shape.points
+        )));
+    }
+    budget::refuse_above(
+        "merge",
+        &[
+            Quantity::count("grid points", shape.points as f64, budget::MAX_MERGE_POINTS),
+            Quantity::bytes("memory", shape.memory(shape.points), budget::MAX_MEMORY),
+        ],
+        "merge a smaller sweep",
+        allow_long,
+    )?;
+    let results = check_parts(parts)?;
+    let grid = Grid::parse(&first.sweep.sets)?;
+    Ok((first.sweep.clone(), grid, results))
 }
