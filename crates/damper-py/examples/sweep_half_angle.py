@@ -8,7 +8,7 @@ import damper
 sc = damper.Scenario.load("scenarios/damper.toml")
 sweep = sc.sweep({"mechanism.half_angle_deg": "3:25:23"})
 angles = sweep["mechanism.half_angle_deg"]
-zeta1 = sweep["linear.zeta1 [-]"]
+zeta1 = sweep["linear.zeta1"]
 best = int(zeta1.argmax())
 print(f"highest zeta1 = {zeta1[best]:.4f} at a half-angle of {angles[best]} deg")
 

@@ -1,11 +1,13 @@
-//! Python values to the library's and back: `set` overrides, JSON, numpy arrays.
+//! Python values to the library's and back: `set` overrides, JSON, numpy arrays, and the
+//! report's tables ([`table`]).
 //!
 //! Arrays are handed to numpy without a copy per element: a `Vec<f64>` the library filled is
 //! moved into the array (`PyArray1::from_vec` keeps the allocation), a matrix is that buffer
 //! reshaped (a view, no copy).
 
+use codegen_cli::report::rows::{Cells, Table};
 use codegen_cli::scenario::Override;
-use codegen_cli::scenario::overrides::{parse_value, value_text};
+use codegen_cli::scenario::overrides::{json_value, parse_value, value_text};
 use numpy::npyffi::NPY_ORDER;
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
@@ -182,4 +184,44 @@ pub fn array2(
 pub fn matrix(py: Python<'_>, m: nalgebra::DMatrix<f64>) -> PyResult<Bound<'_, PyArray2<f64>>> {
     let (r, c) = m.shape();
     PyArray1::from_vec(py, m.data.into()).reshape_with_order([r, c], NPY_ORDER::NPY_FORTRANORDER)
+}
+
+/// One column of a table as Python receives it: `(name, unit or None, values)`.
+pub type PyColumn<'py> = (String, Option<String>, Bound<'py, PyAny>);
+
+/// A table of the report ([`Table`]: the columns of a CSV the command writes) as Python's
+/// columns, each `(name, unit, values)`: numbers a float array (NaN for an empty cell),
+/// counts an int64 array, flags a bool array, texts a list of `str` or `None`, scenario
+/// values (a sweep's axis) a list of the Python values they read as.
+pub fn table<'py>(py: Python<'py>, table: Table) -> PyResult<Vec<PyColumn<'py>>> {
+    table
+        .columns
+        .into_iter()
+        .map(|c| {
+            let values = match c.cells {
+                Cells::Numbers(v) => {
+                    array1(py, v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect()).into_any()
+                }
+                Cells::Counts(v) => {
+                    PyArray1::from_vec(py, v.into_iter().map(|n| n as i64).collect::<Vec<i64>>())
+                        .into_any()
+                }
+                Cells::Flags(v) => PyArray1::from_vec(py, v).into_any(),
+                Cells::Texts(v) => PyList::new(py, v)?.into_any(),
+                Cells::Values(v) => {
+                    let list = PyList::empty(py);
+                    for x in &v {
+                        list.append(to_python(py, &json_value(x))?)?;
+                    }
+                    list.into_any()
+                }
+                _ => {
+                    return Err(pyo3::exceptions::PyRuntimeError::new_err(
+                        "an unknown column kind of a table (a bug: please report it)",
+                    ));
+                }
+            };
+            Ok((c.name, c.unit, values))
+        })
+        .collect()
 }

@@ -4,10 +4,13 @@
 //! The module is thin: each function loads its input through the library's one loader and
 //! calls the library's function of the matching command, and hands the results to Python —
 //! summaries and reports as the JSON objects the command writes (`json.loads` of the same
-//! bytes), time histories, mode shapes and matrices as numpy arrays that take over the
-//! library's buffers. The Python package `damper` (`python/damper/__init__.py`) wraps these
-//! functions into its classes (`Scenario`, `Run`, `Linearization`, `Model`); the type stub
-//! `_damper.pyi` describes them.
+//! bytes), tables as the report builds them for its CSVs (`codegen_cli::report::rows::Table`:
+//! `(name, unit, values)` columns), time histories, mode shapes and matrices as numpy arrays
+//! that take over the library's buffers; a sweep's shards as the text of their part files.
+//! The Python package `damper` (`python/damper/__init__.py`, the typed results in
+//! `results.py`) wraps these functions into its classes (`Scenario`, `Run`, `FrfResult`,
+//! `SweepResult`, `RandomResult`, `Optimum`, `Linearization`, `SweepPart`, `Model`); the
+//! type stub `_damper.pyi` describes them.
 //!
 //! Long calls release the GIL and honour Ctrl-C (the `watch` module).
 
@@ -38,6 +41,9 @@ fn _damper(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(scenario::linearize, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::frf, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::sweep_grid, m)?)?;
+    m.add_function(wrap_pyfunction!(scenario::sweep_shard, m)?)?;
+    m.add_function(wrap_pyfunction!(scenario::sweep_merge, m)?)?;
+    m.add_function(wrap_pyfunction!(scenario::sweep_points, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::optimize, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::random, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::figures, m)?)?;

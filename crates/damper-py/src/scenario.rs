@@ -13,15 +13,18 @@ use codegen_cli::analysis::linearize::{self as linearize_analysis, LinearizeRequ
 use codegen_cli::analysis::optimization::OptimizeRequest;
 use codegen_cli::analysis::stationary::{self, RandomRequest};
 use codegen_cli::analysis::sweep::{self, SweepRequest};
-use codegen_cli::report::frf::NonlinearColumn;
+use codegen_cli::report::rows::split_header;
+use codegen_cli::report::sweep as sweep_report;
+use codegen_cli::scenario::overrides::json_value;
 use codegen_cli::scenario::{self, Loaded, Override, Scenario};
 use hybrid_core::hybrid::EigenMethod;
-use numpy::{PyArray1, PyArray2};
+use numpy::PyArray2;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::PyList;
 
-use crate::convert::{array1, array2, axis_spec, json, matrix, overrides, to_python};
+use crate::convert::{
+    PyColumn, array1, array2, axis_spec, json, matrix, overrides, table, to_python,
+};
 use crate::errors::{Input, to_py, warn};
 use crate::watch::interruptible;
 
@@ -110,18 +113,32 @@ pub fn check(
     })
 }
 
-/// Named columns: a list of `(name, array)`.
-type Columns<'py> = Vec<(String, Bound<'py, PyArray1<f64>>)>;
+/// Named columns: a list of `(name, unit, values)` ([`crate::convert::table`]).
+type Columns<'py> = Vec<PyColumn<'py>>;
 
+/// A time history's columns, each header (`t [s]`) split into its name and unit.
 fn columns(py: Python<'_>, rows: codegen_cli::report::rows::ColumnRows) -> Columns<'_> {
     rows.into_columns()
         .into_iter()
-        .map(|(n, c)| (n, array1(py, c)))
+        .map(|(h, c)| {
+            let (name, unit) = split_header(&h);
+            (
+                name.to_string(),
+                unit.map(str::to_string),
+                array1(py, c).into_any(),
+            )
+        })
         .collect()
 }
 
+/// The warnings' messages, as Python's results list them (each is also issued with
+/// `warnings.warn`, [`warn`]).
+fn messages(warnings: &[codegen_cli::analysis::Warning]) -> Vec<String> {
+    warnings.iter().map(|w| w.message.clone()).collect()
+}
+
 /// Runs a scenario as `damper simulate` does, in memory: `(summary.json bytes, columns of
-/// the time history, [(comparison key, its columns)])`.
+/// the time history, [(comparison key, its columns)])`, each column `(name, unit, array)`.
 #[pyfunction]
 #[allow(clippy::type_complexity)]
 pub fn simulate<'py>(
@@ -249,10 +266,11 @@ pub fn linearize<'py>(
     Ok((to_python(py, &report)?, with, off, bare, dense))
 }
 
-/// The frequency response as `damper frf` writes it: the columns of `frf.csv` under the
-/// same headers and, with `nonlinear` (`--nonlinear M`), those of `frf_nonlinear.csv`:
-/// numbers as float arrays (NaN for an empty cell), `periods` an int64 array, `settled` a
-/// bool array, `error` a list of `str` or `None`. The runs release the GIL and stop at
+/// The frequency response as `damper frf` writes it: the table of `frf.csv` (the report's
+/// own, [`codegen_cli::analysis::frf::Frf::table`]) and, with `nonlinear` (`--nonlinear
+/// M`), that of `frf_nonlinear.csv` ([`crate::convert::table`]: numbers as float arrays,
+/// NaN for an empty cell, `periods` an int64 array, `settled` a bool array, `error` a list
+/// of `str` or `None`), and the warnings' messages (also issued, [`warn`]). The runs release the GIL and stop at
 /// Ctrl-C ([`interruptible`]); the limits of `damper frf` apply unless `allow_long`.
 #[pyfunction]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
@@ -274,7 +292,7 @@ pub fn frf<'py>(
     tolerance: f64,
     max_periods: usize,
     allow_long: bool,
-) -> PyResult<(Columns<'py>, Option<Vec<(String, Bound<'py, PyAny>)>>)> {
+) -> PyResult<(Columns<'py>, Option<Columns<'py>>, Vec<String>)> {
     let src = Source::new(text, file, base, sets)?;
     let request = FrfRequest {
         file: src.file.clone(),
@@ -297,47 +315,70 @@ pub fn frf<'py>(
         let loaded = src.load(allow_long)?;
         let frf =
             frf_analysis::analyse(&request, &loaded.scenario).map_err(|e| remapped(&loaded, e))?;
-        Ok((frf.columns(), frf.nonlinear_columns(), frf.warnings))
+        Ok((frf.table(), frf.nonlinear_table(), frf.warnings))
     })?
     .map_err(|e| to_py(py, e, Input::Scenario))?;
     warn(py, &warnings)?;
-    let nl = nl
-        .map(|cols| {
-            cols.into_iter()
-                .map(|(n, c)| Ok((n, nonlinear_column(py, c)?)))
-                .collect::<PyResult<Vec<_>>>()
-        })
-        .transpose()?;
     Ok((
-        cols.into_iter().map(|(n, c)| (n, array1(py, c))).collect(),
-        nl,
+        table(py, cols)?,
+        nl.map(|t| table(py, t)).transpose()?,
+        messages(&warnings),
     ))
 }
 
-/// A column of `frf_nonlinear.csv` as Python holds it (see [`frf`]).
-fn nonlinear_column(py: Python<'_>, column: NonlinearColumn) -> PyResult<Bound<'_, PyAny>> {
-    use NonlinearColumn as C;
-    Ok(match column {
-        C::Numbers(v) => {
-            array1(py, v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect()).into_any()
-        }
-        C::Counts(v) => {
-            PyArray1::from_vec(py, v.into_iter().map(|n| n as i64).collect::<Vec<i64>>()).into_any()
-        }
-        C::Flags(v) => PyArray1::from_vec(py, v).into_any(),
-        C::Texts(v) => PyList::new(py, v)?.into_any(),
-        _ => {
-            return Err(pyo3::exceptions::PyRuntimeError::new_err(
-                "an unknown column kind of frf_nonlinear.csv (a bug: please report it)",
-            ));
-        }
+/// The sweep request of a scenario's `axes` (`(path, values)` pairs, the values a list or
+/// a VALUES string), of shard `shard` (`(I, N)`) or of the whole grid.
+fn sweep_request(
+    src: &Source,
+    axes: &[(String, Bound<'_, PyAny>)],
+    shard: Option<(usize, usize)>,
+    time_domain: bool,
+    threads: Option<usize>,
+    allow_long: bool,
+) -> PyResult<SweepRequest> {
+    if threads == Some(0) {
+        return Err(PyValueError::new_err("threads must be at least 1"));
+    }
+    let specs: Vec<String> = axes
+        .iter()
+        .map(|(p, v)| axis_spec(p, v))
+        .collect::<PyResult<_>>()?;
+    Ok(SweepRequest {
+        scenario: src.path(),
+        text: Some(src.text.clone()),
+        fixed: src.overrides.clone(),
+        sets: specs,
+        shard,
+        t_end: None,
+        time_domain,
+        constraints: vec![],
+        map: "linear.zeta1".into(),
+        minimize: false,
+        threads,
+        method: codegen_cli::random::RandomMethod::Auto,
+        allow_long,
     })
 }
 
+/// The sweep (or its shard) `request` asks for, evaluated without the GIL (interruptible),
+/// its warnings issued.
+fn run_sweep(py: Python<'_>, src: &Source, request: &SweepRequest) -> PyResult<sweep::Sweep> {
+    let (done, warnings) = interruptible(py, || {
+        // The scenario and the fixed overrides must load before any point.
+        src.check()?;
+        let plan = sweep::plan(request)?;
+        Ok((sweep::evaluate(request, &plan, &|| {})?, plan.warnings))
+    })?
+    .map_err(|e| to_py(py, e, Input::Scenario))?;
+    warn(py, &warnings)?;
+    Ok(done)
+}
+
 /// A sweep as `damper sweep` computes it (`axes`: `(path, values)` pairs, the values a list
-/// or a VALUES string): the columns of `sweep.csv` in order — `index`, each axis (a list of
-/// its values), each figure `name [unit]` (NaN where the point does not give it), `error`
-/// and, in the time domain, `time_domain_error` (lists of `str` or `None`).
+/// or a VALUES string): the table of `sweep.csv` (the report's own,
+/// [`codegen_cli::report::sweep::table`]) — `index`, each axis (a list of its values), each
+/// figure with its unit (NaN where the point does not give it), `error` and, in the time
+/// domain, `time_domain_error` (lists of `str` or `None`).
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
 pub fn sweep_grid<'py>(
@@ -350,88 +391,107 @@ pub fn sweep_grid<'py>(
     time_domain: bool,
     threads: Option<usize>,
     allow_long: bool,
-) -> PyResult<Vec<(String, Bound<'py, PyAny>)>> {
-    if threads == Some(0) {
-        return Err(PyValueError::new_err("threads must be at least 1"));
-    }
+) -> PyResult<Columns<'py>> {
     let src = Source::new(text, file, base, sets)?;
+    let request = sweep_request(&src, &axes, None, time_domain, threads, allow_long)?;
+    let done = run_sweep(py, &src, &request)?;
+    let rows: Vec<&sweep::PointResult> = done.results.iter().collect();
+    table(py, sweep_report::table(&done.grid, time_domain, &rows))
+}
+
+/// Shard `shard` of `shards` of a sweep (`damper sweep --shard I/N`): the text of its part
+/// file `sweep.part-I-of-N.json` (the points `index % N == I`, with the sweep's record and
+/// checksum), for [`sweep_merge`].
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+pub fn sweep_shard<'py>(
+    py: Python<'py>,
+    text: String,
+    file: String,
+    base: String,
+    sets: Vec<(String, Bound<'py, PyAny>)>,
+    axes: Vec<(String, Bound<'py, PyAny>)>,
+    shard: usize,
+    shards: usize,
+    time_domain: bool,
+    threads: Option<usize>,
+    allow_long: bool,
+) -> PyResult<String> {
+    let src = Source::new(text, file, base, sets)?;
+    let spec = format!("{shard}/{shards}");
+    let shard = sweep::parse_shard(&spec).map_err(|e| to_py(py, e.into(), Input::Scenario))?;
+    let request = sweep_request(&src, &axes, Some(shard), time_domain, threads, allow_long)?;
+    let done = run_sweep(py, &src, &request)?;
+    let part = sweep::Part::new(&done.spec, shard.0, shard.1, &done.results);
+    let bytes = sweep_report::pretty(&part).map_err(|e| to_py(py, e, Input::Scenario))?;
+    String::from_utf8(bytes).map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
+/// The part files' texts of the N shards of one sweep joined as `damper merge` joins them
+/// (each checked: complete, its checksum, every shard once): the table of the `sweep.csv`
+/// the unsharded sweep writes, as [`sweep_grid`] returns it.
+#[pyfunction]
+pub fn sweep_merge(py: Python<'_>, parts: Vec<String>, allow_long: bool) -> PyResult<Columns<'_>> {
+    let merged = interruptible(py, || {
+        let parts = parts
+            .iter()
+            .enumerate()
+            .map(|(k, text)| {
+                let part = sweep::part::parse_part(text.as_bytes(), &format!("part {k}"))?;
+                Ok((
+                    PathBuf::from(sweep::part_name(part.shard, part.shards)),
+                    part,
+                ))
+            })
+            .collect::<Result<Vec<_>, Error>>()?;
+        sweep::part::merge(&parts, allow_long)
+    })?
+    .map_err(|e| to_py(py, e, Input::Scenario))?;
+    let (spec, grid, mut results) = merged;
+    results.sort_by_key(|r| r.index);
+    let rows: Vec<&sweep::PointResult> = results.iter().collect();
+    table(py, sweep_report::table(&grid, spec.time_domain, &rows))
+}
+
+/// The points of the grid of `axes` (as [`sweep_grid`] takes them), in grid order: the
+/// swept paths and, per point, its values; refused above the sweep's limit of points
+/// unless `allow_long`.
+#[pyfunction]
+#[allow(clippy::type_complexity)]
+pub fn sweep_points<'py>(
+    py: Python<'py>,
+    axes: Vec<(String, Bound<'py, PyAny>)>,
+    allow_long: bool,
+) -> PyResult<(Vec<String>, Vec<Vec<Bound<'py, PyAny>>>)> {
     let specs: Vec<String> = axes
         .iter()
         .map(|(p, v)| axis_spec(p, v))
         .collect::<PyResult<_>>()?;
-    let request = SweepRequest {
-        scenario: src.path(),
-        text: Some(src.text.clone()),
-        fixed: src.overrides.clone(),
-        sets: specs,
-        shard: None,
-        t_end: None,
-        time_domain,
-        constraints: vec![],
-        map: "linear.zeta1".into(),
-        minimize: false,
-        threads,
-        method: codegen_cli::random::RandomMethod::Auto,
-        allow_long,
-    };
-    let (sweep::Sweep { grid, results, .. }, warnings) = interruptible(py, || {
-        // The scenario and the fixed overrides must load before any point.
-        src.check()?;
-        let plan = sweep::plan(&request)?;
-        Ok((sweep::evaluate(&request, &plan, &|| {})?, plan.warnings))
-    })?
+    let grid = (|| -> Result<sweep::Grid, Error> {
+        let shape = sweep::Shape::of(&specs)?;
+        codegen_cli::budget::refuse_above(
+            "sweep points",
+            &[codegen_cli::budget::Quantity::count(
+                "grid points",
+                shape.points as f64,
+                codegen_cli::budget::MAX_SWEEP_POINTS,
+            )],
+            "use fewer values per axis",
+            allow_long,
+        )?;
+        Ok(sweep::Grid::parse(&specs)?)
+    })()
     .map_err(|e| to_py(py, e, Input::Scenario))?;
-    warn(py, &warnings)?;
-    let rows: Vec<&sweep::PointResult> = results.iter().collect();
-    let heads = sweep::figure_heads(&rows);
-    let mut out: Vec<(String, Bound<'py, PyAny>)> = vec![];
-    let index: Vec<f64> = results.iter().map(|r| r.index as f64).collect();
-    out.push((
-        "index".into(),
-        array1(py, index).call_method1("astype", ("int64",))?,
-    ));
-    for (k, axis) in grid.axes.iter().enumerate() {
-        let values = PyList::empty(py);
-        for r in &results {
-            let v = grid.point(r.index)[k];
-            values.append(toml_to_py(py, v)?)?;
-        }
-        out.push((axis.path.clone(), values.into_any()));
-    }
-    for (name, unit) in &heads {
-        let column: Vec<f64> = results
-            .iter()
-            .map(|r| {
-                r.figures
-                    .iter()
-                    .find(|f| f.name == *name)
-                    .and_then(|f| f.value)
-                    .unwrap_or(f64::NAN)
-            })
-            .collect();
-        out.push((format!("{name} [{unit}]"), array1(py, column).into_any()));
-    }
-    let errors =
-        |of: &dyn Fn(&sweep::PointResult) -> Option<String>| -> PyResult<Bound<'py, PyAny>> {
-            let list = PyList::empty(py);
-            for r in &results {
-                list.append(of(r))?;
-            }
-            Ok(list.into_any())
-        };
-    out.push(("error".into(), errors(&|r| r.error.clone())?));
-    if time_domain {
-        out.push((
-            "time_domain_error".into(),
-            errors(&|r| r.time_domain_error.clone())?,
-        ));
-    }
-    Ok(out)
-}
-
-/// A TOML value as the Python value it reads as.
-fn toml_to_py<'py>(py: Python<'py>, v: &toml_edit::Value) -> PyResult<Bound<'py, PyAny>> {
-    to_python(py, &codegen_cli::scenario::overrides::json_value(v))
+    let paths = grid.axes.iter().map(|a| a.path.clone()).collect();
+    let points = (0..grid.len())
+        .map(|i| {
+            grid.point(i)
+                .iter()
+                .map(|v| to_python(py, &json_value(v)))
+                .collect()
+        })
+        .collect::<PyResult<_>>()?;
+    Ok((paths, points))
 }
 
 /// The linear stationary response to the scenario's random excitations as `damper random
@@ -494,7 +554,8 @@ pub fn figures<'py>(
 }
 
 /// The best design as `damper optimize --json` prints it (the optimum, the objective, every
-/// constraint, the KKT residual, the history), as a JSON object.
+/// constraint, the KKT residual, the history), as a JSON object, and the table of
+/// `optimize_history.csv` ([`codegen_cli::report::optimize::history_table`]).
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
 pub fn optimize<'py>(
@@ -509,7 +570,7 @@ pub fn optimize<'py>(
     constraints: Vec<String>,
     grid: usize,
     allow_long: bool,
-) -> PyResult<Bound<'py, PyAny>> {
+) -> PyResult<(Bound<'py, PyAny>, Columns<'py>)> {
     let src = Source::new(text, file, base, sets)?;
     let path = src.path();
     let outcome = interruptible(py, || {
@@ -525,8 +586,9 @@ pub fn optimize<'py>(
             method: codegen_cli::random::RandomMethod::Auto,
             allow_long,
         })
-        .map(|(outcome, _)| outcome)
     })?
     .map_err(|e| to_py(py, e, Input::Scenario))?;
-    to_python(py, &outcome)
+    let (outcome, constraints) = outcome;
+    let history = codegen_cli::report::optimize::history_table(&outcome, &constraints);
+    Ok((to_python(py, &outcome)?, table(py, history)?))
 }

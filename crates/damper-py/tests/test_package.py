@@ -33,11 +33,27 @@ def test_package_type_checks(tmp_path: Path) -> None:
     assert r.returncode == 0, r.stdout + r.stderr
 
 
+def test_the_tests_of_the_results_type_check(tmp_path: Path) -> None:
+    """The typed results as users' code sees them: the tests that use them and the
+    examples, checked by mypy against the package's annotations."""
+    pytest.importorskip("mypy")
+    here = Path(__file__).resolve().parent
+    files = [here / f for f in ("test_results.py", "test_sweep_cluster.py", "test_notebook.py")]
+    files += sorted((here.parent / "examples").glob("*.py"))
+    r = subprocess.run(
+        [sys.executable, "-m", "mypy", "--cache-dir", str(tmp_path), "--disallow-untyped-defs", *map(str, files)],
+        capture_output=True, text=True, cwd=here,
+    )
+    assert r.returncode == 0, r.stdout + r.stderr
+
+
 def test_every_public_name_is_documented() -> None:
     for name in damper.__all__:
         obj = getattr(damper, name)
         assert obj.__doc__, name
-    for cls in (damper.Scenario, damper.Run, damper.Model):
+    classes = (damper.Scenario, damper.Model, damper.Table, damper.Run, damper.FrfResult, damper.SweepResult,
+               damper.RandomResult, damper.Optimum, damper.SweepPart, damper.Linearization)
+    for cls in classes:
         for attr, value in vars(cls).items():
             if callable(value) and not attr.startswith("_"):
                 assert value.__doc__, f"{cls.__name__}.{attr}"
@@ -61,7 +77,7 @@ def test_example_runs_and_plots(tmp_path: Path, root: Path) -> None:
     assert png.stat().st_size > 1000 and png.read_bytes()[:4] == b"\x89PNG"
     # The printed optimum is the sweep's.
     sweep = damper.Scenario.load(root / "scenarios" / "damper.toml").sweep({"mechanism.half_angle_deg": "3:25:23"})
-    zeta1 = sweep["linear.zeta1 [-]"]
+    zeta1 = sweep["linear.zeta1"]
     best = int(np.argmax(zeta1))
     assert f"highest zeta1 = {zeta1[best]:.4f} at a half-angle of {sweep['mechanism.half_angle_deg'][best]} deg" in r.stdout
 

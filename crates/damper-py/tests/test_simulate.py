@@ -28,10 +28,10 @@ def test_simulate_equals_the_cli(scenario: Path, tmp_path: Path, monkeypatch: py
         summary = load_json(tmp_path / "summary.json")
     assert without_wall(run.summary) == without_wall(summary)
     cells = read_csv(csv_path)
-    assert run.columns == list(cells)
+    assert run.headers == list(cells)
     for name in run.columns:
         assert isinstance(run[name], np.ndarray) and run[name].dtype == np.float64
-        assert_cells_equal(cells[name], run[name], f"{scenario.stem}: {name}")
+        assert_cells_equal(cells[run.header(name)], run[name], f"{scenario.stem}: {name}")
     assert len(run) == summary.get("output_rows", len(run))
     # The comparison runs: their files and their summary blocks.
     expected = sorted(p.name[len("time_history_"):-4] for p in tmp_path.glob("time_history_*.csv"))
@@ -39,9 +39,9 @@ def test_simulate_equals_the_cli(scenario: Path, tmp_path: Path, monkeypatch: py
     for key, other in run.comparisons.items():
         assert without_wall(other.summary) == without_wall(summary["comparisons"][key])
         cells = read_csv(tmp_path / f"time_history_{key}.csv")
-        assert other.columns == list(cells)
+        assert other.headers == list(cells)
         for name in other.columns:
-            assert_cells_equal(cells[name], other[name], f"{scenario.stem} {key}: {name}")
+            assert_cells_equal(cells[other.header(name)], other[name], f"{scenario.stem} {key}: {name}")
 
 
 def test_overrides_and_with_set_equal_the_cli_set(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, root: Path) -> None:
@@ -91,7 +91,8 @@ def test_run_to_dict_and_to_pandas(monkeypatch: pytest.MonkeyPatch, root: Path) 
     df = run.to_pandas()
     assert isinstance(df, pd.DataFrame)
     assert list(df.columns) == run.columns
-    np.testing.assert_array_equal(df["t [s]"].to_numpy(), run["t [s]"])
+    np.testing.assert_array_equal(df["t"].to_numpy(), run["t [s]"])
+    assert list(run.to_pandas(headers=True).columns) == run.headers
     with pytest.raises(KeyError, match="no column"):
         run["nope"]
 

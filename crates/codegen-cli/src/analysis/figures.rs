@@ -985,7 +985,10 @@ mod tests {
             .filter(|e| e.from_linear.is_some())
             .map(|e| e.pattern)
             .collect();
-        assert!(read.contains(&"linear.zeta1") && read.len() >= 9, "{read:?}");
+        assert!(
+            read.contains(&"linear.zeta1") && read.len() >= 9,
+            "{read:?}"
+        );
         for e in CATALOGUE.iter().filter(|e| e.from_linear.is_some()) {
             assert_eq!(e.producer, Producer::Linear, "{}", e.pattern);
             assert!(matches!(e.param, Param::None), "{}", e.pattern);

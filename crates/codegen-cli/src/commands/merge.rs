@@ -21,8 +21,8 @@ use crate::Error;
 use crate::budget::{self, Quantity};
 use crate::report::{OutputLock, ReportError, commit_files};
 
-use crate::analysis::sweep::part::{check_parts, part_size, parts_in, read_part};
-use crate::analysis::sweep::{Grid, Part, Shape};
+use crate::analysis::sweep::Part;
+use crate::analysis::sweep::part::{merge, part_size, parts_in, read_part};
 use crate::report::sweep::outputs;
 
 /// Arguments of `damper merge`.
@@ -76,29 +76,8 @@ pub fn run(args: Args) -> Result<(), Error> {
         .into_iter()
         .map(|f| read_part(&f).map(|p| (f, p)))
         .collect::<Result<_, _>>()?;
-    let (first_path, first) = (&parts[0].0, &parts[0].1);
-    let shape = Shape::of(&first.sweep.sets)
-        .map_err(|e| Error::Usage(format!("{}: {e}", first_path.display())))?;
-    if shape.points != first.sweep.grid_size {
-        return Err(Error::Usage(format!(
-            "{}: grid size {} does not match its specs ({} points)",
-            first_path.display(),
-            first.sweep.grid_size,
-            shape.points
-        )));
-    }
-    budget::refuse_above(
-        "merge",
-        &[
-            Quantity::count("grid points", shape.points as f64, budget::MAX_MERGE_POINTS),
-            Quantity::bytes("memory", shape.memory(shape.points), budget::MAX_MEMORY),
-        ],
-        "merge a smaller sweep",
-        args.allow_long,
-    )?;
-    let results = check_parts(&parts)?;
-    let grid = Grid::parse(&first.sweep.sets)?;
-    let files = outputs(&out, &first.sweep, &grid, &results)?;
+    let (spec, grid, results) = merge(&parts, args.allow_long)?;
+    let files = outputs(&out, &spec, &grid, &results)?;
     commit_files(&files).map_err(ReportError::from)?;
     let failed = results.iter().filter(|r| r.error.is_some()).count();
     eprintln!(

@@ -20,7 +20,6 @@ use crate::analysis::figures::{Bound, Constraint};
 use crate::analysis::optimization::{OptimizeRequest, solve};
 use crate::optimize::{self, Variable};
 use crate::report::csv::cell;
-use crate::report::rows::CsvRows;
 use crate::report::{OutputFile, OutputLock, ReportError, commit_files};
 use crate::scenario::{self, Override};
 
@@ -78,11 +77,9 @@ pub struct Args {
 pub fn run(args: Args) -> Result<(), Error> {
     let file = args.scenario.display().to_string();
     // The options are checked before the scenario is read.
-    let vary: Vec<Variable> = args
-        .vary
-        .iter()
-        .map(|v| v.parse())
-        .collect::<Result<_, _>>()?;
+    for v in &args.vary {
+        v.parse::<Variable>()?;
+    }
     for c in &args.constraints {
         c.parse::<Constraint>()
             .map_err(crate::analysis::sweep::SpecError::from)?;
@@ -120,30 +117,9 @@ pub fn run(args: Args) -> Result<(), Error> {
     };
     let json = serde_json::to_vec_pretty(&report).map_err(ReportError::from)?;
     if let Some(out) = &args.out {
-        let mut header = vec!["stage".to_string()];
-        header.extend(vary.iter().map(|v| v.path.clone()));
-        header.push(outcome.objective.0.clone());
-        header.extend(constraints.iter().map(|c| c.figure.clone()));
-        header.extend(constraints.iter().filter_map(|c| c.other.clone()));
-        header.push("error".into());
-        let csv_err = |e: ::csv::Error| Error::from(ReportError::from(e));
-        let mut csv = CsvRows::new(vec![], &header).map_err(csv_err)?;
-        for e in &outcome.history {
-            let mut row = vec![e.stage.clone()];
-            row.extend(e.x.iter().map(|x| cell(Some(*x))));
-            row.push(cell(e.objective));
-            row.extend(e.values.iter().map(|v| cell(*v)));
-            row.extend(
-                constraints
-                    .iter()
-                    .zip(&e.others)
-                    .filter(|(c, _)| c.other.is_some())
-                    .map(|(_, b)| cell(*b)),
-            );
-            row.push(e.error.clone().unwrap_or_default());
-            csv.write_text_row(&row).map_err(csv_err)?;
-        }
-        let csv = csv.into_inner().map_err(csv_err)?;
+        let csv = crate::report::optimize::history_table(&outcome, &constraints)
+            .csv(&|x| cell(Some(x)))
+            .map_err(|e| Error::from(ReportError::from(e)))?;
         let mut json_file = json.clone();
         json_file.push(b'\n');
         commit_files(&[

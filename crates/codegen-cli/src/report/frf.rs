@@ -10,7 +10,7 @@ use serde::Serialize;
 use crate::Error;
 use crate::analysis::frf::{Frf, FrfRequest, Io, LinearRow, NonlinearRow};
 use crate::report::plot::{PlotError, plot_receptance_svg, plot_xy_svg};
-use crate::report::rows::CsvRows;
+use crate::report::rows::{Cells, Table, TableColumn};
 use crate::report::summary::json_bytes;
 use crate::report::{OutputFile, ReportError};
 use crate::scenario;
@@ -79,48 +79,53 @@ impl From<PlotFailed> for Error {
     }
 }
 
-/// The columns of `frf.csv`: every linear value under its header (`f [Hz]`, `|H|` and phase
-/// with the generator and disconnected, real and imaginary parts, the admissible loads).
-fn linear_columns(io: &Io, linear: &[LinearRow]) -> Vec<(String, Vec<f64>)> {
+/// The table of `frf.csv`: every linear value under its name and unit (`f [Hz]`, `|H|` and
+/// phase with the generator and disconnected, real and imaginary parts, the admissible
+/// loads, per connected generator its current, voltage and load power per unit force).
+fn linear_table(io: &Io, linear: &[LinearRow]) -> Table {
     let unit = io.unit();
     let force_unit = io.force_unit;
-    let column = |name: String, of: &dyn Fn(&LinearRow) -> f64| -> (String, Vec<f64>) {
-        (name, linear.iter().map(of).collect())
+    let column = |name: String, unit: &str, of: &dyn Fn(&LinearRow) -> f64| {
+        TableColumn::new(
+            name,
+            Some(unit),
+            Cells::Numbers(linear.iter().map(|r| Some(of(r))).collect()),
+        )
     };
     let mut columns = vec![
-        column("f [Hz]".into(), &|r| r.f_hz),
-        column(format!("|H| with generator [{unit}]"), &|r| {
+        column("f".into(), "Hz", &|r| r.f_hz),
+        column("|H| with generator".into(), &unit, &|r| {
             r.with_generator.magnitude
         }),
-        column("phase with generator [deg]".into(), &|r| {
+        column("phase with generator".into(), "deg", &|r| {
             r.with_generator.phase_deg
         }),
-        column(format!("|H| generator disconnected [{unit}]"), &|r| {
+        column("|H| generator disconnected".into(), &unit, &|r| {
             r.generator_disconnected.magnitude
         }),
-        column("phase generator disconnected [deg]".into(), &|r| {
+        column("phase generator disconnected".into(), "deg", &|r| {
             r.generator_disconnected.phase_deg
         }),
-        column(format!("Re H with generator [{unit}]"), &|r| {
+        column("Re H with generator".into(), &unit, &|r| {
             r.with_generator.re
         }),
-        column(format!("Im H with generator [{unit}]"), &|r| {
+        column("Im H with generator".into(), &unit, &|r| {
             r.with_generator.im
         }),
-        column(format!("Re H generator disconnected [{unit}]"), &|r| {
+        column("Re H generator disconnected".into(), &unit, &|r| {
             r.generator_disconnected.re
         }),
-        column(format!("Im H generator disconnected [{unit}]"), &|r| {
+        column("Im H generator disconnected".into(), &unit, &|r| {
             r.generator_disconnected.im
         }),
     ];
     for (k, l) in io.limits.iter().enumerate() {
         let name = if io.limits.len() == 1 {
-            format!("max_force [{force_unit}]")
+            "max_force".to_string()
         } else {
-            format!("{}.max_force [{force_unit}]", l.name)
+            format!("{}.max_force", l.name)
         };
-        columns.push(column(name, &|r| r.max_force[k]));
+        columns.push(column(name, force_unit, &|r| r.max_force[k]));
     }
     // Per connected generator: current, terminal voltage and load power per unit force
     // (`A/N`, `V/N`, `W/N^2`; `W/(N m)^2` for a torque).
@@ -136,18 +141,19 @@ fn linear_columns(io: &Io, linear: &[LinearRow]) -> Vec<(String, Vec<f64>)> {
         .map(|r| r.generators.iter().map(|g| g.name.clone()).collect())
         .unwrap_or_default();
     for (k, name) in names.iter().enumerate() {
-        columns.push(column(format!("{name}.current [{}]", per("A")), &|r| {
+        columns.push(column(format!("{name}.current"), &per("A"), &|r| {
             r.generators[k].current
         }));
-        columns.push(column(format!("{name}.voltage [{}]", per("V")), &|r| {
+        columns.push(column(format!("{name}.voltage"), &per("V"), &|r| {
             r.generators[k].voltage
         }));
         columns.push(column(
-            format!("{name}.load_power [{}^2]", per("W")),
+            format!("{name}.load_power"),
+            &format!("{}^2", per("W")),
             &|r| r.generators[k].load_power,
         ));
     }
-    columns
+    Table::new(columns)
 }
 
 /// A number as the CSVs print it.
@@ -155,115 +161,72 @@ fn number(v: f64) -> String {
     format!("{v:e}")
 }
 
-/// A column of `frf_nonlinear.csv`, typed as its cells read.
-#[derive(Clone, Debug, PartialEq)]
-#[non_exhaustive]
-pub enum NonlinearColumn {
-    /// Numbers (`{:e}`); `None`, an empty cell: the run stopped (or did not settle, for
-    /// the measured load powers).
-    Numbers(Vec<Option<f64>>),
-    /// Counts (`periods`).
-    Counts(Vec<usize>),
-    /// Yes or no (`settled`: `true` / `false`).
-    Flags(Vec<bool>),
-    /// Text (`error`: why the run stopped; `None`, an empty cell: it did not).
-    Texts(Vec<Option<String>>),
-}
-
-impl NonlinearColumn {
-    /// Row `i`'s cell as the CSV prints it.
-    fn cell(&self, i: usize) -> String {
-        match self {
-            NonlinearColumn::Numbers(v) => v[i].map_or_else(String::new, number),
-            NonlinearColumn::Counts(v) => v[i].to_string(),
-            NonlinearColumn::Flags(v) => v[i].to_string(),
-            NonlinearColumn::Texts(v) => v[i].clone().unwrap_or_default(),
-        }
-    }
-}
-
-/// The columns of `frf_nonlinear.csv`: the frequency, the measured amplitude, `|H|` and
+/// The table of `frf_nonlinear.csv`: the frequency, the measured amplitude, `|H|` and
 /// phase, the linear ones at the same frequency, periods, settled, distortion, time step,
-/// per connected generator the measured and linear load powers, and the error.
-fn nonlinear_columns(
-    io: &Io,
-    linear: &[LinearRow],
-    nl: &[NonlinearRow],
-) -> Vec<(String, NonlinearColumn)> {
+/// per connected generator the measured and linear load powers, and the error (an empty
+/// number: the run stopped, or did not settle for the measured load powers).
+fn nonlinear_table(io: &Io, linear: &[LinearRow], nl: &[NonlinearRow]) -> Table {
     let unit = io.unit();
-    let numbers = |name: String, of: &dyn Fn(&NonlinearRow) -> Option<f64>| {
-        (name, NonlinearColumn::Numbers(nl.iter().map(of).collect()))
+    let numbers = |name: String, unit: &str, of: &dyn Fn(&NonlinearRow) -> Option<f64>| {
+        TableColumn::new(
+            name,
+            Some(unit),
+            Cells::Numbers(nl.iter().map(of).collect()),
+        )
     };
     let mut columns = vec![
-        numbers("f [Hz]".into(), &|r| Some(r.f_hz)),
-        numbers(format!("amplitude [{}]", io.response_unit), &|r| {
-            r.amplitude
-        }),
-        numbers(format!("|H| [{unit}]"), &|r| r.magnitude),
-        numbers("phase [deg]".into(), &|r| r.phase_deg),
-        numbers(format!("|H| linear [{unit}]"), &|r| {
-            Some(r.linear.magnitude)
-        }),
-        numbers("phase linear [deg]".into(), &|r| Some(r.linear.phase_deg)),
-        (
-            "periods".into(),
-            NonlinearColumn::Counts(nl.iter().map(|r| r.periods).collect()),
+        numbers("f".into(), "Hz", &|r| Some(r.f_hz)),
+        numbers("amplitude".into(), io.response_unit, &|r| r.amplitude),
+        numbers("|H|".into(), &unit, &|r| r.magnitude),
+        numbers("phase".into(), "deg", &|r| r.phase_deg),
+        numbers("|H| linear".into(), &unit, &|r| Some(r.linear.magnitude)),
+        numbers("phase linear".into(), "deg", &|r| Some(r.linear.phase_deg)),
+        TableColumn::new(
+            "periods",
+            None,
+            Cells::Counts(nl.iter().map(|r| r.periods).collect()),
         ),
-        (
-            "settled".into(),
-            NonlinearColumn::Flags(nl.iter().map(|r| r.settled).collect()),
+        TableColumn::new(
+            "settled",
+            None,
+            Cells::Flags(nl.iter().map(|r| r.settled).collect()),
         ),
-        numbers("distortion [-]".into(), &|r| r.distortion),
-        numbers("dt [s]".into(), &|r| Some(r.dt)),
+        numbers("distortion".into(), "-", &|r| r.distortion),
+        numbers("dt".into(), "s", &|r| Some(r.dt)),
     ];
     let names: Vec<&str> = linear
         .first()
         .map(|r| r.generators.iter().map(|g| g.name.as_str()).collect())
         .unwrap_or_default();
     for (k, name) in names.iter().enumerate() {
-        columns.push(numbers(format!("{name}.load_power [W]"), &|r| {
+        columns.push(numbers(format!("{name}.load_power"), "W", &|r| {
             r.load_power.get(k).copied()
         }));
-        columns.push(numbers(format!("{name}.load_power linear [W]"), &|r| {
+        columns.push(numbers(format!("{name}.load_power linear"), "W", &|r| {
             Some(r.load_power_linear[k])
         }));
     }
-    columns.push((
-        "error".into(),
-        NonlinearColumn::Texts(nl.iter().map(|r| r.error.clone()).collect()),
+    columns.push(TableColumn::new(
+        "error",
+        None,
+        Cells::Texts(nl.iter().map(|r| r.error.clone()).collect()),
     ));
-    columns
-}
-
-/// The CSV of `columns` (`rows` rows, row `i` of a column printed by `cell`) through the
-/// one CSV writer.
-fn columns_bytes<C>(
-    columns: &[(String, C)],
-    rows: usize,
-    cell: impl Fn(&C, usize) -> String,
-) -> Result<Vec<u8>, ReportError> {
-    let header: Vec<String> = columns.iter().map(|(h, _)| h.clone()).collect();
-    let mut w = CsvRows::new(Vec::new(), &header)?;
-    for i in 0..rows {
-        let row: Vec<String> = columns.iter().map(|(_, c)| cell(c, i)).collect();
-        w.write_text_row(&row)?;
-    }
-    Ok(w.into_inner()?)
+    Table::new(columns)
 }
 
 impl Frf {
-    /// The columns of `frf.csv` (the same headers), one number per frequency.
-    pub fn columns(&self) -> Vec<(String, Vec<f64>)> {
-        linear_columns(&self.io, &self.linear)
+    /// The table of `frf.csv` (built by the code that writes the file), one row per
+    /// frequency.
+    pub fn table(&self) -> Table {
+        linear_table(&self.io, &self.linear)
     }
 
-    /// With `nonlinear`, the columns of `frf_nonlinear.csv` (the same headers, the same
-    /// values; built by the code that writes the file), one cell per frequency, typed as
-    /// the cells read ([`NonlinearColumn`]: numbers with `None` for an empty cell, `periods`
-    /// as counts, `settled` as flags, `error` as text).
-    pub fn nonlinear_columns(&self) -> Option<Vec<(String, NonlinearColumn)>> {
+    /// With `nonlinear`, the table of `frf_nonlinear.csv` (built by the code that writes
+    /// the file), one row per frequency of the runs, typed as the cells read (numbers with
+    /// `None` for an empty cell, `periods` as counts, `settled` as flags, `error` as text).
+    pub fn nonlinear_table(&self) -> Option<Table> {
         let nl = self.nonlinear.as_deref()?;
-        Some(nonlinear_columns(&self.io, &self.linear, nl))
+        Some(nonlinear_table(&self.io, &self.linear, nl))
     }
 }
 
@@ -287,17 +250,15 @@ pub fn outputs(
         .map(|w| w.message.as_str())
         .collect();
     let unit = io.unit();
-    let columns = linear_columns(io, linear);
+    let csv_error = |e: ::csv::Error| Error::from(ReportError::from(e));
     let mut files = vec![OutputFile {
         path: out.join("frf.csv"),
-        bytes: columns_bytes(&columns, linear.len(), |c: &Vec<f64>, i| number(c[i]))
-            .map_err(Error::from)?,
+        bytes: frf.table().csv(&number).map_err(csv_error)?,
     }];
-    if let Some(nl) = nonlinear {
-        let columns = nonlinear_columns(io, linear, nl);
+    if let Some(table) = frf.nonlinear_table() {
         files.push(OutputFile {
             path: out.join("frf_nonlinear.csv"),
-            bytes: columns_bytes(&columns, nl.len(), NonlinearColumn::cell).map_err(Error::from)?,
+            bytes: table.csv(&number).map_err(csv_error)?,
         });
     }
     let json = FrfJson {

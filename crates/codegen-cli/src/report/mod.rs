@@ -11,6 +11,7 @@ pub mod lock;
 pub mod map;
 pub mod mechanism;
 pub mod op_counts;
+pub mod optimize;
 pub mod plot;
 pub mod random_run;
 pub mod rows;

@@ -5,10 +5,18 @@
 //! column under the same header, the numbers as computed (the CSV prints them in shortest
 //! round-trip form, so they read back bit for bit; a non-finite number, an empty CSV cell,
 //! is kept as it is).
+//!
+//! A table of results (`sweep.csv`, `frf.csv`, `frf_nonlinear.csv`, the optimiser's
+//! history) is a [`Table`]: typed columns, each with its name and unit, built once by the
+//! report and either written as the CSV ([`Table::csv`]) or handed to the Python package as
+//! they are — so the file and Python's result have the same columns, by construction.
 
 use std::io::Write;
 
+use toml_edit::Value;
+
 use super::csv::cell;
+use crate::scenario::overrides::value_text;
 
 /// A time history's destination: a header once, then one row of numbers at a time.
 pub trait RowSink {
@@ -116,6 +124,141 @@ impl RowSink for ColumnRows {
     }
 }
 
+/// The cells of one column of a [`Table`], typed as they read.
+#[derive(Clone, Debug)]
+#[non_exhaustive]
+pub enum Cells {
+    /// Numbers; `None`, an empty cell (absent, or the run stopped).
+    Numbers(Vec<Option<f64>>),
+    /// Counts (a sweep's `index`, the nonlinear runs' `periods`).
+    Counts(Vec<usize>),
+    /// Yes or no (`true` / `false`).
+    Flags(Vec<bool>),
+    /// Text; `None`, an empty cell (`error`: the point did not fail).
+    Texts(Vec<Option<String>>),
+    /// Scenario values (a sweep's axis: numbers, integers, strings as the `--set` wrote
+    /// them).
+    Values(Vec<Value>),
+}
+
+impl Cells {
+    /// The number of cells.
+    pub fn len(&self) -> usize {
+        match self {
+            Cells::Numbers(v) => v.len(),
+            Cells::Counts(v) => v.len(),
+            Cells::Flags(v) => v.len(),
+            Cells::Texts(v) => v.len(),
+            Cells::Values(v) => v.len(),
+        }
+    }
+
+    /// No cells.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Cell `i` as the CSV prints it, numbers (and float values) by `number`.
+    fn cell(&self, i: usize, number: &dyn Fn(f64) -> String) -> String {
+        match self {
+            Cells::Numbers(v) => v[i].map_or_else(String::new, number),
+            Cells::Counts(v) => v[i].to_string(),
+            Cells::Flags(v) => v[i].to_string(),
+            Cells::Texts(v) => v[i].clone().unwrap_or_default(),
+            Cells::Values(v) => match &v[i] {
+                Value::Float(f) => number(*f.value()),
+                Value::Integer(n) => n.value().to_string(),
+                Value::String(s) => s.value().clone(),
+                v => value_text(v),
+            },
+        }
+    }
+}
+
+/// One column of a [`Table`]: its CSV header is `name [unit]`, or `name` without a unit.
+#[derive(Clone, Debug)]
+pub struct TableColumn {
+    /// The name (a figure's, a field's PATH, `index`, `error`).
+    pub name: String,
+    /// The unit (`-` for a ratio), `None` for a column without one.
+    pub unit: Option<String>,
+    /// The cells, one per row.
+    pub cells: Cells,
+}
+
+impl TableColumn {
+    /// A column of `cells` named `name`, in `unit`.
+    pub fn new(name: impl Into<String>, unit: Option<&str>, cells: Cells) -> TableColumn {
+        TableColumn {
+            name: name.into(),
+            unit: unit.map(str::to_string),
+            cells,
+        }
+    }
+
+    /// The CSV header: `name [unit]`, or `name`.
+    pub fn header(&self) -> String {
+        match &self.unit {
+            Some(u) => format!("{} [{u}]", self.name),
+            None => self.name.clone(),
+        }
+    }
+}
+
+/// A table of results: typed columns of equal length (see the module documentation).
+#[derive(Clone, Debug, Default)]
+pub struct Table {
+    /// The columns, in the CSV's order.
+    pub columns: Vec<TableColumn>,
+}
+
+impl Table {
+    /// The table of these columns.
+    ///
+    /// # Panics
+    ///
+    /// When the columns differ in length (a bug of the report that builds them).
+    pub fn new(columns: Vec<TableColumn>) -> Table {
+        let rows = columns.first().map_or(0, |c| c.cells.len());
+        assert!(
+            columns.iter().all(|c| c.cells.len() == rows),
+            "Table: columns of different lengths"
+        );
+        Table { columns }
+    }
+
+    /// The number of rows.
+    pub fn rows(&self) -> usize {
+        self.columns.first().map_or(0, |c| c.cells.len())
+    }
+
+    /// The CSV header.
+    pub fn header(&self) -> Vec<String> {
+        self.columns.iter().map(TableColumn::header).collect()
+    }
+
+    /// The CSV text through the one CSV writer ([`CsvRows`]), numbers printed by `number`.
+    pub fn csv(&self, number: &dyn Fn(f64) -> String) -> Result<Vec<u8>, csv::Error> {
+        let mut w = CsvRows::new(Vec::new(), &self.header())?;
+        let mut row = Vec::with_capacity(self.columns.len());
+        for i in 0..self.rows() {
+            row.clear();
+            row.extend(self.columns.iter().map(|c| c.cells.cell(i, number)));
+            w.write_text_row(&row)?;
+        }
+        w.into_inner()
+    }
+}
+
+/// A time history's header split into the name and the unit (`"t [s]"` → `("t", Some("s"))`,
+/// `"index"` → `("index", None)`), as [`TableColumn::header`] joins them.
+pub fn split_header(header: &str) -> (&str, Option<&str>) {
+    header
+        .strip_suffix(']')
+        .and_then(|h| h.rsplit_once(" ["))
+        .map_or((header, None), |(n, u)| (n, Some(u)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -129,6 +272,39 @@ mod tests {
         assert_eq!(rows.rows(), 2);
         let text = String::from_utf8(rows.into_inner().unwrap()).unwrap();
         assert_eq!(text, "t [s],w [m]\n0,1e-5\n0.5,\n");
+    }
+
+    #[test]
+    fn a_table_prints_every_kind_of_cell_and_its_headers_split_back() {
+        let table = Table::new(vec![
+            TableColumn::new("index", None, Cells::Counts(vec![0, 1])),
+            TableColumn::new(
+                "a.b",
+                None,
+                Cells::Values(vec![Value::from(2.5), Value::from(3)]),
+            ),
+            TableColumn::new(
+                "linear.zeta1",
+                Some("-"),
+                Cells::Numbers(vec![Some(0.1), None]),
+            ),
+            TableColumn::new("settled", None, Cells::Flags(vec![true, false])),
+            TableColumn::new(
+                "error",
+                None,
+                Cells::Texts(vec![None, Some("no, \"this\"".into())]),
+            ),
+        ]);
+        let text = String::from_utf8(table.csv(&|x| cell(Some(x))).unwrap()).unwrap();
+        assert_eq!(
+            text,
+            "index,a.b,linear.zeta1 [-],settled,error\n0,2.5,0.1,true,\n1,3,,false,\"no, \"\"this\"\"\"\n"
+        );
+        for c in &table.columns {
+            let h = c.header();
+            assert_eq!(split_header(&h), (c.name.as_str(), c.unit.as_deref()));
+        }
+        assert_eq!(split_header("x [m] y"), ("x [m] y", None));
     }
 
     #[test]

@@ -11,6 +11,7 @@ use crate::Error;
 use crate::analysis::sweep::grid::number;
 use crate::analysis::sweep::{Design, Grid, PointResult, SweepSpec, figure_heads, margin};
 use crate::report::csv::cell;
+use crate::report::rows::{Cells, Table, TableColumn};
 use crate::report::{OutputFile, ReportError};
 use crate::scenario::overrides::{json_value, value_text};
 
@@ -82,45 +83,20 @@ pub fn outputs(
             .find(|f| f.name == name)
             .and_then(|f| f.value)
     };
-    let param_cell = |v: &Value| match v {
-        Value::Float(f) => cell(Some(*f.value())),
-        Value::Integer(i) => i.value().to_string(),
-        Value::String(s) => s.value().clone(),
-        v => value_text(v),
-    };
     let design = Design::of(spec, &rows)?;
-    let mut csv = ::csv::Writer::from_writer(vec![]);
-    let mut header = vec!["index".to_string()];
-    header.extend(grid.axes.iter().map(|a| a.path.clone()));
-    header.extend(heads.iter().map(|(n, u)| format!("{n} [{u}]")));
-    header.push("error".into());
-    if spec.time_domain {
-        header.push("time_domain_error".into());
-    }
-    let csv_err = |e: ::csv::Error| Error::from(ReportError::from(e));
-    csv.write_record(&header).map_err(csv_err)?;
-    let mut points = vec![];
-    for r in &rows {
-        let values = grid.point(r.index);
-        let mut record = vec![r.index.to_string()];
-        record.extend(values.iter().map(|v| param_cell(v)));
-        record.extend(heads.iter().map(|(n, _)| cell(value_of(r, n))));
-        record.push(r.error.clone().unwrap_or_default());
-        if spec.time_domain {
-            record.push(r.time_domain_error.clone().unwrap_or_default());
-        }
-        csv.write_record(&record).map_err(csv_err)?;
-        points.push(PointJson {
+    let csv = table(grid, spec.time_domain, &rows)
+        .csv(&|x| cell(Some(x)))
+        .map_err(|e| Error::from(ReportError::from(e)))?;
+    let points = rows
+        .iter()
+        .map(|r| PointJson {
             index: r.index,
-            parameters: values.iter().map(|v| json_value(v)).collect(),
+            parameters: grid.point(r.index).iter().map(|v| json_value(v)).collect(),
             figures: heads.iter().map(|(n, _)| value_of(r, n)).collect(),
             error: r.error.as_deref(),
             time_domain_error: r.time_domain_error.as_deref(),
-        });
-    }
-    let csv = csv
-        .into_inner()
-        .map_err(|e| csv_err(e.into_error().into()))?;
+        })
+        .collect();
     let json = SweepJson {
         spec,
         parameters: grid.axes.iter().map(|a| a.path.as_str()).collect(),
@@ -155,6 +131,50 @@ pub fn outputs(
     files.extend(plots(out, spec, grid, &rows)?);
     files.extend(design_map(out, spec, grid, &rows, &design)?);
     Ok(files)
+}
+
+/// The table of `sweep.csv` (what Python's `Scenario.sweep` returns): `index`, each swept
+/// PATH (its values as written), every figure under its name and unit in order of first
+/// appearance over `rows` (in grid order; an empty cell where a point does not give it),
+/// `error` and, with `time_domain`, `time_domain_error`; one row per point of `rows`, in
+/// their order.
+pub fn table(grid: &Grid, time_domain: bool, rows: &[&PointResult]) -> Table {
+    let mut columns = vec![TableColumn::new(
+        "index",
+        None,
+        Cells::Counts(rows.iter().map(|r| r.index).collect()),
+    )];
+    for (k, axis) in grid.axes.iter().enumerate() {
+        let values = rows
+            .iter()
+            .map(|r| grid.point(r.index)[k].clone())
+            .collect();
+        columns.push(TableColumn::new(&axis.path, None, Cells::Values(values)));
+    }
+    for (name, unit) in figure_heads(rows) {
+        let values = rows
+            .iter()
+            .map(|r| {
+                r.figures
+                    .iter()
+                    .find(|f| f.name == name)
+                    .and_then(|f| f.value)
+            })
+            .collect();
+        columns.push(TableColumn::new(name, Some(unit), Cells::Numbers(values)));
+    }
+    let texts = |of: &dyn Fn(&PointResult) -> Option<String>| {
+        Cells::Texts(rows.iter().map(|r| of(r)).collect())
+    };
+    columns.push(TableColumn::new("error", None, texts(&|r| r.error.clone())));
+    if time_domain {
+        columns.push(TableColumn::new(
+            "time_domain_error",
+            None,
+            texts(&|r| r.time_domain_error.clone()),
+        ));
+    }
+    Table::new(columns)
 }
 
 /// `sweep_map_<FIGURE>.svg` of a sweep with exactly two swept fields of more than one

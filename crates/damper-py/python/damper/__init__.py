@@ -5,14 +5,19 @@ command line's ``--set`` overrides), simulations whose time histories are numpy 
 columns of the CSV the command writes, same names, same numbers), the summary as the
 ``summary.json`` object, the linearisation with its modes and reduced matrices, frequency
 responses, sweeps, the optimiser, and mechanism models evaluated by the three backends.
+Results are typed (``results``): tables of named columns with their units as metadata,
+``to_pandas()``, notebook representations and matplotlib plots; they pickle, and a sweep
+splits into shards (``Scenario.sweep_shard``, ``merge_sweep``) for a distributed engine.
 
 Example::
 
     import damper
     sc = damper.Scenario.load("scenarios/damper.toml", set={"integrator.t_end": 1.0})
     run = sc.simulate()
-    t, w = run["t [s]"], run[run.columns[1]]
+    t, w = run["t"], run[run.columns[1]]      # by name; run.units["t"] == "s"
     print(run.summary["damping_ratio"])
+    sweep = sc.sweep({"mechanism.half_angle_deg": "3:25:23"})
+    sweep["linear.zeta1"], sweep.units["linear.zeta1"]
 
 Errors: ``ScenarioError`` / ``ModelError`` (subclasses of ``ValueError``) carry ``file``,
 ``line``, ``column``, ``entity`` and ``message``; a run stopped at the singular (toggle)
@@ -34,6 +39,7 @@ other threads run to their end.
 
 from __future__ import annotations
 
+import json
 import os
 from typing import Any, Dict, Iterable, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
@@ -52,18 +58,26 @@ from ._damper import (  # the typed failures, subclasses of DamperError
     UnknownName,
     WorkLimitError,
 )
+from .results import FrfResult, Optimum, RandomResult, Run, SweepResult, Table, _equal
 
 __all__ = [
     "DamperError",
     "DamperWarning",
+    "FrfResult",
     "Linearization",
     "Mode",
     "Model",
     "ModelError",
+    "Optimum",
+    "RandomResult",
     "Run",
     "Scenario",
     "ScenarioError",
     "SingularPosition",
+    "SweepPart",
+    "SweepResult",
+    "Table",
+    "merge_sweep",
 ]
 __all__ += [
     "ArgumentError",
@@ -127,59 +141,6 @@ def _real(value: Any, what: str) -> float:
     return float(value)
 
 
-class Run:
-    """One simulated run: its time history as columns and its summary.
-
-    ``columns`` are the CSV header's names with their units (``"t [s]"``, ...); ``run[name]``
-    is that column as a 1-D ``numpy.ndarray`` (the numbers the CSV prints, NaN where the CSV
-    cell is empty). ``summary`` is the ``summary.json`` object (for a comparison run, its block
-    of the summary's ``comparisons``); ``comparisons`` maps each comparison run of ``[output]
-    compare`` (``"generator_disconnected"``, ``"bare_beam"``) to its ``Run``.
-    """
-
-    def __init__(
-        self,
-        columns: Sequence[Tuple[str, "np.ndarray"]],
-        summary: Dict[str, Any],
-        comparisons: Optional[Dict[str, "Run"]] = None,
-    ) -> None:
-        self._data: Dict[str, np.ndarray] = dict(columns)
-        self.columns: List[str] = [name for name, _ in columns]
-        self.summary: Dict[str, Any] = summary
-        self.comparisons: Dict[str, Run] = comparisons or {}
-
-    def __getitem__(self, name: str) -> "np.ndarray":
-        try:
-            return self._data[name]
-        except KeyError:
-            raise KeyError(f"no column {name!r}; columns: {', '.join(self.columns)}") from None
-
-    def __contains__(self, name: object) -> bool:
-        return name in self._data
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self.columns)
-
-    def __len__(self) -> int:
-        """The number of rows."""
-        return len(self._data[self.columns[0]]) if self.columns else 0
-
-    def to_dict(self) -> Dict[str, "np.ndarray"]:
-        """Every column by name (the arrays themselves, not copies)."""
-        return {name: self._data[name] for name in self.columns}
-
-    def to_pandas(self) -> Any:
-        """The columns as a ``pandas.DataFrame`` (pandas is an optional dependency)."""
-        try:
-            import pandas as pd  # type: ignore[import-untyped,unused-ignore]
-        except ImportError as e:  # pragma: no cover - depends on the environment
-            raise ImportError("Run.to_pandas needs pandas: pip install pandas") from e
-        return pd.DataFrame(self.to_dict(), columns=self.columns)
-
-    def __repr__(self) -> str:
-        return f"Run({len(self)} rows, {len(self.columns)} columns, comparisons={list(self.comparisons)})"
-
-
 class Mode:
     """One mode of the linearised system, as ``damper linearize --json`` reports it.
 
@@ -207,6 +168,13 @@ class Mode:
         self.beam_shape: np.ndarray = beam_shape
         self.mechanism_shape: np.ndarray = mechanism_shape
         self.mechanism_coordinates: List[str] = mechanism_coordinates
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Mode):
+            return NotImplemented
+        return _equal(self.__dict__, other.__dict__)
+
+    __hash__ = None  # type: ignore[assignment]
 
     def __repr__(self) -> str:
         return (
@@ -244,6 +212,13 @@ class Linearization:
         self.M_R: Optional[np.ndarray] = m
         self.C_R: Optional[np.ndarray] = c
         self.K_R: Optional[np.ndarray] = k
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Linearization):
+            return NotImplemented
+        return _equal(self.__dict__, other.__dict__)
+
+    __hash__ = None  # type: ignore[assignment]
 
     def __repr__(self) -> str:
         size = "" if self.M_R is None else f", {self.M_R.shape[0]} coordinates"
@@ -348,15 +323,14 @@ class Scenario:
         tolerance: float = 1e-3,
         max_periods: int = 1000,
         allow_long: bool = False,
-    ) -> Dict[str, Any]:
-        """The frequency response (``damper frf``): the columns of ``frf.csv`` by name
-        (``"f [Hz]"``, ``"|H| with generator [m/N]"``, ...) as arrays. ``output``: a beam
-        abscissa (m) or ``"MECHANISM/COORDINATE"``.
+    ) -> FrfResult:
+        """The frequency response (``damper frf``): a ``FrfResult``, the table of ``frf.csv``
+        (``frf["f"]``, ``frf["|H| with generator"]`` with its unit in ``frf.units``, ...).
+        ``output``: a beam abscissa (m) or ``"MECHANISM/COORDINATE"``.
 
         ``nonlinear=M`` (``--nonlinear M``) adds the nonlinear steady states from time-domain
         runs at ``M`` frequencies (``steps_per_period``, ``tolerance``, ``max_periods`` as the
-        command's options) under the key ``"nonlinear"``: the columns of
-        ``frf_nonlinear.csv`` by name, the numbers as float arrays (NaN where the CSV cell is
+        command's options) as ``result.nonlinear``: the table of ``frf_nonlinear.csv``, the numbers as float arrays (NaN where the CSV cell is
         empty), ``"periods"`` an int array, ``"settled"`` a bool array, ``"error"`` a list of
         ``str`` or ``None``. The runs release the GIL and Ctrl-C stops them
         (``KeyboardInterrupt``); above the command's limits they are refused
@@ -364,15 +338,12 @@ class Scenario:
         an edge of the band) are issued as ``DamperWarning``."""
         if not isinstance(output, str):
             output = repr(_real(output, "output"))
-        cols, nl = _damper.frf(
+        cols, nl, warnings = _damper.frf(
             *self._src(), output, _real(f_from, "f_from"), _real(f_to, "f_to"), points, log, excitation,
             None if force is None else _real(force, "force"),
             nonlinear, steps_per_period, _real(tolerance, "tolerance"), max_periods, allow_long,
         )
-        result: Dict[str, Any] = dict(cols)
-        if nl is not None:
-            result["nonlinear"] = dict(nl)
-        return result
+        return FrfResult(cols, nl, warnings)
 
     def sweep(
         self,
@@ -380,13 +351,37 @@ class Scenario:
         time_domain: bool = False,
         threads: Optional[int] = None,
         allow_long: bool = False,
-    ) -> Dict[str, Any]:
+    ) -> SweepResult:
         """A sweep (``damper sweep``) over the grid of ``axes`` (``{path: values}``, the values
-        a list or a VALUES string such as ``"30:60:7"``): the columns of ``sweep.csv`` by
-        name — ``index``, each axis, each figure ``"name [unit]"`` as an array (NaN where a
-        point does not give it), ``error`` (and ``time_domain_error``) as lists of ``str`` or
-        ``None``."""
-        return dict(_damper.sweep_grid(*self._src(), _items(axes, "axes"), time_domain, threads, allow_long))
+        a list or a VALUES string such as ``"30:60:7"``): a ``SweepResult``, the table of
+        ``sweep.csv`` — ``index``, each axis (a list of its values), each figure as an
+        array (NaN where a point does not give it; ``units[figure]``), ``error`` (and
+        ``time_domain_error``) as lists of ``str`` or ``None``."""
+        return SweepResult(_damper.sweep_grid(*self._src(), _items(axes, "axes"), time_domain, threads, allow_long))
+
+    def sweep_points(self, axes: Mapping[str, Union[str, Sequence[Any]]], allow_long: bool = False) -> List[Dict[str, Any]]:
+        """The points of the grid of ``axes`` (as ``sweep`` takes them), in grid order (the
+        last axis varying fastest): ``{path: value}`` each. Point ``i`` is shard ``i`` of
+        ``len(points)`` (``sweep_shard``)."""
+        paths, points = _damper.sweep_points(_items(axes, "axes"), allow_long)
+        return [dict(zip(paths, p)) for p in points]
+
+    def sweep_shard(
+        self,
+        axes: Mapping[str, Union[str, Sequence[Any]]],
+        shard: int,
+        shards: int,
+        time_domain: bool = False,
+        threads: Optional[int] = None,
+        allow_long: bool = False,
+    ) -> "SweepPart":
+        """Shard ``shard`` of ``shards`` of the sweep over ``axes`` (``damper sweep --shard
+        I/N``: the points with ``index % shards == shard``), as a ``SweepPart``; the parts
+        of every shard, joined by ``merge_sweep``, give the table ``sweep`` returns and
+        ``damper sweep`` writes, cell for cell."""
+        return SweepPart(
+            _damper.sweep_shard(*self._src(), _items(axes, "axes"), shard, shards, time_domain, threads, allow_long)
+        )
 
     def optimize(
         self,
@@ -396,11 +391,12 @@ class Scenario:
         constraints: Sequence[str] = (),
         grid: int = 5,
         allow_long: bool = False,
-    ) -> Dict[str, Any]:
-        """The best design (``damper optimize --json``): ``vary`` maps paths to bounds
-        ``(lo, hi)``, one of ``maximize`` / ``minimize`` names the figure (``"zeta1"``, ...),
-        ``constraints`` as ``"reach>=0.002"``. Returns the JSON object (``optimum``,
-        ``objective``, ``constraints``, ``kkt_residual``, ``gradients``, ``history``, ...)."""
+    ) -> Optimum:
+        """The best design (``damper optimize``): ``vary`` maps paths to bounds ``(lo,
+        hi)``, one of ``maximize`` / ``minimize`` names the figure (``"zeta1"``, ...),
+        ``constraints`` as ``"reach>=0.002"``. Returns an ``Optimum``: ``x``, ``objective``,
+        ``constraints``, ``kkt_residual``, ``history`` (the table of
+        ``optimize_history.csv``) and ``report`` (the ``damper optimize --json`` object)."""
         if maximize is not None and minimize is None:
             objective, up = maximize, True
         elif minimize is not None and maximize is None:
@@ -413,9 +409,10 @@ class Scenario:
                 raise TypeError(f"vary[{p!r}] must be a pair (lo, hi), not {bounds!r}")
             lo, hi = bounds
             specs.append(f"{p}={_num(_real(lo, f'vary[{p!r}] lo'))}:{_num(_real(hi, f'vary[{p!r}] hi'))}")
-        return dict(
-            _damper.optimize(*self._src(), specs, objective, up, _names(constraints, "constraints"), grid, allow_long)
+        report, history = _damper.optimize(
+            *self._src(), specs, objective, up, _names(constraints, "constraints"), grid, allow_long
         )
+        return Optimum(dict(report), history)
 
     def random(
         self,
@@ -423,16 +420,17 @@ class Scenario:
         method: str = "auto",
         modes: int = 20,
         allow_long: bool = False,
-    ) -> Dict[str, Any]:
+    ) -> RandomResult:
         """The linear stationary response to the scenario's random excitations
-        (``damper random --json``): ``outputs`` as ``--output`` names them (default: every
+        (``damper random``), as a ``RandomResult``: ``outputs`` as ``--output`` names them (default: every
         attachment and mechanism coordinate), ``method`` one of ``"auto"``, ``"dense"``,
-        ``"modal"``, ``"quadrature"``, ``modes`` the modal basis. Returns the JSON object
-        (``outputs``: ``{name, unit, rms}``, ``generators``: ``{name, rms_current,
-        rms_rotor_speed, mean_power_dissipated, mean_power_load}``, ``method``, ...). One
+        ``"modal"``, ``"quadrature"``, ``modes`` the modal basis. The result's ``report`` is the ``damper random
+        --json`` object (``outputs``: ``{name, unit, rms}``, ``generators``: ``{name,
+        rms_current, rms_rotor_speed, mean_power_dissipated, mean_power_load}``, ``method``,
+        ...). One
         ``str`` is one output name. Refused above the limits of ``damper random`` unless
         ``allow_long``."""
-        return dict(_damper.random(*self._src(), _names(outputs, "outputs"), method, modes, allow_long))
+        return RandomResult(dict(_damper.random(*self._src(), _names(outputs, "outputs"), method, modes, allow_long)))
 
     def figures(self) -> List[Dict[str, Any]]:
         """The figures this scenario offers to ``sweep`` and ``optimize`` (``damper figures
@@ -440,8 +438,73 @@ class Scenario:
         one catalogue; constraints and objectives take these names."""
         return list(_damper.figures(*self._src()))
 
+    def __eq__(self, other: object) -> bool:
+        """Equal scenarios: the same text, file name, directory and overrides (a pickled
+        and unpickled scenario equals the original)."""
+        if not isinstance(other, Scenario):
+            return NotImplemented
+        return _equal((self._text, self._file, self._base, self._sets, self.kind), (other._text, other._file, other._base, other._sets, other.kind))
+
+    __hash__ = None  # type: ignore[assignment]
+
     def __repr__(self) -> str:
         return f"Scenario({self._file!r}, kind={self.kind!r}, sets={self._sets!r})"
+
+
+class SweepPart:
+    """One shard of a sweep (``Scenario.sweep_shard``): ``text`` the part file
+    ``sweep.part-I-of-N.json`` (the shard's points with the sweep's record and a checksum),
+    ``shard`` (I) and ``shards`` (N). A plain string inside: it pickles to an equal part
+    and travels to and from the workers of a distributed engine; ``merge_sweep`` joins the
+    parts of every shard, ``write(directory)`` saves it for ``damper merge``."""
+
+    def __init__(self, text: str) -> None:
+        if not isinstance(text, str):
+            raise TypeError(f"a sweep part is the text of its file (str), not {type(text).__name__}")
+        head = json.loads(text)
+        self.text: str = text
+        self.shard: int = int(head["shard"])
+        self.shards: int = int(head["shards"])
+
+    @property
+    def name(self) -> str:
+        """The part file's name, ``sweep.part-I-of-N.json``."""
+        return f"sweep.part-{self.shard}-of-{self.shards}.json"
+
+    def write(self, directory: PathLike) -> str:
+        """Writes the part file into ``directory`` (created if missing) and returns its
+        path."""
+        os.makedirs(directory, exist_ok=True)
+        path = os.path.join(os.fspath(directory), self.name)
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(self.text)
+        return path
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, SweepPart):
+            return NotImplemented
+        return self.text == other.text
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return f"SweepPart({self.shard} of {self.shards})"
+
+
+def merge_sweep(parts: Iterable[Union[SweepPart, str]], allow_long: bool = False) -> SweepResult:
+    """The parts of every shard of one sweep (``SweepPart``s, or their files' texts, in any
+    order) joined as ``damper merge`` joins them — each checked (complete, its checksum,
+    every shard once; otherwise ``ValueError`` with the one-line message of ``damper merge``, naming the part) — into the ``SweepResult``
+    of the whole sweep: the table ``damper sweep`` writes, cell for cell."""
+    texts = []
+    for p in parts:
+        if isinstance(p, SweepPart):
+            texts.append(p.text)
+        elif isinstance(p, str):
+            texts.append(p)
+        else:
+            raise TypeError(f"merge_sweep takes SweepPart objects or their texts, not {type(p).__name__}")
+    return SweepResult(_damper.sweep_merge(texts, allow_long))
 
 
 def _num(x: float) -> str:

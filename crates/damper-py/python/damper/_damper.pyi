@@ -32,10 +32,13 @@ __all__ = [
     "read_scenario",
     "simulate",
     "sweep_grid",
+    "sweep_merge",
+    "sweep_points",
+    "sweep_shard",
 ]
 
 _Sets = Sequence[Tuple[str, Any]]
-_Columns = List[Tuple[str, npt.NDArray[np.float64]]]
+_Columns = List[Tuple[str, Optional[str], Any]]
 _Shapes = List[Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], List[str]]]
 
 class ScenarioError(ValueError):
@@ -150,7 +153,7 @@ def frf(
     tolerance: float,
     max_periods: int,
     allow_long: bool,
-) -> Tuple[_Columns, Optional[List[Tuple[str, Any]]]]: ...
+) -> Tuple[_Columns, Optional[_Columns], List[str]]: ...
 def sweep_grid(
     text: str,
     file: str,
@@ -160,7 +163,21 @@ def sweep_grid(
     time_domain: bool,
     threads: Optional[int],
     allow_long: bool,
-) -> List[Tuple[str, Any]]: ...
+) -> _Columns: ...
+def sweep_shard(
+    text: str,
+    file: str,
+    base: str,
+    sets: _Sets,
+    axes: Sequence[Tuple[str, Any]],
+    shard: int,
+    shards: int,
+    time_domain: bool,
+    threads: Optional[int],
+    allow_long: bool,
+) -> str: ...
+def sweep_merge(parts: Sequence[str], allow_long: bool) -> _Columns: ...
+def sweep_points(axes: Sequence[Tuple[str, Any]], allow_long: bool) -> Tuple[List[str], List[List[Any]]]: ...
 def optimize(
     text: str,
     file: str,
@@ -172,7 +189,7 @@ def optimize(
     constraints: Sequence[str],
     grid: int,
     allow_long: bool,
-) -> Any: ...
+) -> Tuple[Any, _Columns]: ...
 def figures(text: str, file: str, base: str, sets: _Sets) -> Any: ...
 def random(
     text: str,

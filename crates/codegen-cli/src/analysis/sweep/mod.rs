@@ -199,6 +199,7 @@ pub fn evaluate(req: &SweepRequest, plan: &Plan, done: &(dyn Fn() + Sync)) -> Re
         scenario: file,
         scenario_hash: fnv1a_hex(text.as_bytes()),
         sets: req.sets.clone(),
+        fixed: fixed.iter().map(ToString::to_string).collect(),
         t_end: req.t_end.map(|t| cell(Some(t))),
         time_domain: req.time_domain,
         grid_size: grid.len(),

@@ -8,12 +8,12 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::grid::shard_points;
+use super::grid::{Grid, Shape, shard_points};
 use super::point::PointResult;
 use crate::Error;
 use crate::analysis::AnalysisError;
 use crate::analysis::figures;
-use crate::budget;
+use crate::budget::{self, Quantity};
 use crate::report::csv::cell;
 use crate::sweep_point::Figure;
 
@@ -26,6 +26,11 @@ pub struct SweepSpec {
     pub scenario_hash: String,
     /// The `--set` specs, in command-line order.
     pub sets: Vec<String>,
+    /// The overrides applied to every point before the grid's, `PATH=VALUE` (a library
+    /// caller's, e.g. Python's `Scenario.with_set`; the command line's single values are
+    /// axes of one value, in `sets`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub fixed: Vec<String>,
     /// `--t-end` (s), when given, as the text that reads back to the same number.
     pub t_end: Option<String>,
     /// `--time-domain`.
@@ -244,14 +249,14 @@ impl Part {
 }
 
 /// A merge error about `path` (a part file or the directory).
-fn merge(path: &Path, message: String) -> Error {
+fn merge_error(path: &Path, message: String) -> Error {
     AnalysisError::merge(path, message).into()
 }
 
 /// The part files in a directory (`sweep.part-*-of-*.json`), sorted by name.
 pub fn parts_in(dir: &Path) -> Result<Vec<PathBuf>, Error> {
     let entries = std::fs::read_dir(dir).map_err(|e| {
-        merge(
+        merge_error(
             dir,
             format!("cannot read the directory {}: {e}", dir.display()),
         )
@@ -266,7 +271,7 @@ pub fn parts_in(dir: &Path) -> Result<Vec<PathBuf>, Error> {
         .collect();
     parts.sort();
     if parts.is_empty() {
-        return Err(merge(
+        return Err(merge_error(
             dir,
             format!("no sweep.part-I-of-N.json in {}", dir.display()),
         ));
@@ -278,9 +283,9 @@ pub fn parts_in(dir: &Path) -> Result<Vec<PathBuf>, Error> {
 /// device would block or never end).
 pub fn part_size(path: &Path) -> Result<u64, Error> {
     let meta = std::fs::metadata(path)
-        .map_err(|e| merge(path, format!("cannot read {}: {e}", path.display())))?;
+        .map_err(|e| merge_error(path, format!("cannot read {}: {e}", path.display())))?;
     if !meta.is_file() {
-        return Err(merge(
+        return Err(merge_error(
             path,
             format!(
                 "{}: not a regular file (merge reads sweep part files only)",
@@ -292,25 +297,27 @@ pub fn part_size(path: &Path) -> Result<u64, Error> {
 }
 
 /// A part file read and checked: complete, its figures known and finite, its checksum
-/// matching its content.
+/// matching its content ([`parse_part`]).
 pub fn read_part(path: &Path) -> Result<Part, Error> {
     let bytes = std::fs::read(path)
-        .map_err(|e| merge(path, format!("cannot read {}: {e}", path.display())))?;
-    let part: Part = serde_json::from_slice(&bytes).map_err(|e| {
-        merge(
-            path,
-            format!("{}: not a complete sweep part file: {e}", path.display()),
-        )
-    })?;
+        .map_err(|e| merge_error(path, format!("cannot read {}: {e}", path.display())))?;
+    parse_part(&bytes, &path.display().to_string())
+}
+
+/// The text of a part file (`name` in messages) read and checked: complete, its figures
+/// known and finite, its checksum matching its content.
+pub fn parse_part(bytes: &[u8], name: &str) -> Result<Part, Error> {
+    let at = Path::new(name);
+    let part: Part = serde_json::from_slice(bytes)
+        .map_err(|e| merge_error(at, format!("{name}: not a complete sweep part file: {e}")))?;
     // The figures first (the more precise message), then the checksum.
     part.results()
-        .map_err(|e| merge(path, format!("{}: {e}", path.display())))?;
+        .map_err(|e| merge_error(at, format!("{name}: {e}")))?;
     if part.checksum() != part.checksum {
-        return Err(merge(
-            path,
+        return Err(merge_error(
+            at,
             format!(
-                "{}: the content does not match its checksum (the part was edited or damaged after it was written): run its shard again",
-                path.display()
+                "{name}: the content does not match its checksum (the part was edited or damaged after it was written): run its shard again"
             ),
         ));
     }
@@ -325,7 +332,7 @@ pub fn check_parts(parts: &[(PathBuf, Part)]) -> Result<Vec<PointResult>, Error>
     let mut results = vec![];
     for (path, p) in parts {
         let differ = |what: &str| {
-            merge(
+            merge_error(
                 path,
                 format!(
                     "{} and {} are parts of different sweeps (different {what})",
@@ -340,6 +347,9 @@ pub fn check_parts(parts: &[(PathBuf, Part)]) -> Result<Vec<PointResult>, Error>
         if p.sweep.sets != first.sweep.sets {
             return Err(differ("--set specs"));
         }
+        if p.sweep.fixed != first.sweep.fixed {
+            return Err(differ("fixed overrides"));
+        }
         if p.sweep != first.sweep {
             return Err(differ("options"));
         }
@@ -347,7 +357,7 @@ pub fn check_parts(parts: &[(PathBuf, Part)]) -> Result<Vec<PointResult>, Error>
             return Err(differ("shard counts"));
         }
         if p.shard >= n {
-            return Err(merge(
+            return Err(merge_error(
                 path,
                 format!(
                     "{}: shard {} of {n} is out of range",
@@ -357,7 +367,7 @@ pub fn check_parts(parts: &[(PathBuf, Part)]) -> Result<Vec<PointResult>, Error>
             ));
         }
         if let Some(other) = seen.insert(p.shard, path) {
-            return Err(merge(
+            return Err(merge_error(
                 path,
                 format!(
                     "shard {} of {n} given twice ({} and {})",
@@ -371,7 +381,7 @@ pub fn check_parts(parts: &[(PathBuf, Part)]) -> Result<Vec<PointResult>, Error>
             .iter()
             .any(|r| r.index % n != p.shard || r.index >= p.sweep.grid_size)
         {
-            return Err(merge(
+            return Err(merge_error(
                 path,
                 format!(
                     "{}: holds points that are not in shard {} of {n}",
@@ -382,7 +392,7 @@ pub fn check_parts(parts: &[(PathBuf, Part)]) -> Result<Vec<PointResult>, Error>
         }
         let expected = shard_points(p.sweep.grid_size, p.shard, n);
         if p.rows.len() != expected {
-            return Err(merge(
+            return Err(merge_error(
                 path,
                 format!(
                     "{}: holds {} of the {expected} point(s) of shard {} of {n}",
@@ -394,7 +404,7 @@ pub fn check_parts(parts: &[(PathBuf, Part)]) -> Result<Vec<PointResult>, Error>
         }
         let rows = p
             .results()
-            .map_err(|e| merge(path, format!("{}: {e}", path.display())))?;
+            .map_err(|e| merge_error(path, format!("{}: {e}", path.display())))?;
         results.extend(rows);
     }
     // At most `seen.len()` shards are present, so the first few missing ones are found
@@ -412,10 +422,52 @@ pub fn check_parts(parts: &[(PathBuf, Part)]) -> Result<Vec<PointResult>, Error>
         } else {
             String::new()
         };
-        return Err(merge(
+        return Err(merge_error(
             first_path.parent().unwrap_or(first_path),
             format!("missing shard(s) of {n}: {}{tail}", first.join(", ")),
         ));
     }
     Ok(results)
+}
+
+/// The parts of one sweep (each read and checked, [`read_part`] / [`parse_part`]) joined:
+/// the grid's size counted from the specs (overflow-checked) and equal to the recorded one,
+/// the grid and its memory within the merge's limits unless `allow_long`, every shard there
+/// once ([`check_parts`]). Returns the sweep's record, its grid and every point's result —
+/// what [`crate::report::sweep::outputs`] writes as the files of the unsharded sweep.
+pub fn merge(
+    parts: &[(PathBuf, Part)],
+    allow_long: bool,
+) -> Result<(SweepSpec, Grid, Vec<PointResult>), Error> {
+    let Some((first_path, first)) = parts.first() else {
+        return Err(merge_error(
+            Path::new("."),
+            "merge: no sweep part given".into(),
+        ));
+    };
+    let shape = Shape::of(&first.sweep.sets)
+        .map_err(|e| merge_error(first_path, format!("{}: {e}", first_path.display())))?;
+    if shape.points != first.sweep.grid_size {
+        return Err(merge_error(
+            first_path,
+            format!(
+                "{}: grid size {} does not match its specs ({} points)",
+                first_path.display(),
+                first.sweep.grid_size,
+                shape.points
+            ),
+        ));
+    }
+    budget::refuse_above(
+        "merge",
+        &[
+            Quantity::count("grid points", shape.points as f64, budget::MAX_MERGE_POINTS),
+            Quantity::bytes("memory", shape.memory(shape.points), budget::MAX_MEMORY),
+        ],
+        "merge a smaller sweep",
+        allow_long,
+    )?;
+    let results = check_parts(parts)?;
+    let grid = Grid::parse(&first.sweep.sets)?;
+    Ok((first.sweep.clone(), grid, results))
 }
