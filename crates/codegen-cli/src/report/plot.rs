@@ -201,17 +201,19 @@ pub fn plot_series_svg(
             let pad = ((hi - lo) * 0.05).max(1e-9 * hi.abs().max(1e-300));
             (lo - pad, hi + pad)
         };
-        let mut chart = ChartBuilder::on(area)
-            .caption(title, ("sans-serif", 18))
+        let below = titled(area, title)?;
+        let mut chart = ChartBuilder::on(&below)
             .margin(15)
             .x_label_area_size(40)
             .y_label_area_size(70)
-            .build_cartesian_2d(t0..t1, lo..hi)
+            .build_cartesian_2d(linear(t0, t1), linear(lo, hi))
             .map_err(PlotError::of)?;
         chart
             .configure_mesh()
             .x_desc("time [s]")
             .y_desc(y_desc)
+            .x_label_formatter(&|v| tick_label(*v))
+            .y_label_formatter(&|v| tick_label(*v))
             .draw()
             .map_err(PlotError::of)?;
         // Drawn last to first, so that the first series is on top.
@@ -252,11 +254,12 @@ pub fn plot_damping_vs_amplitude_svg(
         } else {
             (1e-3, 1.0)
         };
+        let (a_lo, a_hi) = log_span(a_lo, a_hi);
         let z_hi = all().map(|p| p.1 * 100.0).fold(0.0, f64::max);
         let z_lo = all().map(|p| p.1 * 100.0).fold(0.0, f64::min);
         let z_hi = if z_hi > z_lo { z_hi * 1.1 } else { 1.0 };
-        let mut chart = ChartBuilder::on(area)
-            .caption(title, ("sans-serif", 18))
+        let below = titled(area, title)?;
+        let mut chart = ChartBuilder::on(&below)
             .margin(15)
             .x_label_area_size(40)
             .y_label_area_size(70)
@@ -264,7 +267,7 @@ pub fn plot_damping_vs_amplitude_svg(
                 (a_lo..a_hi)
                     .log_scale()
                     .with_key_points(log_ticks(a_lo, a_hi)),
-                z_lo..z_hi,
+                linear(z_lo, z_hi),
             )
             .map_err(PlotError::of)?;
         chart
@@ -358,25 +361,23 @@ pub fn plot_xy_svg(
         }
         let log_y = log_y && log_range(y_lo, y_hi);
         let y_log = || {
-            (y_lo / 1.2..y_hi * 1.2)
-                .log_scale()
-                .with_key_points(log_ticks(y_lo / 1.2, y_hi * 1.2))
+            let (a, b) = log_span(y_lo / 1.2, y_hi * 1.2);
+            (a..b).log_scale().with_key_points(log_ticks(a, b))
         };
         if log_x && log_range(x0, x1) {
-            let x = (x0 / 1.1..x1 * 1.1)
-                .log_scale()
-                .with_key_points(log_ticks(x0 / 1.1, x1 * 1.1));
+            let (a, b) = log_span(x0 / 1.1, x1 * 1.1);
+            let x = (a..b).log_scale().with_key_points(log_ticks(a, b));
             if log_y {
                 chart_on!(x, y_log());
             } else {
-                chart_on!(x, y0..y1);
+                chart_on!(x, linear(y0, y1));
             }
         } else {
             let (x0, x1) = pad(x0, x1);
             if log_y {
-                chart_on!(x0..x1, y_log());
+                chart_on!(linear(x0, x1), y_log());
             } else {
-                chart_on!(x0..x1, y0..y1);
+                chart_on!(linear(x0, x1), linear(y0, y1));
             }
         }
         Ok(())
@@ -400,7 +401,10 @@ pub fn plot_receptance_svg(
         receptance_on(
             title,
             unit,
-            (from..to).log_scale().with_key_points(log_ticks(from, to)),
+            {
+                let (from, to) = log_span(from, to);
+                (from..to).log_scale().with_key_points(log_ticks(from, to))
+            },
             with_generator,
             disconnected,
             nonlinear,
@@ -409,7 +413,7 @@ pub fn plot_receptance_svg(
         receptance_on(
             title,
             unit,
-            from..to,
+            linear(from, to),
             with_generator,
             disconnected,
             nonlinear,
@@ -417,9 +421,9 @@ pub fn plot_receptance_svg(
     }
 }
 
-/// Tick values of a log axis over `[a, b]` (`0 < a < b`): the 1-2-5 sequence of every
-/// decade, thinned to 1-3 or to the decades when it would give more than 12 ticks; the two
-/// ends are added when fewer than 3 values fall inside.
+/// Tick values of a log axis over `[a, b]` (`0 < a < b`): the 1-2-5 values of every
+/// decade, thinned to the decades, then to every k-th decade, when they would give more
+/// than 12 ticks; only 1-2-5 values (widen a narrow axis with [`log_span`] first).
 pub(crate) fn log_ticks(a: f64, b: f64) -> Vec<f64> {
     // Not a logarithmic range (a bound at or below zero, not finite, reversed): no ticks —
     // never a loop over the decades down to log10(0).
@@ -427,23 +431,63 @@ pub(crate) fn log_ticks(a: f64, b: f64) -> Vec<f64> {
         return vec![];
     }
     let (lo, hi) = (a.log10().floor() as i32, b.log10().ceil() as i32);
-    let inside = |mantissas: &[f64]| -> Vec<f64> {
+    let inside = |mantissas: &[f64], every: usize| -> Vec<f64> {
         (lo..=hi)
+            .filter(|e| e.rem_euclid(every as i32) == 0)
             .flat_map(|e| mantissas.iter().map(move |m| m * 10f64.powi(e)))
             .filter(|v| *v >= a * (1.0 - 1e-12) && *v <= b * (1.0 + 1e-12))
             .collect()
     };
-    let mut ticks = [&[1.0, 2.0, 5.0][..], &[1.0, 3.0], &[1.0]]
-        .iter()
-        .map(|m| inside(m))
-        .find(|t| t.len() <= 12)
-        .unwrap_or_default();
-    if ticks.len() < 3 {
-        ticks.extend([a, b]);
-        ticks.sort_by(f64::total_cmp);
-        ticks.dedup_by(|x, y| (*x - *y).abs() <= 1e-9 * y.abs());
+    let ticks = inside(&[1.0, 2.0, 5.0], 1);
+    if ticks.len() <= 12 {
+        return ticks;
     }
-    ticks
+    // At most 61 decades (`log_range`): every k-th one, k = 1..=6, gives at most 12.
+    (1..=6)
+        .map(|every| inside(&[1.0], every))
+        .find(|t| t.len() <= 12)
+        .unwrap_or_default()
+}
+
+/// `[a, b]` widened, when fewer than two 1-2-5 values fall inside, to the nearest 1-2-5
+/// values around it, so that a log axis has at least two ticks ([`log_ticks`]); `(a, b)`
+/// unchanged when it is not a logarithmic range.
+pub(crate) fn log_span(a: f64, b: f64) -> (f64, f64) {
+    if !log_range(a, b) || log_ticks(a, b).len() >= 2 {
+        return (a, b);
+    }
+    let below = |v: f64| {
+        let e = v.log10().floor() as i32;
+        [5.0, 2.0, 1.0]
+            .iter()
+            .map(|m| m * 10f64.powi(e))
+            .find(|t| *t <= v * (1.0 + 1e-12))
+            .unwrap_or(10f64.powi(e))
+    };
+    let above = |v: f64| {
+        let e = v.log10().floor() as i32;
+        [1.0, 2.0, 5.0, 10.0]
+            .iter()
+            .map(|m| m * 10f64.powi(e))
+            .find(|t| *t >= v * (1.0 - 1e-12))
+            .unwrap_or(10f64.powi(e + 1))
+    };
+    let (a, b) = (below(a), above(b));
+    if log_ticks(a, b).len() >= 2 {
+        (a, b)
+    } else {
+        // [a, a]: one 1-2-5 value; the next one up.
+        (a, above(b * 1.5))
+    }
+}
+
+/// A linear axis over `lo..hi` ticked at [`linear_ticks`] (exact multiples of a 1-2-5 step,
+/// so zero is `0`, never `-0.0` or `5.6e-17`).
+pub(crate) fn linear(lo: f64, hi: f64) -> Ticked {
+    Ticked {
+        range: lo..hi,
+        ticks: linear_ticks(lo, hi),
+    }
 }
 
 /// A tick label: at most four significant digits, no trailing zeros (`2`, `0.5`, `12.5`);
@@ -456,7 +500,10 @@ pub(crate) fn tick_label(v: f64) -> String {
             s
         }
     }
-    if v == 0.0 || !v.is_finite() {
+    if v == 0.0 {
+        return "0".to_string();
+    }
+    if !v.is_finite() {
         return format!("{v}");
     }
     if !(-3..6).contains(&(v.abs().log10().floor() as i32)) {
@@ -556,6 +603,7 @@ where
     }
     let lo = values.iter().copied().fold(f64::INFINITY, f64::min) / 1.5;
     let hi = values.iter().copied().fold(0.0, f64::max) * 1.5;
+    let (lo, hi) = log_span(lo, hi);
     let red = RGBColor(200, 30, 30);
     let blue = RGBColor(30, 80, 200);
     let black = RGBColor(0, 0, 0);
@@ -563,10 +611,8 @@ where
     {
         let root = SVGBackend::with_string(&mut svg, (1100, 560)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err(&e))?;
-        let root = root
-            .titled(title, ("sans-serif", 18))
-            .map_err(|e| err(&e))?;
-        let (left, right) = root.split_horizontally(860);
+        let root = titled(&root, title)?;
+        let (left, right) = root.split_horizontally(840);
         let mut chart = ChartBuilder::on(&left)
             .margin(15)
             .x_label_area_size(40)
@@ -575,10 +621,10 @@ where
             .map_err(|e| err(&e))?;
         chart
             .configure_mesh()
-            .x_desc("frequency (Hz)")
+            .x_desc("frequency [Hz]")
             .x_labels(12)
             .x_label_formatter(&|v| tick_label(*v))
-            .y_desc(format!("|H| ({unit})"))
+            .y_desc(format!("|H| [{unit}]"))
             .y_label_formatter(&|v| tick_label(*v))
             .draw()
             .map_err(|e| err(&e))?;
@@ -689,14 +735,19 @@ mod receptance_tests {
             log_ticks(0.1, 100.0),
             vec![0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0]
         );
-        // Six decades: 1-3 would give 13, so the decades alone.
+        // Six decades: 1-2-5 would give 19, so the decades alone; 30 decades: every 3rd.
         assert_eq!(
             log_ticks(1.0, 1e6),
             vec![1.0, 10.0, 100.0, 1e3, 1e4, 1e5, 1e6]
         );
-        // Less than a tick pair inside: the ends are added.
-        assert_eq!(log_ticks(5.5, 7.5), vec![5.5, 7.5]);
-        assert_eq!(log_ticks(4.5, 9.0), vec![4.5, 5.0, 9.0]);
+        assert_eq!(log_ticks(1.0, 1e30).len(), 11);
+        // Only 1-2-5 values; a narrow axis is widened to two of them first.
+        assert_eq!(log_ticks(5.5, 7.5), Vec::<f64>::new());
+        assert_eq!(log_ticks(4.5, 9.0), vec![5.0]);
+        assert_eq!(super::log_span(5.5, 7.5), (5.0, 10.0));
+        assert_eq!(super::log_span(4.5, 9.0), (2.0, 10.0));
+        assert_eq!(super::log_span(0.2246, 1.167), (0.2246, 1.167));
+        assert_eq!(super::log_span(2.0, 20.0), (2.0, 20.0));
     }
 
     /// A series that touches zero on a linear axis draws at once: the log axis it does not

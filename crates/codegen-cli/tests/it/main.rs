@@ -25,6 +25,7 @@ mod linearize_cli;
 mod modes_cli;
 mod optimize_cli;
 mod output_dir_cli;
+mod plots;
 mod preset;
 mod random_cli;
 mod readme_cli;

@@ -255,7 +255,7 @@ fn base_white_noise_time_domain_agrees_with_the_linear_response() {
     let r = &summary["random"];
     // The RMS against time: the tip's windows, its stationary level with its standard
     // error and where the stationary part starts, every label inside the view.
-    let svg = std::fs::read_to_string(out.join("random_rms.svg")).unwrap();
+    let svg = crate::common::svg::checked(&out.join("random_rms.svg"), &["RMS [m]", "t [s]"]).text;
     for needle in [
         "w(x=1): RMS over windows of",
         "w(x=1): stationary RMS",

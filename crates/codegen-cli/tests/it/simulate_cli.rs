@@ -151,7 +151,7 @@ fn simulate_damper_writes_history_summary_and_plot() {
     assert!(fo < fb, "{fo} vs {fb}");
     assert!(s["energy_balance_rel_error"].as_f64().unwrap() < 1e-5);
     assert!((s["peak_amplitude"].as_f64().unwrap() - 1e-3).abs() < 1e-9);
-    let svg = std::fs::read_to_string(out.join("beam_displacement.svg")).unwrap();
+    let svg = crate::common::svg::checked(&out.join("beam_displacement.svg"), &["time [s]"]).text;
     assert!(svg.starts_with("<svg"));
     for label in [
         "pin",
@@ -160,7 +160,11 @@ fn simulate_damper_writes_history_summary_and_plot() {
     ] {
         assert!(svg.contains(label), "{label} not in the plot");
     }
-    let svg = std::fs::read_to_string(out.join("damping_vs_amplitude.svg")).unwrap();
+    let svg = crate::common::svg::checked(
+        &out.join("damping_vs_amplitude.svg"),
+        &["damping ratio of the cycle [%]"],
+    )
+    .text;
     assert!(svg.contains("bare beam (no mechanism)") && svg.contains("damping ratio"));
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -750,7 +750,11 @@ fn a_two_axis_sweep_draws_the_design_map_and_names_the_best_feasible_point() {
     let a = args(&out);
     let (code, _, err) = damper(&a.iter().map(String::as_str).collect::<Vec<_>>());
     assert_eq!(code, 0, "{err}");
-    let svg = String::from_utf8(read(&out.join("sweep_map_linear.zeta1.svg"))).unwrap();
+    let svg = crate::common::svg::checked(
+        &out.join("sweep_map_linear.zeta1.svg"),
+        &["linear.zeta1 [-]"],
+    )
+    .text;
     assert!(
         svg.contains("contour of linear.reach&gt;=0.002")
             || svg.contains("contour of linear.reach>=0.002"),
@@ -813,7 +817,8 @@ fn a_two_axis_sweep_draws_the_design_map_and_names_the_best_feasible_point() {
         err.contains("no grid point satisfies the constraints"),
         "{err}"
     );
-    let svg = String::from_utf8(read(&line.join("sweep_damping.svg"))).unwrap();
+    let svg =
+        crate::common::svg::checked(&line.join("sweep_damping.svg"), &["damping ratio [%]"]).text;
     assert!(svg.contains("vs mechanism.half_angle_deg"), "x axis");
     assert!(
         !svg.contains("generator.gear_ratio=5:"),
