@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 use crate::Error;
 use crate::analysis::AnalysisError;
-use crate::analysis::figures::{self, Constraint, Entities};
+use crate::analysis::figures::{self, Bound, Constraint, Entities};
 use crate::budget::{self, Quantity};
 use crate::optimize::{self, MAX_EVALS, MAX_GRID, MAX_STARTS, Problem, Variable};
 use crate::scenario::{self, Override};
@@ -111,4 +111,68 @@ pub fn solve(req: &OptimizeRequest) -> Result<(optimize::Outcome, Vec<Constraint
     let outcome = optimize::optimize(&problem)
         .map_err(|error| AnalysisError::Optimization { file, error })?;
     Ok((outcome, constraints))
+}
+
+/// The time-domain run of an optimum (`damper optimize --verify`): what was run and every
+/// figure of the point, or why it failed.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Verified {
+    /// What was run.
+    pub run: String,
+    /// Every figure of the point (the linear ones and the time domain's).
+    pub figures: Vec<(String, Option<f64>)>,
+    /// Why the time-domain run (or the point) failed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+}
+
+/// Runs the optimum of `req` in the time domain: a free decay from `amplitude` (else from
+/// the amplitude of a `linear.reach>=A` constraint) when the scenario has an `[initial]`
+/// table, else the scenario's own run.
+pub fn verify(
+    req: &OptimizeRequest,
+    outcome: &optimize::Outcome,
+    constraints: &[Constraint],
+    amplitude: Option<f64>,
+) -> Verified {
+    let mut overrides = optimize::overrides_at(
+        &req.fixed,
+        outcome.optimum.iter().map(|(p, x)| (p.as_str(), x)),
+    );
+    let amplitude = amplitude.or_else(|| {
+        constraints
+            .iter()
+            .find(|c| c.figure == "linear.reach" && c.bound == Bound::AtLeast && c.other.is_none())
+            .map(|c| c.value)
+    });
+    let has_initial = req.text.lines().any(|l| l.trim() == "[initial]");
+    let run = match (amplitude, has_initial) {
+        (Some(a), true) => {
+            let t = crate::report::csv::cell(Some(a));
+            overrides.extend(optimize::overrides_at(
+                &[],
+                [("initial.displacement", &a)].into_iter(),
+            ));
+            format!("free decay from {t} m")
+        }
+        _ => "the scenario's own run".to_string(),
+    };
+    let options = crate::sweep_point::PointOptions {
+        time_domain: true,
+        allow_long: req.allow_long,
+        ..Default::default()
+    };
+    let line = |e: &dyn std::fmt::Display| e.to_string().replace('\n', "; ");
+    match crate::sweep_point::evaluate(&req.scenario, &req.text, &overrides, &options) {
+        Ok(p) => Verified {
+            run,
+            figures: p.figures.into_iter().map(|f| (f.name, f.value)).collect(),
+            error: p.time_domain_error.map(|e| line(&e)),
+        },
+        Err(e) => Verified {
+            run,
+            figures: vec![],
+            error: Some(line(&e)),
+        },
+    }
 }
