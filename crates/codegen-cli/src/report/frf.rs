@@ -1,5 +1,5 @@
 //! The report of `damper frf`: `frf.csv`, `frf_nonlinear.csv` (the one CSV writer,
-//! [`CsvRows`]), `frf.json`, `frf.svg` ([`plot_receptance_svg`]) and, when a mechanism has
+//! [`crate::report::rows::CsvRows`]), `frf.json`, `frf.svg` ([`plot_receptance_svg`]) and, when a mechanism has
 //! a reach, `frf_max_force.svg` ([`plot_xy_svg`]), in memory, for the one atomic writer.
 
 use std::path::Path;
