@@ -370,9 +370,9 @@ pub fn analyse_linearization_with(
     } else {
         None
     };
-    let bare_beam = match &model.beam {
+    let bare_beam = match model.beam() {
         Some(b) if !model.mechanisms.is_empty() && comparisons => {
-            let bare = HybridModel::new(Some(b.clone()), vec![], vec![], vec![], vec![])
+            let bare = HybridModel::new(Some(b.clone().into()), vec![], vec![], vec![], vec![])
                 .expect("a beam alone is a valid hybrid model");
             let lin_bare = linearise(file, &bare, &[])?;
             Some(modes_of(file, &lin_bare, &bare, k, method)?)
@@ -530,7 +530,7 @@ pub fn peak_input(
             "a peak objective needs an excitation in the scenario".into(),
         ));
     };
-    let Some(point) = model.beam.as_ref().and_then(|b| BeamPoint::on(b, spec.x)) else {
+    let Some(point) = model.beam().and_then(|b| BeamPoint::on(b, spec.x)) else {
         return Err(unavailable(format!(
             "peak: x = {} is not on the beam",
             spec.x

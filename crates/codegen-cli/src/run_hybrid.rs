@@ -458,7 +458,10 @@ pub fn evaluate<'a>(
     // A periodic forcing's steady-state mean powers, read from the rows.
     let mut steady = SteadyPowerTracker::new(model, initial.t, dt * sc.every.max(1) as f64);
     let mut decay_samples: u64 = 0;
-    let (mut z, mut zd) = (vec![0.0; model.beam_dofs()], vec![0.0; model.beam_dofs()]);
+    let (mut z, mut zd) = (
+        vec![0.0; model.structure_dofs()],
+        vec![0.0; model.structure_dofs()],
+    );
     let mut e0 = None;
     let mut output_rows: u64 = 0;
     // Under random excitation: the stationary statistics (report::random_run), their names.
@@ -698,8 +701,7 @@ pub fn evaluate<'a>(
         wall_seconds: fig.wall.as_secs_f64(),
         steps_per_second: fig.steps as f64 / fig.wall.as_secs_f64().max(1e-12),
         beam_first_frequency_hz: model
-            .beam
-            .as_ref()
+            .beam()
             .and_then(|b| b.modes(1).ok())
             .map(|m| m.frequencies_hz()[0]),
         peak_amplitude: attachments.first().map(|a| a.peak_displacement),

@@ -196,7 +196,7 @@ impl ModalFilter {
         use crate::hybrid::Matrix;
         use nalgebra::{Complex, DMatrix, DVector};
         type C64 = Complex<f64>;
-        let (n, d) = (lin.beam_dofs(), lin.dim());
+        let (n, d) = (lin.structure_dofs(), lin.dim());
         let l = mode.lambda();
         let mut phi = mode.shape_complex();
         if phi.len() != d {

@@ -193,8 +193,7 @@ pub(crate) fn parse_output(
                 )
             })?;
             let beam = model
-                .beam
-                .as_ref()
+                .beam()
                 .ok_or_else(|| argument("--output", "--output: the scenario has no beam"))?;
             let p = BeamPoint::on(beam, x)
                 .filter(|p| !p.is_locked())

@@ -10,7 +10,7 @@ use diagnostic::{Diagnostic, Diagnostics, Kind};
 use fem_beam::BeamModel;
 use hybrid_core::hybrid::{
     Attachment, BeamPoint, Excitation, ExcitationTarget, HybridError, HybridModel, HybridState,
-    JointForce, Mount, MountedMechanism, Placement, initial_deflection, initial_state,
+    JointForce, Mount, MountedMechanism, Placement, Structure, initial_deflection, initial_state,
     place_two_bar,
 };
 use mbs_symbolic::model::Model;
@@ -38,8 +38,8 @@ pub struct Built {
 pub fn build(sc: &HybridScenario) -> Result<Built, Diagnostics> {
     let (mut model, models) = build_model(sc)?;
     realise_random(sc, &mut model)?;
-    let n = model.beam_dofs();
-    let q0 = match (sc.initial, &model.beam) {
+    let n = model.structure_dofs();
+    let q0 = match (sc.initial, model.beam()) {
         (Some((d, x)), Some(b)) => {
             let point = BeamPoint::on(b, x).filter(|p| !p.is_locked());
             let Some(point) = point else {
@@ -693,7 +693,13 @@ fn assemble(sc: &HybridScenario, r: Resolved) -> Result<(HybridModel, Vec<Model>
             beam,
         })
         .collect();
-    let model = HybridModel::new(r.beam, mechanisms, attachments, r.forces, r.excitations)
-        .map_err(|e| Diagnostics::from(in_file(sc, e.to_string())))?;
+    let model = HybridModel::new(
+        r.beam.map(Structure::Beam),
+        mechanisms,
+        attachments,
+        r.forces,
+        r.excitations,
+    )
+    .map_err(|e| Diagnostics::from(in_file(sc, e.to_string())))?;
     Ok((model, models))
 }

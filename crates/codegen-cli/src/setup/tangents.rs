@@ -129,11 +129,7 @@ impl Linearizable {
     /// made (the work estimates of `linearize` and `random`): twice the beam's reduced DOFs
     /// and every mechanism coordinate, plus one current per generator.
     pub fn first_order_states(&self) -> usize {
-        let beam = self
-            .model
-            .beam
-            .as_ref()
-            .map_or(0, |b| b.dofs().reduced_len());
+        let beam = self.model.beam().map_or(0, |b| b.dofs().reduced_len());
         let coordinates: usize = self.tangents.iter().map(|t| t.dof()).sum();
         let generators = self
             .model

@@ -49,7 +49,7 @@ fn bundled_hybrid_shapes_match_the_full_constrained_system() {
                 // The beam block's scale includes the elastic acceleration A^-1 C q: where the
                 // accelerations pass through zero, the elastic and inertial terms still cancel
                 // at that size, and round-off is relative to it.
-                let b = model.beam.as_ref().unwrap();
+                let b = model.beam().unwrap();
                 let mut elastic = vec![0.0; state.q.len()];
                 b.stiffness().mul_add_into(1.0, &state.q, &mut elastic);
                 b.mass().factorize().unwrap().solve_in_place(&mut elastic);

@@ -47,7 +47,7 @@ fn arm() -> Arm {
 /// The beam's first mode reduced to the tip (`q^c = y phi / phi_tip`, unit modal mass):
 /// `(m1, k1, omega_1, zeta_1)` with `zeta_1` its Rayleigh damping ratio.
 fn primary(model: &HybridModel) -> (f64, f64, f64, f64) {
-    let beam = model.beam.as_ref().unwrap();
+    let beam = model.beam().unwrap();
     let modes = beam.modes(1).unwrap();
     let w1 = modes.angular_frequencies()[0];
     let tip = BeamPoint::on(beam, 1.0).unwrap();
@@ -236,7 +236,7 @@ fn two_peaks(h: &dyn Fn(f64) -> f64, lo: f64, hi: f64) -> Vec<(f64, f64)> {
 #[test]
 fn den_hartog_tuning_gives_equal_peaks_in_the_frf() {
     let lz = absorber();
-    let tip = BeamPoint::on(lz.model.beam.as_ref().unwrap(), 1.0).unwrap();
+    let tip = BeamPoint::on(lz.model.beam().unwrap(), 1.0).unwrap();
     let arm = arm();
     let mut ratios = vec![];
     for detune in [1.0, 0.9] {

@@ -498,7 +498,7 @@ fn refine(lin: &Linearization, l: C64) -> Result<Mode, LinearError> {
         }
     }
     // Normalise: the largest beam transverse entry (or largest entry) real and 1.
-    let n = lin.beam_dofs();
+    let n = lin.structure_dofs();
     let candidates: Vec<usize> = if n > 0 {
         lin.nodes().iter().filter_map(|&(_, dof)| dof).collect()
     } else {

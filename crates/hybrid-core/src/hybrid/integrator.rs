@@ -3,14 +3,13 @@
 //! [`crate::hybrid`]). A step costs one banded solve, `O(n)` vector work and a few
 //! mechanism evaluations, and allocates nothing.
 
-use fem_beam::BeamModel;
 use nalgebra::{DMatrix, DVector};
 
 use super::error::HybridError;
 use super::follow::{CurrentRule, FollowError, Follower};
 use super::method::Method;
 use super::model::{ExcitationTarget, HybridModel};
-use super::structure::LinearStructure;
+use super::structure::{LinearStructure, Structure, StructureFactor};
 use crate::partition::choose_partition;
 use crate::partition::dense::{lu_in_place, lu_solve};
 
@@ -147,7 +146,7 @@ pub struct Integrator {
     beta: f64,
     gamma: f64,
     /// The factorised Newmark matrix of the structure ([`LinearStructure::factorize_newmark`]).
-    factor: Option<<BeamModel as LinearStructure>::Factor>,
+    factor: Option<StructureFactor>,
     nb: usize,
     nz: usize,
     /// `K^-1 n_k` for each attachment, column-major `n x nb`.
@@ -247,11 +246,12 @@ impl Integrator {
         state: &HybridState,
     ) -> Result<Integrator, HybridError> {
         let (alpha, beta, gamma) = method.coefficients();
-        let n = model.beam_dofs();
+        let n = model.structure_dofs();
         let nb = model.attachments.len();
-        let factor = match &model.beam {
-            Some(beam) => Some(
-                beam.factorize_newmark((1.0 + alpha) * gamma * h, (1.0 + alpha) * beta * h * h)
+        let factor = match &model.structure {
+            Some(structure) => Some(
+                structure
+                    .factorize_newmark((1.0 + alpha) * gamma * h, (1.0 + alpha) * beta * h * h)
                     .map_err(HybridError::Factorization)?,
             ),
             None => None,
@@ -262,7 +262,7 @@ impl Integrator {
             for (k, a) in model.attachments.iter().enumerate() {
                 let col = &mut zcols[k * n..(k + 1) * n];
                 a.beam.add_force(1.0, col);
-                BeamModel::solve_in_place(f, col);
+                Structure::solve_in_place(f, col);
             }
             for (i, a) in model.attachments.iter().enumerate() {
                 for k in 0..nb {
@@ -338,7 +338,7 @@ impl Integrator {
     /// The beam load `P(t)`: the beam's own loads plus the beam excitations plus the
     /// supports' inertial load `base_load a_b(t)`.
     fn load_into(model: &HybridModel, base_load: &[f64], t: f64, out: &mut [f64]) {
-        if let Some(beam) = &model.beam {
+        if let Some(beam) = &model.structure {
             LinearStructure::load_into(beam, t, out);
         }
         model.add_beam_excitations(t, out);
@@ -634,14 +634,14 @@ impl Integrator {
     ) -> Result<(), HybridError> {
         self.q_hat.copy_from_slice(&state.q);
         self.v_hat.copy_from_slice(&state.v);
-        if let Some(beam) = &model.beam {
+        if let Some(beam) = &model.structure {
             Self::load_into(model, &self.base_load, state.t, &mut self.p_new);
             self.p_new_t = Some(state.t);
             self.r0.copy_from_slice(&self.p_new);
             beam.damping_mul_add(-1.0, &state.v, &mut self.r0);
             beam.stiffness_mul_add(-1.0, &state.q, &mut self.r0);
             if let Some(f) = &self.factor {
-                BeamModel::solve_in_place(f, &mut self.r0);
+                Structure::solve_in_place(f, &mut self.r0);
             }
         }
         self.predict_mechanisms(model, state);
@@ -783,7 +783,7 @@ impl Integrator {
     ) -> Result<(), HybridError> {
         let (h, alpha, beta, gamma) = (self.h, self.alpha, self.beta, self.gamma);
         let t_new = state.t + h;
-        if let Some(beam) = &model.beam {
+        if let Some(beam) = &model.structure {
             let (ca, cv) = (h * h * (0.5 - beta), h * (1.0 - gamma));
             for ((qh, vh), ((q, v), a)) in self
                 .q_hat
@@ -818,7 +818,7 @@ impl Integrator {
                 beam.stiffness_mul_add(alpha, &state.q, &mut self.r0);
             }
             if let Some(f) = &self.factor {
-                BeamModel::solve_in_place(f, &mut self.r0);
+                Structure::solve_in_place(f, &mut self.r0);
             }
         }
         self.predict_mechanisms(model, state);
@@ -874,7 +874,7 @@ impl Integrator {
         }
         // Energy account, part 2: midpoint velocity for the Rayleigh dissipation and the
         // beam loads (exact for the linear part under the average-acceleration rule).
-        if let Some(beam) = &model.beam {
+        if let Some(beam) = &model.structure {
             let acc = &mut state.account;
             acc.dissipated_structure += h * beam.damping_quadratic_form(&self.v_mid);
             let mut excited = 0.0;
@@ -974,7 +974,7 @@ impl Integrator {
 
     /// Stored energies at `state`, into `out` (allocation-free once `out` has the sizes).
     pub fn stored_into(&mut self, model: &HybridModel, state: &HybridState, out: &mut Stored) {
-        if let Some(beam) = &model.beam {
+        if let Some(beam) = &model.structure {
             out.beam_kinetic = 0.5 * beam.mass_quadratic_form(&state.v);
             out.beam_potential = 0.5 * beam.stiffness_quadratic_form(&state.q);
         }

@@ -150,6 +150,16 @@ pub enum LinearError {
         /// The element and why (boxed: the error stays small).
         source: Box<mbs_symbolic::runtime::TangentError>,
     },
+    /// The host structure is not the beam: the linearised analyses (modes, frequency and
+    /// random response) run on the banded beam only so far; the time domain runs on every
+    /// structure.
+    #[error(
+        "the linearised analyses (modes, frf, random, sweeps of linear figures) are not available on a {kind} structure yet; simulate runs on it"
+    )]
+    StructureKind {
+        /// What the structure is ([`super::Structure::kind`]).
+        kind: &'static str,
+    },
     /// The beam part `C + s B + s^2 A` of the shifted pencil has a zero pivot.
     #[error(
         "the beam's dynamic stiffness C + s B + s^2 A at s = {}{:+}i is singular (pivot {pivot}): a beam without supports (rigid-body motion) or a shift on an eigenvalue",
@@ -326,8 +336,8 @@ pub enum Matrix {
 /// The time-independent loads on the beam: its constant loads and the constant beam
 /// excitations.
 fn static_beam_load(model: &HybridModel) -> Vec<f64> {
-    let mut p = vec![0.0; model.beam_dofs()];
-    if let Some(b) = &model.beam {
+    let mut p = vec![0.0; model.structure_dofs()];
+    if let Some(b) = model.beam() {
         b.constant_load_into(&mut p);
     }
     for e in &model.excitations {
@@ -407,6 +417,11 @@ impl Linearization {
             model.mechanisms.len(),
             "one tangent system per mechanism"
         );
+        if let Some(s) = &model.structure
+            && s.beam().is_none()
+        {
+            return Err(LinearError::StructureKind { kind: s.kind() });
+        }
         for (m, t) in model.mechanisms.iter().zip(tangents) {
             if t.dof() != m.system.dof() || t.rows() != m.system.rows() {
                 return Err(LinearError::TangentSize {
@@ -430,7 +445,7 @@ impl Linearization {
         }
         let model = static_model(model);
         let model = &model;
-        let n = model.beam_dofs();
+        let n = model.structure_dofs();
         let nb = model.attachments.len();
         let start = initial_state(model, vec![0.0; n], vec![0.0; n])?;
         let mut followers = Vec::new();
@@ -645,16 +660,15 @@ impl Linearization {
             equilibrium.conditions.push(f.condition);
         }
         let beam = model
-            .beam
-            .as_ref()
+            .beam()
             .map(|b| [b.mass().clone(), b.damping().clone(), b.stiffness().clone()]);
         Ok(Linearization {
-            n: model.beam_dofs(),
+            n: model.structure_dofs(),
             nb,
             nf,
             equilibrium,
             beam,
-            nodes: model.beam.as_ref().map_or_else(Vec::new, |b| {
+            nodes: model.beam().map_or_else(Vec::new, |b| {
                 b.beam()
                     .node_positions()
                     .iter()
@@ -663,8 +677,7 @@ impl Linearization {
                     .collect()
             }),
             order: model
-                .beam
-                .as_ref()
+                .beam()
                 .map_or_else(Vec::new, fem_beam::BeamModel::elimination_order),
             points: model.attachments.iter().map(|a| a.beam.clone()).collect(),
             basis,
@@ -677,7 +690,7 @@ impl Linearization {
     }
 
     /// Beam DOFs.
-    pub fn beam_dofs(&self) -> usize {
+    pub fn structure_dofs(&self) -> usize {
         self.n
     }
 

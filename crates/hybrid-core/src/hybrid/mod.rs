@@ -115,7 +115,9 @@ pub use steady::{
     warped_frequency,
 };
 pub use stochastic::{PsdInput, Quadrature, StateOutput, StateSpace, lyapunov, psd_variances};
-pub use structure::{LinearStructure, StructureError, StructureModes, reduced_base_load};
+pub use structure::{
+    LinearStructure, Structure, StructureError, StructureFactor, StructureModes, reduced_base_load,
+};
 
 use crate::partition::choose_partition;
 use follow::Follower;
@@ -128,7 +130,7 @@ pub fn initial_state(
     q: Vec<f64>,
     v: Vec<f64>,
 ) -> Result<HybridState, HybridError> {
-    let n = model.beam_dofs();
+    let n = model.structure_dofs();
     assert_eq!(q.len(), n, "beam DOF vector length");
     assert_eq!(v.len(), n, "beam velocity vector length");
     let w: Vec<f64> = model.attachments.iter().map(|a| a.beam.value(&q)).collect();

@@ -6,7 +6,7 @@ use fem_beam::{BeamModel, ShapeAt, TimeFunction};
 use mbs_symbolic::runtime::{System, Workspace};
 use nalgebra::{DMatrix, DVector};
 
-use super::structure::LinearStructure;
+use super::structure::{LinearStructure, Structure};
 use crate::generator::GeneratorSpec;
 
 /// Where a mechanism's ground frame sits in the beam's plane: the beam frame has `x` along
@@ -378,8 +378,8 @@ impl Excitation {
 /// mechanism is over-constrained (more loop and attachment rows than coordinates).
 #[derive(Clone, Debug)]
 pub struct HybridModel {
-    /// The beam's reduced matrices (eq. 44), if there is a beam.
-    pub beam: Option<BeamModel>,
+    /// The host structure (eq. 44): the beam or an imported model, if there is one.
+    pub structure: Option<Structure>,
     /// The mechanisms.
     pub mechanisms: Vec<MountedMechanism>,
     /// The attachments (each joins one mechanism point to one beam point).
@@ -514,14 +514,14 @@ pub enum ModelError {
 impl HybridModel {
     /// Checks a description: indices, over-constraint, beam presence, values.
     pub fn new(
-        beam: Option<BeamModel>,
+        structure: Option<Structure>,
         mechanisms: Vec<MountedMechanism>,
         attachments: Vec<Attachment>,
         forces: Vec<JointForce>,
         excitations: Vec<Excitation>,
     ) -> Result<HybridModel, ModelError> {
         let model = HybridModel {
-            beam,
+            structure,
             mechanisms,
             attachments,
             forces,
@@ -569,7 +569,7 @@ impl HybridModel {
                     index: a.point,
                 });
             }
-            let Some(beam) = &self.beam else {
+            let Some(structure) = &self.structure else {
                 return Err(ModelError::NoBeam { entity });
             };
             if a.beam.is_locked() {
@@ -581,7 +581,7 @@ impl HybridModel {
             if a.beam
                 .weights
                 .iter()
-                .any(|&(k, w)| k >= beam.dof_count() || !w.is_finite())
+                .any(|&(k, w)| k >= structure.dof_count() || !w.is_finite())
             {
                 return Err(ModelError::OutsideBeam { entity });
             }
@@ -646,10 +646,10 @@ impl HybridModel {
             }
             match &e.target {
                 ExcitationTarget::Beam(p) => {
-                    let Some(beam) = &self.beam else {
+                    let Some(structure) = &self.structure else {
                         return Err(ModelError::NoBeam { entity });
                     };
-                    if p.weights.iter().any(|&(k, _)| k >= beam.dof_count()) {
+                    if p.weights.iter().any(|&(k, _)| k >= structure.dof_count()) {
                         return Err(ModelError::OutsideBeam { entity });
                     }
                 }
@@ -674,9 +674,16 @@ impl HybridModel {
         Ok(())
     }
 
-    /// Number of beam DOFs (0 without a beam).
-    pub fn beam_dofs(&self) -> usize {
-        self.beam.as_ref().map_or(0, BeamModel::dof_count)
+    /// Number of the structure's coordinates (0 without a structure).
+    pub fn structure_dofs(&self) -> usize {
+        self.structure
+            .as_ref()
+            .map_or(0, LinearStructure::dof_count)
+    }
+
+    /// The beam, when the host structure is the built-in beam.
+    pub fn beam(&self) -> Option<&BeamModel> {
+        self.structure.as_ref().and_then(Structure::beam)
     }
 
     /// Adds the force elements and joint excitations of mechanism `mech` to `M^b` and `Q^b`
@@ -765,10 +772,10 @@ impl HybridModel {
     /// on the rotations; locked DOFs are not in the reduced vector). Empty without a beam.
     /// Allocates: computed once at setup.
     pub fn base_beam_load(&self) -> Vec<f64> {
-        let Some(beam) = &self.beam else {
+        let Some(structure) = &self.structure else {
             return Vec::new();
         };
-        beam.base_load([0.0, 1.0])
+        structure.base_load([0.0, 1.0])
     }
 
     /// Adds the inertial load of the supports' acceleration at time `t` to mechanism

@@ -170,7 +170,7 @@ impl Pencil {
 
     /// Factorises `S(sigma)`.
     pub fn new(lin: &Linearization, sigma: C64) -> Result<Pencil, LinearError> {
-        let (n, nb, ns) = (lin.beam_dofs(), lin.attachments(), lin.small_dim());
+        let (n, nb, ns) = (lin.structure_dofs(), lin.attachments(), lin.small_dim());
         let one = C64::new(1.0, 0.0);
         let band = match lin.beam_matrices() {
             Some([a, b, c]) => Some(

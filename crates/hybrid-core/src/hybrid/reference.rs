@@ -66,7 +66,7 @@ struct Layout {
 
 impl Layout {
     fn of(model: &HybridModel) -> Layout {
-        let n = model.beam_dofs();
+        let n = model.structure_dofs();
         let (mut coord, mut row) = (Vec::new(), Vec::new());
         let (mut c, mut r) = (n, 0);
         for (i, m) in model.mechanisms.iter().enumerate() {
@@ -87,7 +87,7 @@ impl Layout {
             row,
             total: c,
             rows: r,
-            dense: model.beam.as_ref().map(|b| {
+            dense: model.beam().map(|b| {
                 [
                     b.mass().to_dense(),
                     b.damping().to_dense(),
@@ -222,7 +222,7 @@ fn solve_kkt(
     let mut kkt = DMatrix::zeros(nt + nr, nt + nr);
     let mut rhs = DVector::zeros(nt + nr);
     let n = lay.n;
-    if let (Some(beam), Some([mass, damp, stiff])) = (&model.beam, &lay.dense) {
+    if let (Some(beam), Some([mass, damp, stiff])) = (model.beam(), &lay.dense) {
         kkt.view_mut((0, 0), (n, n)).copy_from(mass);
         let mut p = vec![0.0; n];
         beam.load_into(t, &mut p);
@@ -466,7 +466,10 @@ impl Reference {
 /// The rows `T dz` of a reduced direction in the full coordinates: the beam part, and
 /// every mechanism's `R_i P dz`.
 fn full_direction(lin: &Linearization, dz: &[f64]) -> (Vec<f64>, Vec<Vec<f64>>) {
-    (dz[..lin.beam_dofs()].to_vec(), lin.mechanism_motion(dz))
+    (
+        dz[..lin.structure_dofs()].to_vec(),
+        lin.mechanism_motion(dz),
+    )
 }
 
 fn axpy(x: &[f64], a: f64, y: &[f64]) -> Vec<f64> {
@@ -541,7 +544,7 @@ pub fn tangent_error(model: &HybridModel, lin: &Linearization, seed: u64) -> f64
     let model = super::linear::static_model(model);
     let eq = &lin.equilibrium;
     let d = lin.dim();
-    let n = lin.beam_dofs();
+    let n = lin.structure_dofs();
     let mut worst = 0.0f64;
     let zero_dir = (
         vec![0.0; n],

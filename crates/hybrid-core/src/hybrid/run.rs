@@ -212,7 +212,7 @@ ratios = [{ mode = 1, ratio = 0.01 }, { mode = 2, ratio = 0.01 }]
         let tip = BeamPoint::on(&beam, 1.0).unwrap();
         let n = beam.dof_count();
         let model = HybridModel::new(
-            Some(beam),
+            Some(beam.into()),
             vec![],
             vec![],
             vec![],
@@ -259,7 +259,7 @@ ratios = [{ mode = 1, ratio = 0.01 }, { mode = 2, ratio = 0.01 }]
     fn a_sink_error_stops_the_run() {
         let beam = cantilever();
         let n = beam.dof_count();
-        let model = HybridModel::new(Some(beam), vec![], vec![], vec![], vec![]).unwrap();
+        let model = HybridModel::new(Some(beam.into()), vec![], vec![], vec![], vec![]).unwrap();
         let mut q = vec![0.0; n];
         q[n - 2] = 1e-3;
         let state = initial_state(&model, q, vec![0.0; n]).unwrap();

@@ -82,7 +82,7 @@ pub fn pencil_derivative(
 
 /// Refuses two linearisations whose coordinates differ.
 pub fn same_layout(a: &Linearization, b: &Linearization) -> Result<(), LinearError> {
-    let what = if a.beam_dofs() != b.beam_dofs() {
+    let what = if a.structure_dofs() != b.structure_dofs() {
         Some("beam DOFs")
     } else if a.attachments() != b.attachments() {
         Some("attachments")

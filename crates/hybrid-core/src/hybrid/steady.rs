@@ -174,7 +174,7 @@ pub fn rest_state(model: &mut HybridModel, eq: &Equilibrium) -> Result<HybridSta
     for (m, q) in model.mechanisms.iter_mut().zip(&eq.mech_q) {
         m.initial_q.clone_from(q);
     }
-    let n = model.beam_dofs();
+    let n = model.structure_dofs();
     initial_state(model, eq.beam_q.clone(), vec![0.0; n])
 }
 

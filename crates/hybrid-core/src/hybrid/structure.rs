@@ -208,6 +208,178 @@ impl LinearStructure for BeamModel {
     }
 }
 
+/// The host structure of a hybrid model: one of the three implementations of
+/// [`LinearStructure`], chosen by the scenario. The engine calls the structure through this
+/// enum: one predictable branch per call (a handful of calls per step), no virtual call, and
+/// the beam's arithmetic is exactly [`BeamModel`]'s.
+#[derive(Clone, Debug)]
+pub enum Structure {
+    /// The built-in Euler–Bernoulli beam (banded).
+    Beam(BeamModel),
+    /// An imported sparse model, unreduced (one sparse solve per iteration).
+    Imported(ImportedStructure),
+    /// An imported model reduced by Craig–Bampton: the reduced model runs; the full one is
+    /// kept for the support load `T^T (-M r)` and to expand results to every node.
+    Reduced {
+        /// The full model.
+        full: Box<ImportedStructure>,
+        /// Its reduction.
+        reduced: Box<Reduced>,
+    },
+}
+
+/// The factorised Newmark matrix of a [`Structure`].
+#[derive(Clone, Debug)]
+pub enum StructureFactor {
+    /// The beam's banded LDL^T.
+    Banded(BandedFactor),
+    /// An imported model's sparse Cholesky.
+    Sparse(SparseFactor),
+    /// A reduced model's dense Cholesky.
+    Dense(Cholesky<f64, Dyn>),
+}
+
+impl From<BeamModel> for Structure {
+    fn from(beam: BeamModel) -> Structure {
+        Structure::Beam(beam)
+    }
+}
+
+impl Structure {
+    /// The beam, when the structure is the built-in beam.
+    pub fn beam(&self) -> Option<&BeamModel> {
+        match self {
+            Structure::Beam(b) => Some(b),
+            _ => None,
+        }
+    }
+
+    /// The imported model (the full one of a reduced structure), when imported.
+    pub fn imported(&self) -> Option<&ImportedStructure> {
+        match self {
+            Structure::Beam(_) => None,
+            Structure::Imported(s) => Some(s),
+            Structure::Reduced { full, .. } => Some(full),
+        }
+    }
+
+    /// `"beam"`, `"matrices"` or `"matrices, Craig–Bampton"`: what the host is, for reports.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Structure::Beam(_) => "beam",
+            Structure::Imported(_) => "matrices",
+            Structure::Reduced { .. } => "matrices, Craig–Bampton",
+        }
+    }
+}
+
+/// Calls `$body` with `$s` bound to the implementation inside a [`Structure`].
+macro_rules! each {
+    ($self:expr, $s:ident => $body:expr) => {
+        match $self {
+            Structure::Beam($s) => $body,
+            Structure::Imported($s) => $body,
+            Structure::Reduced { reduced: $s, .. } => {
+                let $s: &Reduced = $s;
+                $body
+            }
+        }
+    };
+}
+
+impl LinearStructure for Structure {
+    type Factor = StructureFactor;
+
+    #[inline]
+    fn dof_count(&self) -> usize {
+        each!(self, s => LinearStructure::dof_count(s))
+    }
+
+    #[inline]
+    fn mass_mul_add(&self, k: f64, x: &[f64], y: &mut [f64]) {
+        each!(self, s => s.mass_mul_add(k, x, y))
+    }
+
+    #[inline]
+    fn damping_mul_add(&self, k: f64, x: &[f64], y: &mut [f64]) {
+        each!(self, s => s.damping_mul_add(k, x, y))
+    }
+
+    #[inline]
+    fn stiffness_mul_add(&self, k: f64, x: &[f64], y: &mut [f64]) {
+        each!(self, s => s.stiffness_mul_add(k, x, y))
+    }
+
+    #[inline]
+    fn mass_quadratic_form(&self, x: &[f64]) -> f64 {
+        each!(self, s => s.mass_quadratic_form(x))
+    }
+
+    #[inline]
+    fn damping_quadratic_form(&self, x: &[f64]) -> f64 {
+        each!(self, s => s.damping_quadratic_form(x))
+    }
+
+    #[inline]
+    fn stiffness_quadratic_form(&self, x: &[f64]) -> f64 {
+        each!(self, s => s.stiffness_quadratic_form(x))
+    }
+
+    #[inline]
+    fn load_into(&self, t: f64, out: &mut [f64]) {
+        each!(self, s => LinearStructure::load_into(s, t, out))
+    }
+
+    fn factorize_newmark(
+        &self,
+        c_damping: f64,
+        c_stiffness: f64,
+    ) -> Result<StructureFactor, StructureError> {
+        Ok(match self {
+            Structure::Beam(b) => {
+                StructureFactor::Banded(b.factorize_newmark(c_damping, c_stiffness)?)
+            }
+            Structure::Imported(s) => {
+                StructureFactor::Sparse(s.factorize_newmark(c_damping, c_stiffness)?)
+            }
+            Structure::Reduced { reduced, .. } => {
+                StructureFactor::Dense(reduced.factorize_newmark(c_damping, c_stiffness)?)
+            }
+        })
+    }
+
+    #[inline]
+    fn solve_in_place(factor: &StructureFactor, x: &mut [f64]) {
+        match factor {
+            StructureFactor::Banded(f) => BeamModel::solve_in_place(f, x),
+            StructureFactor::Sparse(f) => ImportedStructure::solve_in_place(f, x),
+            StructureFactor::Dense(f) => Reduced::solve_in_place(f, x),
+        }
+    }
+
+    fn rigid_translation(&self, direction: [f64; 2]) -> Vec<f64> {
+        match self {
+            Structure::Beam(b) => b.rigid_translation(direction),
+            Structure::Imported(s) => s.rigid_translation(direction),
+            // The reduced coordinates of the full model's rigid translation are not a
+            // translation of the reduced model: only its load is defined (`base_load`).
+            Structure::Reduced { reduced, .. } => reduced.rigid_translation(direction),
+        }
+    }
+
+    fn base_load(&self, direction: [f64; 2]) -> Vec<f64> {
+        match self {
+            Structure::Beam(b) => b.base_load(direction),
+            Structure::Imported(s) => s.base_load(direction),
+            Structure::Reduced { full, reduced } => reduced_base_load(full, reduced, direction),
+        }
+    }
+
+    fn modes(&self, count: usize) -> Result<StructureModes, StructureError> {
+        each!(self, s => LinearStructure::modes(s, count))
+    }
+}
+
 /// `y += s A x` for a dense symmetric `A`.
 fn dense_mul_add(a: &DMatrix<f64>, s: f64, x: &[f64], y: &mut [f64]) {
     for (j, &xj) in x.iter().enumerate() {

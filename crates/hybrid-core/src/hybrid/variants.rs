@@ -28,7 +28,7 @@ impl HybridModel {
     /// mechanisms, attachments, force elements and excitations on joints; `None` when the
     /// system has no beam. Its state is the beam part of this system's state.
     pub fn bare_beam(&self) -> Option<HybridModel> {
-        let beam = self.beam.clone()?;
+        let structure = self.structure.clone()?;
         let excitations = self
             .excitations
             .iter()
@@ -38,7 +38,7 @@ impl HybridModel {
         // Valid by construction: the beam-point excitations were checked with this beam, and
         // nothing else is left to refer to.
         Some(HybridModel {
-            beam: Some(beam),
+            structure: Some(structure),
             mechanisms: vec![],
             attachments: vec![],
             forces: vec![],

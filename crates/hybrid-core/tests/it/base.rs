@@ -69,7 +69,7 @@ fn carriage_on_beam() -> HybridModel {
         initial_q: q,
     };
     HybridModel::new(
-        Some(bm),
+        Some(bm.into()),
         vec![mech],
         vec![Attachment {
             name: "roller".into(),
@@ -98,7 +98,7 @@ fn carriage_on_beam() -> HybridModel {
 fn base_input_vector_is_minus_mass_times_rigid_translation() {
     let model = carriage_on_beam();
     let lin = linearize(&model);
-    let bm = model.beam.as_ref().unwrap();
+    let bm = model.beam().unwrap();
     let n = bm.dof_count();
     let mut rz = rigid(bm);
     // The carriage's move (s += 1, phi unchanged) in the free coordinates.
@@ -148,7 +148,7 @@ fn bare_beam_transmissibility_is_the_modal_closed_form() {
     let r = rigid(&bm);
     let modes = bm.modes(n).unwrap();
     let (alpha, beta) = bm.rayleigh_coefficients();
-    let model = HybridModel::new(Some(bm.clone()), vec![], vec![], vec![], vec![]).unwrap();
+    let model = HybridModel::new(Some(bm.clone().into()), vec![], vec![], vec![], vec![]).unwrap();
     let lin = linearize(&model);
     let f = lin.force_vector(&ExcitationTarget::Base);
     // -(A r): the beam's input vector.
@@ -256,7 +256,7 @@ fn bare_beam_transmissibility_is_the_modal_closed_form() {
 /// Runs `model` from rest for `t_end` at step `h`; returns the largest relative tip
 /// displacement and the run's relative energy-balance error.
 fn run_from_rest(model: &HybridModel, h: f64, t_end: f64, tip: &BeamPoint) -> (f64, f64, f64) {
-    let n = model.beam_dofs();
+    let n = model.structure_dofs();
     let state = initial_state(model, vec![0.0; n], vec![0.0; n]).unwrap();
     let mut integrator = Integrator::new(model, Method::Newmark, h, &state).unwrap();
     let mut worst = 0.0f64;
@@ -292,7 +292,7 @@ fn a_very_stiff_beam_moves_with_its_support() {
         let bm = cantilever(10, e);
         let tip = BeamPoint::on(&bm, 1.0).unwrap();
         let model = HybridModel::new(
-            Some(bm),
+            Some(bm.into()),
             vec![],
             vec![],
             vec![],
@@ -327,7 +327,7 @@ fn energy_balance_closes_with_the_supports_input_work() {
             phase: 0.0,
         },
     ));
-    let n = model.beam_dofs();
+    let n = model.structure_dofs();
     let state = initial_state(&model, vec![0.0; n], vec![0.0; n]).unwrap();
     let mut integrator = Integrator::new(&model, Method::Newmark, 2e-4, &state).unwrap();
     let mut worst = 0.0f64;

@@ -85,7 +85,7 @@ fn bare_beam_steady_state_is_the_linear_receptance() {
     let bm = beam(20, &[(0.0, "clamped")], Some(0.01));
     let f1 = bm.modes(1).unwrap().frequencies_hz()[0];
     let tip = BeamPoint::on(&bm, 1.0).unwrap();
-    let model = HybridModel::new(Some(bm), vec![], vec![], vec![], vec![]).unwrap();
+    let model = HybridModel::new(Some(bm.into()), vec![], vec![], vec![], vec![]).unwrap();
     let lin = linearize(&model);
     let amplitude = 0.5;
     let model = with_shaker(model, &tip, amplitude);
@@ -131,7 +131,7 @@ fn paper_damper_small_amplitude_is_linear_and_large_amplitude_is_not() {
         "damper: first mode {:.4} Hz, zeta {:.4}",
         first.natural_frequency_hz, first.damping_ratio
     );
-    let tip = BeamPoint::on(model.beam.as_ref().unwrap(), 1.0).unwrap();
+    let tip = BeamPoint::on(model.beam().unwrap(), 1.0).unwrap();
     let reach = model.mechanisms[0].reach.expect("the double bar's reach");
     let peak = receptance(&lin, &tip, 2.0 * PI * fd).norm();
     let options = SteadyOptions {
@@ -232,7 +232,7 @@ fn paper_damper_small_amplitude_is_linear_and_large_amplitude_is_not() {
 fn a_stop_ends_every_run_after_its_first_period_and_no_stop_changes_nothing() {
     let bm = beam(10, &[(0.0, "clamped")], Some(0.01));
     let tip = BeamPoint::on(&bm, 1.0).unwrap();
-    let model = HybridModel::new(Some(bm), vec![], vec![], vec![], vec![]).unwrap();
+    let model = HybridModel::new(Some(bm.into()), vec![], vec![], vec![], vec![]).unwrap();
     let lin = linearize(&model);
     let model = with_shaker(model, &tip, 0.5);
     let options = SteadyOptions {

@@ -264,7 +264,7 @@ fn absorber_model(
         kind: ForceKind::Spring { k: k_t, q0: 0.0 },
     };
     HybridModel::new(
-        Some(beam),
+        Some(beam.into()),
         vec![mech],
         vec![attachment],
         vec![spring],
@@ -604,7 +604,7 @@ fn slider_crank_model(
         kind: ForceKind::Generator(gen_spec),
     };
     HybridModel::new(
-        Some(beam),
+        Some(beam.into()),
         vec![mech],
         vec![attachment],
         vec![force],

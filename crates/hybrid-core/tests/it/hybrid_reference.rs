@@ -62,7 +62,7 @@ impl AccCheck {
             &state.currents,
         );
         assert!(lambda.iter().all(|l| l.is_finite()));
-        let beam = model.beam.as_ref().unwrap();
+        let beam = model.beam().unwrap();
         let mut cq = vec![0.0; a.len()];
         beam.stiffness().mul_vec_into(&state.q, &mut cq);
         let elastic = beam.factorize(beam.mass()).unwrap().solve(&cq);
@@ -385,7 +385,7 @@ fn the_quasi_newton_iteration_stops_at_round_off() {
     let tip = system.point_index("tip").unwrap();
     let mount = mount_for(system.as_ref(), tip, &q, 0.0, [x, 0.0]);
     let model = HybridModel::new(
-        Some(bm),
+        Some(bm.into()),
         vec![MountedMechanism {
             name: "chain".into(),
             system,
@@ -490,7 +490,7 @@ fn composite(dissipative: bool, excited: bool) -> Case {
     };
     let n = q0.len();
     Case {
-        model: HybridModel::new(Some(bm), mechs, atts, forces, excitations).unwrap(),
+        model: HybridModel::new(Some(bm.into()), mechs, atts, forces, excitations).unwrap(),
         q0,
         v0: vec![0.0; n],
     }
@@ -591,7 +591,7 @@ fn arm_case(model_level: bool) -> Case {
     let n = q0.len();
     Case {
         model: HybridModel::new(
-            Some(bm),
+            Some(bm.into()),
             vec![MountedMechanism {
                 name: "arm".into(),
                 system,
@@ -723,7 +723,7 @@ fn degenerating_free_coordinates_trigger_a_logged_repartition() {
     let tip = system.point_index("tip").unwrap();
     let mount = mount_for(system.as_ref(), tip, &q, 0.0, [x, 0.0]);
     let model = HybridModel::new(
-        Some(bm),
+        Some(bm.into()),
         vec![MountedMechanism {
             name: "chain".into(),
             system,

@@ -29,7 +29,7 @@ fn bare_beam_modes_are_fem_beam_modes_with_rayleigh_damping() {
         let bm = beam(elements, supports, Some(0.002));
         let (a, b) = bm.rayleigh_coefficients();
         let reference = bm.modes(5).unwrap().angular_frequencies();
-        let model = HybridModel::new(Some(bm), vec![], vec![], vec![], vec![]).unwrap();
+        let model = HybridModel::new(Some(bm.into()), vec![], vec![], vec![], vec![]).unwrap();
         let lin = linearize(&model, &[]);
         for method in [EigenMethod::Dense, EigenMethod::ShiftInvert] {
             let found = modes(&lin, 5, method).unwrap();
@@ -69,7 +69,7 @@ fn preloaded(mut case: Case, rng: &mut SplitMix64) -> HybridModel {
             },
         });
     }
-    let beam = model.beam.as_ref().unwrap();
+    let beam = model.beam().unwrap();
     model.excitations = vec![
         Excitation {
             name: "dead_load".into(),
@@ -140,7 +140,7 @@ fn the_paper_damper_with_in_plane_gravity_is_preloaded_and_its_tangents_are_exac
         let lambda = &lin.equilibrium.multipliers[0];
         println!(
             "L = {inductance}: equilibrium tip {:e} m, multipliers {lambda:?}",
-            lin.equilibrium.beam_q[lin.beam_dofs() - 2]
+            lin.equilibrium.beam_q[lin.structure_dofs() - 2]
         );
         assert!(
             lambda.iter().any(|l| l.abs() > 1e-3),
@@ -178,7 +178,7 @@ fn dense_and_shift_invert_modes_agree_on_a_100_element_damper() {
 fn harmonic_response_solves_the_dense_dynamic_stiffness_to_rounding() {
     let (model, _) = paper_damper(20, true, true, 2e-3);
     let lin = linearize(&model, &[]);
-    let beam = model.beam.as_ref().unwrap();
+    let beam = model.beam().unwrap();
     let tip = BeamPoint::on(beam, 1.0).unwrap();
     let f = lin.force_vector(&ExcitationTarget::Beam(tip.clone()));
     // omega = 0: the static deflection of the beam stiffened by the mechanism, K_R z = f
@@ -296,7 +296,7 @@ fn a_force_element_without_tangent_is_refused_by_name() {
     let q = vec![0.0, 0.0];
     let mount = mount_for(system.as_ref(), roller, &q, 0.0, [x, 0.0]);
     let model = HybridModel::new(
-        Some(bm),
+        Some(bm.into()),
         vec![MountedMechanism {
             name: "tethered".into(),
             system,

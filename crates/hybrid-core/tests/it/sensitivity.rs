@@ -136,7 +136,7 @@ fn the_response_derivative_equals_central_differences_of_the_responses() {
     let (p, h) = (10.0, 1e-5);
     let lin = linearize(&build(p));
     let (plus, minus) = (linearize(&build(p + h)), linearize(&build(p - h)));
-    let beam = build(p).beam.unwrap();
+    let beam = build(p).beam().cloned().unwrap();
     let tip = BeamPoint::on(&beam, 1.0).unwrap();
     let target = ExcitationTarget::Beam(tip.clone());
     for omega in [20.0, 37.0, 80.0] {

@@ -81,9 +81,9 @@ fn bare_beam_keeps_the_beam_and_its_loads_and_has_fem_beam_modes() {
     assert!(bare.mechanisms.is_empty() && bare.attachments.is_empty() && bare.forces.is_empty());
     assert_eq!(bare.excitations.len(), 1);
     assert_eq!(bare.excitations[0].name, "shaker");
-    assert_eq!(bare.beam_dofs(), damper.beam_dofs());
+    assert_eq!(bare.structure_dofs(), damper.structure_dofs());
     // Its modes are the beam's (fem-beam, Rayleigh damping 0.2 % on modes 1 and 2).
-    let bm = bare.beam.clone().unwrap();
+    let bm = bare.beam().cloned().unwrap();
     let reference = bm.modes(3).unwrap().angular_frequencies();
     let lin = Linearization::new(&bare, &[], EquilibriumOptions::default()).unwrap();
     let found = modes(&lin, 3, EigenMethod::Dense).unwrap();
@@ -94,6 +94,6 @@ fn bare_beam_keeps_the_beam_and_its_loads_and_has_fem_beam_modes() {
     assert!((found[0].damping_ratio - 0.002).abs() <= 1e-10);
     // A system without a beam has no bare-beam variant.
     let mut rigid = damper.clone();
-    rigid.beam = None;
+    rigid.structure = None;
     assert!(rigid.bare_beam().is_none());
 }

@@ -198,7 +198,7 @@ impl PaperDamper {
             initial_q: g.guess.to_vec(),
         };
         let model = HybridModel::new(
-            Some(beam),
+            Some(beam.into()),
             vec![mechanism],
             vec![Attachment {
                 name: "tip".into(),

@@ -383,7 +383,7 @@ pub fn random_case(seed: u64, shapes: Option<&[Shape]>, damped: bool) -> Case {
             },
         });
     }
-    let model = HybridModel::new(Some(bm), mechs, atts, forces, excitations)
+    let model = HybridModel::new(Some(bm.into()), mechs, atts, forces, excitations)
         .unwrap_or_else(|e| panic!("seed {seed}: {e}"));
     Case { model, q0, v0 }
 }
