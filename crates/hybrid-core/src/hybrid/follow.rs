@@ -5,10 +5,12 @@
 //! [`crate::hybrid`]).
 //!
 //! The constraint rows of a mechanism are its own loop rows (eq. 14), then per attachment a
-//! transverse row `P_y - w(x_b)` and, for a pin, an axial row `P_x - x_b` (eqs. 45–46), with
-//! `P = origin + R(angle) p(q)` the point in the beam frame. Only the transverse rows depend
-//! on the beam, through `w = n^T q^c` (eq. 35), so `J^c` has one row `-n^T` per attachment
-//! (eq. 54) and the beam sees the mechanism through one scalar per attachment.
+//! transverse row `P_y - y_b - w(x_b)` and, for a pin, an axial row `P_x - x_b - u(x_b)`
+//! (eqs. 45–46), with `P = origin + R(angle) p(q)` the point in the structure's frame. On the
+//! beam only the transverse rows depend on the structure, through `w = n^T q^c` (eq. 35), so
+//! `J^c` has one row `-n^T` per attachment (eq. 54); a node of an imported model also moves
+//! along `x` (`u`), and a pin there couples through both rows. The structure sees the
+//! mechanism through one scalar per coupled row ([`super::model::Coupling`]).
 
 use mbs_symbolic::runtime::Workspace;
 use nalgebra::{DMatrix, DVector};
@@ -29,6 +31,12 @@ pub(crate) struct AttachRow {
     pub axial_row: Option<usize>,
     /// Abscissa of the beam point (the axial target).
     pub x: f64,
+    /// The point's undeformed `y` (the transverse target; 0 on the beam).
+    pub y: f64,
+    /// Index of the transverse row's coupling unknown `w` ([`HybridModel::couplings`]).
+    pub coupling: usize,
+    /// Index of the axial row's coupling unknown, for a pin on a point that moves along `x`.
+    pub axial_coupling: Option<usize>,
 }
 
 /// Why a mechanism could not follow.
@@ -116,6 +124,7 @@ impl Follower {
     pub fn new(model: &HybridModel, mech: usize, free: Vec<usize>, free_offset: usize) -> Self {
         let sys = &model.mechanisms[mech].system;
         let (n, loops) = (sys.dof(), sys.rows());
+        let couplings = model.couplings();
         let mut atts = Vec::new();
         let mut row = loops;
         for (i, a) in model.attachments.iter().enumerate() {
@@ -123,12 +132,20 @@ impl Follower {
                 continue;
             }
             let axial_row = (a.kind == AttachmentKind::Pin).then_some(row + 1);
+            let find = |axial: bool| {
+                couplings
+                    .iter()
+                    .position(|c| c.attachment == i && c.axial == axial)
+            };
             atts.push(AttachRow {
                 attachment: i,
                 point: a.point,
                 row,
                 axial_row,
                 x: a.beam.x,
+                y: a.beam.y,
+                coupling: find(false).expect("every attachment couples along y"),
+                axial_coupling: find(true),
             });
             row += a.kind.rows();
         }
@@ -141,7 +158,7 @@ impl Follower {
         Follower {
             mech,
             n,
-            nb: model.attachments.len(),
+            nb: couplings.len(),
             loops,
             rows,
             atts,
@@ -167,7 +184,7 @@ impl Follower {
             sigma_min: 1.0,
             residual: 0.0,
             solved: false,
-            w_last: vec![0.0; model.attachments.len()],
+            w_last: vec![0.0; couplings.len()],
             u_last: vec![0.0; n],
         }
     }
@@ -203,7 +220,10 @@ impl Follower {
         }
         self.rhs.fill(0.0);
         for a in &self.atts {
-            self.rhs[a.row] = w[a.attachment] - self.w_last[a.attachment];
+            self.rhs[a.row] = w[a.coupling] - self.w_last[a.coupling];
+            if let (Some(r), Some(c)) = (a.axial_row, a.axial_coupling) {
+                self.rhs[r] = w[c] - self.w_last[c];
+            }
         }
         for &c in &self.free {
             let du = self.q[c] - self.u_last[c];
@@ -253,7 +273,10 @@ impl Follower {
     fn mark_solved(&mut self, w: &[f64]) {
         self.solved = true;
         for a in &self.atts {
-            self.w_last[a.attachment] = w[a.attachment];
+            self.w_last[a.coupling] = w[a.coupling];
+            if let Some(c) = a.axial_coupling {
+                self.w_last[c] = w[c];
+            }
         }
         for &c in &self.free {
             self.u_last[c] = self.q[c];
@@ -281,7 +304,7 @@ impl Follower {
                 &mut self.ws,
             );
             let p = m.mount.to_beam([self.ws.point_p[0], self.ws.point_p[1]]);
-            self.h[a.row] = p[1] - w[a.attachment];
+            self.h[a.row] = p[1] - a.y - w[a.coupling];
             for c in 0..self.n {
                 let (jx, jy) = (self.ws.point_j[(0, c)], self.ws.point_j[(1, c)]);
                 self.jfull[(a.row, c)] = sn * jx + cs * jy;
@@ -290,7 +313,7 @@ impl Follower {
                 }
             }
             if let Some(r) = a.axial_row {
-                self.h[r] = p[0] - a.x;
+                self.h[r] = p[0] - a.x - a.axial_coupling.map_or(0.0, |c| w[c]);
             }
         }
     }
@@ -408,7 +431,11 @@ impl Follower {
             + self
                 .atts
                 .iter()
-                .map(|a| a.x.abs() + w[a.attachment].abs())
+                .map(|a| {
+                    a.x.abs()
+                        + w[a.coupling].abs()
+                        + a.axial_coupling.map_or(0.0, |c| a.y.abs() + w[c].abs())
+                })
                 .sum::<f64>()
             + model.mechanisms[self.mech]
                 .mount
@@ -477,8 +504,8 @@ impl Follower {
         })
     }
 
-    /// Follows: `pos`, `vel`, `acc` hold the attachment displacements `w` (first the
-    /// model's attachments, in order) then the free coordinates of every mechanism (global
+    /// Follows: `pos`, `vel`, `acc` hold the coupling displacements `w` (first the
+    /// model's couplings, [`HybridModel::couplings`]) then the free coordinates of every mechanism (global
     /// order); writes this mechanism's projected equations `phi` into the same layout, and
     /// the currents of its force elements into `currents`. Fails when `J_d` is beyond the
     /// mechanism's `max_condition` ([`Follower::check_condition`]).
@@ -610,7 +637,10 @@ impl Follower {
         }
         lu_solve_transpose(&self.lu, &self.piv, &mut self.rhs);
         for a in &self.atts {
-            phi[a.attachment] = self.rhs[a.row];
+            phi[a.coupling] = self.rhs[a.row];
+            if let (Some(r), Some(c)) = (a.axial_row, a.axial_coupling) {
+                phi[c] = self.rhs[r];
+            }
         }
         for (k, &c) in self.free.iter().enumerate() {
             let mut s = self.g[c];
@@ -637,11 +667,14 @@ impl Follower {
         r.fill(0.0);
         let off = self.nb + self.free_offset;
         for a in &self.atts {
-            self.rhs.fill(0.0);
-            self.rhs[a.row] = 1.0;
-            lu_solve(&self.lu, &self.piv, &mut self.rhs);
-            for (k, &c) in self.dep.iter().enumerate() {
-                r[(c, a.attachment)] = self.rhs[k];
+            let axial = a.axial_row.zip(a.axial_coupling);
+            for (row, col) in std::iter::once((a.row, a.coupling)).chain(axial) {
+                self.rhs.fill(0.0);
+                self.rhs[row] = 1.0;
+                lu_solve(&self.lu, &self.piv, &mut self.rhs);
+                for (k, &c) in self.dep.iter().enumerate() {
+                    r[(c, col)] = self.rhs[k];
+                }
             }
         }
         for (j, &f) in self.free.iter().enumerate() {
@@ -660,7 +693,10 @@ impl Follower {
     fn constraint_rhs(&mut self, x: &[f64]) {
         self.rhs.fill(0.0);
         for a in &self.atts {
-            self.rhs[a.row] = x[a.attachment];
+            self.rhs[a.row] = x[a.coupling];
+            if let (Some(r), Some(c)) = (a.axial_row, a.axial_coupling) {
+                self.rhs[r] = x[c];
+            }
         }
         let off = self.nb + self.free_offset;
         for (k, &c) in self.free.iter().enumerate() {

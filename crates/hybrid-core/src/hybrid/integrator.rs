@@ -8,7 +8,7 @@ use nalgebra::{DMatrix, DVector};
 use super::error::HybridError;
 use super::follow::{CurrentRule, FollowError, Follower};
 use super::method::Method;
-use super::model::{ExcitationTarget, HybridModel};
+use super::model::{Coupling, ExcitationTarget, HybridModel};
 use super::structure::{LinearStructure, Structure, StructureFactor};
 use crate::partition::choose_partition;
 use crate::partition::dense::{lu_in_place, lu_solve};
@@ -149,7 +149,9 @@ pub struct Integrator {
     factor: Option<StructureFactor>,
     nb: usize,
     nz: usize,
-    /// `K^-1 n_k` for each attachment, column-major `n x nb`.
+    /// The coupling unknowns `w` ([`HybridModel::couplings`]).
+    couplings: Vec<Coupling>,
+    /// `K^-1 n_k` for each coupling, column-major `n x nb`.
     zcols: Vec<f64>,
     /// `S = N^T K^-1 N`.
     s: DMatrix<f64>,
@@ -208,7 +210,7 @@ pub(super) fn map_follow(
         .attachments
         .iter()
         .position(|a| a.mechanism == mech)
-        .map_or(0.0, |k| state_w[k]);
+        .map_or(0.0, |k| state_w[model.coupling_of(k)]);
     match e {
         FollowError::Singular {
             condition,
@@ -247,7 +249,8 @@ impl Integrator {
     ) -> Result<Integrator, HybridError> {
         let (alpha, beta, gamma) = method.coefficients();
         let n = model.structure_dofs();
-        let nb = model.attachments.len();
+        let couplings = model.couplings();
+        let nb = couplings.len();
         let factor = match &model.structure {
             Some(structure) => Some(
                 structure
@@ -259,14 +262,17 @@ impl Integrator {
         let mut zcols = vec![0.0; n * nb];
         let mut s = DMatrix::zeros(nb, nb);
         if let Some(f) = &factor {
-            for (k, a) in model.attachments.iter().enumerate() {
+            for (k, c) in couplings.iter().enumerate() {
                 let col = &mut zcols[k * n..(k + 1) * n];
-                a.beam.add_force(1.0, col);
+                model.attachments[c.attachment]
+                    .beam
+                    .add_force_along(c.axial, 1.0, col);
                 Structure::solve_in_place(f, col);
             }
-            for (i, a) in model.attachments.iter().enumerate() {
+            for (i, c) in couplings.iter().enumerate() {
+                let p = &model.attachments[c.attachment].beam;
                 for k in 0..nb {
-                    s[(i, k)] = a.beam.value(&zcols[k * n..(k + 1) * n]);
+                    s[(i, k)] = p.value_along(c.axial, &zcols[k * n..(k + 1) * n]);
                 }
             }
         }
@@ -290,6 +296,7 @@ impl Integrator {
             factor,
             nb,
             nz,
+            couplings,
             zcols,
             s,
             followers,
@@ -444,7 +451,7 @@ impl Integrator {
                     .attachments
                     .iter()
                     .position(|a| a.mechanism == f.mech)
-                    .map_or(0.0, |k| self.pos[k]);
+                    .map_or(0.0, |k| self.pos[model.coupling_of(k)]);
                 (
                     model.mechanisms[f.mech].name.clone(),
                     f.condition,
@@ -596,8 +603,13 @@ impl Integrator {
     /// Sets the per-unknown scales and the predictor of the attachment accelerations.
     fn prepare(&mut self, model: &HybridModel) {
         let n = self.r0.len();
-        for (k, a) in model.attachments.iter().enumerate() {
-            self.a0w[k] = if n > 0 { a.beam.value(&self.r0) } else { 0.0 };
+        for (k, c) in self.couplings.iter().enumerate() {
+            let p = &model.attachments[c.attachment].beam;
+            self.a0w[k] = if n > 0 {
+                p.value_along(c.axial, &self.r0)
+            } else {
+                0.0
+            };
         }
         for i in 0..self.nz {
             let base = if i < self.nb { self.a0w[i].abs() } else { 0.0 };
@@ -608,10 +620,11 @@ impl Integrator {
     /// Loads the predictors of the free coordinates and the warm start `z` from `state`.
     fn predict_mechanisms(&mut self, model: &HybridModel, state: &HybridState) {
         let (h, beta, gamma) = (self.h, self.beta, self.gamma);
-        for (k, a) in model.attachments.iter().enumerate() {
-            self.pos_hat[k] = a.beam.value(&self.q_hat);
-            self.vel_hat[k] = a.beam.value(&self.v_hat);
-            self.z[k] = a.beam.value(&state.a);
+        for (k, c) in self.couplings.iter().enumerate() {
+            let p = &model.attachments[c.attachment].beam;
+            self.pos_hat[k] = p.value_along(c.axial, &self.q_hat);
+            self.vel_hat[k] = p.value_along(c.axial, &self.v_hat);
+            self.z[k] = p.value_along(c.axial, &state.a);
         }
         let mut i = self.nb;
         for (f, ms) in self.followers.iter().zip(&state.mechanisms) {
@@ -959,8 +972,10 @@ impl Integrator {
         attachment: usize,
         joint: usize,
     ) -> Option<f64> {
-        for (k, a) in model.attachments.iter().enumerate() {
-            self.pos[k] = a.beam.value(&state.q);
+        for (k, c) in self.couplings.iter().enumerate() {
+            self.pos[k] = model.attachments[c.attachment]
+                .beam
+                .value_along(c.axial, &state.q);
         }
         let f = self.followers.get_mut(mech)?;
         f.influence(

@@ -101,8 +101,8 @@ pub use linear::{
 };
 pub use method::Method;
 pub use model::{
-    Attachment, AttachmentKind, BeamPoint, Excitation, ExcitationTarget, ForceKind, HybridModel,
-    JointForce, ModelError, Mount, MountedMechanism,
+    Attachment, AttachmentKind, BeamPoint, Coupling, Excitation, ExcitationTarget, ForceKind,
+    HybridModel, JointForce, ModelError, Mount, MountedMechanism,
 };
 pub use pencil::Pencil;
 pub use placement::{Placement, PlacementError, TwoBar, initial_deflection, place_two_bar};
@@ -133,7 +133,7 @@ pub fn initial_state(
     let n = model.structure_dofs();
     assert_eq!(q.len(), n, "beam DOF vector length");
     assert_eq!(v.len(), n, "beam velocity vector length");
-    let w: Vec<f64> = model.attachments.iter().map(|a| a.beam.value(&q)).collect();
+    let w = model.coupling_values(&q);
     let mut mechanisms = Vec::with_capacity(model.mechanisms.len());
     for (i, m) in model.mechanisms.iter().enumerate() {
         let mut f = Follower::new(model, i, vec![], 0);

@@ -70,14 +70,23 @@ pub struct MountedMechanism {
     pub initial_q: Vec<f64>,
 }
 
-/// A point of the beam: its abscissa and the weights giving its transverse displacement
-/// `w = sum_k weight_k q_k` from the reduced beam DOFs (eq. 35).
+/// A point of the host structure: where it is and the weights giving its displacement from
+/// the structure's coordinates. On the beam (eq. 35) the point moves transversely only,
+/// `w = sum_k weight_k q_k`; a node of an imported model moves along `y` by its `uy`
+/// coordinate and along `x` by its `ux` coordinate (the [`BeamPoint::axial`] weights, empty on
+/// the beam).
 #[derive(Clone, Debug, PartialEq)]
 pub struct BeamPoint {
-    /// Abscissa along the beam (m).
+    /// Abscissa along the beam, or the node's `x` (m).
     pub x: f64,
-    /// `(reduced DOF, weight)`; zero weights and locked DOFs are left out.
+    /// The point's undeformed `y` (m; 0 on the beam).
+    pub y: f64,
+    /// `(coordinate, weight)` of the displacement along `y`; zero weights and locked DOFs
+    /// are left out.
     pub weights: Vec<(usize, f64)>,
+    /// `(coordinate, weight)` of the displacement along `x` (empty on the beam, whose
+    /// points do not move axially).
+    pub axial: Vec<(usize, f64)>,
 }
 
 impl BeamPoint {
@@ -89,10 +98,45 @@ impl BeamPoint {
             .filter_map(|k| shape.dofs[k].map(|i| (i, shape.weights[0][k])))
             .filter(|&(_, w)| w != 0.0)
             .collect();
-        Some(BeamPoint { x, weights })
+        Some(BeamPoint {
+            x,
+            y: 0.0,
+            weights,
+            axial: vec![],
+        })
     }
 
-    /// `w = sum_k weight_k x_k` for a beam DOF vector (displacements, velocities, ...).
+    /// A node of an imported structure at `position`, moved by its coordinates `ux` and
+    /// `uy` (`None` where a support holds the node in that direction).
+    pub fn node(position: [f64; 2], ux: Option<usize>, uy: Option<usize>) -> BeamPoint {
+        BeamPoint {
+            x: position[0],
+            y: position[1],
+            weights: uy.map(|k| (k, 1.0)).into_iter().collect(),
+            axial: ux.map(|k| (k, 1.0)).into_iter().collect(),
+        }
+    }
+
+    /// The weights of one component: along `x` (`axial`) or along `y`.
+    pub fn component(&self, axial: bool) -> &[(usize, f64)] {
+        if axial { &self.axial } else { &self.weights }
+    }
+
+    /// The displacement along `x` (`axial`) or `y` of a coordinate vector.
+    #[inline]
+    pub fn value_along(&self, axial: bool, x: &[f64]) -> f64 {
+        self.component(axial).iter().map(|&(k, w)| w * x[k]).sum()
+    }
+
+    /// `out += f n` for the component along `x` (`axial`) or `y`.
+    pub fn add_force_along(&self, axial: bool, f: f64, out: &mut [f64]) {
+        for &(k, w) in self.component(axial) {
+            out[k] += w * f;
+        }
+    }
+
+    /// The displacement along `y`, `w = sum_k weight_k x_k`, for a coordinate vector
+    /// (displacements, velocities, ...).
     pub fn value(&self, x: &[f64]) -> f64 {
         self.weights.iter().map(|&(k, w)| w * x[k]).sum()
     }
@@ -102,7 +146,7 @@ impl BeamPoint {
         self.weights.iter().map(|&(k, w)| z[k] * w).sum()
     }
 
-    /// `out += f n` (the point's generalized force vector scaled by `f`).
+    /// `out += f n` (the generalized force vector of a unit force along `y`, scaled by `f`).
     pub fn add_force(&self, f: f64, out: &mut [f64]) {
         for &(k, w) in &self.weights {
             out[k] += w * f;
@@ -156,6 +200,19 @@ pub struct Attachment {
     pub kind: AttachmentKind,
     /// The beam point.
     pub beam: BeamPoint,
+}
+
+/// One displacement component of an attachment's point through which the structure and a
+/// mechanism are coupled: the transverse (`y`) component of every attachment, and the axial
+/// (`x`) one of a pin on a point that moves along `x` (a node of an imported model; the
+/// beam's points do not). The engine's coupling unknowns `w` are these, in
+/// [`HybridModel::couplings`] order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Coupling {
+    /// Index into [`HybridModel::attachments`].
+    pub attachment: usize,
+    /// The `x` component (else `y`).
+    pub axial: bool,
 }
 
 /// A force element on a joint, in the paper's sign (its contribution to `Q^b`, eq. 13).
@@ -581,7 +638,9 @@ impl HybridModel {
             if a.beam
                 .weights
                 .iter()
+                .chain(&a.beam.axial)
                 .any(|&(k, w)| k >= structure.dof_count() || !w.is_finite())
+                || !(a.beam.x.is_finite() && a.beam.y.is_finite())
             {
                 return Err(ModelError::OutsideBeam { entity });
             }
@@ -649,7 +708,11 @@ impl HybridModel {
                     let Some(structure) = &self.structure else {
                         return Err(ModelError::NoBeam { entity });
                     };
-                    if p.weights.iter().any(|&(k, _)| k >= structure.dof_count()) {
+                    if p.weights
+                        .iter()
+                        .chain(&p.axial)
+                        .any(|&(k, _)| k >= structure.dof_count())
+                    {
                         return Err(ModelError::OutsideBeam { entity });
                     }
                 }
@@ -672,6 +735,42 @@ impl HybridModel {
             }
         }
         Ok(())
+    }
+
+    /// The coupling components, attachment by attachment: its `y` component, then its `x`
+    /// component for a pin whose point moves along `x` ([`Coupling`]). On the beam, one per
+    /// attachment. Allocates: called at setup.
+    pub fn couplings(&self) -> Vec<Coupling> {
+        let mut out = Vec::with_capacity(self.attachments.len());
+        for (i, a) in self.attachments.iter().enumerate() {
+            out.push(Coupling {
+                attachment: i,
+                axial: false,
+            });
+            if a.kind == AttachmentKind::Pin && !a.beam.axial.is_empty() {
+                out.push(Coupling {
+                    attachment: i,
+                    axial: true,
+                });
+            }
+        }
+        out
+    }
+
+    /// The coupling index of attachment `attachment`'s `y` component.
+    pub fn coupling_of(&self, attachment: usize) -> usize {
+        self.couplings()
+            .iter()
+            .position(|c| c.attachment == attachment && !c.axial)
+            .expect("every attachment has its y component")
+    }
+
+    /// The coupling components' values `w` for structure coordinates `q`.
+    pub fn coupling_values(&self, q: &[f64]) -> Vec<f64> {
+        self.couplings()
+            .iter()
+            .map(|c| self.attachments[c.attachment].beam.value_along(c.axial, q))
+            .collect()
     }
 
     /// Number of the structure's coordinates (0 without a structure).

@@ -11,7 +11,8 @@ use fem_structure::mtx::{SymTriplets, parse_matrix_market, write_matrix_market};
 use fem_structure::tables::{parse_dofs, parse_nodes};
 use fem_structure::{DampingInput, ImportedStructure, craig_bampton};
 use hybrid_core::hybrid::{
-    BeamPoint, HybridModel, HybridState, Integrator, LinearStructure, Structure, initial_state,
+    Attachment, AttachmentKind, BeamPoint, ForceKind, HybridModel, HybridState, Integrator,
+    JointForce, LinearStructure, Mount, MountedMechanism, Structure, initial_state,
 };
 use nalgebra::{DMatrix, DVector};
 
@@ -233,6 +234,8 @@ fn the_damper_runs_the_same_on_every_kind_of_structure() {
     let mut reduced = beam_model.clone();
     reduced.attachments[0].beam = BeamPoint {
         x: point.x,
+        y: 0.0,
+        axial: vec![],
         weights: point
             .weights
             .iter()
@@ -251,6 +254,130 @@ fn the_damper_runs_the_same_on_every_kind_of_structure() {
         }
         for (x, y) in a.mechanisms[0].q.iter().zip(&b.mechanisms[0].q) {
             assert!((x - y).abs() <= 1e-9 * m_amp, "t = {}: {x} vs {y}", a.t);
+        }
+    }
+}
+
+/// A one-node structure (mass `m` on springs `k[0]`, `k[1]` along its two equations) whose
+/// equation 0 is the node's `first` translation (`ux` or `uy`) and equation 1 the other.
+fn one_node(m: f64, k: [f64; 2], first: &str) -> ImportedStructure {
+    let second = if first == "ux" { "uy" } else { "ux" };
+    let diag = |a: f64, b: f64| SymTriplets {
+        n: 2,
+        lower: vec![(0, 0, a), (1, 1, b)],
+    };
+    let nodes = parse_nodes("id,x,y\n7,0,0\n", "nodes.csv").unwrap();
+    let dofs = parse_dofs(
+        &format!("eq,node,dof\n0,7,{first}\n1,7,{second}\n"),
+        "dofs.csv",
+        2,
+        &nodes,
+    )
+    .unwrap();
+    ImportedStructure::from_parts(
+        diag(m, m),
+        diag(k[0], k[1]),
+        None,
+        &DampingInput::None,
+        nodes,
+        dofs,
+        (Path::new("M.mtx"), Path::new("K.mtx")),
+    )
+    .unwrap()
+}
+
+/// A node that moves along both axes, with the double bar pinned to it: the pin couples
+/// through both of its rows (the `y` row as on the beam, the `x` row as well). The same
+/// physical system turned by 90 degrees — the structure's equations now `uy`, `ux`, the
+/// mechanism's mount turned with it — swaps the roles of the two rows; its trajectory must be
+/// the first one turned (equation 0 equal, equation 1 of opposite sign, the mechanism's
+/// coordinates equal) to round-off (1e-9 of the amplitudes over 0.3 s through the generator's
+/// damping).
+#[test]
+fn a_pin_on_a_node_couples_both_directions() {
+    let paper = PaperDamper {
+        parameters: vec![("gx", 0.0), ("gy", 0.0)],
+        ..PaperDamper::default()
+    };
+    let build = |turned: bool| -> (HybridModel, Vec<f64>) {
+        let system = paper.with_parameters(crate::common::damper::double_bar());
+        let beam = paper.beam();
+        let g = paper.geometry(&beam, system.as_ref());
+        let origin = [-g.target[0], -g.target[1]];
+        let (structure, mount, q0) = if turned {
+            (
+                one_node(2.0, [4e4, 1e5], "uy"),
+                Mount {
+                    origin: [-origin[1], origin[0]],
+                    angle: std::f64::consts::FRAC_PI_2,
+                },
+                vec![1e-3, -4e-4],
+            )
+        } else {
+            (
+                one_node(2.0, [4e4, 1e5], "ux"),
+                Mount { origin, angle: 0.0 },
+                vec![1e-3, 4e-4],
+            )
+        };
+        let (ux, uy) = if turned { (1, 0) } else { (0, 1) };
+        let model = HybridModel::new(
+            Some(Structure::Imported(structure)),
+            vec![MountedMechanism {
+                name: "damper".into(),
+                system,
+                mount,
+                max_condition: paper.max_condition,
+                reach: None,
+                initial_q: g.guess.to_vec(),
+            }],
+            vec![Attachment {
+                name: "tip".into(),
+                mechanism: 0,
+                point: g.tip,
+                kind: AttachmentKind::Pin,
+                beam: BeamPoint::node([0.0, 0.0], Some(ux), Some(uy)),
+            }],
+            vec![JointForce {
+                name: "generator".into(),
+                mechanism: 0,
+                joint: g.joint,
+                kind: ForceKind::Generator(paper.generator.clone()),
+            }],
+            vec![],
+        )
+        .unwrap();
+        (model, q0)
+    };
+    let run = |(model, q0): (HybridModel, Vec<f64>)| -> Vec<HybridState> {
+        assert_eq!(model.couplings().len(), 2, "the pin couples both rows");
+        let mut state = initial_state(&model, q0, vec![0.0; 2]).unwrap();
+        let mut integrator = Integrator::new(&model, paper.method, paper.dt, &state).unwrap();
+        let mut out = vec![state.clone()];
+        for k in 1..=3000 {
+            integrator.step(&model, &mut state).unwrap();
+            if k % 50 == 0 {
+                out.push(state.clone());
+            }
+        }
+        out
+    };
+    let a = run(build(false));
+    let b = run(build(true));
+    let amp = |i: usize| a.iter().fold(0.0f64, |m, s| m.max(s.q[i].abs()));
+    let mamp = a
+        .iter()
+        .flat_map(|s| s.mechanisms[0].q.iter())
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    // Both directions move and the generator damps the motion.
+    assert!(amp(0) > 5e-4 && amp(1) > 2e-4, "{} {}", amp(0), amp(1));
+    let last = a.last().unwrap();
+    assert!(last.account.dissipated[0] > 0.0);
+    for (x, y) in a.iter().zip(&b) {
+        assert!((x.q[0] - y.q[0]).abs() <= 1e-9 * amp(0), "t = {}", x.t);
+        assert!((x.q[1] + y.q[1]).abs() <= 1e-9 * amp(1), "t = {}", x.t);
+        for (p, r) in x.mechanisms[0].q.iter().zip(&y.mechanisms[0].q) {
+            assert!((p - r).abs() <= 1e-9 * mamp, "t = {}: {p} vs {r}", x.t);
         }
     }
 }
