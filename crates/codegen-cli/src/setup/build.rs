@@ -8,6 +8,8 @@ use std::ops::Range;
 
 use diagnostic::{Diagnostic, Diagnostics, Kind};
 use fem_beam::BeamModel;
+use fem_structure::tables::NodeDof;
+use fem_structure::{ImportedStructure, Reduced, craig_bampton};
 use hybrid_core::hybrid::{
     Attachment, BeamPoint, Excitation, ExcitationTarget, HybridError, HybridModel, HybridState,
     JointForce, Mount, MountedMechanism, Placement, Structure, initial_deflection, initial_state,
@@ -126,20 +128,23 @@ fn realise_random(sc: &HybridScenario, model: &mut HybridModel) -> Result<(), Di
 /// mechanisms), without the initial state: what a linearisation about the rest position
 /// needs (an initial displacement out of the mechanism's reach does not stop it).
 pub fn build_model(sc: &HybridScenario) -> Result<(HybridModel, Vec<Model>), Diagnostics> {
-    let beam = beam_model(sc)?;
+    let structure = match beam_model(sc)? {
+        Some(b) => Some(Structure::Beam(b)),
+        None => imported_model(sc)?,
+    };
     let mut r = Resolver { sc, diags: vec![] };
     let loaded = r.load_mechanisms();
     let mut initial_q = r.initial_coordinates(&loaded);
-    let points = r.attachment_points(beam.as_ref(), &loaded);
+    let points = r.attachment_points(structure.as_ref(), &loaded);
     let mounts = r.place_mechanisms(&loaded, &points, &mut initial_q);
     r.check_points_move(&loaded, &points, &initial_q);
     let forces = r.joint_forces(&loaded);
-    let excitations = r.excitations(beam.as_ref(), &loaded);
+    let excitations = r.excitations(structure.as_ref(), &loaded);
     r.finish()?;
     assemble(
         sc,
         Resolved {
-            beam,
+            structure,
             loaded,
             mounts,
             initial_q,
@@ -168,7 +173,7 @@ type AttachedPoint = (usize, BeamPoint);
 /// (loaded model, placement, initial coordinates), per attachment, the forces and the
 /// excitations.
 struct Resolved {
-    beam: Option<BeamModel>,
+    structure: Option<Structure>,
     loaded: Vec<Option<Loaded>>,
     mounts: Vec<Placed>,
     initial_q: Vec<Vec<f64>>,
@@ -199,6 +204,95 @@ fn beam_model(sc: &HybridScenario) -> Result<Option<BeamModel>, Diagnostics> {
         sc.at(Kind::InvalidValue, sc.beam_span.as_ref(), "[beam]", msg)
             .into()
     })
+}
+
+/// The imported structure of `[structure]`, if any: its files read and checked
+/// ([`ImportedStructure::from_files`]: every problem with its file and line), reduced by
+/// Craig–Bampton when asked, the interface being the attachment nodes' and loaded nodes'
+/// `ux`, `uy` (unknown nodes are left to the resolver, which reports them).
+fn imported_model(sc: &HybridScenario) -> Result<Option<Structure>, Diagnostics> {
+    let Some(entry) = &sc.structure else {
+        return Ok(None);
+    };
+    let full = ImportedStructure::from_files(&entry.files)?;
+    let Some(modes) = entry.reduction_modes else {
+        return Ok(Some(Structure::Imported(full)));
+    };
+    let nodes =
+        sc.attachments
+            .iter()
+            .filter_map(|a| a.node)
+            .chain(sc.excitations.iter().filter_map(|e| match e.target {
+                TargetEntry::Node { node, .. } => Some(node),
+                _ => None,
+            }));
+    let equation = &full.dofs.equation;
+    let mut interface: Vec<usize> = nodes
+        .flat_map(|n| {
+            [NodeDof::Ux, NodeDof::Uy]
+                .into_iter()
+                .filter_map(move |d| equation.get(&(n, d)).copied())
+        })
+        .collect();
+    interface.sort_unstable();
+    interface.dedup();
+    let at = |msg: String| -> Diagnostics {
+        sc.at(
+            Kind::InvalidValue,
+            Some(&entry.span),
+            "[structure] reduction",
+            msg,
+        )
+        .into()
+    };
+    if interface.is_empty() {
+        return Err(at(
+            "Craig–Bampton needs an interface: attach a mechanism or apply a force at a node"
+                .into(),
+        ));
+    }
+    let reduced = craig_bampton(
+        &full.stiffness,
+        &full.mass,
+        full.damping.as_ref(),
+        &interface,
+        modes,
+    )
+    .map_err(|e| at(e.to_string()))?;
+    Ok(Some(Structure::Reduced {
+        full: Box::new(full),
+        reduced: Box::new(reduced),
+    }))
+}
+
+/// The point of an imported structure at node `node`: its position and the coordinates of
+/// its `ux`, `uy` (the interface's reduced coordinates on a reduced model); `None` for a node
+/// that `nodes.csv` lacks or whose translations are both held.
+fn node_point(
+    full: &ImportedStructure,
+    reduced: Option<&Reduced>,
+    node: u64,
+) -> Result<BeamPoint, String> {
+    let Some(n) = full.nodes.iter().find(|n| n.id == node) else {
+        return Err(format!(
+            "no node {node} in the structure's nodes table ({} nodes)",
+            full.nodes.len()
+        ));
+    };
+    let coordinate = |d: NodeDof| {
+        let eq = *full.dofs.equation.get(&(node, d))?;
+        match reduced {
+            None => Some(eq),
+            Some(r) => r.interface.iter().position(|&i| i == eq),
+        }
+    };
+    let (ux, uy) = (coordinate(NodeDof::Ux), coordinate(NodeDof::Uy));
+    if ux.is_none() && uy.is_none() {
+        return Err(format!(
+            "node {node} has no ux or uy equation (a support holds it)"
+        ));
+    }
+    Ok(BeamPoint::node([n.position[0], n.position[1]], ux, uy))
 }
 
 /// The stages of [`build_model`] after the beam: each resolves one kind of name of the
@@ -358,7 +452,7 @@ impl Resolver<'_> {
     /// mechanism is not loaded, with the diagnostics of those two.
     fn attachment_points(
         &mut self,
-        beam: Option<&BeamModel>,
+        beam: Option<&Structure>,
         loaded: &[Option<Loaded>],
     ) -> Vec<Option<AttachedPoint>> {
         let sc = self.sc;
@@ -410,10 +504,14 @@ impl Resolver<'_> {
     /// off the beam ([`Resolver::on_beam`]) or one a support locks.
     fn attached_beam_point(
         &mut self,
-        beam: Option<&BeamModel>,
+        structure: Option<&Structure>,
         a: &AttachmentEntry,
         entity: &str,
     ) -> Option<BeamPoint> {
+        if let Some(node) = a.node {
+            return self.at_node(structure, node, &a.x_span, entity);
+        }
+        let beam = structure.and_then(Structure::beam);
         let p = self.on_beam(beam, a.x, &a.x_span, entity)?;
         if !p.is_locked() {
             return Some(p);
@@ -424,6 +522,34 @@ impl Resolver<'_> {
         );
         self.report(Kind::InvalidValue, Some(&a.x_span), entity, msg);
         None
+    }
+
+    /// The point of an imported structure at `node` ([`node_point`]). Records
+    /// `UnknownName` at `span` for a node the structure lacks, `InvalidValue` for one held.
+    fn at_node(
+        &mut self,
+        structure: Option<&Structure>,
+        node: u64,
+        span: &Range<usize>,
+        entity: &str,
+    ) -> Option<BeamPoint> {
+        let (full, reduced) = match structure? {
+            Structure::Beam(_) => return None,
+            Structure::Imported(s) => (s, None),
+            Structure::Reduced { full, reduced } => (&**full, Some(&**reduced)),
+        };
+        match node_point(full, reduced, node) {
+            Ok(p) => Some(p),
+            Err(msg) => {
+                let kind = if msg.starts_with("no node") {
+                    Kind::UnknownName
+                } else {
+                    Kind::InvalidValue
+                };
+                self.report(kind, Some(span), entity, msg);
+                None
+            }
+        }
     }
 
     /// The point of the beam at `x`. Records `InvalidValue` at `span` when there is no
@@ -510,7 +636,8 @@ impl Resolver<'_> {
             Ok(two) => {
                 // The beam point (x_b, 0) = origin + R(angle) target.
                 let r = mount.rotate(two.target);
-                mount.origin = [self.sc.attachments[a].x - r[0], -r[1]];
+                let (_, at) = points[a].as_ref()?;
+                mount.origin = [at.x - r[0], at.y - r[1]];
                 *q = two.guess.to_vec();
                 (m.angle == 0.0).then_some(two.reach)
             }
@@ -596,7 +723,7 @@ impl Resolver<'_> {
     /// target off the beam and `UnknownName` for an unknown joint.
     fn excitations(
         &mut self,
-        beam: Option<&BeamModel>,
+        structure: Option<&Structure>,
         loaded: &[Option<Loaded>],
     ) -> Vec<Excitation> {
         let sc = self.sc;
@@ -606,8 +733,25 @@ impl Resolver<'_> {
                 let entity = named("excitation", &e.name);
                 let target = match &e.target {
                     TargetEntry::Beam { x } => self
-                        .on_beam(beam, *x, &e.at_span, &entity)
+                        .on_beam(structure.and_then(Structure::beam), *x, &e.at_span, &entity)
                         .map(ExcitationTarget::Beam),
+                    TargetEntry::Node { node, direction } => self
+                        .at_node(structure, *node, &e.at_span, &entity)
+                        .map(|p| {
+                            // The force along `direction`: weights d . e of ux and uy.
+                            let mut weights = p
+                                .axial
+                                .iter()
+                                .map(|&(k, w)| (k, w * direction[0]))
+                                .collect::<Vec<_>>();
+                            weights.extend(p.weights.iter().map(|&(k, w)| (k, w * direction[1])));
+                            weights.retain(|&(_, w)| w != 0.0);
+                            ExcitationTarget::Beam(BeamPoint {
+                                weights,
+                                axial: vec![],
+                                ..p
+                            })
+                        }),
                     TargetEntry::Joint {
                         mechanism,
                         joint: name,
@@ -694,7 +838,7 @@ fn assemble(sc: &HybridScenario, r: Resolved) -> Result<(HybridModel, Vec<Model>
         })
         .collect();
     let model = HybridModel::new(
-        r.beam.map(Structure::Beam),
+        r.structure,
         mechanisms,
         attachments,
         r.forces,

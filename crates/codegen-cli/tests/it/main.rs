@@ -36,4 +36,5 @@ mod simulate_cli;
 mod simulate_mechanism_cli;
 mod special_files_cli;
 mod stale_model_cli;
+mod structure_cli;
 mod sweep_cli;

@@ -136,6 +136,8 @@ pub(super) struct OnBeam {
     pub(super) length: Option<f64>,
     /// Whether a `[beam]` is written (valid or not).
     pub(super) written: bool,
+    /// Whether a `[structure]` is written (its nodes are read when the model is built).
+    pub(super) structure: bool,
 }
 
 impl OnBeam {
@@ -151,11 +153,31 @@ impl OnBeam {
                 false
             }
             None if self.written => false, // the beam's own problem is reported
+            None if self.structure => {
+                let msg = "the host is a [structure]: name a node (node = ...) instead of a beam abscissa";
+                doc.push(Kind::InvalidValue, Some(x.span()), Some(entity), msg);
+                false
+            }
             None => {
                 let msg = "there is no [beam] to attach to or to load";
                 doc.push(Kind::InvalidValue, Some(x.span()), Some(entity), msg);
                 false
             }
         }
+    }
+
+    /// Whether a node can be named (a `[structure]` is written), or a recorded problem. The
+    /// node itself is looked up in the structure's `nodes.csv` when the model is built.
+    pub(super) fn check_node(&self, doc: &mut Doc<'_>, n: &Spanned<u64>, entity: &str) -> bool {
+        if self.structure {
+            return true;
+        }
+        let msg = if self.written {
+            "the host is a [beam]: give a beam abscissa (x = ...) instead of a node"
+        } else {
+            "there is no [structure] whose node this could be"
+        };
+        doc.push(Kind::InvalidValue, Some(n.span()), Some(entity), msg);
+        false
     }
 }

@@ -84,6 +84,7 @@ use std::path::{Path, PathBuf};
 
 use diagnostic::{Diagnostic, Diagnostics, Kind, LineIndex};
 use fem_beam::{Beam, BeamSpec, TimeFunction};
+use fem_structure::MatrixFiles;
 use hybrid_core::hybrid::Method;
 use hybrid_core::hybrid::{AttachmentKind, ForceKind, Placement};
 
@@ -129,10 +130,24 @@ pub struct AttachmentEntry {
     pub point: String,
     /// Pin or roller.
     pub kind: AttachmentKind,
-    /// Beam abscissa (m).
+    /// Beam abscissa (m; 0 for an attachment at a node).
     pub x: f64,
+    /// The node of a `[structure]` it is attached to (`None`: the beam point at `x`).
+    pub node: Option<u64>,
     pub(crate) point_span: Range<usize>,
+    /// Where its `x` or `node` is written.
     pub(crate) x_span: Range<usize>,
+}
+
+/// `[structure]`: a model from another finite-element program (`fem_structure`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StructureEntry {
+    /// The files, resolved against the scenario's directory.
+    pub files: MatrixFiles,
+    /// Craig–Bampton reduction with this many fixed-interface modes (`None`: the full
+    /// model runs).
+    pub reduction_modes: Option<usize>,
+    pub(crate) span: Range<usize>,
 }
 
 /// One `[[force]]`.
@@ -166,6 +181,13 @@ pub enum TargetEntry {
     },
     /// The supports' transverse acceleration (`at = "base"`; amplitude in m/s^2).
     Base,
+    /// A force at a node of a `[structure]` along a unit direction in its x-y plane.
+    Node {
+        /// The node id.
+        node: u64,
+        /// The direction (unit vector).
+        direction: [f64; 2],
+    },
 }
 
 /// One `[[excitation]]`.
@@ -191,6 +213,8 @@ pub struct HybridScenario {
     pub description: Option<String>,
     /// The beam as written and validated.
     pub beam: Option<(BeamSpec, Beam)>,
+    /// The imported structure's files (instead of a beam).
+    pub structure: Option<StructureEntry>,
     /// The mechanisms.
     pub mechanisms: Vec<MechanismEntry>,
     /// The attachments.

@@ -15,15 +15,17 @@ use toml::de::DeValue;
 use super::checks::{OnBeam, de, finite, list, mechanism_ref, split, tables, unique};
 use super::schema::{
     RawAt, RawAttachment, RawDamper, RawExcitation, RawForceHead, RawInitial, RawMechanism,
-    RawOutput, RawSpring,
+    RawOutput, RawRatio, RawSpring, RawStructure, RawStructureDamping,
 };
 use super::table::time_function;
 use super::{
-    AttachmentEntry, ExcitationEntry, ForceEntry, HybridScenario, MechanismEntry, TargetEntry,
+    AttachmentEntry, ExcitationEntry, ForceEntry, HybridScenario, MechanismEntry, StructureEntry,
+    TargetEntry,
 };
 use crate::scenario::Doc;
 use crate::scenario::compare::Comparison;
 use crate::scenario::integrator::{IntegratorSpec, check_integrator};
+use fem_structure::{DampingInput, MatrixFiles};
 
 /// Reads the sections of a hybrid scenario and checks every value and every name that
 /// refers to another entry of the file.
@@ -32,6 +34,7 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<HybridScenario> {
         "kind",
         "description",
         "beam",
+        "structure",
         "mechanism",
         "attachment",
         "force",
@@ -43,17 +46,30 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<HybridScenario> {
     let mut ok = true;
     let description = doc.section::<String>("description", false);
     let (beam, beam_span) = beam(doc, &mut ok);
+    let structure = structure(doc, beam_span.is_some(), &mut ok);
     let on_beam = OnBeam {
         length: beam.as_ref().map(|(_, b)| b.length()),
         written: beam_span.is_some(),
+        structure: doc.root.contains_key("structure"),
     };
     // [[mechanism]]: names first (attachments and forces refer to them).
-    let (raw_mechanisms, names) = mechanism_tables(doc, beam.is_some(), &mut ok);
+    let (raw_mechanisms, names) =
+        mechanism_tables(doc, beam.is_some() || structure.is_some(), &mut ok);
     let attachments = attachments(doc, &names, &on_beam, &mut ok);
     let mechanisms = mechanisms(doc, &raw_mechanisms, &attachments, &mut ok);
     let forces = forces(doc, &names, &mut ok);
     let excitations = excitations(doc, &names, &on_beam, &mut ok);
     let initial = initial(doc, &on_beam, &mut ok);
+    if let (Some(_), Some(s)) = (&initial, &structure) {
+        let msg = "[initial] (the static shape of a load at a beam abscissa) is for a [beam]: a [structure] starts at rest";
+        doc.push(
+            Kind::InvalidValue,
+            Some(s.span.clone()),
+            Some("[initial]"),
+            msg,
+        );
+        ok = false;
+    }
     // [integrator], [output]
     let integrator = doc.section::<IntegratorSpec>("integrator", true);
     let method = integrator
@@ -72,6 +88,7 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<HybridScenario> {
         path: PathBuf::from(doc.file()),
         description: description.map(Spanned::into_inner),
         beam,
+        structure,
         mechanisms,
         attachments,
         forces,
@@ -132,6 +149,82 @@ fn beam(doc: &mut Doc<'_>, ok: &mut bool) -> (Option<(BeamSpec, Beam)>, Option<R
     (beam, beam_span)
 }
 
+/// `[structure]`: the files of a model from another finite-element program (paths relative to
+/// the scenario), its damping and reduction; refused beside a `[beam]`. The files themselves
+/// are read when the model is built ([`crate::setup::build()`]).
+fn structure(doc: &mut Doc<'_>, beam_written: bool, ok: &mut bool) -> Option<StructureEntry> {
+    let raw = doc.section::<RawStructure>("structure", false);
+    let span = doc.span(&["structure"]);
+    let Some(raw) = raw else {
+        *ok &= !doc.root.contains_key("structure");
+        return None;
+    };
+    let span = span.unwrap_or(raw.span());
+    let raw = raw.into_inner();
+    let entity = "[structure]";
+    let mut good = true;
+    if beam_written {
+        let msg = "a scenario has one host structure: a [beam] or a [structure], not both";
+        doc.push(Kind::InvalidValue, Some(span.clone()), Some(entity), msg);
+        good = false;
+    }
+    if raw.kind.get_ref() != "matrices" {
+        let msg = format!(
+            "unknown kind {:?} (expected \"matrices\")",
+            raw.kind.get_ref()
+        );
+        doc.push(Kind::InvalidValue, Some(raw.kind.span()), Some(entity), msg);
+        good = false;
+    }
+    let base = doc.base().to_path_buf();
+    let path = |p: &Spanned<String>| base.join(p.get_ref());
+    let damping = match raw.damping.as_ref().map(|d| (d.get_ref(), d.span())) {
+        None => DampingInput::None,
+        Some((RawStructureDamping::File(f), _)) => DampingInput::Matrix(base.join(f)),
+        Some((RawStructureDamping::Ratios { ratios }, span)) => {
+            let valid = |r: &RawRatio| r.mode >= 1 && r.ratio.is_finite() && r.ratio >= 0.0;
+            match ratios.as_slice() {
+                [a, b] if valid(a) && valid(b) && a.mode != b.mode => {
+                    DampingInput::Ratios([(a.mode, a.ratio), (b.mode, b.ratio)])
+                }
+                _ => {
+                    let msg = "damping: give two ratios at two different modes, e.g. { ratios = [{ mode = 1, ratio = 0.003 }, { mode = 2, ratio = 0.003 }] } (ratios finite and >= 0), or a damping matrix file";
+                    doc.push(Kind::InvalidValue, Some(span), Some(entity), msg);
+                    good = false;
+                    DampingInput::None
+                }
+            }
+        }
+    };
+    let reduction_modes = match &raw.reduction {
+        None => None,
+        Some(r) => {
+            let r = r.get_ref();
+            if r.kind.get_ref() != "craig_bampton" {
+                let msg = format!(
+                    "reduction: unknown kind {:?} (expected \"craig_bampton\")",
+                    r.kind.get_ref()
+                );
+                doc.push(Kind::InvalidValue, Some(r.kind.span()), Some(entity), msg);
+                good = false;
+            }
+            Some(*r.modes.get_ref())
+        }
+    };
+    *ok &= good;
+    good.then(|| StructureEntry {
+        files: MatrixFiles {
+            mass: path(&raw.mass),
+            stiffness: path(&raw.stiffness),
+            nodes: path(&raw.nodes),
+            dofs: path(&raw.dofs),
+            damping,
+        },
+        reduction_modes,
+        span,
+    })
+}
+
 /// The `[[mechanism]]` tables as written, and their names (unique).
 fn mechanism_tables(
     doc: &mut Doc<'_>,
@@ -173,6 +266,7 @@ fn attachments(
     let mut attachments = vec![];
     let mut seen = BTreeMap::new();
     for v in tables(doc, "attachment") {
+        let v_span = v.span();
         let Some(a) = de::<RawAttachment>(doc, v, "[[attachment]]") else {
             *ok = false;
             continue;
@@ -190,16 +284,37 @@ fn attachments(
             }
         };
         // Kept when x is wrong (reported), so that placements still find it.
-        *ok &= on_beam.check(doc, &a.x, &entity);
+        let (x, node, x_span) = match (&a.x, &a.node) {
+            (Some(x), None) => {
+                *ok &= on_beam.check(doc, x, &entity);
+                (*x.get_ref(), None, x.span())
+            }
+            (None, Some(n)) => {
+                *ok &= on_beam.check_node(doc, n, &entity);
+                if kind == Some(AttachmentKind::Roller) {
+                    let msg = "a roller at a node is not supported yet: use kind = \"pin\" (the node's ux and uy drive the point)";
+                    doc.push(Kind::Unsupported, Some(n.span()), Some(&entity), msg);
+                    *ok = false;
+                }
+                (0.0, Some(*n.get_ref()), n.span())
+            }
+            _ => {
+                let msg = "give where it is attached: x = ... (a beam abscissa) or node = ... (a node of the [structure])";
+                doc.push(Kind::MissingField, Some(v_span.clone()), Some(&entity), msg);
+                *ok = false;
+                (0.0, None, v_span.clone())
+            }
+        };
         match (mechanism, kind) {
             (Some(mechanism), Some(kind)) => attachments.push(AttachmentEntry {
                 name: a.name.get_ref().clone(),
                 mechanism,
                 point: a.point.get_ref().clone(),
                 kind,
-                x: *a.x.get_ref(),
+                x,
+                node,
                 point_span: a.point.span(),
-                x_span: a.x.span(),
+                x_span,
             }),
             _ => *ok = false,
         }
@@ -536,7 +651,7 @@ fn excitation_target<'a>(
     on_beam: &OnBeam,
     entity: &str,
 ) -> Option<TargetEntry> {
-    const FORMS: &str = "at must be \"base\" (the supports), { x = ... } (a beam point) or { mechanism = ..., joint = ... }";
+    const FORMS: &str = "at must be \"base\" (the supports), { x = ... } (a beam point), { node = ..., direction = [...] } (a node of a [structure]) or { mechanism = ..., joint = ... }";
     let span = at.span();
     match at.get_ref() {
         DeValue::String(s) if s == "base" => return Some(TargetEntry::Base),
@@ -552,6 +667,35 @@ fn excitation_target<'a>(
         }
     }
     let at = de::<RawAt>(doc, at, entity)?;
+    if let Some(n) = &at.node {
+        if at.x.is_some() || at.mechanism.is_some() || at.joint.is_some() {
+            doc.push(Kind::InvalidValue, Some(span), Some(entity), FORMS);
+            return None;
+        }
+        let Some(d) = &at.direction else {
+            let msg = "a force at a node needs its direction in the structure's x-y plane, e.g. at = { node = 5, direction = [1.0, 0.0] }";
+            doc.push(Kind::MissingField, Some(span), Some(entity), msg);
+            return None;
+        };
+        let [dx, dy] = *d.get_ref();
+        let norm = dx.hypot(dy);
+        if !(norm.is_finite() && norm > 0.0) {
+            let msg = format!("direction [{dx}, {dy}] is not a direction (zero or not finite)");
+            doc.push(Kind::InvalidValue, Some(d.span()), Some(entity), msg);
+            return None;
+        }
+        return on_beam
+            .check_node(doc, n, entity)
+            .then(|| TargetEntry::Node {
+                node: *n.get_ref(),
+                direction: [dx / norm, dy / norm],
+            });
+    }
+    if let Some(d) = &at.direction {
+        let msg = "direction is for a force at a node (at = { node = ..., direction = [...] })";
+        doc.push(Kind::InvalidValue, Some(d.span()), Some(entity), msg);
+        return None;
+    }
     match (&at.x, &at.mechanism, &at.joint) {
         (Some(x), None, None) => on_beam
             .check(doc, x, entity)

@@ -45,7 +45,51 @@ pub(super) struct RawAttachment {
     pub(super) point: Spanned<String>,
     #[serde(default)]
     pub(super) kind: Option<Spanned<String>>,
-    pub(super) x: Spanned<f64>,
+    /// A beam abscissa (with a `[beam]`).
+    #[serde(default)]
+    pub(super) x: Option<Spanned<f64>>,
+    /// A node id (with a `[structure]`).
+    #[serde(default)]
+    pub(super) node: Option<Spanned<u64>>,
+}
+
+/// `[structure]`: a model from another finite-element program.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawStructure {
+    pub(super) kind: Spanned<String>,
+    pub(super) mass: Spanned<String>,
+    pub(super) stiffness: Spanned<String>,
+    pub(super) nodes: Spanned<String>,
+    pub(super) dofs: Spanned<String>,
+    #[serde(default)]
+    pub(super) damping: Option<Spanned<RawStructureDamping>>,
+    #[serde(default)]
+    pub(super) reduction: Option<Spanned<RawReduction>>,
+}
+
+/// `[structure] damping`: a matrix file, or Rayleigh damping from two modal ratios.
+#[derive(Deserialize)]
+#[serde(untagged)]
+pub(super) enum RawStructureDamping {
+    File(String),
+    Ratios { ratios: Vec<RawRatio> },
+}
+
+/// One `{ mode = 1, ratio = 0.003 }`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawRatio {
+    pub(super) mode: usize,
+    pub(super) ratio: f64,
+}
+
+/// `[structure] reduction`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawReduction {
+    pub(super) kind: Spanned<String>,
+    pub(super) modes: Spanned<usize>,
 }
 
 #[derive(Deserialize)]
@@ -87,6 +131,10 @@ pub(super) struct RawExcitation {
 pub(super) struct RawAt {
     #[serde(default)]
     pub(super) x: Option<Spanned<f64>>,
+    #[serde(default)]
+    pub(super) node: Option<Spanned<u64>>,
+    #[serde(default)]
+    pub(super) direction: Option<Spanned<[f64; 2]>>,
     #[serde(default)]
     pub(super) mechanism: Option<Spanned<String>>,
     #[serde(default)]
