@@ -284,6 +284,13 @@ pub fn simulate(
     if let Some(w) = summary.random.as_ref().and_then(|r| r.warning.as_ref()) {
         eprintln!("{file}: warning: {w}");
     }
+    let reduction = summary
+        .structure
+        .as_ref()
+        .and_then(|s| s.reduction.as_ref());
+    if let Some(w) = reduction.and_then(|r| r.warning.as_ref()) {
+        eprintln!("{file}: warning: {w}");
+    }
     let na = model.attachments.len();
     let mut files = vec![OutputFile {
         path: out.join("summary.json"),
@@ -704,6 +711,7 @@ pub fn evaluate<'a>(
             .beam()
             .and_then(|b| b.modes(1).ok())
             .map(|m| m.frequencies_hz()[0]),
+        structure: crate::report::structure::StructureReport::of(model),
         peak_amplitude: attachments.first().map(|a| a.peak_displacement),
         damping_ratio,
         decay,

@@ -325,6 +325,9 @@ pub struct HybridSummary<'a> {
     /// First natural frequency of the bare beam (Hz).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub beam_first_frequency_hz: Option<f64>,
+    /// The host structure (its kind, size and reduction check).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub structure: Option<super::structure::StructureReport>,
     /// Largest |displacement| of the first attachment's beam point (m).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub peak_amplitude: Option<f64>,

@@ -17,6 +17,7 @@ pub mod random_run;
 pub mod rows;
 pub mod steady_power;
 pub mod stream;
+pub mod structure;
 pub mod summary;
 pub mod sweep;
 pub mod writer;

@@ -143,8 +143,8 @@ fn the_beam_as_matrices_runs_as_the_beam() {
         )
     };
     std::fs::write(&full, host("")).unwrap();
-    // Every fixed-interface mode: 50 equations, 4 interface DOFs (the three nodes' uy; the
-    // ux the beam does not have).
+    // Every fixed-interface mode (45; more are capped): 48 equations, 3 interface DOFs (the
+    // three nodes' uy; the beam has no ux).
     std::fs::write(
         &reduced,
         host("reduction = { kind = \"craig_bampton\", modes = 47 }\n"),
@@ -171,6 +171,62 @@ fn the_beam_as_matrices_runs_as_the_beam() {
     assert!(w <= 1e-10, "imported vs beam: {w:e}");
     let w = worst(&a, &c);
     assert!(w <= 1e-10, "Craig–Bampton (every mode) vs beam: {w:e}");
+
+    // The summary reports the host and the reduction's check: with every mode the reduced
+    // frequencies are the full model's; with two, each lies above its full counterpart.
+    let summary = |o: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(o.join("summary.json")).unwrap()).unwrap()
+    };
+    let s = summary(&c);
+    assert_eq!(s["structure"]["kind"], "matrices, Craig–Bampton");
+    // 25 nodes' uy and rz, less the two pinned ends' uy.
+    assert_eq!(s["structure"]["equations"], 48);
+    let check = &s["structure"]["reduction"];
+    assert_eq!(check["interface"], 3);
+    assert!(
+        check["max_relative_error"].as_f64().unwrap() < 1e-9,
+        "{check}"
+    );
+    assert_eq!(check["full_hz"].as_array().unwrap().len(), 10);
+    assert_eq!(summary(&b)["structure"]["kind"], "matrices");
+    let two = d.join("two.toml");
+    std::fs::write(
+        &two,
+        host("reduction = { kind = \"craig_bampton\", modes = 2 }\n"),
+    )
+    .unwrap();
+    let s = summary(&run(&two, "two"));
+    let check = &s["structure"]["reduction"];
+    let (full, reduced) = (
+        check["full_hz"].as_array().unwrap(),
+        check["reduced_hz"].as_array().unwrap(),
+    );
+    assert!(!full.is_empty() && full.len() == reduced.len(), "{check}");
+    for (f, r) in full.iter().zip(reduced) {
+        let (f, r) = (f.as_f64().unwrap(), r.as_f64().unwrap());
+        assert!(r >= f * (1.0 - 1e-10), "reduced {r} Hz below full {f} Hz");
+    }
+    assert!(
+        check["max_relative_error"].as_f64().unwrap() > 1e-9,
+        "{check}"
+    );
+    // A harmonic above the cutoff is warned about.
+    let fast = d.join("fast.toml");
+    std::fs::write(
+        &fast,
+        host("reduction = { kind = \"craig_bampton\", modes = 1 }\n")
+            .replace("frequency_hz = 18.0", "frequency_hz = 5000.0"),
+    )
+    .unwrap();
+    let (code, _, err) = damper(&[
+        "simulate",
+        fast.to_str().unwrap(),
+        "-o",
+        d.join("fast").to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("above the reduction's cutoff"), "{err}");
     std::fs::remove_dir_all(d).unwrap();
 }
 
