@@ -28,5 +28,7 @@ pub mod tables;
 pub use craig_bampton::{Reduced, craig_bampton};
 pub use error::StructureError;
 pub use model::{DampingInput, ImportedStructure, MatrixFiles};
-pub use modes::{MAX_ITERATIONS, MODE_TOL, SparseModes, generalized_eigen, lowest_modes};
+pub use modes::{
+    FLOOR_TOL, MAX_ITERATIONS, MODE_TOL, STALL_WINDOW, SparseModes, generalized_eigen, lowest_modes,
+};
 pub use sparse::{SparseFactor, SparseSym};

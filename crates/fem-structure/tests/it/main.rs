@@ -3,4 +3,5 @@
 
 mod chain;
 mod files;
+mod frame;
 mod reduction;
