@@ -124,11 +124,66 @@ fn bad_input_is_one_line_naming_file_and_line() {
     };
     let e = error(&f);
     assert!(e.contains("Kg.mtx:4: the matrix is not symmetric"), "{e}");
+    // Refused from the size line: the entries after it (here not even entries) are never
+    // read, and the message names the declared count and the limit.
     let f = MatrixFiles {
-        mass: write(&d, "Mbig.mtx", &format!("{h}4000 4000 10000000\n")),
+        mass: write(
+            &d,
+            "Mbig.mtx",
+            &format!("{h}4000 4000 10000000\n1 1 1\nnot an entry\n"),
+        ),
         ..good.clone()
     };
     let e = error(&f);
-    assert!(e.contains("Mbig.mtx:2: 10000000 entries declared"), "{e}");
+    assert!(
+        e.contains("Mbig.mtx:2: 10000000 entries declared: more than the 5000000"),
+        "{e}"
+    );
+    let f = MatrixFiles {
+        stiffness: write(
+            &d,
+            "Knan.mtx",
+            &format!("{h}4 4 4\n1 1 1\n2 2 1\n3 3 NaN\n4 4 1\n"),
+        ),
+        ..good.clone()
+    };
+    let e = error(&f);
+    assert!(
+        e.contains("Knan.mtx:5: entry (3, 3) is NaN (not a finite number)"),
+        "{e}"
+    );
+    // A free-free chain: the supports were not eliminated, K is singular.
+    let f = MatrixFiles {
+        stiffness: write(
+            &d,
+            "Kfree.mtx",
+            &format!("{h}4 4 7\n1 1 1\n2 1 -1\n2 2 2\n3 2 -1\n3 3 2\n4 3 -1\n4 4 1\n"),
+        ),
+        ..good.clone()
+    };
+    let e = error(&f);
+    assert!(
+        e.contains("Kfree.mtx: the stiffness matrix (supports must be eliminated from it) is not positive definite"),
+        "{e}"
+    );
+    let f = MatrixFiles {
+        dofs: write(
+            &d,
+            "d4.csv",
+            "eq,node,dof\n0,1,ux\n1,2,ux\n2,2,ux\n3,4,ux\n",
+        ),
+        ..good.clone()
+    };
+    let e = error(&f);
+    assert!(e.contains("d4.csv:4: node 2 ux listed twice"), "{e}");
+    let f = MatrixFiles {
+        nodes: write(&d, "n1.csv", "id,x,y\n1,0,0\n2,1,0\n3,2,nan\n4,3,0\n"),
+        ..good.clone()
+    };
+    let e = error(&f);
+    assert!(
+        e.contains("n1.csv:4: expected a non-negative integer id and finite coordinates"),
+        "{e}"
+    );
     std::fs::remove_dir_all(d).unwrap();
 }
