@@ -19,13 +19,7 @@ use fem_structure::{DampingInput, ImportedStructure, MatrixFiles, craig_bampton,
 
 fn files() -> MatrixFiles {
     let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/frame");
-    MatrixFiles {
-        mass: d.join("M.mtx"),
-        stiffness: d.join("K.mtx"),
-        nodes: d.join("nodes.csv"),
-        dofs: d.join("dofs.csv"),
-        damping: DampingInput::None,
-    }
+    MatrixFiles::in_directory(&d, DampingInput::None)
 }
 
 fn frame(c: &mut Criterion) {

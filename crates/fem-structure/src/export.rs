@@ -42,22 +42,20 @@ impl StructureFiles {
     /// damping as [`DampingInput::Matrix`], or [`DampingInput::None`]).
     pub fn write_to(&self, dir: &Path) -> std::io::Result<MatrixFiles> {
         std::fs::create_dir_all(dir)?;
-        let write = |name: &str, text: &str| -> std::io::Result<std::path::PathBuf> {
-            let p = dir.join(name);
-            std::fs::write(&p, text)?;
-            Ok(p)
-        };
         let damping = match &self.damping {
-            Some(c) => DampingInput::Matrix(write("C.mtx", c)?),
+            Some(c) => {
+                let p = dir.join("C.mtx");
+                std::fs::write(&p, c)?;
+                DampingInput::Matrix(p)
+            }
             None => DampingInput::None,
         };
-        Ok(MatrixFiles {
-            mass: write("M.mtx", &self.mass)?,
-            stiffness: write("K.mtx", &self.stiffness)?,
-            nodes: write("nodes.csv", &self.nodes)?,
-            dofs: write("dofs.csv", &self.dofs)?,
-            damping,
-        })
+        let files = MatrixFiles::in_directory(dir, damping);
+        std::fs::write(&files.mass, &self.mass)?;
+        std::fs::write(&files.stiffness, &self.stiffness)?;
+        std::fs::write(&files.nodes, &self.nodes)?;
+        std::fs::write(&files.dofs, &self.dofs)?;
+        Ok(files)
     }
 }
 

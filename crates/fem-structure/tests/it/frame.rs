@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use fem_structure::tables::NodeDof;
+use fem_structure::tables::{NodeDof, read_elements};
 use fem_structure::{DampingInput, ImportedStructure, MatrixFiles, craig_bampton, lowest_modes};
 
 use crate::reduction::dense_eigenvalues;
@@ -22,14 +22,7 @@ pub fn frame_dir() -> PathBuf {
 
 /// The bundled frame's files, undamped.
 pub fn frame_files() -> MatrixFiles {
-    let d = frame_dir();
-    MatrixFiles {
-        mass: d.join("M.mtx"),
-        stiffness: d.join("K.mtx"),
-        nodes: d.join("nodes.csv"),
-        dofs: d.join("dofs.csv"),
-        damping: DampingInput::None,
-    }
+    MatrixFiles::in_directory(&frame_dir(), DampingInput::None)
 }
 
 /// `frequencies.csv`: scipy's (ARPACK, shift-invert) lowest frequencies (Hz).
@@ -79,6 +72,18 @@ fn the_bundled_frame_loads_with_its_nodes() {
     let mass = s.mass.quadratic_form(&ones);
     let whole = 7850.0 * 0.04 * 0.02 * (0.8 + 2.0 * 0.58);
     assert!(mass < whole && mass > 0.99 * whole, "{mass} of {whole} kg");
+    // The outline: the frame's boundary is one closed line; the eliminated base edges cut
+    // it into two open ones, so every node on it has two neighbours but four ends.
+    let lines = read_elements(&frame_dir().join("elements.csv"), &s.nodes).unwrap();
+    assert_eq!(lines.len(), 396);
+    let mut degree = std::collections::BTreeMap::new();
+    for (a, b) in lines {
+        *degree.entry(a).or_insert(0) += 1;
+        *degree.entry(b).or_insert(0) += 1;
+    }
+    assert_eq!(degree.values().filter(|&&d| d == 1).count(), 4);
+    assert!(degree.values().all(|&d| d == 1 || d == 2));
+    assert_eq!(degree.get(&DAMPER_NODE), Some(&2));
 }
 
 /// The issue's check "the bare frame's frequencies against the external FE program's own
