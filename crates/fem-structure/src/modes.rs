@@ -24,9 +24,9 @@ pub const MAX_ITERATIONS: usize = 500;
 pub const MODE_TOL: f64 = 1e-10;
 
 /// The residual accepted when it stops decreasing (the rounding floor of the solves of an
-/// ill-conditioned `K`: about 2e-10 on the bundled 1990-equation frame). The eigenvalues' error is of the order of the
-/// residual's square, so still at rounding; the shapes' of the order of the residual over
-/// the relative gap to the next eigenvalue.
+/// ill-conditioned `K`: about 2e-10 on the bundled 1990-equation frame). The eigenvalues'
+/// error is of the order of the residual's square, so still at rounding; the shapes' of
+/// the order of the residual over the relative gap to the next eigenvalue.
 pub const FLOOR_TOL: f64 = 1e-8;
 
 /// Iterations over which a residual below [`FLOOR_TOL`] that has not halved counts as
