@@ -13,12 +13,15 @@
 //!   modes, a small dense model;
 //! - [`ImportedStructure`]: the files read and checked (sizes, tables, positive
 //!   definiteness) before any work, Rayleigh damping from two modal ratios or a damping
-//!   matrix.
+//!   matrix;
+//! - [`beam_structure_files`]: the built-in beam (`fem_beam::BeamModel`) written as such
+//!   files ([`StructureFiles`]), to run the same structure both ways.
 
 #![warn(missing_docs)]
 
 mod craig_bampton;
 mod error;
+mod export;
 mod model;
 mod modes;
 pub mod mtx;
@@ -27,6 +30,9 @@ pub mod tables;
 
 pub use craig_bampton::{Reduced, craig_bampton};
 pub use error::StructureError;
+pub use export::{StructureFiles, beam_structure_files};
 pub use model::{DampingInput, ImportedStructure, MatrixFiles};
-pub use modes::{MAX_ITERATIONS, MODE_TOL, SparseModes, generalized_eigen, lowest_modes};
+pub use modes::{
+    FLOOR_TOL, MAX_ITERATIONS, MODE_TOL, STALL_WINDOW, SparseModes, generalized_eigen, lowest_modes,
+};
 pub use sparse::{SparseFactor, SparseSym};

@@ -38,6 +38,21 @@ pub struct MatrixFiles {
     pub damping: DampingInput,
 }
 
+impl MatrixFiles {
+    /// The files of a structure under their usual names in `dir`: `M.mtx`, `K.mtx`,
+    /// `nodes.csv`, `dofs.csv` (the names the bundled frame and
+    /// [`crate::StructureFiles::write_to`] use).
+    pub fn in_directory(dir: &Path, damping: DampingInput) -> MatrixFiles {
+        MatrixFiles {
+            mass: dir.join("M.mtx"),
+            stiffness: dir.join("K.mtx"),
+            nodes: dir.join("nodes.csv"),
+            dofs: dir.join("dofs.csv"),
+            damping,
+        }
+    }
+}
+
 /// A structure read from matrices and tables.
 #[derive(Clone, Debug)]
 pub struct ImportedStructure {

@@ -7,7 +7,8 @@
 //!
 //! with a block of `p = min(n, max(2 k, k + 8))` vectors from a deterministic start, until
 //! every wanted mode's residual `|K x - lambda M x| <= tol lambda |M x|` (capped at
-//! [`MAX_ITERATIONS`]). With `p = n` one projection is exact.
+//! [`MAX_ITERATIONS`]), or until the residuals stall at the rounding floor below
+//! [`FLOOR_TOL`]. With `p = n` one projection is exact.
 
 use nalgebra::{DMatrix, SymmetricEigen};
 
@@ -21,6 +22,16 @@ pub const MAX_ITERATIONS: usize = 500;
 /// `|lambda K^-1 M x - x|_M` of a unit-modal-mass vector (eigenvalues then exact to about
 /// its square, i.e. to rounding).
 pub const MODE_TOL: f64 = 1e-10;
+
+/// The residual accepted when it stops decreasing (the rounding floor of the solves of an
+/// ill-conditioned `K`: about 2e-10 on the bundled 1990-equation frame). The eigenvalues'
+/// error is of the order of the residual's square, so still at rounding; the shapes' of
+/// the order of the residual over the relative gap to the next eigenvalue.
+pub const FLOOR_TOL: f64 = 1e-8;
+
+/// Iterations over which a residual below [`FLOOR_TOL`] that has not halved counts as
+/// stalled at the rounding floor.
+pub const STALL_WINDOW: usize = 10;
 
 /// Modes of a sparse model: eigenvalues `omega^2` ascending and shapes with unit modal
 /// mass (column `i` of `shapes`, `n x k`), sign: the largest component positive.
@@ -78,6 +89,7 @@ pub fn lowest_modes(
     let mut lambda: Vec<f64> = Vec::new();
     let mut r = vec![0.0; n];
     let mut mr = vec![0.0; n];
+    let mut history: Vec<f64> = Vec::new();
     for it in 1..=MAX_ITERATIONS {
         // Y = K^-1 M X
         y.fill(0.0);
@@ -86,9 +98,12 @@ pub fn lowest_modes(
         }
         factor.solve_columns_in_place(&mut y);
         // Converged when each wanted Ritz pair (unit modal mass) is a fixed point of the
-        // inverse iteration: |lambda K^-1 M x - x|_M <= tol.
-        if it > 1
-            && (0..count).all(|i| {
+        // inverse iteration, |lambda K^-1 M x - x|_M <= MODE_TOL, or when the largest of
+        // these residuals has reached the rounding floor of the solves: below
+        // FLOOR_TOL and not halved over the last STALL_WINDOW iterations.
+        if it > 1 {
+            let mut worst = 0.0f64;
+            for i in 0..count {
                 for (ri, (yi, xi)) in r
                     .iter_mut()
                     .zip(y[i * n..(i + 1) * n].iter().zip(x.column(i).iter()))
@@ -98,10 +113,15 @@ pub fn lowest_modes(
                 mr.fill(0.0);
                 m.mul_add_into(1.0, &r, &mut mr);
                 let norm2: f64 = r.iter().zip(&mr).map(|(a, b)| a * b).sum();
-                norm2.max(0.0).sqrt() <= MODE_TOL
-            })
-        {
-            return Ok(finish(x, &lambda, count, it - 1));
+                worst = worst.max(norm2.max(0.0).sqrt());
+            }
+            history.push(worst);
+            let stalled = history.len() > STALL_WINDOW
+                && worst <= FLOOR_TOL
+                && worst > 0.5 * history[history.len() - 1 - STALL_WINDOW];
+            if worst <= MODE_TOL || stalled {
+                return Ok(finish(x, &lambda, count, it - 1));
+            }
         }
         // Orthonormal basis of the block: keeps the projected matrices well conditioned.
         let ym = DMatrix::from_column_slice(n, p, &y).qr().q();

@@ -1,6 +1,7 @@
-//! The node and DOF tables: `nodes.csv` (`id,x,y[,z]`) and `dofs.csv` (`eq,node,dof`, `eq`
-//! the 0-based row of the matrices, `dof` one of `ux uy uz rx ry rz`). Every problem names
-//! the file and the line.
+//! The node and DOF tables: `nodes.csv` (`id,x,y[,z]`), `dofs.csv` (`eq,node,dof`, `eq`
+//! the 0-based row of the matrices, `dof` one of `ux uy uz rx ry rz`) and, for drawing
+//! only, `elements.csv` (`node1,node2`: lines between nodes). Every problem names the file
+//! and the line.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -259,4 +260,47 @@ pub fn parse_dofs(
         of_equation: of_eq.into_iter().map(|e| e.expect("checked")).collect(),
         equation,
     })
+}
+
+/// Reads `elements.csv` over `nodes`.
+pub fn read_elements(path: &Path, nodes: &[Node]) -> Result<Vec<(u64, u64)>, Diagnostics> {
+    let text = diagnostic::read_input(path, "element table")?;
+    parse_elements(&text, &path.display().to_string(), nodes)
+}
+
+/// Parses an element table named `file` (drawing only): header `node1,node2`, one line
+/// between two known nodes a row, in file order.
+pub fn parse_elements(
+    text: &str,
+    file: &str,
+    nodes: &[Node],
+) -> Result<Vec<(u64, u64)>, Diagnostics> {
+    let (header, rows) = records(text, file)?;
+    if header != ["node1", "node2"] {
+        return Err(diag(
+            file,
+            Some(1),
+            format!("header `{}`: expected `node1,node2`", header.join(",")),
+        )
+        .into());
+    }
+    let known: std::collections::BTreeSet<u64> = nodes.iter().map(|n| n.id).collect();
+    let mut out = Vec::with_capacity(rows.len());
+    let mut problems = Diagnostics::default();
+    for (line, rec) in rows {
+        let id = |k: usize| rec.get(k).and_then(|s| s.parse::<u64>().ok());
+        let (Some(a), Some(b), 2) = (id(0), id(1), rec.len()) else {
+            problems.push(diag(
+                file,
+                line,
+                "expected two node ids `node1,node2`".into(),
+            ));
+            continue;
+        };
+        match [a, b].into_iter().find(|n| !known.contains(n)) {
+            Some(n) => problems.push(diag(file, line, format!("unknown node {n}"))),
+            None => out.push((a, b)),
+        }
+    }
+    problems.into_result(out)
 }

@@ -52,10 +52,31 @@ fn a_structure_from_files_with_rayleigh_damping() {
     std::fs::remove_dir_all(d).unwrap();
 }
 
+#[test]
+fn an_element_table_names_known_nodes() {
+    let nodes = fem_structure::tables::parse_nodes("id,x,y\n1,0,0\n2,1,0\n", "n.csv").unwrap();
+    let p = |t: &str| fem_structure::tables::parse_elements(t, "e.csv", &nodes);
+    assert_eq!(p("node1,node2\n1,2\n").unwrap(), vec![(1, 2)]);
+    let e = p("node1,node2\n1,2\n2,3\n").unwrap_err().to_string();
+    assert_eq!(e.lines().count(), 1, "{e}");
+    assert!(e.contains("e.csv:3: unknown node 3"), "{e}");
+    let e = p("a,b\n1,2\n").unwrap_err().to_string();
+    assert!(
+        e.contains("e.csv:1: header `a,b`: expected `node1,node2`"),
+        "{e}"
+    );
+}
+
 fn error(f: &MatrixFiles) -> String {
     let e = ImportedStructure::from_files(f).unwrap_err().to_string();
     assert!(!e.contains('\n'), "one line: {e}");
     e
+}
+
+/// The files are refused with one line containing `want`.
+fn expect(f: &MatrixFiles, want: &str) {
+    let e = error(f);
+    assert!(e.contains(want), "{e}");
 }
 
 #[test]
@@ -71,17 +92,12 @@ fn bad_input_is_one_line_naming_file_and_line() {
         ),
         ..good.clone()
     };
-    let e = error(&f);
-    assert!(
-        e.contains("Mneg.mtx: the mass matrix is not positive definite"),
-        "{e}"
-    );
+    expect(&f, "Mneg.mtx: the mass matrix is not positive definite");
     let f = MatrixFiles {
         stiffness: write(&d, "K3.mtx", &format!("{h}3 3 3\n1 1 1\n2 2 1\n3 3 1\n")),
         ..good.clone()
     };
-    let e = error(&f);
-    assert!(e.contains("K3.mtx: 3 rows, but the mass matrix"), "{e}");
+    expect(&f, "K3.mtx: 3 rows, but the mass matrix");
     let f = MatrixFiles {
         dofs: write(
             &d,
@@ -90,20 +106,12 @@ fn bad_input_is_one_line_naming_file_and_line() {
         ),
         ..good.clone()
     };
-    let e = error(&f);
-    assert!(
-        e.contains("d1.csv:4: equation 1 listed twice (first on line 3)"),
-        "{e}"
-    );
+    expect(&f, "d1.csv:4: equation 1 listed twice (first on line 3)");
     let f = MatrixFiles {
         dofs: write(&d, "d2.csv", "eq,node,dof\n0,1,ux\n1,2,ux\n3,4,ux\n"),
         ..good.clone()
     };
-    let e = error(&f);
-    assert!(
-        e.contains("d2.csv: 1 equation(s) of the matrices have no row: 2"),
-        "{e}"
-    );
+    expect(&f, "d2.csv: 1 equation(s) of the matrices have no row: 2");
     let f = MatrixFiles {
         dofs: write(
             &d,
@@ -112,8 +120,7 @@ fn bad_input_is_one_line_naming_file_and_line() {
         ),
         ..good.clone()
     };
-    let e = error(&f);
-    assert!(e.contains("d3.csv:4: unknown node 9"), "{e}");
+    expect(&f, "d3.csv:4: unknown node 9");
     let f = MatrixFiles {
         stiffness: write(
             &d,
@@ -122,13 +129,59 @@ fn bad_input_is_one_line_naming_file_and_line() {
         ),
         ..good.clone()
     };
-    let e = error(&f);
-    assert!(e.contains("Kg.mtx:4: the matrix is not symmetric"), "{e}");
+    expect(&f, "Kg.mtx:4: the matrix is not symmetric");
+    // Refused from the size line: the entries after it (here not even entries) are never
+    // read, and the message names the declared count and the limit.
     let f = MatrixFiles {
-        mass: write(&d, "Mbig.mtx", &format!("{h}4000 4000 10000000\n")),
+        mass: write(
+            &d,
+            "Mbig.mtx",
+            &format!("{h}4000 4000 10000000\n1 1 1\nnot an entry\n"),
+        ),
         ..good.clone()
     };
-    let e = error(&f);
-    assert!(e.contains("Mbig.mtx:2: 10000000 entries declared"), "{e}");
+    expect(
+        &f,
+        "Mbig.mtx:2: 10000000 entries declared: more than the 5000000",
+    );
+    let f = MatrixFiles {
+        stiffness: write(
+            &d,
+            "Knan.mtx",
+            &format!("{h}4 4 4\n1 1 1\n2 2 1\n3 3 NaN\n4 4 1\n"),
+        ),
+        ..good.clone()
+    };
+    expect(&f, "Knan.mtx:5: entry (3, 3) is NaN (not a finite number)");
+    // A free-free chain: the supports were not eliminated, K is singular.
+    let f = MatrixFiles {
+        stiffness: write(
+            &d,
+            "Kfree.mtx",
+            &format!("{h}4 4 7\n1 1 1\n2 1 -1\n2 2 2\n3 2 -1\n3 3 2\n4 3 -1\n4 4 1\n"),
+        ),
+        ..good.clone()
+    };
+    expect(
+        &f,
+        "Kfree.mtx: the stiffness matrix (supports must be eliminated from it) is not positive definite",
+    );
+    let f = MatrixFiles {
+        dofs: write(
+            &d,
+            "d4.csv",
+            "eq,node,dof\n0,1,ux\n1,2,ux\n2,2,ux\n3,4,ux\n",
+        ),
+        ..good.clone()
+    };
+    expect(&f, "d4.csv:4: node 2 ux listed twice");
+    let f = MatrixFiles {
+        nodes: write(&d, "n1.csv", "id,x,y\n1,0,0\n2,1,0\n3,2,nan\n4,3,0\n"),
+        ..good.clone()
+    };
+    expect(
+        &f,
+        "n1.csv:4: expected a non-negative integer id and finite coordinates",
+    );
     std::fs::remove_dir_all(d).unwrap();
 }

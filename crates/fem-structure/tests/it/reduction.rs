@@ -6,7 +6,7 @@ use nalgebra::{DMatrix, DVector};
 use crate::chain::{chain, exact};
 
 /// Eigenvalues of a small dense generalized problem, ascending.
-fn dense_eigenvalues(k: &DMatrix<f64>, m: &DMatrix<f64>) -> Vec<f64> {
+pub fn dense_eigenvalues(k: &DMatrix<f64>, m: &DMatrix<f64>) -> Vec<f64> {
     let l = m.clone().cholesky().unwrap();
     let li = l.l().try_inverse().unwrap();
     let a = &li * k * li.transpose();

@@ -1,0 +1,52 @@
+//! Benchmarks on the bundled frame (scenarios/frame: 1990 equations exported from
+//! scikit-fem): loading the files into an [`ImportedStructure`] (read, parse, check, both
+//! Cholesky factorisations of the positive-definiteness check), the Craig–Bampton
+//! reduction with 30 fixed-interface modes (interface: the damper node's and the load
+//! node's ux, uy) and the 10 lowest modes of the full model.
+//!
+//! Run with `cargo bench -p fem-structure --bench frame -- --warm-up-time 1 --measurement-time 5`;
+//! the figures measured are in scenarios/frame/README.md.
+
+#![allow(missing_docs)] // criterion's macros generate undocumented items
+
+use std::hint::black_box;
+use std::path::PathBuf;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+
+use fem_structure::tables::NodeDof;
+use fem_structure::{DampingInput, ImportedStructure, MatrixFiles, craig_bampton, lowest_modes};
+
+fn files() -> MatrixFiles {
+    let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/frame");
+    MatrixFiles::in_directory(&d, DampingInput::None)
+}
+
+fn frame(c: &mut Criterion) {
+    let f = files();
+    let s = ImportedStructure::from_files(&f).expect("the bundled frame");
+    let interface: Vec<usize> = [
+        (613, NodeDof::Ux),
+        (613, NodeDof::Uy),
+        (741, NodeDof::Ux),
+        (741, NodeDof::Uy),
+    ]
+    .iter()
+    .map(|k| s.dofs.equation[k])
+    .collect();
+    let mut g = c.benchmark_group("frame");
+    g.sample_size(10);
+    g.bench_function("load", |b| {
+        b.iter(|| ImportedStructure::from_files(black_box(&f)).unwrap())
+    });
+    g.bench_function("craig_bampton_30", |b| {
+        b.iter(|| craig_bampton(&s.stiffness, &s.mass, None, black_box(&interface), 30).unwrap())
+    });
+    g.bench_function("lowest_modes_10", |b| {
+        b.iter(|| lowest_modes(&s.stiffness, &s.mass, black_box(10)).unwrap())
+    });
+    g.finish();
+}
+
+criterion_group!(benches, frame);
+criterion_main!(benches);
