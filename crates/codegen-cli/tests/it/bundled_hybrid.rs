@@ -26,6 +26,12 @@ fn bundled_hybrid_shapes_match_the_full_constrained_system() {
         let Scenario::Hybrid(sc) = scenario::load(path).unwrap() else {
             continue;
         };
+        // The reference formulation assembles the beam's dense matrices: beam hosts only (an
+        // imported structure's runs are checked against the beam written as matrices,
+        // `structure_cli`).
+        if sc.structure.is_some() {
+            continue;
+        }
         let built = codegen_cli::setup::build(&sc).unwrap_or_else(|e| panic!("{e}"));
         let model = &built.model;
         let mut state = built.state.clone();

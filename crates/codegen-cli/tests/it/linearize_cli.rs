@@ -22,6 +22,11 @@ fn every_bundled_scenario_linearises_with_converged_modes() {
             assert_bad_input(&["linearize", &p], &["no beam to linearise", ".toml"]);
             continue;
         }
+        if text.contains("[structure]") {
+            // The linearised analyses run on the beam only so far (issue #30).
+            assert_bad_input(&["linearize", &p], &["not available on a", "structure"]);
+            continue;
+        }
         let r = json(&["linearize", &p, "--modes", "4", "--json"]);
         for variant in ["modes", "generator_disconnected", "bare_beam"] {
             let Some(modes) = r[variant].as_array() else {
@@ -156,7 +161,8 @@ fn tangents_of_every_bundled_scenario_equal_differences_of_the_kkt_system() {
     let mut checked = 0;
     for path in bundled_scenarios() {
         let text = std::fs::read_to_string(&path).unwrap();
-        if text.contains("kind = \"mechanism\"") {
+        // Mechanisms alone have no linearisation; an imported structure none yet (#30).
+        if text.contains("kind = \"mechanism\"") || text.contains("[structure]") {
             continue;
         }
         let mut variants = vec![vec![]];

@@ -222,6 +222,12 @@ fn every_csv_column_of_every_bundled_scenario_has_a_unit() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(dir.join("scenarios")).unwrap();
     std::os::unix::fs::symlink(root().join("models"), dir.join("models")).unwrap();
+    // The imported structure's files beside the scenario that names them.
+    std::os::unix::fs::symlink(
+        root().join("scenarios").join("frame"),
+        dir.join("scenarios").join("frame"),
+    )
+    .unwrap();
     let mut names: Vec<PathBuf> = std::fs::read_dir(root().join("scenarios"))
         .unwrap()
         .map(|e| e.unwrap().path())
