@@ -17,7 +17,11 @@
 //! - `damping_vs_amplitude.svg` (free decay with comparisons): the damping ratio of each
 //!   cycle against its amplitude, one series per run;
 //! - `random_rms.svg` (under random excitation): the beam points' RMS against time over
-//!   windows of 1/100 of the run, the stationary RMS and where the stationary part starts.
+//!   windows of 1/100 of the run, the stationary RMS and where the stationary part starts;
+//! - `random_psd.csv` and `random_psd.svg` (under random excitation, a stationary part of
+//!   at least 16 averages): the response PSD of every output of the summary's `random`
+//!   block, a Welch estimate from every step of the stationary part beside the linear
+//!   prediction ([`crate::report::random_psd`]).
 //!
 //! Rows go through a [`RowSink`] into a [`StreamFile`] (`<name>.tmp-<pid>`, or written
 //! directly to a fifo or device) while the run goes, and are committed with the other files
@@ -188,6 +192,9 @@ pub struct InMemory {
     /// Per comparison run of `[output] compare`: its key and the columns of
     /// `time_history_<key>.csv`.
     pub comparisons: Vec<(&'static str, ColumnRows)>,
+    /// Under random excitation, the table of `random_psd.csv` (the response spectra beside
+    /// the linear prediction), when the stationary part is long enough.
+    pub psd: Option<crate::report::rows::Table>,
 }
 
 /// Runs a hybrid scenario as `damper simulate` does, its time histories kept in memory
@@ -221,6 +228,7 @@ pub fn in_memory(
         summary: json_bytes(&run.summary).map_err(ReportError::from)?,
         rows,
         comparisons: keys.into_iter().zip(sinks).collect(),
+        psd: run.psd.as_ref().map(RandomPsd::table),
     })
 }
 
@@ -504,6 +512,9 @@ pub fn evaluate<'a>(
         let samples = (steps - first + 1.0).max(0.0) as u64;
         segment_length(samples).map(|len| (*from, Welch::new(random_signals.len(), len, 1.0 / dt)))
     });
+    // The signals' values at a step, for the spectra and at the rows for the statistics.
+    let mut signals = vec![0.0; random_signals.len()];
+    let mut signals_at_rows = signals.clone();
     let mut amplification = Vec::with_capacity(na);
     let bar = progress_bar(progress);
     let outcome = run_observed(
@@ -517,7 +528,8 @@ pub fn evaluate<'a>(
         &mut |state| {
             if let Some((from, w)) = &mut welch {
                 if state.t >= *from {
-                    w.push(random_signals_of(model, state));
+                    random_signals_into(model, state, &mut signals);
+                    w.push(&signals);
                 }
             }
         },
@@ -572,7 +584,8 @@ pub fn evaluate<'a>(
                 s.push(state);
             }
             if let Some(st) = &mut random_stats {
-                st.push(state.t, random_signals_of(model, state));
+                random_signals_into(model, state, &mut signals_at_rows);
+                st.push(state.t, signals_at_rows.iter().copied());
             }
             output_rows += 1;
             if crate::interrupt::stop_requested() {
@@ -842,27 +855,34 @@ fn random_signal_names(model: &HybridModel) -> Vec<(String, String, bool)> {
     out
 }
 
-/// The values of [`random_signal_names`] in a state.
-fn random_signals_of<'s>(
-    model: &'s HybridModel,
-    state: &'s hybrid_core::hybrid::HybridState,
-) -> impl Iterator<Item = f64> + 's {
-    let beam = model
-        .attachments
-        .iter()
-        .flat_map(move |a| [a.beam.value(&state.q), a.beam.value(&state.v)]);
-    let mech = state
-        .mechanisms
-        .iter()
-        .flat_map(|m| m.q.iter().zip(&m.qd).flat_map(|(q, qd)| [*q, *qd]));
-    let gens = model.forces.iter().enumerate().filter_map(move |(k, f)| {
-        let g = f.generator()?;
-        Some([
-            state.currents[k],
-            g.gear_ratio * state.mechanisms[f.mechanism].qd[f.joint],
-        ])
-    });
-    beam.chain(mech).chain(gens.flatten())
+/// The values of [`random_signal_names`] in a state, written into `out` (one per name; the
+/// step's observer: plain loops, no allocation).
+fn random_signals_into(
+    model: &HybridModel,
+    state: &hybrid_core::hybrid::HybridState,
+    out: &mut [f64],
+) {
+    let mut k = 0;
+    let mut put = |v: f64| {
+        out[k] = v;
+        k += 1;
+    };
+    for a in &model.attachments {
+        put(a.beam.value(&state.q));
+        put(a.beam.value(&state.v));
+    }
+    for m in &state.mechanisms {
+        for (q, qd) in m.q.iter().zip(&m.qd) {
+            put(*q);
+            put(*qd);
+        }
+    }
+    for (f, i) in model.forces.iter().zip(&state.currents) {
+        if let Some(g) = f.generator() {
+            put(*i);
+            put(g.gear_ratio * state.mechanisms[f.mechanism].qd[f.joint]);
+        }
+    }
 }
 
 /// `random_rms.svg` of a run under random excitation: the RMS against time of its

@@ -85,9 +85,12 @@ pub struct Welch {
     window: Vec<f64>,
     /// `Σ w_n²`.
     power: f64,
-    /// Per signal, the last `len` samples (position `pushed % len` the oldest).
+    /// Per signal, the last `len` samples (position `pos` the oldest once full).
     ring: Vec<f64>,
-    pushed: u64,
+    /// Where the next sample goes in the ring.
+    pos: usize,
+    /// Samples until the next segment ends.
+    until: usize,
     segments: u64,
     /// Per signal, `Σ |X_k|²` over the segments, `k = 0 ..= len / 2`.
     sums: Vec<f64>,
@@ -125,7 +128,8 @@ impl Welch {
             window,
             power,
             ring: vec![0.0; signals * len],
-            pushed: 0,
+            pos: 0,
+            until: len,
             segments: 0,
             sums: vec![0.0; signals * (len / 2 + 1)],
             fft,
@@ -134,16 +138,20 @@ impl Welch {
         }
     }
 
-    /// Adds one sample of every signal (one value per signal, in order); every `len / 2`
-    /// samples from the `len`-th on, the last `len` samples make a segment.
-    pub fn push(&mut self, x: impl Iterator<Item = f64>) {
-        let pos = (self.pushed % self.len as u64) as usize;
-        for (k, v) in x.take(self.signals).enumerate() {
-            self.ring[k * self.len + pos] = v;
+    /// Adds one sample of every signal (`x`: one value per signal, in order); every
+    /// `len / 2` samples from the `len`-th on, the last `len` samples make a segment.
+    pub fn push(&mut self, x: &[f64]) {
+        let pos = self.pos;
+        for (ring, v) in self.ring.chunks_exact_mut(self.len).zip(x) {
+            ring[pos] = *v;
         }
-        self.pushed += 1;
-        let half = (self.len / 2) as u64;
-        if self.pushed >= self.len as u64 && (self.pushed - self.len as u64) % half == 0 {
+        self.pos += 1;
+        if self.pos == self.len {
+            self.pos = 0;
+        }
+        self.until -= 1;
+        if self.until == 0 {
+            self.until = self.len / 2;
             self.segment();
         }
     }
@@ -152,7 +160,7 @@ impl Welch {
     /// (`a + i b`: `A_k = (X_k + conj X_{L−k}) / 2`, `B_k = (X_k − conj X_{L−k}) / 2i`).
     fn segment(&mut self) {
         let len = self.len;
-        let start = (self.pushed % len as u64) as usize;
+        let start = self.pos;
         let bins = len / 2 + 1;
         let mut k = 0;
         while k < self.signals {
@@ -170,10 +178,14 @@ impl Welch {
                 0.0
             };
             // The ring in time order: from `start` to the end, then from 0.
-            let ordered = (start..len).chain(0..start);
-            for ((z, w), i) in self.buf.iter_mut().zip(&self.window).zip(ordered) {
-                let im = if pair { (b[i] - mb) * w } else { 0.0 };
-                *z = Complex::new((a[i] - ma) * w, im);
+            let (head, tail) = self.buf.split_at_mut(len - start);
+            let (w_head, w_tail) = self.window.split_at(len - start);
+            for (range, (z, w)) in [(start..len, (head, w_head)), (0..start, (tail, w_tail))] {
+                let (a, b) = (&a[range.clone()], &b[range]);
+                for (((z, w), x), y) in z.iter_mut().zip(w).zip(a).zip(b) {
+                    let im = if pair { (y - mb) * w } else { 0.0 };
+                    *z = Complex::new((x - ma) * w, im);
+                }
             }
             self.fft
                 .process_with_scratch(&mut self.buf, &mut self.scratch);
@@ -471,7 +483,7 @@ mod tests {
             let t = n as f64 / fs;
             let s = |k: f64| (2.0 * std::f64::consts::PI * k * df * t + 0.3).sin();
             // A constant offset is removed with each segment's mean.
-            w.push([a * s(20.0) + 7.0, b * s(50.0), c * s(3.0) - 1.0].into_iter());
+            w.push(&[a * s(20.0) + 7.0, b * s(50.0), c * s(3.0) - 1.0]);
         }
         assert_eq!(w.segments(), 15);
         assert!((w.overlap_correlation() - 1.0 / 6.0).abs() < 1e-14);
@@ -505,7 +517,7 @@ mod tests {
         let mut w = Welch::new(2, len, fs);
         let mut rng = Normal(7);
         for _ in 0..len * 32 {
-            w.push([sigma * rng.next(), 3.0 * sigma * rng.next()].into_iter());
+            w.push(&[sigma * rng.next(), 3.0 * sigma * rng.next()]);
         }
         assert_eq!(w.segments(), 63);
         let eps = w.relative_error();
@@ -545,7 +557,7 @@ mod tests {
             .map(|n| 0.3 + rng.next() + (n as f64 * 0.01).sin())
             .collect();
         for v in &x {
-            w.push(std::iter::once(*v));
+            w.push(&[*v]);
         }
         let window: Vec<f64> = (0..len)
             .map(|n| (std::f64::consts::PI * n as f64 / len as f64).sin().powi(2))
@@ -579,7 +591,7 @@ mod tests {
     fn the_table_names_the_columns_with_units() {
         let mut w = Welch::new(2, 16, 100.0);
         for n in 0..64 {
-            w.push([n as f64, 1.0].into_iter());
+            w.push(&[n as f64, 1.0]);
         }
         let names = [
             ("w(x=1)".to_string(), "m".to_string()),
