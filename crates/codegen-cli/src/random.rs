@@ -24,8 +24,8 @@
 
 use fem_beam::TimeFunction;
 use hybrid_core::hybrid::{
-    EigenMethod, ExcitationTarget, Linearization, Mode, PsdInput, StateOutput, StateSpace, modes,
-    psd_variances,
+    EigenMethod, ExcitationTarget, HybridModel, Linearization, Mode, PsdInput, StateOutput,
+    StateSpace, modes, psd_at, psd_variances,
 };
 use serde::Serialize;
 
@@ -259,28 +259,34 @@ pub fn figures_of(
     analyse_with(file, input, lin, opts, Some(all))
 }
 
-/// The analysis; `given`: `None` for `damper random` (every diagnostic), `Some` for figures
-/// (with the point's modes when the caller has them).
-fn analyse_with(
-    file: &str,
-    input: &Linearizable,
+/// A generator's outputs: its current and rotor speed, and its resistances.
+struct GeneratorOutputs {
+    name: String,
+    /// `R_a + R_L` (ohm).
+    resistance: f64,
+    /// `R_L` (ohm).
+    load_resistance: f64,
+    current: StateOutput,
+    speed: StateOutput,
+}
+
+/// The outputs of a random response, in the order `damper random` and a run's `random`
+/// block report them.
+struct Outputs {
+    /// The named ones (displacement and rate each).
+    named: Vec<Named>,
+    /// Per generator, its current and rotor speed.
+    gens: Vec<GeneratorOutputs>,
+}
+
+/// The outputs of `model`'s random response on `lin`: the `requested` ones (`--output`
+/// names) or, without any, every attachment's beam point and every mechanism coordinate,
+/// each with its rate; then every generator's current and rotor speed.
+fn outputs_of(
+    model: &HybridModel,
     lin: &Linearization,
-    opts: &RandomOptions,
-    given: Option<Option<&[Mode]>>,
-) -> Result<RandomReport, Error> {
-    let diagnostics = given.is_none();
-    let unavailable = |m: String| Error::from(AnalysisError::unavailable(file, m));
-    let model = &input.model;
-    let random: Vec<_> = model
-        .excitations
-        .iter()
-        .filter(|e| e.time.is_random())
-        .collect();
-    if random.is_empty() {
-        return Err(unavailable(
-            "no random excitation: give one `time = { kind = \"white_noise\", psd = G, band = [F1, F2] }` or `{ kind = \"psd\", table = [[f, G], ...] }`".into(),
-        ));
-    }
+    requested: &[String],
+) -> Result<Outputs, Error> {
     // The outputs: the named ones (displacement and rate each), or every attachment and
     // every mechanism coordinate.
     let mut named: Vec<Named> = vec![];
@@ -297,7 +303,7 @@ fn analyse_with(
             output: StateOutput::rate(c),
         });
     };
-    if opts.outputs.is_empty() {
+    if requested.is_empty() {
         for a in &model.attachments {
             let t = ExcitationTarget::Beam(a.beam.clone());
             push_pair(&t, format!("w(x={})", a.beam.x), "m");
@@ -314,7 +320,7 @@ fn analyse_with(
             }
         }
     } else {
-        for o in &opts.outputs {
+        for o in requested {
             let (t, _, unit) = parse_output(model, o)?;
             let label = match &t {
                 ExcitationTarget::Beam(p) => format!("w(x={})", p.x),
@@ -343,18 +349,95 @@ fn analyse_with(
             }
         };
         let speed = StateOutput::rate(joint.iter().map(|v| v * g.gear_ratio).collect());
-        gens.push((
-            f.name.clone(),
-            g.resistance(),
-            g.load_resistance,
+        gens.push(GeneratorOutputs {
+            name: f.name.clone(),
+            resistance: g.resistance(),
+            load_resistance: g.load_resistance,
             current,
             speed,
+        });
+    }
+    Ok(Outputs { named, gens })
+}
+
+/// The linear prediction of a run's response spectra: at each of `frequencies` (Hz), the
+/// one-sided PSD per Hz `S_y(f) = Σ_k |H_k(f)|² G_k(f)` of every default output of
+/// [`analyse`] (every attachment's `w` and `w'`, every mechanism coordinate and rate, every
+/// generator's current and rotor speed, in that order: the names of a run's `random` block)
+/// under the random excitations among `excitations` as written (independent; `G_k` the
+/// written PSD, band-limited as the realisation is; a run's model holds the realisations
+/// instead), `H_k` from the pencil ([`hybrid_core::hybrid::psd_at`], the receptance of
+/// `damper frf`). One vector per output, one value per frequency.
+pub fn response_psd(
+    file: &str,
+    model: &HybridModel,
+    lin: &Linearization,
+    excitations: &[hybrid_core::hybrid::Excitation],
+    frequencies: &[f64],
+) -> Result<Vec<Vec<f64>>, Error> {
+    let Outputs { named, gens } = outputs_of(model, lin, &[])?;
+    let mut outputs: Vec<StateOutput> = named.into_iter().map(|n| n.output).collect();
+    for g in gens {
+        outputs.push(g.current);
+        outputs.push(g.speed);
+    }
+    let random: Vec<_> = excitations
+        .iter()
+        .filter(|e| e.time.psd(0.0).is_some())
+        .collect();
+    let psds: Vec<Box<dyn Fn(f64) -> f64>> = random
+        .iter()
+        .map(|e| {
+            let t = e.time.clone();
+            Box::new(move |f: f64| t.psd(f).unwrap_or(0.0)) as Box<dyn Fn(f64) -> f64>
+        })
+        .collect();
+    let inputs: Vec<PsdInput<'_>> = random
+        .iter()
+        .zip(&psds)
+        .map(|(e, p)| PsdInput {
+            force: lin.force_vector(&e.target),
+            psd: p.as_ref(),
+        })
+        .collect();
+    let mut at = vec![0.0; outputs.len()];
+    let mut out = vec![Vec::with_capacity(frequencies.len()); outputs.len()];
+    for &f in frequencies {
+        psd_at(lin, &inputs, &outputs, f, &mut at).map_err(linear_error(file))?;
+        for (o, v) in out.iter_mut().zip(&at) {
+            o.push(*v);
+        }
+    }
+    Ok(out)
+}
+
+/// The analysis; `given`: `None` for `damper random` (every diagnostic), `Some` for figures
+/// (with the point's modes when the caller has them).
+fn analyse_with(
+    file: &str,
+    input: &Linearizable,
+    lin: &Linearization,
+    opts: &RandomOptions,
+    given: Option<Option<&[Mode]>>,
+) -> Result<RandomReport, Error> {
+    let diagnostics = given.is_none();
+    let unavailable = |m: String| Error::from(AnalysisError::unavailable(file, m));
+    let model = &input.model;
+    let random: Vec<_> = model
+        .excitations
+        .iter()
+        .filter(|e| e.time.is_random())
+        .collect();
+    if random.is_empty() {
+        return Err(unavailable(
+            "no random excitation: give one `time = { kind = \"white_noise\", psd = G, band = [F1, F2] }` or `{ kind = \"psd\", table = [[f, G], ...] }`".into(),
         ));
     }
+    let Outputs { named, gens } = outputs_of(model, lin, &opts.outputs)?;
     let mut outputs: Vec<StateOutput> = named.iter().map(|n| n.output.clone()).collect();
-    for (_, _, _, i, s) in &gens {
-        outputs.push(i.clone());
-        outputs.push(s.clone());
+    for g in &gens {
+        outputs.push(g.current.clone());
+        outputs.push(g.speed.clone());
     }
     let no = outputs.len();
     let nstates = states(lin);
@@ -656,14 +739,14 @@ fn analyse_with(
     report.generators = gens
         .iter()
         .enumerate()
-        .map(|(k, (name, r, rl, _, _))| {
+        .map(|(k, g)| {
             let vi = variances[nn + 2 * k].max(0.0);
             GeneratorRms {
-                name: name.clone(),
+                name: g.name.clone(),
                 rms_current: vi.sqrt(),
                 rms_rotor_speed: rms(variances[nn + 2 * k + 1]),
-                mean_power_dissipated: r * vi,
-                mean_power_load: rl * vi,
+                mean_power_dissipated: g.resistance * vi,
+                mean_power_load: g.load_resistance * vi,
             }
         })
         .collect();

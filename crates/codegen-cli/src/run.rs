@@ -266,6 +266,7 @@ pub fn mechanism_in_memory(
         summary: json_bytes(&summary).map_err(ReportError::from)?,
         rows,
         comparisons: vec![],
+        psd: None,
     })
 }
 

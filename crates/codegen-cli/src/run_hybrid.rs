@@ -17,7 +17,11 @@
 //! - `damping_vs_amplitude.svg` (free decay with comparisons): the damping ratio of each
 //!   cycle against its amplitude, one series per run;
 //! - `random_rms.svg` (under random excitation): the beam points' RMS against time over
-//!   windows of 1/100 of the run, the stationary RMS and where the stationary part starts.
+//!   windows of 1/100 of the run, the stationary RMS and where the stationary part starts;
+//! - `random_psd.csv` and `random_psd.svg` (under random excitation, a stationary part of
+//!   at least 16 averages): the response PSD of every output of the summary's `random`
+//!   block, a Welch estimate from every step of the stationary part beside the linear
+//!   prediction ([`crate::report::random_psd`]).
 //!
 //! Rows go through a [`RowSink`] into a [`StreamFile`] (`<name>.tmp-<pid>`, or written
 //! directly to a fifo or device) while the run goes, and are committed with the other files
@@ -25,6 +29,7 @@
 //! plot need is kept row by row in memory independent of `t_end` (running peaks and sums,
 //! the online decay estimate, the plot's min/max decimation: [`crate::report::digest`]).
 
+use crate::report::random_psd::{RandomPsd, Welch, segment_length};
 use crate::report::random_run::{
     BATCHES, BatchStats, GeneratorEstimate, RandomRunReport, RealisationReport, RmsEstimate,
     RmsHistory, stationary_start,
@@ -33,7 +38,9 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use hybrid_core::decay::DecayTracker;
-use hybrid_core::hybrid::{BeamPoint, HybridModel, Integrator, RunError, RunOptions, run};
+use hybrid_core::hybrid::{
+    BeamPoint, HybridModel, Integrator, Linearization, RunError, RunOptions, run_observed,
+};
 use indicatif::ProgressBar;
 
 use crate::Error;
@@ -82,6 +89,9 @@ pub struct HybridRun<'a> {
     /// `(t, w)` of every attachment at the output steps, min/max decimated to at most
     /// [`crate::report::digest::MAX_PLOT_POINTS`] points ([`Decimator`]).
     pub displacements: Vec<Vec<(f64, f64)>>,
+    /// Under random excitation, the response spectra of the stationary part beside the
+    /// linear prediction (`random_psd.csv`), when the part holds enough samples.
+    pub psd: Option<RandomPsd>,
 }
 
 /// Where the rows of a hybrid run go: the columns and a row sink.
@@ -182,6 +192,9 @@ pub struct InMemory {
     /// Per comparison run of `[output] compare`: its key and the columns of
     /// `time_history_<key>.csv`.
     pub comparisons: Vec<(&'static str, ColumnRows)>,
+    /// Under random excitation, the table of `random_psd.csv` (the response spectra beside
+    /// the linear prediction), when the stationary part is long enough.
+    pub psd: Option<crate::report::rows::Table>,
 }
 
 /// Runs a hybrid scenario as `damper simulate` does, its time histories kept in memory
@@ -215,6 +228,7 @@ pub fn in_memory(
         summary: json_bytes(&run.summary).map_err(ReportError::from)?,
         rows,
         comparisons: keys.into_iter().zip(sinks).collect(),
+        psd: run.psd.as_ref().map(RandomPsd::table),
     })
 }
 
@@ -322,6 +336,16 @@ pub fn simulate(
     if let Some(random) = &summary.random {
         files.extend(random_rms_plot(out, sc, random)?);
     }
+    if let Some(psd) = &run.psd {
+        files.push(OutputFile {
+            path: out.join(psd.report.file),
+            bytes: psd
+                .table()
+                .csv(&|x| crate::report::csv::cell(Some(x)))
+                .map_err(|e| csv_error(&out.join(psd.report.file), e))?,
+        });
+        files.extend(random_psd_plot(out, sc, psd)?);
+    }
     if summary.decay.is_some() && !summary.comparisons.is_empty() {
         let series: Vec<(&str, &[(f64, f64)])> =
             damping_series.iter().map(|(l, p)| (*l, &p[..])).collect();
@@ -379,10 +403,13 @@ pub fn simulate(
         }
         _ => zeta,
     };
-    let random = summary
+    let mut random = summary
         .random
         .as_ref()
         .map_or_else(String::new, |r| r.lines());
+    if let Some(psd) = &run.psd {
+        random.push_str(&psd.line());
+    }
     crate::print(&format!(
         "{file}: {} steps in {:.3} s ({} mechanism(s){backends}, {} attachment(s), {} repartition(s)); peak {}; zeta {zeta}{others}; energy balance error {:.1e}; outputs in {}\n{random}",
         summary.steps,
@@ -473,27 +500,48 @@ pub fn evaluate<'a>(
     let mut output_rows: u64 = 0;
     // Under random excitation: the stationary statistics (report::random_run), their names.
     let random_signals = random_signal_names(model);
-    let random_start = model
+    let random = model
         .excitations
         .iter()
-        .any(|e| matches!(e.time, fem_beam::TimeFunction::Sampled(_)))
-        .then(|| {
-            let slowest = slowest_decay_rate(sc, built);
-            let (from, warning) = stationary_start(sc.integrator.t_end, slowest);
-            (from, slowest, warning)
-        });
+        .any(|e| matches!(e.time, fem_beam::TimeFunction::Sampled(_)));
+    // The linearisation of a run under random excitation: its slowest decay rate and the
+    // linear prediction of the response spectra.
+    let lin = random.then(|| linearisation(sc, built)).flatten();
+    let random_start = random.then(|| {
+        let slowest = lin.as_ref().and_then(slowest_decay_rate);
+        let (from, warning) = stationary_start(sc.integrator.t_end, slowest);
+        (from, slowest, warning)
+    });
     let mut random_stats = random_start
         .as_ref()
         .map(|(from, _, _)| BatchStats::new(random_signals.len(), *from, sc.integrator.t_end));
+    // The response spectra: every step of the stationary part (report::random_psd), in
+    // segments chosen for at least 16 averages (none when the part is too short for that).
+    let mut welch = random_start.as_ref().and_then(|(from, _, _)| {
+        let first = ((from - initial.t) / dt).ceil().max(0.0);
+        let samples = (steps - first + 1.0).max(0.0) as u64;
+        segment_length(samples).map(|len| (*from, Welch::new(random_signals.len(), len, 1.0 / dt)))
+    });
+    // The signals' values at a step, for the spectra and at the rows for the statistics.
+    let mut signals = vec![0.0; random_signals.len()];
+    let mut signals_at_rows = signals.clone();
     let mut amplification = Vec::with_capacity(na);
     let bar = progress_bar(progress);
-    let outcome = run(
+    let outcome = run_observed(
         model,
         &mut integrator,
         built.state.clone(),
         RunOptions {
             t_end: sc.integrator.t_end,
             every: sc.every,
+        },
+        &mut |state| {
+            if let Some((from, w)) = &mut welch {
+                if state.t >= *from {
+                    random_signals_into(model, state, &mut signals);
+                    w.push(&signals);
+                }
+            }
         },
         &mut |state, stored, integrator| {
             let e0 = *e0.get_or_insert(stored.total());
@@ -546,7 +594,8 @@ pub fn evaluate<'a>(
                 s.push(state);
             }
             if let Some(st) = &mut random_stats {
-                st.push(state.t, random_signals_of(model, state));
+                random_signals_into(model, state, &mut signals_at_rows);
+                st.push(state.t, signals_at_rows.iter().copied());
             }
             output_rows += 1;
             if crate::interrupt::stop_requested() {
@@ -694,6 +743,9 @@ pub fn evaluate<'a>(
             supports: e.target == hybrid_core::hybrid::ExcitationTarget::Base,
         })
         .collect();
+    let psd = welch
+        .filter(|(_, w)| w.segments() > 0)
+        .map(|(_, w)| random_psd(&file, sc, model, lin.as_ref(), &random_signals, &w));
     let decay = (free && decay_samples > 0).then(|| decay.estimate());
     let damping_ratio = decay.as_ref().and_then(|d| d.zeta());
     let summary = HybridSummary {
@@ -768,6 +820,7 @@ pub fn evaluate<'a>(
             .map(|(st, (_, slowest, warning))| RandomRunReport {
                 slowest_decay_rate: slowest,
                 warning,
+                psd: psd.as_ref().map(|p| p.report.clone()),
                 ..random_report(model, &random_signals, &st)
             }),
         comparisons: BTreeMap::new(),
@@ -776,6 +829,7 @@ pub fn evaluate<'a>(
     Ok(HybridRun {
         summary,
         displacements: tracks.w.iter().map(Decimator::points).collect(),
+        psd,
     })
 }
 
@@ -811,27 +865,34 @@ fn random_signal_names(model: &HybridModel) -> Vec<(String, String, bool)> {
     out
 }
 
-/// The values of [`random_signal_names`] in a state.
-fn random_signals_of<'s>(
-    model: &'s HybridModel,
-    state: &'s hybrid_core::hybrid::HybridState,
-) -> impl Iterator<Item = f64> + 's {
-    let beam = model
-        .attachments
-        .iter()
-        .flat_map(move |a| [a.beam.value(&state.q), a.beam.value(&state.v)]);
-    let mech = state
-        .mechanisms
-        .iter()
-        .flat_map(|m| m.q.iter().zip(&m.qd).flat_map(|(q, qd)| [*q, *qd]));
-    let gens = model.forces.iter().enumerate().filter_map(move |(k, f)| {
-        let g = f.generator()?;
-        Some([
-            state.currents[k],
-            g.gear_ratio * state.mechanisms[f.mechanism].qd[f.joint],
-        ])
-    });
-    beam.chain(mech).chain(gens.flatten())
+/// The values of [`random_signal_names`] in a state, written into `out` (one per name; the
+/// step's observer: plain loops, no allocation).
+fn random_signals_into(
+    model: &HybridModel,
+    state: &hybrid_core::hybrid::HybridState,
+    out: &mut [f64],
+) {
+    let mut k = 0;
+    let mut put = |v: f64| {
+        out[k] = v;
+        k += 1;
+    };
+    for a in &model.attachments {
+        put(a.beam.value(&state.q));
+        put(a.beam.value(&state.v));
+    }
+    for m in &state.mechanisms {
+        for (q, qd) in m.q.iter().zip(&m.qd) {
+            put(*q);
+            put(*qd);
+        }
+    }
+    for (f, i) in model.forces.iter().zip(&state.currents) {
+        if let Some(g) = f.generator() {
+            put(*i);
+            put(g.gear_ratio * state.mechanisms[f.mechanism].qd[f.joint]);
+        }
+    }
 }
 
 /// `random_rms.svg` of a run under random excitation: the RMS against time of its
@@ -887,10 +948,79 @@ fn random_rms_plot(
             .as_deref()
             .unwrap_or(&sc.path.display().to_string())
     );
-    let bytes = crate::report::plot::plot_xy_svg(&title, "t [s]", "RMS [m]", &refs, (false, false))
-        .map_err(ReportError::from)?;
+    let bytes =
+        crate::report::plot::plot_xy_svg(&title, "t [s]", "RMS [m]", &refs, (false, false), true)
+            .map_err(ReportError::from)?;
     Ok(Some(OutputFile {
         path: out.join("random_rms.svg"),
+        bytes,
+    }))
+}
+
+/// `random_psd.svg` of a run under random excitation: the response PSD of its displacement
+/// outputs (unit m: the attachments' beam points), the Welch estimate beside the linear
+/// prediction on log–log axes, over the frequencies where the prediction is positive (the
+/// excitations' bands; every frequency above zero without a prediction); `None` without
+/// such an output or a positive value to draw.
+fn random_psd_plot(
+    out: &Path,
+    sc: &HybridScenario,
+    psd: &RandomPsd,
+) -> Result<Option<OutputFile>, Error> {
+    let shown: Vec<_> = psd.outputs.iter().filter(|o| o.unit == "m").collect();
+    let drawn = |k: usize| {
+        psd.frequencies[k] > 0.0
+            && shown
+                .iter()
+                .all(|o| o.prediction.as_ref().is_none_or(|p| p[k] > 0.0))
+    };
+    let keep: Vec<usize> = (0..psd.frequencies.len()).filter(|&k| drawn(k)).collect();
+    let positive = |v: &[f64]| -> Vec<(f64, f64)> {
+        keep.iter()
+            .filter(|&&k| v[k] > 0.0 && v[k].is_finite())
+            .map(|&k| (psd.frequencies[k], v[k]))
+            .collect()
+    };
+    let r = &psd.report;
+    let mut series: Vec<(String, Vec<(f64, f64)>)> = vec![];
+    // The prediction first: drawn on top of the estimate's scatter.
+    for o in &shown {
+        if let Some(p) = &o.prediction {
+            series.push((format!("{}: linear prediction", o.name), positive(p)));
+        }
+        series.push((
+            format!(
+                "{}: Welch estimate, {} averages, resolution {} Hz, relative standard error {}",
+                o.name,
+                r.averages,
+                tick_label(r.resolution_hz),
+                tick_label(r.relative_standard_error)
+            ),
+            positive(&o.estimate),
+        ));
+    }
+    if series.iter().all(|(_, p)| p.is_empty()) {
+        return Ok(None);
+    }
+    let refs: Vec<(&str, &[(f64, f64)])> =
+        series.iter().map(|(l, p)| (l.as_str(), &p[..])).collect();
+    let title = format!(
+        "Response PSD against the linear prediction: {}",
+        sc.description
+            .as_deref()
+            .unwrap_or(&sc.path.display().to_string())
+    );
+    let bytes = crate::report::plot::plot_xy_svg(
+        &title,
+        "f [Hz]",
+        "PSD [m^2/Hz]",
+        &refs,
+        (true, true),
+        false,
+    )
+    .map_err(ReportError::from)?;
+    Ok(Some(OutputFile {
+        path: out.join("random_psd.svg"),
         bytes,
     }))
 }
@@ -966,6 +1096,7 @@ fn random_report(
         from: st.from(),
         slowest_decay_rate: None,
         warning: None,
+        psd: None,
         batches: BATCHES,
         samples: st.samples(),
         outputs,
@@ -977,19 +1108,50 @@ fn random_report(
 /// Modes read for the slowest decay rate of a run under random excitation.
 const DECAY_MODES: usize = 10;
 
-/// The smallest decay rate `-Re lambda` (1/s) of the first [`DECAY_MODES`] linearised modes
-/// of a built hybrid scenario, `None` without a stable linearisation.
-fn slowest_decay_rate(sc: &HybridScenario, built: &Built) -> Option<f64> {
+/// The linearisation of a built hybrid scenario about its static equilibrium, `None` where
+/// there is none.
+fn linearisation(sc: &HybridScenario, built: &Built) -> Option<Linearization> {
     let tangents = crate::setup::hybrid_tangents(sc, &built.models).ok()?;
     let refs: Vec<_> = tangents.iter().collect();
-    let lin = hybrid_core::hybrid::Linearization::new(
+    Linearization::new(
         &built.model,
         &refs,
         hybrid_core::hybrid::EquilibriumOptions::default(),
     )
-    .ok()?;
+    .ok()
+}
+
+/// The response spectra of a run of `sc` from its Welch sums `welch` over the signals
+/// `names` ([`random_signal_names`]), with the linear prediction at the same frequencies
+/// from `lin` and the scenario's excitations as written (none without a linearisation, or
+/// where its harmonic solves fail).
+fn random_psd(
+    file: &str,
+    sc: &HybridScenario,
+    model: &HybridModel,
+    lin: Option<&Linearization>,
+    names: &[(String, String, bool)],
+    welch: &Welch,
+) -> RandomPsd {
+    // The excitations as written (the run's model holds their realisations).
+    let written = crate::setup::build_model(sc)
+        .ok()
+        .map(|(m, _)| m.excitations);
+    let prediction = lin.zip(written).and_then(|(lin, written)| {
+        crate::random::response_psd(file, model, lin, &written, &welch.frequencies()).ok()
+    });
+    let names: Vec<(String, String)> = names
+        .iter()
+        .map(|(n, u, _)| (n.clone(), u.clone()))
+        .collect();
+    RandomPsd::of(welch, &names, prediction)
+}
+
+/// The smallest decay rate `-Re lambda` (1/s) of the first [`DECAY_MODES`] linearised modes
+/// of a linearised hybrid scenario, `None` without a stable mode.
+fn slowest_decay_rate(lin: &Linearization) -> Option<f64> {
     let k = DECAY_MODES.min(lin.dim());
-    let found = hybrid_core::hybrid::modes(&lin, k, hybrid_core::hybrid::EigenMethod::Auto).ok()?;
+    let found = hybrid_core::hybrid::modes(lin, k, hybrid_core::hybrid::EigenMethod::Auto).ok()?;
     found
         .iter()
         .map(|m| m.decay_rate)

@@ -138,7 +138,8 @@ fn messages(warnings: &[codegen_cli::analysis::Warning]) -> Vec<String> {
 }
 
 /// Runs a scenario as `damper simulate` does, in memory: `(summary.json bytes, columns of
-/// the time history, [(comparison key, its columns)])`, each column `(name, unit, array)`.
+/// the time history, [(comparison key, its columns)], columns of random_psd.csv or None)`,
+/// each column `(name, unit, array)`.
 #[pyfunction]
 #[allow(clippy::type_complexity)]
 pub fn simulate<'py>(
@@ -148,7 +149,12 @@ pub fn simulate<'py>(
     base: String,
     sets: Vec<(String, Bound<'py, PyAny>)>,
     allow_long: bool,
-) -> PyResult<(Bound<'py, PyAny>, Columns<'py>, Vec<(String, Columns<'py>)>)> {
+) -> PyResult<(
+    Bound<'py, PyAny>,
+    Columns<'py>,
+    Vec<(String, Columns<'py>)>,
+    Option<Vec<crate::convert::PyColumn<'py>>>,
+)> {
     let src = Source::new(text, file, base, sets)?;
     let request = codegen_cli::run::SimulateRequest { allow_long };
     let out = interruptible(py, || {
@@ -162,7 +168,8 @@ pub fn simulate<'py>(
         .into_iter()
         .map(|(k, rows)| (k.to_string(), columns(py, rows)))
         .collect();
-    Ok((summary, columns(py, out.rows), comparisons))
+    let psd = out.psd.map(|t| crate::convert::table(py, t)).transpose()?;
+    Ok((summary, columns(py, out.rows), comparisons, psd))
 }
 
 /// One mode's shapes: the beam's `(nodes, 3)` array `[x, re, im]` and the mechanisms'

@@ -33,6 +33,16 @@ def test_simulate_equals_the_cli(scenario: Path, tmp_path: Path, monkeypatch: py
         assert isinstance(run[name], np.ndarray) and run[name].dtype == np.float64
         assert_cells_equal(cells[run.header(name)], run[name], f"{scenario.stem}: {name}")
     assert len(run) == summary.get("output_rows", len(run))
+    # Under random excitation, the response spectra: the table of random_psd.csv.
+    psd_path = tmp_path / "random_psd.csv"
+    assert (run.psd is not None) == psd_path.exists()
+    if run.psd is not None:
+        cells = read_csv(psd_path)
+        assert run.psd.headers == list(cells)
+        assert run.psd.units["w(x=1) estimate"] == "m^2/Hz"
+        for name in run.psd.columns:
+            assert_cells_equal(cells[run.psd.header(name)], run.psd[name], f"{scenario.stem} psd: {name}")
+        assert summary["random"]["psd"]["file"] == "random_psd.csv"
     # The comparison runs: their files and their summary blocks.
     expected = sorted(p.name[len("time_history_"):-4] for p in tmp_path.glob("time_history_*.csv"))
     assert sorted(run.comparisons) == expected

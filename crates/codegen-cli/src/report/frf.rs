@@ -409,6 +409,7 @@ fn max_force_svg(
         &format!("max force amplitude [{}]", io.force_unit),
         &series,
         (args.log, true),
+        true,
     )
     .map_err(|e: PlotError| PlotFailed("frf_max_force.svg", e.message().to_string()).into())
 }

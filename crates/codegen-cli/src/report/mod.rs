@@ -13,6 +13,7 @@ pub mod mechanism;
 pub mod op_counts;
 pub mod optimize;
 pub mod plot;
+pub mod random_psd;
 pub mod random_run;
 pub mod rows;
 pub mod steady_power;

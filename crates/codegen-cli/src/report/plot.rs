@@ -292,16 +292,18 @@ pub fn plot_damping_vs_amplitude_svg(
     })
 }
 
-/// SVG plot of labelled series of points `(x, y)` joined by lines, with markers (a
-/// parameter study: a figure against a swept parameter); an axis logarithmic when asked
-/// (`(log_x, log_y)`) and its every value is positive. Series with fewer than one finite
-/// point are left out of the plot area but keep their legend row.
+/// SVG plot of labelled series of points `(x, y)` joined by lines, with markers when
+/// `markers` (a parameter study: a figure against a swept parameter; lines alone for a
+/// spectrum's thousands of points); an axis logarithmic when asked (`(log_x, log_y)`) and
+/// its every value is positive. Series with fewer than one finite point are left out of
+/// the plot area but keep their legend row.
 pub fn plot_xy_svg(
     title: &str,
     x_desc: &str,
     y_desc: &str,
     series: &[(&str, &[(f64, f64)])],
     (log_x, log_y): (bool, bool),
+    markers: bool,
 ) -> Result<Vec<u8>, PlotError> {
     let labels: Vec<&str> = series.iter().map(|s| s.0).collect();
     with_legend(&labels, |area| {
@@ -321,7 +323,7 @@ pub fn plot_xy_svg(
         let draw_points = |k: usize, pts: &[(f64, f64)]| {
             pts.iter()
                 .copied()
-                .filter(|p| p.0.is_finite() && p.1.is_finite())
+                .filter(|p| markers && p.0.is_finite() && p.1.is_finite())
                 .map(move |p| Circle::new(p, 3, color(k).filled()))
                 .collect::<Vec<_>>()
         };
@@ -759,9 +761,11 @@ mod receptance_tests {
         assert!(super::log_ticks(-1.0, 1.0).is_empty());
         assert!(super::log_ticks(1.0, f64::INFINITY).is_empty());
         let line = [(0.0, 0.0), (1.0, 2e-4), (2.0, 1e-4)];
-        let svg = super::plot_xy_svg("t", "x", "y", &[("a", &line[..])], (false, false)).unwrap();
+        let svg =
+            super::plot_xy_svg("t", "x", "y", &[("a", &line[..])], (false, false), true).unwrap();
         assert!(!svg.is_empty());
-        let svg = super::plot_xy_svg("t", "x", "y", &[("a", &line[..])], (false, true)).unwrap();
+        let svg =
+            super::plot_xy_svg("t", "x", "y", &[("a", &line[..])], (false, true), true).unwrap();
         assert!(!svg.is_empty());
     }
 
@@ -802,7 +806,8 @@ mod receptance_tests {
         let pts: Vec<(f64, f64)> = (0..6)
             .map(|i| (0.5 * 2f64.powi(i), 1e-4 * 3f64.powi(i)))
             .collect();
-        let xy = super::plot_xy_svg("t", "x [ohm]", "y [m]", &[("a", &pts)], (true, true)).unwrap();
+        let xy = super::plot_xy_svg("t", "x [ohm]", "y [m]", &[("a", &pts)], (true, true), true)
+            .unwrap();
         let damping: Vec<(f64, f64)> = pts.iter().map(|p| (p.0 * 1e-3, 0.01 * p.0)).collect();
         let dz = super::plot_damping_vs_amplitude_svg("t", &[("a", &damping)]).unwrap();
         for svg in [xy, dz] {

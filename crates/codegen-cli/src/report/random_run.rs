@@ -152,6 +152,10 @@ pub struct RandomRunReport {
     pub batches: usize,
     /// Samples (output rows) in the stationary part.
     pub samples: u64,
+    /// How the response spectra of `random_psd.csv` were estimated (every step of the
+    /// stationary part; absent when it is too short for 16 averages).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub psd: Option<super::random_psd::PsdReport>,
     /// The outputs.
     pub outputs: Vec<RmsEstimate>,
     /// The generators (and their rotor speeds among the outputs).

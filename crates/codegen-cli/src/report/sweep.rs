@@ -407,9 +407,15 @@ fn plots(
         }
         let refs: Vec<(&str, &[(f64, f64)])> =
             series.iter().map(|(l, p)| (l.as_str(), &p[..])).collect();
-        let bytes =
-            crate::report::plot::plot_xy_svg(&title(what), &x_label, y_desc, &refs, (log_x, false))
-                .map_err(ReportError::from)?;
+        let bytes = crate::report::plot::plot_xy_svg(
+            &title(what),
+            &x_label,
+            y_desc,
+            &refs,
+            (log_x, false),
+            true,
+        )
+        .map_err(ReportError::from)?;
         files.push(OutputFile {
             path: out.join(file),
             bytes,

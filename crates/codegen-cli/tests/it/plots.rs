@@ -43,7 +43,8 @@ fn plots(dir: &Path, expected: &[(&str, &[&str])]) {
 }
 
 /// `simulate`: a free decay (displacements, damping against amplitude), a forced run, a
-/// random run (displacements, RMS against time), a rigid mechanism (coordinates).
+/// random run (displacements, RMS against time, response PSD against the linear
+/// prediction), a rigid mechanism (coordinates).
 #[test]
 fn every_plot_of_simulate_reads_at_a_glance() {
     let d = out("free");
@@ -92,6 +93,7 @@ fn every_plot_of_simulate_reads_at_a_glance() {
         &[
             ("beam_displacement.svg", &["displacement [mm]", "time [s]"]),
             ("random_rms.svg", &["RMS [m]", "t [s]"]),
+            ("random_psd.svg", &["PSD [m^2/Hz]", "f [Hz]"]),
         ],
     );
     let d = out("mechanism");

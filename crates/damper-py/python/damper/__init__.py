@@ -291,12 +291,12 @@ class Scenario:
         replacing the scenario's ``[output] compare``; ``None`` keeps the scenario's.
         """
         sc = self if compare is None else self.with_set({"output.compare": _names(compare, "compare")})
-        summary, columns, comparisons = _damper.simulate(*sc._src(), allow_long)
+        summary, columns, comparisons, psd = _damper.simulate(*sc._src(), allow_long)
         runs = {
             key: Run(cols, summary.get("comparisons", {}).get(key, {}))
             for key, cols in comparisons
         }
-        return Run(columns, summary, runs)
+        return Run(columns, summary, runs, psd)
 
     def linearize(
         self, modes: int = 5, method: str = "auto", matrices: bool = False, allow_long: bool = False

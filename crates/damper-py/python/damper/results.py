@@ -206,7 +206,10 @@ class Run(Table):
     columns: ``run["t"]``, ``run["t [s]"]``), ``summary`` the ``summary.json`` object (for
     a comparison run, its block of the summary's ``comparisons``), ``comparisons`` each
     comparison run of ``[output] compare`` (``"generator_disconnected"``,
-    ``"bare_beam"``) as a ``Run``."""
+    ``"bare_beam"``) as a ``Run``; ``psd`` under random excitation the table of
+    ``random_psd.csv`` (``run.psd["f"]``, ``run.psd["w(x=1) estimate"]``,
+    ``run.psd["w(x=1) prediction"]``, ``run.psd["relative standard error"]``), else
+    ``None``."""
 
     _what = "Run"
 
@@ -215,14 +218,17 @@ class Run(Table):
         columns: Sequence[Column],
         summary: Dict[str, Any],
         comparisons: Optional[Dict[str, "Run"]] = None,
+        psd: Optional[Sequence[Column]] = None,
     ) -> None:
         super().__init__(columns)
         self.summary: Dict[str, Any] = summary
         self.comparisons: Dict[str, Run] = comparisons or {}
+        self.psd: Optional[Table] = None if psd is None else Table(psd)
 
     def _title(self) -> str:
         extra = f", comparisons: {', '.join(self.comparisons)}" if self.comparisons else ""
-        return f"Run: {len(self)} rows, {len(self.columns)} columns{extra}"
+        psd = "" if self.psd is None else f", response PSD at {len(self.psd)} frequencies"
+        return f"Run: {len(self)} rows, {len(self.columns)} columns{extra}{psd}"
 
     def plot(self, columns: Optional[Sequence[str]] = None, x: Optional[str] = None, ax: Any = None) -> Any:
         """Draws ``columns`` (names or headers; default: the first column after ``x``)

@@ -108,13 +108,16 @@ pub use pencil::Pencil;
 pub use placement::{Placement, PlacementError, TwoBar, initial_deflection, place_two_bar};
 pub use run::{
     RunError, RunFigures, RunOptions, RunOutcome, balance_error, dissipated, input_work, run,
+    run_observed,
 };
 pub use sensitivity::{EigenSensitivity, pencil_derivative, response_derivative, same_layout};
 pub use steady::{
     SteadyError, SteadyOptions, SteadyState, output_value, rest_state, steady_state, steady_states,
     warped_frequency,
 };
-pub use stochastic::{PsdInput, Quadrature, StateOutput, StateSpace, lyapunov, psd_variances};
+pub use stochastic::{
+    PsdInput, Quadrature, StateOutput, StateSpace, lyapunov, psd_at, psd_variances,
+};
 pub use structure::{
     LinearStructure, Structure, StructureError, StructureFactor, StructureModes, reduced_base_load,
 };

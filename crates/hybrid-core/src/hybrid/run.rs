@@ -115,8 +115,32 @@ pub fn balance_error(initial: f64, stored: &Stored, account: &Account) -> f64 {
 pub fn run<E>(
     model: &HybridModel,
     integrator: &mut Integrator,
+    state: HybridState,
+    options: RunOptions,
+    sink: &mut dyn FnMut(&HybridState, &Stored, &mut Integrator) -> Result<(), E>,
+    progress: &mut dyn FnMut(f64),
+) -> Result<RunOutcome, RunError<E>> {
+    run_observed(
+        model,
+        integrator,
+        state,
+        options,
+        &mut |_| {},
+        sink,
+        progress,
+    )
+}
+
+/// [`run`] with an observer of every step: `each_step` sees the state at the start and after
+/// every step (before the sink at an output step), at the integrator's own rate — what a
+/// figure sampled at every step needs (a spectrum up to the step's Nyquist frequency), at
+/// the cost of the observer alone (no stored energies are computed for it).
+pub fn run_observed<E>(
+    model: &HybridModel,
+    integrator: &mut Integrator,
     mut state: HybridState,
     options: RunOptions,
+    each_step: &mut dyn FnMut(&HybridState),
     sink: &mut dyn FnMut(&HybridState, &Stored, &mut Integrator) -> Result<(), E>,
     progress: &mut dyn FnMut(f64),
 ) -> Result<RunOutcome, RunError<E>> {
@@ -148,10 +172,12 @@ pub fn run<E>(
         outputs += 1;
         sink(state, stored, integrator).map_err(RunError::Sink)
     };
+    each_step(&state);
     output(&state, &stored, integrator, &mut worst, &mut scale)?;
     let report = (steps / 200).max(1);
     for k in 1..=steps {
         integrator.step(model, &mut state)?;
+        each_step(&state);
         if k % every == 0 || k == steps {
             integrator.stored_into(model, &state, &mut stored);
             output(&state, &stored, integrator, &mut worst, &mut scale)?;
@@ -252,6 +278,53 @@ ratios = [{ mode = 1, ratio = 0.01 }, { mode = 2, ratio = 0.01 }]
         assert!((times[1] - 0.01).abs() < 1e-12 && (times[11] - 0.1005).abs() < 1e-12);
         assert!(out.state.account.excitation_work[0] != 0.0);
         assert!(out.figures.balance_rel_error < 1e-10, "{:?}", out.figures);
+    }
+
+    /// The step observer sees the start and every step, in order, at the step's times;
+    /// the run's figures and final state are those of [`run`] (bit for bit).
+    #[test]
+    fn the_step_observer_sees_every_step() {
+        let beam = cantilever();
+        let n = beam.dof_count();
+        let model = HybridModel::new(Some(beam.into()), vec![], vec![], vec![], vec![]).unwrap();
+        let mut q = vec![0.0; n];
+        q[n - 2] = 1e-3;
+        let state = initial_state(&model, q, vec![0.0; n]).unwrap();
+        let options = RunOptions {
+            t_end: 0.0105,
+            every: 10,
+        };
+        let mut integrator = Integrator::new(&model, Method::Newmark, 1e-4, &state).unwrap();
+        let mut seen = vec![];
+        let observed = run_observed::<()>(
+            &model,
+            &mut integrator,
+            state.clone(),
+            options,
+            &mut |s| seen.push((s.t, s.q[n - 2])),
+            &mut |_, _, _| Ok(()),
+            &mut |_| {},
+        )
+        .unwrap();
+        let mut integrator = Integrator::new(&model, Method::Newmark, 1e-4, &state).unwrap();
+        let plain = run::<()>(
+            &model,
+            &mut integrator,
+            state,
+            options,
+            &mut |_, _, _| Ok(()),
+            &mut |_| {},
+        )
+        .unwrap();
+        // 105 steps and the start.
+        assert_eq!(seen.len(), 106);
+        for (k, (t, _)) in seen.iter().enumerate() {
+            assert!((t - k as f64 * 1e-4).abs() < 1e-15, "{k}: {t}");
+        }
+        assert_eq!(seen[0].1, 1e-3);
+        assert_eq!(seen[105].1, observed.state.q[n - 2]);
+        assert_eq!(observed.state, plain.state);
+        assert_eq!(observed.figures.outputs, plain.figures.outputs);
     }
 
     /// A sink error stops the run and is handed back.

@@ -462,23 +462,7 @@ pub fn psd_variances(
     tol: f64,
     max_intervals: usize,
 ) -> Result<Quadrature, LinearError> {
-    let mut eval = |f: f64, out: &mut [f64]| -> Result<usize, LinearError> {
-        out.fill(0.0);
-        let omega = 2.0 * std::f64::consts::PI * f;
-        let mut solves = 0;
-        for inp in inputs {
-            let g = (inp.psd)(f);
-            if g == 0.0 {
-                continue;
-            }
-            let z = lin.harmonic_response(&inp.force, omega)?;
-            solves += 1;
-            for (o, out) in outputs.iter().zip(out.iter_mut()) {
-                *out += o.harmonic(lin, &z, omega).norm_sqr() * g;
-            }
-        }
-        Ok(solves)
-    };
+    let mut eval = |f: f64, out: &mut [f64]| psd_at(lin, inputs, outputs, f, out);
     integrate_psd(
         &mut eval,
         outputs.len(),
@@ -487,6 +471,35 @@ pub fn psd_variances(
         tol,
         max_intervals,
     )
+}
+
+/// The one-sided PSDs of `outputs` at `f` (Hz) under independent inputs,
+/// `S_y(f) = Σ_k |H_k(f)|² G_k(f)` with `H_k` from the pencil
+/// ([`Linearization::harmonic_response`]), written into `out` (one per output); returns the
+/// harmonic solves made (none for an input whose `G_k(f)` is zero). The integrand of
+/// [`psd_variances`].
+pub fn psd_at(
+    lin: &Linearization,
+    inputs: &[PsdInput<'_>],
+    outputs: &[StateOutput],
+    f: f64,
+    out: &mut [f64],
+) -> Result<usize, LinearError> {
+    out.fill(0.0);
+    let omega = 2.0 * std::f64::consts::PI * f;
+    let mut solves = 0;
+    for inp in inputs {
+        let g = (inp.psd)(f);
+        if g == 0.0 {
+            continue;
+        }
+        let z = lin.harmonic_response(&inp.force, omega)?;
+        solves += 1;
+        for (o, out) in outputs.iter().zip(out.iter_mut()) {
+            *out += o.harmonic(lin, &z, omega).norm_sqr() * g;
+        }
+    }
+    Ok(solves)
 }
 
 impl StateSpace {
