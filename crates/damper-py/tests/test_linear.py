@@ -12,7 +12,12 @@ import pytest
 import damper
 from conftest import SCENARIOS, assert_cells_equal, cli, load_json, read_csv
 
-BEAM_SCENARIOS = [p for p in SCENARIOS if 'kind = "mechanism"' not in p.read_text()]
+# The linearised analyses need a beam host: mechanisms alone have none, and an imported
+# `[structure]` is not linearised yet (issue #30; its time domain is in test_simulate).
+BEAM_SCENARIOS = [
+    p for p in SCENARIOS if 'kind = "mechanism"' not in p.read_text() and "[structure]" not in p.read_text()
+]
+LINEAR_SWEEP_SCENARIOS = [p for p in SCENARIOS if "[structure]" not in p.read_text()]
 
 
 @pytest.mark.parametrize("scenario", BEAM_SCENARIOS, ids=lambda p: p.stem)
@@ -84,7 +89,7 @@ def test_frf_equals_the_cli(scenario: str, output: str, tmp_path: Path, monkeypa
         assert_cells_equal(cells[cols.header(name)], values, f"{scenario} {name}")
 
 
-@pytest.mark.parametrize("scenario", SCENARIOS, ids=lambda p: p.stem)
+@pytest.mark.parametrize("scenario", LINEAR_SWEEP_SCENARIOS, ids=lambda p: p.stem)
 def test_sweep_of_every_scenario_equals_the_cli(scenario: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, root: Path) -> None:
     """The same linear sweep on every bundled scenario (a mechanism scenario's points fail:
     their errors are compared)."""
