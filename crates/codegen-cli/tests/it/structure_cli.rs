@@ -8,8 +8,6 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use codegen_cli::scenario::HybridScenario;
-use fem_beam::Dof;
-use fem_structure::mtx::{SymTriplets, write_matrix_market};
 
 use crate::common::{assert_bad_input, damper, root};
 
@@ -56,25 +54,10 @@ fn export(dir: &Path) -> std::path::PathBuf {
     let sc = HybridScenario::from_str(&text, &beam_path).unwrap();
     let built = codegen_cli::setup::build(&sc).unwrap();
     let b = built.model.beam().unwrap();
-    for (name, m) in [("M", b.mass()), ("K", b.stiffness()), ("C", b.damping())] {
-        let t = SymTriplets {
-            n: m.size(),
-            lower: m.lower_triplets(),
-        };
-        std::fs::write(dir.join(format!("{name}.mtx")), write_matrix_market(&t)).unwrap();
-    }
-    let mut nodes = String::from("id,x,y\n");
-    for k in 0..=24 {
-        writeln!(nodes, "{k},{},0", k as f64 / 24.0).unwrap();
-    }
-    let mut dofs = String::from("eq,node,dof\n");
-    for k in 0..b.dof_count() {
-        let (node, dof) = b.dofs().node_dof(k).unwrap();
-        let d = if dof == Dof::Transverse { "uy" } else { "rz" };
-        writeln!(dofs, "{k},{node},{d}").unwrap();
-    }
-    std::fs::write(dir.join("nodes.csv"), nodes).unwrap();
-    std::fs::write(dir.join("dofs.csv"), dofs).unwrap();
+    // M.mtx, K.mtx, C.mtx, nodes.csv (ids = node indices), dofs.csv (uy, rz).
+    fem_structure::beam_structure_files(b)
+        .write_to(dir)
+        .unwrap();
     beam_path
 }
 
