@@ -7,9 +7,9 @@
 use std::path::Path;
 
 use fem_beam::{Beam, BeamModel, Dof};
-use fem_structure::mtx::{SymTriplets, parse_matrix_market, write_matrix_market};
+use fem_structure::mtx::{SymTriplets, parse_matrix_market};
 use fem_structure::tables::{parse_dofs, parse_nodes};
-use fem_structure::{DampingInput, ImportedStructure, craig_bampton};
+use fem_structure::{DampingInput, ImportedStructure, beam_structure_files, craig_bampton};
 use hybrid_core::hybrid::{
     Attachment, AttachmentKind, BeamPoint, ForceKind, HybridModel, HybridState, Integrator,
     JointForce, LinearStructure, Mount, MountedMechanism, Structure, initial_state,
@@ -36,33 +36,19 @@ ratios = [{ mode = 1, ratio = 0.02 }, { mode = 2, ratio = 0.01 }]
     BeamModel::new(&Beam::from_toml_str(text, "beam.toml").unwrap()).unwrap()
 }
 
-/// The beam written out (its banded matrices' lower triangles as Matrix Market texts, its
-/// free DOFs as `uy` / `rz` of their nodes) and read back as an imported model.
+/// The beam written out by [`beam_structure_files`] (its banded matrices' lower triangles
+/// as Matrix Market texts, its free DOFs as `uy` / `rz` of their nodes) and read back as an
+/// imported model.
 fn exported(b: &BeamModel) -> ImportedStructure {
-    let text = |m: &fem_beam::BandedSym| {
-        write_matrix_market(&SymTriplets {
-            n: m.size(),
-            lower: m.lower_triplets(),
-        })
-    };
-    let read = |t: String, f: &str| parse_matrix_market(&t, f).unwrap();
-    let n = b.dof_count();
-    let mut nodes = String::from("id,x,y\n");
-    let mut dofs = String::from("eq,node,dof\n");
-    for k in 0..n {
-        let (node, dof) = b.dofs().node_dof(k).unwrap();
-        let d = if dof == Dof::Transverse { "uy" } else { "rz" };
-        dofs.push_str(&format!("{k},{node},{d}\n"));
-    }
-    for node in 0..b.dofs().node_count() {
-        nodes.push_str(&format!("{node},{},0\n", node as f64 * 0.075));
-    }
-    let nodes = parse_nodes(&nodes, "nodes.csv").unwrap();
-    let dofs = parse_dofs(&dofs, "dofs.csv", n, &nodes).unwrap();
+    let files = beam_structure_files(b);
+    let read = |t: &str, f: &str| parse_matrix_market(t, f).unwrap();
+    let nodes = parse_nodes(&files.nodes, "nodes.csv").unwrap();
+    let dofs = parse_dofs(&files.dofs, "dofs.csv", b.dof_count(), &nodes).unwrap();
+    let damping = files.damping.as_deref().expect("the beam is damped");
     ImportedStructure::from_parts(
-        read(text(b.mass()), "M.mtx"),
-        read(text(b.stiffness()), "K.mtx"),
-        Some(read(text(b.damping()), "C.mtx")),
+        read(&files.mass, "M.mtx"),
+        read(&files.stiffness, "K.mtx"),
+        Some(read(damping, "C.mtx")),
         &DampingInput::Matrix("C.mtx".into()),
         nodes,
         dofs,
