@@ -6,8 +6,10 @@
 //! generator at the equilibrium. What `damper linearize` prints and the sweeps' linear
 //! figures are.
 
+use fem_structure::tables::NodeDof;
 use hybrid_core::hybrid::{
-    BeamPoint, EigenMethod, EquilibriumOptions, HybridModel, Linearization, Mode, ModeKind, modes,
+    BeamPoint, EigenMethod, EquilibriumOptions, HybridModel, LinearStructure, Linearization, Mode,
+    ModeKind, Structure, modes,
 };
 use mbs_symbolic::runtime::TangentSystem;
 use nalgebra::Complex;
@@ -40,6 +42,11 @@ pub struct ModeReport {
     /// Beam transverse deflection at every node: `[x (m), re, im]`, normalised to a largest
     /// entry 1.
     pub beam_shape: Vec<[f64; 3]>,
+    /// An imported structure's nodes that move in the mechanisms' plane: `[node id, ux re,
+    /// ux im, uy re, uy im]` (m, a held translation 0; a reduced model expanded to every
+    /// node, `q = T z`), normalised as `beam_shape`; empty on the beam.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub structure_shape: Vec<[f64; 5]>,
     /// Per mechanism, per coordinate: `(name, [re, im])` (rad or m per unit of the
     /// normalised beam deflection).
     pub mechanism_shape: Vec<MechanismShape>,
@@ -61,6 +68,10 @@ pub struct Amplification {
     pub generator: String,
     /// The attachment whose displacement drives it.
     pub attachment: String,
+    /// The component of the attachment point's displacement, on an imported structure
+    /// (`"x"` or `"y"`; a pin on a node couples both); absent on the beam (transverse).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub component: Option<&'static str>,
     /// `dq_joint / dw` (rad/m, or m/m on a prismatic joint).
     pub joint_per_displacement: f64,
     /// The rotor's speed per beam-point speed, `gear ratio * dq_joint / dw`.
@@ -95,7 +106,9 @@ pub struct EquilibriumReport {
     pub iterations: usize,
     /// Final residual norm.
     pub residual: f64,
-    /// Largest beam transverse displacement at the equilibrium (m).
+    /// Largest beam transverse displacement at the equilibrium (m); on an imported
+    /// structure the largest of its translations (a reduced model's interface
+    /// translations).
     pub beam_max_deflection: f64,
     /// Every mechanism.
     pub mechanisms: Vec<MechanismEquilibrium>,
@@ -117,9 +130,15 @@ pub struct LinearReport {
     /// Modes with the generators connected.
     pub modes: Vec<ModeReport>,
     /// Modes with every generator disconnected (absent without generators).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub generator_disconnected: Option<Vec<ModeReport>>,
     /// Modes of the bare beam (no mechanism; absent without a beam or mechanisms).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub bare_beam: Option<Vec<ModeReport>>,
+    /// Modes of the bare structure, when the host is an imported structure (no mechanism;
+    /// absent without mechanisms): `bare_beam`'s counterpart.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bare_structure: Option<Vec<ModeReport>>,
 }
 
 /// How far mechanism `i`'s first attached beam point can still move from the beam state
@@ -370,14 +389,19 @@ pub fn analyse_linearization_with(
     } else {
         None
     };
-    let bare_beam = match model.beam() {
-        Some(b) if !model.mechanisms.is_empty() && comparisons => {
-            let bare = HybridModel::new(Some(b.clone().into()), vec![], vec![], vec![], vec![])
-                .expect("a beam alone is a valid hybrid model");
+    let bare = match &model.structure {
+        Some(st) if !model.mechanisms.is_empty() && comparisons => {
+            let bare = HybridModel::new(Some(st.clone()), vec![], vec![], vec![], vec![])
+                .expect("a structure alone is a valid hybrid model");
             let lin_bare = linearise(file, &bare, &[])?;
             Some(modes_of(file, &lin_bare, &bare, k, method)?)
         }
         _ => None,
+    };
+    let (bare_beam, bare_structure) = if model.beam().is_some() {
+        (bare, None)
+    } else {
+        (None, bare)
     };
     let eq = &lin.equilibrium;
     let mechanisms = model
@@ -401,13 +425,15 @@ pub fn analyse_linearization_with(
         })
         .collect();
     let beam_max_deflection = lin
-        .beam_deflection(&eq.beam_q)
+        .translation_dofs()
         .iter()
-        .fold(0.0f64, |m, (_, w)| m.max(w.abs()));
+        .fold(0.0f64, |m, &i| m.max(eq.beam_q[i].abs()));
+    let on_beam = model.beam().is_some();
     let mut amplification = vec![];
     for f in &model.forces {
         let Some(g) = f.generator() else { continue };
-        for (k, a) in model.attachments.iter().enumerate() {
+        for (k, c) in lin.couplings().iter().enumerate() {
+            let a = &model.attachments[c.attachment];
             if a.mechanism != f.mechanism {
                 continue;
             }
@@ -415,6 +441,7 @@ pub fn analyse_linearization_with(
             amplification.push(Amplification {
                 generator: f.name.clone(),
                 attachment: a.name.clone(),
+                component: (!on_beam).then_some(if c.axial { "x" } else { "y" }),
                 joint_per_displacement: r,
                 rotor_per_displacement: g.gear_ratio * r,
             });
@@ -434,6 +461,7 @@ pub fn analyse_linearization_with(
         modes: with,
         generator_disconnected,
         bare_beam,
+        bare_structure,
     };
     Ok((report, lin))
 }
@@ -445,6 +473,9 @@ fn mode_report(i: usize, m: &Mode, lin: &Linearization, model: &HybridModel) -> 
         .into_iter()
         .map(|(x, w)| [x, w.re, w.im])
         .collect();
+    let structure_shape = lin
+        .structure()
+        .map_or_else(Vec::new, |st| node_shape(st, &z));
     let motion = lin.mechanism_motion(&z);
     let mechanism_shape = model
         .mechanisms
@@ -471,8 +502,36 @@ fn mode_report(i: usize, m: &Mode, lin: &Linearization, model: &HybridModel) -> 
         decay_rate: m.decay_rate,
         backward_error: m.residual,
         beam_shape,
+        structure_shape,
         mechanism_shape,
     }
+}
+
+/// [`ModeReport::structure_shape`] of the state `z` on an imported structure (empty on the
+/// beam).
+fn node_shape(st: &Structure, z: &[Complex<f64>]) -> Vec<[f64; 5]> {
+    let Some(full) = st.imported() else {
+        return vec![];
+    };
+    let n = st.dof_count();
+    let (re, im): (Vec<f64>, Vec<f64>) = z[..n].iter().map(|v| (v.re, v.im)).unzip();
+    let (re, im) = match st {
+        Structure::Reduced { reduced, .. } => (reduced.expand(&re), reduced.expand(&im)),
+        _ => (re, im),
+    };
+    full.nodes
+        .iter()
+        .filter_map(|node| {
+            let eq = |d: NodeDof| full.dofs.equation.get(&(node.id, d)).copied();
+            let (ux, uy) = (eq(NodeDof::Ux), eq(NodeDof::Uy));
+            if ux.is_none() && uy.is_none() {
+                return None;
+            }
+            let part = |e: Option<usize>| e.map_or([0.0, 0.0], |i| [re[i], im[i]]);
+            let ([a, b], [c, d]) = (part(ux), part(uy));
+            Some([node.id as f64, a, b, c, d])
+        })
+        .collect()
 }
 
 /// A receptance peak objective, `peak:X:F1:F2`: the largest `|H|` of the beam's transverse

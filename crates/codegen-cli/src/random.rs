@@ -305,8 +305,26 @@ fn outputs_of(
     };
     if requested.is_empty() {
         for a in &model.attachments {
-            let t = ExcitationTarget::Beam(a.beam.clone());
-            push_pair(&t, format!("w(x={})", a.beam.x), "m");
+            // A node of an imported structure: its ux and uy (`NODE:DOF`); a beam point: its
+            // transverse displacement.
+            let node = model
+                .structure
+                .as_ref()
+                .and_then(|st| crate::setup::build::node_at(st, &a.beam));
+            match node {
+                Some(id) => {
+                    for (dof, direction) in [("ux", [1.0, 0.0]), ("uy", [0.0, 1.0])] {
+                        let p = a.beam.along(direction);
+                        if !p.weights.is_empty() {
+                            push_pair(&ExcitationTarget::Beam(p), format!("{id}:{dof}"), "m");
+                        }
+                    }
+                }
+                None => {
+                    let t = ExcitationTarget::Beam(a.beam.clone());
+                    push_pair(&t, format!("w(x={})", a.beam.x), "m");
+                }
+            }
         }
         for (i, m) in model.mechanisms.iter().enumerate() {
             let names = m.system.coordinate_names();
@@ -323,7 +341,7 @@ fn outputs_of(
         for o in requested {
             let (t, _, unit) = parse_output(model, o)?;
             let label = match &t {
-                ExcitationTarget::Beam(p) => format!("w(x={})", p.x),
+                ExcitationTarget::Beam(p) if !o.contains(':') => format!("w(x={})", p.x),
                 _ => o.clone(),
             };
             push_pair(&t, label, unit);

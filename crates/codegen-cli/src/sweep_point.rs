@@ -171,9 +171,11 @@ pub fn evaluate_with(
     // The comparison variants' figures (generator(s) disconnected, bare beam) unless only
     // the requested figures are wanted and none of them is one.
     let comparisons = !options.only_requested
-        || requested
-            .iter()
-            .any(|n| n.ends_with("_generator_disconnected") || n.ends_with("_bare_beam"));
+        || requested.iter().any(|n| {
+            n.ends_with("_generator_disconnected")
+                || n.ends_with("_bare_beam")
+                || n.ends_with("_bare_structure")
+        });
     // The random figures: wanted unless only the requested ones are and none is random.
     let wanted = !options.only_requested
         || requested.iter().any(|n| {

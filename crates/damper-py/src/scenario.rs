@@ -265,6 +265,7 @@ pub fn linearize<'py>(
     let bare = report
         .bare_beam
         .as_deref()
+        .or(report.bare_structure.as_deref())
         .map(|m| shapes(py, m))
         .transpose()?;
     let dense = dense

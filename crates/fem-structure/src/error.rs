@@ -13,6 +13,9 @@ pub enum StructureError {
         /// The matrix, as the user knows it (`mass matrix`, `stiffness matrix`, ...).
         what: String,
     },
+    /// A complex combination of the matrices (a dynamic stiffness at a shift) is singular.
+    #[error("the dynamic stiffness is singular (a shift on an eigenvalue of the structure)")]
+    Singular,
     /// The sparse library refused an operation (allocation, index overflow).
     #[error("sparse linear algebra: {0}")]
     Sparse(String),

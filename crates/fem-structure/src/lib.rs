@@ -35,4 +35,4 @@ pub use model::{DampingInput, ImportedStructure, MatrixFiles};
 pub use modes::{
     FLOOR_TOL, MAX_ITERATIONS, MODE_TOL, STALL_WINDOW, SparseModes, generalized_eigen, lowest_modes,
 };
-pub use sparse::{SparseFactor, SparseSym};
+pub use sparse::{ComplexFactor, SparseFactor, SparseSym};

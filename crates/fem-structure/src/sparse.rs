@@ -1,10 +1,13 @@
 //! Symmetric sparse matrices (both triangles stored, compressed columns, faer's
 //! `SparseColMat`) and their Cholesky factorisation `P A P^T = L L^T` (faer's sparse
-//! supernodal/simplicial Cholesky with an AMD fill-reducing ordering).
+//! supernodal/simplicial Cholesky with an AMD fill-reducing ordering); complex combinations
+//! `sum_k c_k A_k` (the dynamic stiffness `K + s B + s^2 M` at a complex shift `s`, complex
+//! symmetric, not Hermitian) by faer's sparse LU with partial pivoting ([`ComplexFactor`]).
 
 use faer::Side;
+use faer::c64;
 use faer::linalg::solvers::Solve;
-use faer::sparse::linalg::solvers::Llt;
+use faer::sparse::linalg::solvers::{Llt, Lu};
 use faer::sparse::{SparseColMat, Triplet};
 
 use crate::error::StructureError;
@@ -20,6 +23,14 @@ pub struct SparseSym {
 #[derive(Clone, Debug)]
 pub struct SparseFactor {
     llt: Llt<usize, f64>,
+    n: usize,
+}
+
+/// An LU factorisation of a complex combination of [`SparseSym`]s
+/// ([`ComplexFactor::combination`]), solving in place.
+#[derive(Clone, Debug)]
+pub struct ComplexFactor {
+    lu: Lu<usize, c64>,
     n: usize,
 }
 
@@ -162,6 +173,64 @@ impl SparseSym {
             }
         })?;
         Ok(SparseFactor { llt, n: self.n() })
+    }
+}
+
+impl ComplexFactor {
+    /// Factorises `sum_k c_k A_k` (the matrices of one size) on the union of their
+    /// patterns. [`StructureError::Singular`] when the combination is singular: a pattern
+    /// without a pivot, or a solve that is not finite.
+    pub fn combination(terms: &[(c64, &SparseSym)]) -> Result<ComplexFactor, StructureError> {
+        let n = terms.first().map_or(0, |t| t.1.n());
+        let mut raw: Vec<(usize, usize, c64)> = Vec::new();
+        for &(c, a) in terms {
+            assert_eq!(a.n(), n, "ComplexFactor::combination: sizes differ");
+            let r = a.mat.as_ref();
+            for j in 0..n {
+                for (i, v) in r.row_idx_of_col(j).zip(r.val_of_col(j)) {
+                    raw.push((i, j, c * *v));
+                }
+            }
+        }
+        raw.sort_by_key(|&(i, j, _)| (j, i));
+        let mut entries: Vec<Triplet<usize, usize, c64>> = Vec::with_capacity(raw.len());
+        for (i, j, v) in raw {
+            match entries.last_mut() {
+                Some(t) if t.row == i && t.col == j => t.val += v,
+                _ => entries.push(Triplet::new(i, j, v)),
+            }
+        }
+        let mat = SparseColMat::try_new_from_triplets(n, n, &entries)
+            .map_err(|e| StructureError::Sparse(format!("{e:?}")))?;
+        let lu = mat.sp_lu().map_err(|e| match e {
+            faer::sparse::linalg::LuError::SymbolicSingular { .. } => StructureError::Singular,
+            faer::sparse::linalg::LuError::Generic(g) => StructureError::Sparse(format!("{g:?}")),
+        })?;
+        let f = ComplexFactor { lu, n };
+        // A zero pivot shows as a non-finite solve.
+        let mut probe = vec![c64::new(1.0, 0.0); n];
+        f.solve_in_place(&mut probe);
+        if probe
+            .iter()
+            .any(|v| !(v.re.is_finite() && v.im.is_finite()))
+        {
+            return Err(StructureError::Singular);
+        }
+        Ok(f)
+    }
+
+    /// `x <- A^-1 x`.
+    pub fn solve_in_place(&self, x: &mut [c64]) {
+        assert_eq!(
+            x.len(),
+            self.n,
+            "ComplexFactor::solve_in_place: wrong length"
+        );
+        if self.n == 0 {
+            return;
+        }
+        let m = faer::MatMut::from_column_major_slice_mut(x, self.n, 1);
+        self.lu.solve_in_place(m);
     }
 }
 

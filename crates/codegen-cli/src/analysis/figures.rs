@@ -299,6 +299,16 @@ pub static CATALOGUE: &[Entry] = &[
         ),
         |r| first_mode(r.bare_beam.as_deref()).map(|m| m.0),
     ),
+    read(
+        entry(
+            "linear.f1_bare_structure",
+            &["Hz"],
+            Linear,
+            Differences,
+            "first natural frequency of an imported structure without mechanism",
+        ),
+        |r| first_mode(r.bare_structure.as_deref()).map(|m| m.0),
+    ),
     aka(
         read(
             entry(

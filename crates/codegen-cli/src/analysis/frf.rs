@@ -175,12 +175,62 @@ fn unknown<S: AsRef<str>>(what: &'static str, name: &str, known: &[S], msg: Stri
 }
 
 /// An output named as `--output` takes it (frf, random): a beam abscissa in m (`1.0`: the
-/// transverse displacement there) or `MECHANISM/COORDINATE`; its target (the same
-/// generalised vector as a force there), label and unit.
+/// transverse displacement there), `NODE:DOF` on an imported structure (`613:ux`: node
+/// 613's displacement along `x`; `uy` along `y`) or `MECHANISM/COORDINATE`; its target (the
+/// same generalised vector as a force there), label and unit.
 pub(crate) fn parse_output(
     model: &HybridModel,
     output: &str,
 ) -> Result<(ExcitationTarget, String, &'static str), Error> {
+    if let Some((node, dof)) = output.split_once(':') {
+        let node: u64 = node.trim().parse().map_err(|_| {
+            argument(
+                "--output",
+                format!("--output {output:?}: give NODE:DOF with NODE a node id (613:ux)"),
+            )
+        })?;
+        let direction = match dof.trim() {
+            "ux" => [1.0, 0.0],
+            "uy" => [0.0, 1.0],
+            other => {
+                return Err(unknown(
+                    "dof",
+                    other,
+                    &["ux", "uy"],
+                    format!(
+                        "--output {output:?}: no DOF {other:?} in the mechanisms' plane (ux, uy)"
+                    ),
+                ));
+            }
+        };
+        let structure = model
+            .structure
+            .as_ref()
+            .filter(|s| s.beam().is_none())
+            .ok_or_else(|| {
+                argument(
+                    "--output",
+                    format!("--output {output}: NODE:DOF needs a [structure] of kind \"matrices\" (the beam's outputs are abscissae)"),
+                )
+            })?;
+        let p = crate::setup::build::structure_node(structure, node)
+            .map_err(|m| argument("--output", format!("--output {output}: {m}")))?
+            .along(direction);
+        if p.weights.is_empty() {
+            return Err(argument(
+                "--output",
+                format!(
+                    "--output {output}: a support holds node {node} along {}",
+                    dof.trim()
+                ),
+            ));
+        }
+        return Ok((
+            ExcitationTarget::Beam(p),
+            format!("{node}:{}", dof.trim()),
+            "m",
+        ));
+    }
     Ok(match output.split_once('/') {
         None => {
             let x: f64 = output.trim().parse().map_err(|_| {
@@ -528,7 +578,8 @@ pub(crate) fn nonlinear_rows(
 pub struct FrfRequest {
     /// The scenario file as messages name it.
     pub file: String,
-    /// The response: a beam abscissa in m (`1.0`), or `MECHANISM/COORDINATE`.
+    /// The response: a beam abscissa in m (`1.0`), `NODE:DOF` on an imported structure
+    /// (`613:ux`), or `MECHANISM/COORDINATE`.
     pub output: String,
     /// Lowest frequency (Hz).
     pub from: f64,

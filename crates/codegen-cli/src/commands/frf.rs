@@ -69,7 +69,8 @@ use crate::scenario;
 pub struct Args {
     /// Scenario file (`kind = "damper"` or `kind = "hybrid"`).
     pub scenario: PathBuf,
-    /// The response: a beam abscissa in m (`1.0`), or `MECHANISM/COORDINATE`
+    /// The response: a beam abscissa in m (`1.0`), `NODE:DOF` on an imported structure
+    /// (`613:ux`), or `MECHANISM/COORDINATE`
     /// (`absorber/theta`; a damper scenario's mechanism is `damper`).
     #[arg(long)]
     pub output: String,

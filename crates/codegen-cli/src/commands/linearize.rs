@@ -100,8 +100,15 @@ fn table(r: &LinearReport) -> String {
     let eq = &r.equilibrium;
     let _ = writeln!(
         out,
-        "static equilibrium: {} Newton iteration(s), residual {:.2e}, largest beam deflection {:.4e} m",
-        eq.iterations, eq.residual, eq.beam_max_deflection
+        "static equilibrium: {} Newton iteration(s), residual {:.2e}, largest {} {:.4e} m",
+        eq.iterations,
+        eq.residual,
+        if r.bare_structure.is_some() || r.amplification.iter().any(|a| a.component.is_some()) {
+            "structure displacement"
+        } else {
+            "beam deflection"
+        },
+        eq.beam_max_deflection
     );
     for m in &eq.mechanisms {
         let q: Vec<String> = m.q.iter().map(|(n, v)| format!("{n} = {v:.6}")).collect();
@@ -120,8 +127,12 @@ fn table(r: &LinearReport) -> String {
     for a in &r.amplification {
         let _ = writeln!(
             out,
-            "  amplification: generator \"{}\" per attachment \"{}\": {:.4} rad/m at the joint, {:.4} rad/m at the rotor",
-            a.generator, a.attachment, a.joint_per_displacement, a.rotor_per_displacement
+            "  amplification: generator \"{}\" per attachment \"{}\"{}: {:.4} rad/m at the joint, {:.4} rad/m at the rotor",
+            a.generator,
+            a.attachment,
+            a.component.map_or(String::new(), |c| format!(" along {c}")),
+            a.joint_per_displacement,
+            a.rotor_per_displacement
         );
     }
     mode_rows(&mut out, "modes with the generator(s) connected:", &r.modes);
@@ -134,6 +145,9 @@ fn table(r: &LinearReport) -> String {
     }
     if let Some(m) = &r.bare_beam {
         mode_rows(&mut out, "modes of the bare beam (no mechanism):", m);
+    }
+    if let Some(m) = &r.bare_structure {
+        mode_rows(&mut out, "modes of the bare structure (no mechanism):", m);
     }
     let _ = writeln!(
         out,

@@ -24,7 +24,8 @@ use crate::scenario::{self, Override};
 pub struct Args {
     /// Scenario file (`kind = "hybrid"` with a random excitation).
     pub scenario: PathBuf,
-    /// An output: a beam abscissa in m (`1.0`) or `MECHANISM/COORDINATE` (repeatable; its
+    /// An output: a beam abscissa in m (`1.0`), `NODE:DOF` on an imported structure
+    /// (`613:ux`) or `MECHANISM/COORDINATE` (repeatable; its
     /// value and rate are reported). Default: every attachment and mechanism coordinate.
     #[arg(long)]
     pub output: Vec<String>,

@@ -265,9 +265,10 @@ fn imported_model(sc: &HybridScenario) -> Result<Option<Structure>, Diagnostics>
     }))
 }
 
-/// The point of an imported structure at node `node`: its position and the coordinates of
-/// its `ux`, `uy` (the interface's reduced coordinates on a reduced model); `None` for a node
-/// that `nodes.csv` lacks or whose translations are both held.
+/// The point of an imported structure at node `node`: its position and the weights of its
+/// `ux`, `uy` (on a reduced model: weight 1 on the interface's reduced coordinate, or the
+/// row of the reduction's `T` for a node off the interface); `Err` for a node that
+/// `nodes.csv` lacks or whose translations are both held.
 fn node_point(
     full: &ImportedStructure,
     reduced: Option<&Reduced>,
@@ -279,20 +280,60 @@ fn node_point(
             full.nodes.len()
         ));
     };
-    let coordinate = |d: NodeDof| {
-        let eq = *full.dofs.equation.get(&(node, d))?;
+    let weights = |d: NodeDof| -> Vec<(usize, f64)> {
+        let Some(&eq) = full.dofs.equation.get(&(node, d)) else {
+            return vec![];
+        };
         match reduced {
-            None => Some(eq),
-            Some(r) => r.interface.iter().position(|&i| i == eq),
+            None => vec![(eq, 1.0)],
+            Some(r) => match r.interface.iter().position(|&i| i == eq) {
+                Some(k) => vec![(k, 1.0)],
+                None => r
+                    .transform
+                    .row(eq)
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, v)| **v != 0.0)
+                    .map(|(j, &v)| (j, v))
+                    .collect(),
+            },
         }
     };
-    let (ux, uy) = (coordinate(NodeDof::Ux), coordinate(NodeDof::Uy));
-    if ux.is_none() && uy.is_none() {
+    let p = BeamPoint {
+        x: n.position[0],
+        y: n.position[1],
+        weights: weights(NodeDof::Uy),
+        axial: weights(NodeDof::Ux),
+    };
+    if p.is_locked() {
         return Err(format!(
             "node {node} has no ux or uy equation (a support holds it)"
         ));
     }
-    Ok(BeamPoint::node([n.position[0], n.position[1]], ux, uy))
+    Ok(p)
+}
+
+/// The point of `structure` at node `node` ([`node_point`]); `Err` on the beam (whose
+/// points are abscissae) or for an unknown or held node.
+pub fn structure_node(structure: &Structure, node: u64) -> Result<BeamPoint, String> {
+    match structure {
+        Structure::Beam(_) => Err(format!(
+            "node {node}: the beam's points are abscissae, not nodes"
+        )),
+        Structure::Imported(s) => node_point(s, None, node),
+        Structure::Reduced { full, reduced } => node_point(full, Some(reduced), node),
+    }
+}
+
+/// The node of an imported structure at the position of `p` (the attachment's node), if
+/// any.
+pub fn node_at(structure: &Structure, p: &BeamPoint) -> Option<u64> {
+    structure
+        .imported()?
+        .nodes
+        .iter()
+        .find(|n| n.position[0] == p.x && n.position[1] == p.y)
+        .map(|n| n.id)
 }
 
 /// The stages of [`build_model`] after the beam: each resolves one kind of name of the
@@ -533,12 +574,11 @@ impl Resolver<'_> {
         span: &Range<usize>,
         entity: &str,
     ) -> Option<BeamPoint> {
-        let (full, reduced) = match structure? {
-            Structure::Beam(_) => return None,
-            Structure::Imported(s) => (s, None),
-            Structure::Reduced { full, reduced } => (&**full, Some(&**reduced)),
-        };
-        match node_point(full, reduced, node) {
+        let structure = structure?;
+        if structure.beam().is_some() {
+            return None;
+        }
+        match structure_node(structure, node) {
             Ok(p) => Some(p),
             Err(msg) => {
                 let kind = if msg.starts_with("no node") {
@@ -737,21 +777,7 @@ impl Resolver<'_> {
                         .map(ExcitationTarget::Beam),
                     TargetEntry::Node { node, direction } => self
                         .at_node(structure, *node, &e.at_span, &entity)
-                        .map(|p| {
-                            // The force along `direction`: weights d . e of ux and uy.
-                            let mut weights = p
-                                .axial
-                                .iter()
-                                .map(|&(k, w)| (k, w * direction[0]))
-                                .collect::<Vec<_>>();
-                            weights.extend(p.weights.iter().map(|&(k, w)| (k, w * direction[1])));
-                            weights.retain(|&(_, w)| w != 0.0);
-                            ExcitationTarget::Beam(BeamPoint {
-                                weights,
-                                axial: vec![],
-                                ..p
-                            })
-                        }),
+                        .map(|p| ExcitationTarget::Beam(p.along(*direction))),
                     TargetEntry::Joint {
                         mechanism,
                         joint: name,

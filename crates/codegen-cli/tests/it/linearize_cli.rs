@@ -22,13 +22,13 @@ fn every_bundled_scenario_linearises_with_converged_modes() {
             assert_bad_input(&["linearize", &p], &["no beam to linearise", ".toml"]);
             continue;
         }
-        if text.contains("[structure]") {
-            // The linearised analyses run on the beam only so far (issue #30).
-            assert_bad_input(&["linearize", &p], &["not available on a", "structure"]);
-            continue;
-        }
         let r = json(&["linearize", &p, "--modes", "4", "--json"]);
-        for variant in ["modes", "generator_disconnected", "bare_beam"] {
+        for variant in [
+            "modes",
+            "generator_disconnected",
+            "bare_beam",
+            "bare_structure",
+        ] {
             let Some(modes) = r[variant].as_array() else {
                 continue;
             };

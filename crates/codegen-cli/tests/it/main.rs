@@ -37,4 +37,5 @@ mod simulate_mechanism_cli;
 mod special_files_cli;
 mod stale_model_cli;
 mod structure_cli;
+mod structure_linear_cli;
 mod sweep_cli;

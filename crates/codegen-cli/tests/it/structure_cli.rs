@@ -14,7 +14,7 @@ use crate::common::{assert_bad_input, damper, root};
 /// The host-independent part of the scenario: the two dampers of `scenarios/two_dampers.toml`,
 /// pinned at `left` and `right` (an `x = ...` or `node = ...` line each), a harmonic force at
 /// `load`, 0.15 s.
-fn scenario(host: &str, left: &str, right: &str, load: &str) -> String {
+pub(crate) fn scenario(host: &str, left: &str, right: &str, load: &str) -> String {
     let models = root().join("models/double_bar.toml");
     let mut s = format!("kind = \"hybrid\"\n{host}\n");
     for (name, at) in [("left", left), ("right", right)] {
@@ -37,12 +37,12 @@ fn scenario(host: &str, left: &str, right: &str, load: &str) -> String {
     s
 }
 
-const BEAM: &str = "[beam]\n[[beam.segment]]\nlength = 1.0\nyoungs_modulus = 210e9\ndensity = 7850.0\nwidth = 0.040\nheight = 0.008\nelements = 24\n\
+pub(crate) const BEAM: &str = "[beam]\n[[beam.segment]]\nlength = 1.0\nyoungs_modulus = 210e9\ndensity = 7850.0\nwidth = 0.040\nheight = 0.008\nelements = 24\n\
 [[beam.support]]\nx = 0.0\nkind = \"pinned\"\n[[beam.support]]\nx = 1.0\nkind = \"pinned\"\n[beam.damping]\nratios = [{ mode = 1, ratio = 0.002 }, { mode = 2, ratio = 0.002 }]\n";
 
 /// Writes the beam scenario, and the beam's matrices and tables beside it; returns the beam
 /// scenario's path.
-fn export(dir: &Path) -> std::path::PathBuf {
+pub(crate) fn export(dir: &Path) -> std::path::PathBuf {
     let beam_path = dir.join("beam.toml");
     let text = scenario(
         BEAM,
@@ -62,14 +62,14 @@ fn export(dir: &Path) -> std::path::PathBuf {
 }
 
 /// A fresh directory under the system's temporary directory.
-fn scratch(name: &str) -> std::path::PathBuf {
+pub(crate) fn scratch(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("structure_cli_{name}_{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
 }
 
-fn structure(extra: &str) -> String {
+pub(crate) fn structure(extra: &str) -> String {
     format!(
         "[structure]\nkind = \"matrices\"\nmass = \"M.mtx\"\nstiffness = \"K.mtx\"\nnodes = \"nodes.csv\"\ndofs = \"dofs.csv\"\ndamping = \"C.mtx\"\n{extra}"
     )

@@ -192,8 +192,9 @@ def _modes(reports: Optional[List[Dict[str, Any]]], shapes: Optional[List[Any]])
 class Linearization:
     """The scenario linearised about its static equilibrium (``damper linearize``).
 
-    ``modes`` (generator connected), ``generator_disconnected`` and ``bare_beam`` (``None``
-    where the scenario has no generator, or no beam or mechanism) are lists of ``Mode``;
+    ``modes`` (generator connected), ``generator_disconnected``, ``bare_beam`` and
+    ``bare_structure`` (``None`` where the scenario has no generator, no mechanism, or its
+    host is not a beam, respectively an imported structure) are lists of ``Mode``;
     ``equilibrium`` and ``amplification`` are the report's objects; ``M_R``, ``C_R``, ``K_R``
     the reduced mass, damping and stiffness matrices as dense arrays when asked for
     (``Scenario.linearize(matrices=True)``), else ``None``; ``report`` the whole JSON object
@@ -207,6 +208,7 @@ class Linearization:
         self.modes: List[Mode] = _modes(report["modes"], with_gen) or []
         self.generator_disconnected: Optional[List[Mode]] = _modes(report.get("generator_disconnected"), off)
         self.bare_beam: Optional[List[Mode]] = _modes(report.get("bare_beam"), bare)
+        self.bare_structure: Optional[List[Mode]] = _modes(report.get("bare_structure"), bare)
         self.equilibrium: Dict[str, Any] = report["equilibrium"]
         self.amplification: List[Dict[str, Any]] = report["amplification"]
         self.M_R: Optional[np.ndarray] = m

@@ -497,12 +497,12 @@ fn refine(lin: &Linearization, l: C64) -> Result<Mode, LinearError> {
             z.iter_mut().for_each(|x| *x /= nz);
         }
     }
-    // Normalise: the largest beam transverse entry (or largest entry) real and 1.
-    let n = lin.structure_dofs();
-    let candidates: Vec<usize> = if n > 0 {
-        lin.nodes().iter().filter_map(|&(_, dof)| dof).collect()
-    } else {
+    // Normalise: the structure's largest displacement entry (or the largest entry) real
+    // and 1.
+    let candidates: Vec<usize> = if lin.translation_dofs().is_empty() {
         (0..d).collect()
+    } else {
+        lin.translation_dofs().to_vec()
     };
     let big = candidates
         .iter()

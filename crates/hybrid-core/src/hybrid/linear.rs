@@ -66,15 +66,15 @@
 //! as differences of [`HybridModel::add_joint_forces`] at unit changes (no truncation: the
 //! difference of an affine function is its slope, up to one rounding).
 
-use fem_beam::BandedSym;
 use mbs_symbolic::runtime::{TangentSystem, TangentWorkspace};
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
 use super::follow::{CurrentRule, Follower};
 use super::integrator::map_follow;
-use super::model::{BeamPoint, ExcitationTarget, HybridModel};
+use super::model::{Coupling, ExcitationTarget, HybridModel};
 use super::pencil::Pencil;
+use super::structure::{LinearStructure, Structure};
 use super::{HybridError, initial_state};
 
 /// Newton settings of the equilibrium search.
@@ -150,27 +150,20 @@ pub enum LinearError {
         /// The element and why (boxed: the error stays small).
         source: Box<mbs_symbolic::runtime::TangentError>,
     },
-    /// The host structure is not the beam: the linearised analyses (modes, frequency and
-    /// random response) run on the banded beam only so far; the time domain runs on every
-    /// structure.
+    /// The structure's part `C + s B + s^2 A` of the shifted pencil is singular.
     #[error(
-        "the linearised analyses (modes, frf, random, sweeps of linear figures) are not available on a {kind} structure yet; simulate runs on it"
+        "the {kind}'s dynamic stiffness C + s B + s^2 A at s = {}{:+}i is singular{}: a structure without supports (rigid-body motion) or a shift on an eigenvalue",
+        shift[0],
+        shift[1],
+        pivot.map_or_else(String::new, |p| format!(" (pivot {p})"))
     )]
-    StructureKind {
+    SingularStructure {
         /// What the structure is ([`super::Structure::kind`]).
         kind: &'static str,
-    },
-    /// The beam part `C + s B + s^2 A` of the shifted pencil has a zero pivot.
-    #[error(
-        "the beam's dynamic stiffness C + s B + s^2 A at s = {}{:+}i is singular (pivot {pivot}): a beam without supports (rigid-body motion) or a shift on an eigenvalue",
-        shift[0],
-        shift[1]
-    )]
-    SingularBeam {
         /// The shift `s` (real and imaginary parts, 1/s).
         shift: [f64; 2],
-        /// The elimination index of the zero pivot.
-        pivot: usize,
+        /// The elimination index of the zero pivot, where the factorisation tells it.
+        pivot: Option<usize>,
     },
     /// The reduced dynamic stiffness (the Woodbury border of the mechanisms) at the shift
     /// has a zero pivot.
@@ -256,7 +249,8 @@ pub enum LinearError {
 /// The static equilibrium of a hybrid system.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Equilibrium {
-    /// Beam DOFs (m, rad).
+    /// The structure's coordinates (m, rad; a reduced structure's interface displacements
+    /// and modal amplitudes).
     pub beam_q: Vec<f64>,
     /// Every mechanism's coordinates.
     pub mech_q: Vec<Vec<f64>>,
@@ -290,7 +284,7 @@ pub struct ElectricalState {
 }
 
 /// A hybrid system linearised about its static equilibrium (see the module documentation):
-/// the banded beam, the small blocks `M_s`, `C_s`, `K_s` in `s = (w, u)` and the
+/// the structure (any [`Structure`]), the small blocks `M_s`, `C_s`, `K_s` in `s = (w, u)` and the
 /// electrical states, with products and dense assembly of the reduced matrices.
 #[derive(Clone, Debug)]
 pub struct Linearization {
@@ -299,14 +293,19 @@ pub struct Linearization {
     nf: usize,
     /// The equilibrium.
     pub equilibrium: Equilibrium,
-    /// The beam's mass `A`, damping `B` and stiffness `C` (eq. 44).
-    beam: Option<[BandedSym; 3]>,
-    /// The beam's elimination order ([`fem_beam::BeamModel::elimination_order`]).
-    order: Vec<usize>,
+    /// The structure: its mass `A`, damping `B` and stiffness `C` (eq. 44).
+    structure: Option<Structure>,
+    /// Upper bounds of the infinity norms of `[A, B, C]` ([`Structure::norm_bounds`]).
+    structure_norms: [f64; 3],
+    /// The structure's displacement coordinates ([`Structure::translation_dofs`]).
+    translations: Vec<usize>,
     /// Per beam node: its abscissa and its transverse DOF (`None` where a support locks it).
     nodes: Vec<(f64, Option<usize>)>,
-    /// The attachments' beam points (the columns of `N`).
-    points: Vec<BeamPoint>,
+    /// The coupling components ([`HybridModel::couplings`]): the entries of `w`.
+    couplings: Vec<Coupling>,
+    /// The columns of `N`: per coupling, the weights of its component of the attachment's
+    /// point ([`super::BeamPoint::component`]).
+    columns: Vec<Vec<(usize, f64)>>,
     /// `R_i = dq_i/ds` per mechanism (`dof_i x (nb + nf)`).
     pub basis: Vec<DMatrix<f64>>,
     /// `M_s`.
@@ -417,11 +416,6 @@ impl Linearization {
             model.mechanisms.len(),
             "one tangent system per mechanism"
         );
-        if let Some(s) = &model.structure
-            && s.beam().is_none()
-        {
-            return Err(LinearError::StructureKind { kind: s.kind() });
-        }
         for (m, t) in model.mechanisms.iter().zip(tangents) {
             if t.dof() != m.system.dof() || t.rows() != m.system.rows() {
                 return Err(LinearError::TangentSize {
@@ -446,7 +440,7 @@ impl Linearization {
         let model = static_model(model);
         let model = &model;
         let n = model.structure_dofs();
-        let nb = model.attachments.len();
+        let nb = model.couplings().len();
         let start = initial_state(model, vec![0.0; n], vec![0.0; n])?;
         let mut followers = Vec::new();
         let mut nf = 0;
@@ -481,14 +475,19 @@ impl Linearization {
             mech.follow(model, &s)?;
             let lin = Self::assemble(model, tangents, &mut mech)?;
             // Residual r = [C x - P0 + N phi_w; phi_u].
-            if let Some([_, _, c]) = &lin.beam {
-                c.mul_vec_into(&z[..n], &mut r[..n]);
+            r.fill(0.0);
+            if let Some(st) = &lin.structure {
+                st.stiffness_mul_add(1.0, &z[..n], &mut r[..n]);
             }
             for i in 0..n {
                 r[i] -= p0[i];
             }
-            for (k, a) in model.attachments.iter().enumerate() {
-                a.beam.add_force(mech.phi[k], &mut r[..n]);
+            for (k, c) in model.couplings().iter().enumerate() {
+                model.attachments[c.attachment].beam.add_force_along(
+                    c.axial,
+                    mech.phi[k],
+                    &mut r[..n],
+                );
             }
             r[n..].copy_from_slice(&mech.phi[nb..]);
             let rn = r.iter().map(|x| x * x).sum::<f64>().sqrt();
@@ -659,15 +658,17 @@ impl Linearization {
             equilibrium.multipliers.push(lambda);
             equilibrium.conditions.push(f.condition);
         }
-        let beam = model
-            .beam()
-            .map(|b| [b.mass().clone(), b.damping().clone(), b.stiffness().clone()]);
+        let structure = model.structure.clone();
         Ok(Linearization {
             n: model.structure_dofs(),
             nb,
             nf,
             equilibrium,
-            beam,
+            structure_norms: structure.as_ref().map_or([0.0; 3], Structure::norm_bounds),
+            translations: structure
+                .as_ref()
+                .map_or_else(Vec::new, Structure::translation_dofs),
+            structure,
             nodes: model.beam().map_or_else(Vec::new, |b| {
                 b.beam()
                     .node_positions()
@@ -676,10 +677,17 @@ impl Linearization {
                     .map(|(i, &x)| (x, b.dof_index(i, fem_beam::Dof::Transverse)))
                     .collect()
             }),
-            order: model
-                .beam()
-                .map_or_else(Vec::new, fem_beam::BeamModel::elimination_order),
-            points: model.attachments.iter().map(|a| a.beam.clone()).collect(),
+            columns: model
+                .couplings()
+                .iter()
+                .map(|c| {
+                    model.attachments[c.attachment]
+                        .beam
+                        .component(c.axial)
+                        .to_vec()
+                })
+                .collect(),
+            couplings: model.couplings(),
             basis,
             ms,
             cs,
@@ -699,24 +707,31 @@ impl Linearization {
         self.n + self.nf
     }
 
-    /// Size of `s = (w, u)`: attachments plus free coordinates.
+    /// Size of `s = (w, u)`: coupling components plus free coordinates.
     pub fn small_dim(&self) -> usize {
         self.nb + self.nf
     }
 
-    /// Number of attachments.
-    pub fn attachments(&self) -> usize {
-        self.nb
+    /// The coupling components ([`HybridModel::couplings`]): the entries of `w`, one
+    /// column of `N` each.
+    pub fn couplings(&self) -> &[Coupling] {
+        &self.couplings
     }
 
-    /// The attachments' beam points (the columns of `N`).
-    pub fn points(&self) -> &[BeamPoint] {
-        &self.points
+    /// The columns of `N`: per coupling, `(coordinate, weight)` of its displacement
+    /// component.
+    pub fn columns(&self) -> &[Vec<(usize, f64)>] {
+        &self.columns
     }
 
-    /// The beam's `[A, B, C]` (mass, damping, stiffness), if there is a beam.
-    pub fn beam_matrices(&self) -> Option<&[BandedSym; 3]> {
-        self.beam.as_ref()
+    /// The host structure, if there is one.
+    pub fn structure(&self) -> Option<&Structure> {
+        self.structure.as_ref()
+    }
+
+    /// The structure's displacement coordinates ([`Structure::translation_dofs`]).
+    pub fn translation_dofs(&self) -> &[usize] {
+        &self.translations
     }
 
     /// Per beam node: its abscissa (m) and its transverse DOF (`None` where a support locks
@@ -734,11 +749,6 @@ impl Linearization {
             .collect()
     }
 
-    /// The order in which pencils eliminate the beam DOFs.
-    pub fn elimination_order(&self) -> &[usize] {
-        &self.order
-    }
-
     /// The small block of `which` (`M_s`, `C_s` or `K_s`).
     pub fn small(&self, which: Matrix) -> &DMatrix<f64> {
         match which {
@@ -753,11 +763,8 @@ impl Linearization {
     where
         T: Copy + std::ops::Mul<f64, Output = T> + std::ops::Add<Output = T> + Default,
     {
-        for (k, p) in self.points.iter().enumerate() {
-            s[k] = p
-                .weights
-                .iter()
-                .fold(T::default(), |acc, &(i, w)| acc + z[i] * w);
+        for (k, col) in self.columns.iter().enumerate() {
+            s[k] = col.iter().fold(T::default(), |acc, &(i, w)| acc + z[i] * w);
         }
         s[self.nb..].copy_from_slice(&z[self.n..]);
     }
@@ -767,8 +774,8 @@ impl Linearization {
     where
         T: Copy + std::ops::Mul<f64, Output = T> + std::ops::AddAssign,
     {
-        for (k, p) in self.points.iter().enumerate() {
-            for &(i, w) in &p.weights {
+        for (k, col) in self.columns.iter().enumerate() {
+            for &(i, w) in col {
                 z[i] += s[k] * w;
             }
         }
@@ -780,13 +787,13 @@ impl Linearization {
     /// `y = X z` for `X` = `M_R`, `C_R` or `K_R` (structured: banded beam + `P^T X_s P`).
     pub fn mul(&self, which: Matrix, z: &[f64], y: &mut [f64]) {
         y.fill(0.0);
-        if let Some(b) = &self.beam {
-            let k = match which {
-                Matrix::Mass => 0,
-                Matrix::Damping => 1,
-                Matrix::Stiffness => 2,
-            };
-            b[k].mul_vec_into(&z[..self.n], &mut y[..self.n]);
+        if let Some(st) = &self.structure {
+            let (x, out) = (&z[..self.n], &mut y[..self.n]);
+            match which {
+                Matrix::Mass => st.mass_mul_add(1.0, x, out),
+                Matrix::Damping => st.damping_mul_add(1.0, x, out),
+                Matrix::Stiffness => st.stiffness_mul_add(1.0, x, out),
+            }
         }
         let ns = self.small_dim();
         let mut s = vec![0.0; ns];
@@ -803,25 +810,15 @@ impl Linearization {
             Matrix::Damping => 1,
             Matrix::Stiffness => 2,
         };
-        let beam = self.beam.as_ref().map_or(0.0, |b| {
-            let m = &b[k];
-            let kd = m.half_bandwidth();
-            (0..m.size())
-                .map(|i| {
-                    (i.saturating_sub(kd)..(i + kd + 1).min(m.size()))
-                        .map(|j| m.get(i, j).abs())
-                        .sum::<f64>()
-                })
-                .fold(0.0, f64::max)
-        });
+        let beam = self.structure_norms[k];
         let xs = self.small(which);
         let small = (0..xs.nrows())
             .map(|r| xs.row(r).iter().map(|v| v.abs()).sum::<f64>())
             .fold(0.0, f64::max);
         let p = self
-            .points
+            .columns
             .iter()
-            .map(|p| p.weights.iter().map(|w| w.1.abs()).sum::<f64>())
+            .map(|c| c.iter().map(|w| w.1.abs()).sum::<f64>())
             .fold(1.0, f64::max);
         beam + p * small * p
     }
@@ -863,20 +860,19 @@ impl Linearization {
             .collect()
     }
 
-    /// The velocity amplification `dq_joint / dw` of mechanism `mech` at the equilibrium for
-    /// attachment `attachment` (free coordinates held): the entry of `R_i` (eq. 18).
-    pub fn amplification(&self, mech: usize, joint: usize, attachment: usize) -> f64 {
-        self.basis[mech][(joint, attachment)]
+    /// The velocity amplification `dq_joint / dw_k` of mechanism `mech` at the equilibrium
+    /// for coupling component `coupling` ([`Linearization::couplings`]; free coordinates and
+    /// the other components held): the entry of `R_i` (eq. 18).
+    pub fn amplification(&self, mech: usize, joint: usize, coupling: usize) -> f64 {
+        self.basis[mech][(joint, coupling)]
     }
 }
 
-/// `s = P z` for the model's attachments (before a [`Linearization`] exists).
+/// `s = P z` for the model's couplings (before a [`Linearization`] exists).
 fn to_s(model: &HybridModel, n: usize, z: &[f64], s: &mut [f64]) {
-    let nb = model.attachments.len();
-    for (k, a) in model.attachments.iter().enumerate() {
-        s[k] = a.beam.value(&z[..n]);
-    }
-    s[nb..].copy_from_slice(&z[n..]);
+    let w = model.coupling_values(&z[..n]);
+    s[..w.len()].copy_from_slice(&w);
+    s[w.len()..].copy_from_slice(&z[n..]);
 }
 
 /// `(M^b, Q^b)` contributions of mechanism `mech`'s force elements and constant joint
@@ -914,14 +910,8 @@ impl Linearization {
                 self.add_from_small(&s, &mut f);
             }
             ExcitationTarget::Base => {
-                if let Some([a, _, _]) = &self.beam {
-                    let mut r = vec![0.0; self.n];
-                    for &(_, d) in &self.nodes {
-                        if let Some(k) = d {
-                            r[k] = 1.0;
-                        }
-                    }
-                    a.mul_add_into(-1.0, &r, &mut f[..self.n]);
+                if let Some(st) = &self.structure {
+                    f[..self.n].copy_from_slice(&st.base_load([0.0, 1.0]));
                 }
                 self.add_from_small(self.base_small.as_slice(), &mut f);
             }

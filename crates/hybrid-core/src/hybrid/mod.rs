@@ -88,6 +88,7 @@ mod placement;
 pub mod reference;
 mod run;
 mod sensitivity;
+mod shifted;
 mod steady;
 mod stochastic;
 mod structure;

@@ -117,6 +117,26 @@ impl BeamPoint {
         }
     }
 
+    /// The point's displacement along the unit `direction` (in the plane), as a point
+    /// whose `y` weights are `d . e` (the `x` weights times `d_x` and the `y` weights times
+    /// `d_y`, zeros left out) and without `x` weights: the functional of a force or an
+    /// output along `direction` ([`BeamPoint::value`], [`BeamPoint::add_force`]).
+    pub fn along(&self, direction: [f64; 2]) -> BeamPoint {
+        let mut weights: Vec<(usize, f64)> = self
+            .axial
+            .iter()
+            .map(|&(k, w)| (k, w * direction[0]))
+            .collect();
+        weights.extend(self.weights.iter().map(|&(k, w)| (k, w * direction[1])));
+        weights.retain(|&(_, w)| w != 0.0);
+        BeamPoint {
+            x: self.x,
+            y: self.y,
+            weights,
+            axial: vec![],
+        }
+    }
+
     /// The weights of one component: along `x` (`axial`) or along `y`.
     pub fn component(&self, axial: bool) -> &[(usize, f64)] {
         if axial { &self.axial } else { &self.weights }
@@ -153,9 +173,10 @@ impl BeamPoint {
         }
     }
 
-    /// Whether every DOF of the point is locked (a support holds it).
+    /// Whether every DOF of the point is locked (a support holds it): it moves neither
+    /// along `y` nor along `x`.
     pub fn is_locked(&self) -> bool {
-        self.weights.is_empty()
+        self.weights.is_empty() && self.axial.is_empty()
     }
 }
 

@@ -21,121 +21,12 @@
 //! equilibrium); at `sigma = i omega` the dynamic stiffness of the frequency response; at a
 //! real shift the operator of the shift-invert eigen-solver.
 
-use fem_beam::BandedSym;
 use nalgebra::{Complex, DMatrix, DVector};
 
 use super::linear::{LinearError, Linearization};
+use super::shifted::ShiftedFactor;
 
 type C64 = Complex<f64>;
-
-/// `L D L^T` of a complex symmetric band matrix (no pivoting), in a given elimination
-/// order.
-#[derive(Clone, Debug)]
-struct BandLdlt {
-    n: usize,
-    kd: usize,
-    /// `order[k]`: the original index eliminated `k`-th.
-    order: Vec<usize>,
-    /// Column `k` of `L` below the diagonal: `l[k * kd + d - 1] = L[k + d, k]`, `d = 1..=kd`.
-    l: Vec<C64>,
-    d: Vec<C64>,
-}
-
-impl BandLdlt {
-    /// Factorises `sum_i c_i A_i` (same size) in elimination order `order`; `Err` with the
-    /// elimination index of a zero (relative to the diagonal's scale) pivot.
-    fn new(terms: &[(C64, &BandedSym)], order: &[usize]) -> Result<BandLdlt, usize> {
-        let n = order.len();
-        let mut pos = vec![0; n];
-        for (k, &i) in order.iter().enumerate() {
-            pos[i] = k;
-        }
-        // Band width in the elimination order.
-        let mut kd = 0;
-        for (_, a) in terms {
-            let akd = a.half_bandwidth();
-            for i in 0..n {
-                for j in i.saturating_sub(akd)..i {
-                    if a.get(i, j) != 0.0 {
-                        kd = kd.max(pos[i].abs_diff(pos[j]));
-                    }
-                }
-            }
-        }
-        // Dense band of the reordered matrix: a[k * (kd + 1) + d] = S[k + d, k].
-        let w = kd + 1;
-        let mut a = vec![C64::new(0.0, 0.0); n * w];
-        for &(c, m) in terms {
-            let mkd = m.half_bandwidth();
-            for i in 0..n {
-                for j in i.saturating_sub(mkd)..=i {
-                    let v = m.get(i, j);
-                    if v != 0.0 {
-                        let (pi, pj) = (pos[i], pos[j]);
-                        let (hi, lo) = (pi.max(pj), pi.min(pj));
-                        a[lo * w + (hi - lo)] += c * v;
-                    }
-                }
-            }
-        }
-        let scale = (0..n).fold(0.0f64, |m, k| m.max(a[k * w].norm()));
-        let mut l = vec![C64::new(0.0, 0.0); n * kd.max(1)];
-        let mut d = vec![C64::new(0.0, 0.0); n];
-        for k in 0..n {
-            // d_k = S_kk - sum_j L_kj^2 d_j.
-            let mut dk = a[k * w];
-            for j in k.saturating_sub(kd)..k {
-                let ljk = l[j * kd + (k - j) - 1];
-                dk -= ljk * ljk * d[j];
-            }
-            if dk.norm().is_nan() || dk.norm() <= 1e-14 * scale {
-                return Err(k);
-            }
-            d[k] = dk;
-            for i in k + 1..(k + kd + 1).min(n) {
-                let mut v = a[k * w + (i - k)];
-                for j in i.saturating_sub(kd)..k {
-                    v -= l[j * kd + (i - j) - 1] * l[j * kd + (k - j) - 1] * d[j];
-                }
-                l[k * kd + (i - k) - 1] = v / dk;
-            }
-        }
-        Ok(BandLdlt {
-            n,
-            kd,
-            order: order.to_vec(),
-            l,
-            d,
-        })
-    }
-
-    /// `b <- S^-1 b` (original ordering), using `work` (length `n`).
-    fn solve(&self, b: &mut [C64], work: &mut [C64]) {
-        let (n, kd) = (self.n, self.kd);
-        for (k, &i) in self.order.iter().enumerate() {
-            work[k] = b[i];
-        }
-        for k in 0..n {
-            let v = work[k];
-            for i in k + 1..(k + kd + 1).min(n) {
-                work[i] -= self.l[k * kd + (i - k) - 1] * v;
-            }
-        }
-        for k in 0..n {
-            work[k] /= self.d[k];
-        }
-        for k in (0..n).rev() {
-            let mut v = work[k];
-            for i in k + 1..(k + kd + 1).min(n) {
-                v -= self.l[k * kd + (i - k) - 1] * work[i];
-            }
-            work[k] = v;
-        }
-        for (k, &i) in self.order.iter().enumerate() {
-            b[i] = work[k];
-        }
-    }
-}
 
 /// The factorised pencil `S(sigma)` of a [`Linearization`] (see the module documentation).
 #[derive(Clone, Debug)]
@@ -143,7 +34,7 @@ pub struct Pencil {
     sigma: C64,
     n: usize,
     nb: usize,
-    band: Option<BandLdlt>,
+    band: Option<ShiftedFactor>,
     /// `X = S_b^-1 N`, one column of length `n` per attachment.
     x: Vec<Vec<C64>>,
     /// `S_s(sigma)`, `ns x ns`.
@@ -170,24 +61,19 @@ impl Pencil {
 
     /// Factorises `S(sigma)`.
     pub fn new(lin: &Linearization, sigma: C64) -> Result<Pencil, LinearError> {
-        let (n, nb, ns) = (lin.structure_dofs(), lin.attachments(), lin.small_dim());
+        let (n, nb, ns) = (lin.structure_dofs(), lin.couplings().len(), lin.small_dim());
         let one = C64::new(1.0, 0.0);
-        let band = match lin.beam_matrices() {
-            Some([a, b, c]) => Some(
-                BandLdlt::new(
-                    &[(one, c), (sigma, b), (sigma * sigma, a)],
-                    lin.elimination_order(),
-                )
-                .map_err(|pivot| LinearError::SingularBeam {
+        let band = match lin.structure() {
+            Some(st) => Some(st.factorize_shifted(sigma).map_err(|pivot| {
+                LinearError::SingularStructure {
+                    kind: st.kind(),
                     shift: [sigma.re, sigma.im],
                     pivot,
-                })?,
-            ),
+                }
+            })?),
             None => None,
         };
-        let weights: Vec<Vec<(usize, f64)>> =
-            lin.points().iter().map(|p| p.weights.clone()).collect();
-        let mut work = vec![C64::new(0.0, 0.0); n];
+        let weights: Vec<Vec<(usize, f64)>> = lin.columns().to_vec();
         let mut x = Vec::with_capacity(nb);
         for w in &weights {
             let mut col = vec![C64::new(0.0, 0.0); n];
@@ -195,7 +81,7 @@ impl Pencil {
                 col[i] = C64::new(v, 0.0);
             }
             if let Some(f) = &band {
-                f.solve(&mut col, &mut work);
+                f.solve(&mut col);
             }
             x.push(col);
         }
@@ -258,8 +144,7 @@ impl Pencil {
         let (n, nb) = (self.n, self.nb);
         let ns = self.small.nrows();
         if let Some(f) = &self.band {
-            let mut work = vec![C64::new(0.0, 0.0); n];
-            f.solve(&mut b[..n], &mut work);
+            f.solve(&mut b[..n]);
         }
         let mut rhs = DVector::<C64>::zeros(ns);
         for (k, w) in self.weights.iter().enumerate() {

@@ -84,7 +84,7 @@ pub fn pencil_derivative(
 pub fn same_layout(a: &Linearization, b: &Linearization) -> Result<(), LinearError> {
     let what = if a.structure_dofs() != b.structure_dofs() {
         Some("beam DOFs")
-    } else if a.attachments() != b.attachments() {
+    } else if a.couplings() != b.couplings() {
         Some("attachments")
     } else if a.equilibrium.free != b.equilibrium.free {
         Some("free coordinates")

@@ -22,4 +22,5 @@ mod oracle;
 mod sensitivity;
 mod step_alloc;
 mod structures;
+mod structures_linear;
 mod variants;

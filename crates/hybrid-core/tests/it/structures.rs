@@ -9,7 +9,9 @@ use std::path::Path;
 use fem_beam::{Beam, BeamModel, Dof};
 use fem_structure::mtx::{SymTriplets, parse_matrix_market};
 use fem_structure::tables::{parse_dofs, parse_nodes};
-use fem_structure::{DampingInput, ImportedStructure, beam_structure_files, craig_bampton};
+use fem_structure::{
+    DampingInput, ImportedStructure, Reduced, beam_structure_files, craig_bampton,
+};
 use hybrid_core::hybrid::{
     Attachment, AttachmentKind, BeamPoint, ForceKind, HybridModel, HybridState, Integrator,
     JointForce, LinearStructure, Mount, MountedMechanism, Structure, initial_state,
@@ -39,7 +41,7 @@ ratios = [{ mode = 1, ratio = 0.02 }, { mode = 2, ratio = 0.01 }]
 /// The beam written out by [`beam_structure_files`] (its banded matrices' lower triangles
 /// as Matrix Market texts, its free DOFs as `uy` / `rz` of their nodes) and read back as an
 /// imported model.
-fn exported(b: &BeamModel) -> ImportedStructure {
+pub(crate) fn exported(b: &BeamModel) -> ImportedStructure {
     let files = beam_structure_files(b);
     let read = |t: &str, f: &str| parse_matrix_market(t, f).unwrap();
     let nodes = parse_nodes(&files.nodes, "nodes.csv").unwrap();
@@ -197,27 +199,45 @@ fn the_damper_runs_the_same_on_every_kind_of_structure() {
         }
     }
 
-    // Craig–Bampton with every mode: z = T^-1 q, the attachment point's DOFs the interface
-    // (the first reduced coordinates, in the interface's sorted order).
-    let s = exported(&beam);
-    let point = &beam_model.attachments[0].beam;
+    // Craig–Bampton with every mode: z = T^-1 q.
+    let (reduced, r) = reduced_variant(&beam_model, n);
+    let t_inv: DMatrix<f64> = r.transform.clone().try_inverse().unwrap();
+    let z0 = (&t_inv * DVector::from_column_slice(&q0))
+        .as_slice()
+        .to_vec();
+    let other = run(&reduced, z0);
+    for (a, b) in reference.iter().zip(&other) {
+        let q = r.expand(&b.q);
+        for (x, y) in a.q.iter().zip(&q) {
+            assert!((x - y).abs() <= 1e-9 * q_amp, "t = {}: {x} vs {y}", a.t);
+        }
+        for (x, y) in a.mechanisms[0].q.iter().zip(&b.mechanisms[0].q) {
+            assert!((x - y).abs() <= 1e-9 * m_amp, "t = {}: {x} vs {y}", a.t);
+        }
+    }
+}
+
+/// `model` (the damper on its beam, one attachment) with the beam replaced by its
+/// export's Craig–Bampton reduction keeping `modes` fixed-interface modes (capped at the
+/// interior DOFs): the attachment point's DOFs are the interface, the first reduced
+/// coordinates in their sorted order, so the point keeps its weights on them.
+pub(crate) fn reduced_variant(model: &HybridModel, modes: usize) -> (HybridModel, Reduced) {
+    let beam = model.beam().expect("a beam host");
+    let s = exported(beam);
+    let point = &model.attachments[0].beam;
     let mut interface: Vec<usize> = point.weights.iter().map(|w| w.0).collect();
     interface.sort_unstable();
-    let interior = n - interface.len();
+    let interior = beam.dof_count() - interface.len();
     let r = craig_bampton(
         &s.stiffness,
         &s.mass,
         s.damping.as_ref(),
         &interface,
-        interior,
+        modes.min(interior),
     )
     .unwrap();
     assert_eq!(r.interface, interface);
-    let t_inv: DMatrix<f64> = r.transform.clone().try_inverse().unwrap();
-    let z0 = (&t_inv * DVector::from_column_slice(&q0))
-        .as_slice()
-        .to_vec();
-    let mut reduced = beam_model.clone();
+    let mut reduced = model.clone();
     reduced.attachments[0].beam = BeamPoint {
         x: point.x,
         y: 0.0,
@@ -232,21 +252,12 @@ fn the_damper_runs_the_same_on_every_kind_of_structure() {
         full: Box::new(s),
         reduced: Box::new(r.clone()),
     });
-    let other = run(&reduced, z0);
-    for (a, b) in reference.iter().zip(&other) {
-        let q = r.expand(&b.q);
-        for (x, y) in a.q.iter().zip(&q) {
-            assert!((x - y).abs() <= 1e-9 * q_amp, "t = {}: {x} vs {y}", a.t);
-        }
-        for (x, y) in a.mechanisms[0].q.iter().zip(&b.mechanisms[0].q) {
-            assert!((x - y).abs() <= 1e-9 * m_amp, "t = {}: {x} vs {y}", a.t);
-        }
-    }
+    (reduced, r)
 }
 
 /// A one-node structure (mass `m` on springs `k[0]`, `k[1]` along its two equations) whose
 /// equation 0 is the node's `first` translation (`ux` or `uy`) and equation 1 the other.
-fn one_node(m: f64, k: [f64; 2], first: &str) -> ImportedStructure {
+pub(crate) fn one_node(m: f64, k: [f64; 2], first: &str) -> ImportedStructure {
     let second = if first == "ux" { "uy" } else { "ux" };
     let diag = |a: f64, b: f64| SymTriplets {
         n: 2,

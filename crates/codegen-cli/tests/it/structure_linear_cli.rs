@@ -1,0 +1,227 @@
+//! The linearised analyses on `[structure]` hosts (issue #30, item 5): the two-damper beam
+//! written out as Matrix Market files linearises, and responds to white noise, as the beam
+//! (1e-10); the bundled frame reduced by Craig–Bampton to 30 fixed-interface modes gives the
+//! first coupled mode of its full 1,990-equation model within 1e-6; `NODE:DOF` outputs and
+//! their bad forms.
+
+use std::path::Path;
+
+use serde_json::Value;
+
+use crate::common::{assert_bad_input, damper, root};
+use crate::structure_cli::{export, scratch, structure};
+
+fn json(args: &[&str]) -> Value {
+    let (code, out, err) = damper(args);
+    assert_eq!(code, 0, "damper {args:?}: {err}");
+    serde_json::from_str(&out).unwrap_or_else(|e| panic!("{e}: {out}"))
+}
+
+fn close(a: f64, b: f64, tol: f64, what: &str) {
+    assert!(
+        (a - b).abs() <= tol * b.abs(),
+        "{what}: {a} vs {b} ({:e})",
+        (a - b).abs() / b.abs()
+    );
+}
+
+/// `(f_n, zeta)` of every mode of `report[variant]`.
+fn modes(report: &Value, variant: &str) -> Vec<(f64, f64)> {
+    report[variant]
+        .as_array()
+        .unwrap_or_else(|| panic!("no {variant}"))
+        .iter()
+        .map(|m| {
+            (
+                m["natural_frequency_hz"].as_f64().unwrap(),
+                m["damping_ratio"].as_f64().unwrap(),
+            )
+        })
+        .collect()
+}
+
+const HARMONIC: &str = "amplitude = 2.0\ntime = { kind = \"harmonic\", frequency_hz = 18.0 }";
+const NOISE: &str = "time = { kind = \"white_noise\", psd = 0.5, band = [1.0, 300.0] }";
+
+#[test]
+fn the_beam_as_matrices_linearises_as_the_beam() {
+    let dir = scratch("linear");
+    let d = dir.as_path();
+    let beam = export(d);
+    let text = std::fs::read_to_string(&beam).unwrap();
+    let host_start = text.find("[beam]").unwrap();
+    let host_end = text.find("[[mechanism]]").unwrap();
+    let as_matrices = |extra: &str| {
+        let host = structure(extra);
+        let mut t = text.clone();
+        t.replace_range(host_start..host_end, &host);
+        // The beam's nodes are the attachments' and the load's: node ids are node indices.
+        t.replace("x = 0.3333333333333333", "node = 8")
+            .replace("x = 0.6666666666666666", "node = 16")
+            .replace(
+                "at = { x = 0.5 }",
+                "at = { node = 12, direction = [0.0, 1.0] }",
+            )
+    };
+    let write = |name: &str, t: &str| {
+        let p = d.join(name);
+        std::fs::write(&p, t).unwrap();
+        p.display().to_string()
+    };
+    let full = write("full.toml", &as_matrices(""));
+    let beam = beam.display().to_string();
+
+    let a = json(&["linearize", &beam, "--modes", "4", "--json"]);
+    let b = json(&["linearize", &full, "--modes", "4", "--json"]);
+    for (va, vb) in [
+        ("modes", "modes"),
+        ("generator_disconnected", "generator_disconnected"),
+        ("bare_beam", "bare_structure"),
+    ] {
+        for ((fa, za), (fb, zb)) in modes(&a, va).iter().zip(&modes(&b, vb)) {
+            close(*fb, *fa, 1e-10, &format!("{vb} frequency"));
+            close(*zb, *za, 1e-10, &format!("{vb} damping"));
+        }
+    }
+    assert!(b.get("bare_beam").is_none(), "the host is not a beam");
+
+    // White noise at mid-span: every default output's RMS (the attachments' transverse
+    // displacements and rates, the mechanisms' coordinates) and the generators' power.
+    let noisy = |t: &str| t.replace(HARMONIC, NOISE);
+    let beam_noise = write("beam_noise.toml", &noisy(&text));
+    let full_noise = write("full_noise.toml", &noisy(&as_matrices("")));
+    let ra = json(&["random", &beam_noise, "--json"]);
+    let rb = json(&["random", &full_noise, "--json"]);
+    let rms = |r: &Value| -> Vec<(String, f64)> {
+        r["outputs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|o| {
+                (
+                    o["name"].as_str().unwrap().to_string(),
+                    o["rms"].as_f64().unwrap(),
+                )
+            })
+            .collect()
+    };
+    let (oa, ob) = (rms(&ra), rms(&rb));
+    assert_eq!(oa.len(), ob.len());
+    assert_eq!(ob[0].0, "8:uy", "a node's output is NODE:DOF");
+    for ((na, xa), (nb, xb)) in oa.iter().zip(&ob) {
+        close(*xb, *xa, 1e-10, &format!("RMS of {nb} ({na})"));
+    }
+}
+
+/// The bundled frame with its paths made absolute, its reduction line replaced by `reduction`.
+fn frame(dir: &Path, name: &str, reduction: &str) -> String {
+    let src = root().join("scenarios");
+    let text = std::fs::read_to_string(src.join("frame.toml"))
+        .unwrap()
+        .replace("\"frame/", &format!("\"{}/frame/", src.display()))
+        .replace("\"../models/", &format!("\"{}/../models/", src.display()))
+        .replace(
+            "reduction = { kind = \"craig_bampton\", modes = 30 }",
+            reduction,
+        );
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.display().to_string()
+}
+
+#[test]
+fn thirty_fixed_interface_modes_give_the_frames_first_coupled_mode() {
+    let dir = scratch("frame_linear");
+    let d = dir.as_path();
+    let reduced = frame(
+        d,
+        "reduced.toml",
+        "reduction = { kind = \"craig_bampton\", modes = 30 }",
+    );
+    let full = frame(d, "full.toml", "");
+    let a = json(&["linearize", &full, "--modes", "2", "--json"]);
+    let b = json(&["linearize", &reduced, "--modes", "2", "--json"]);
+    assert_eq!(
+        b["modes"][0]["structure_shape"].as_array().unwrap().len(),
+        995
+    );
+    let (fa, za) = modes(&a, "modes")[0];
+    let (fb, zb) = modes(&b, "modes")[0];
+    close(fb, fa, 1e-6, "first coupled frequency");
+    close(zb, za, 1e-6, "first coupled damping ratio");
+    // The damper adds damping to the sway mode.
+    let (_, bare) = modes(&a, "bare_structure")[0];
+    assert!(za > 1.2 * bare, "zeta {za} vs bare {bare}");
+    // The pin couples both components; the sway (x) is the amplified one.
+    let amp: Vec<(String, f64)> = a["amplification"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| {
+            (
+                x["component"].as_str().unwrap().to_string(),
+                x["joint_per_displacement"].as_f64().unwrap().abs(),
+            )
+        })
+        .collect();
+    assert_eq!(amp.len(), 2);
+    assert!(amp[1].0 == "x" && amp[1].1 > 5.0 * amp[0].1, "{amp:?}");
+}
+
+#[test]
+fn node_outputs_name_their_node_and_direction() {
+    let dir = scratch("node_outputs");
+    let frame = frame(
+        dir.as_path(),
+        "frame.toml",
+        "reduction = { kind = \"craig_bampton\", modes = 10 }",
+    );
+    let out = dir.join("frf.csv").display().to_string();
+    let frf = |o: &str| {
+        [
+            "frf",
+            frame.as_str(),
+            "--output",
+            o,
+            "--from",
+            "30",
+            "--to",
+            "45",
+            "--out",
+            out.as_str(),
+        ]
+        .map(str::to_string)
+    };
+    let run = |o: &str| {
+        let a = frf(o);
+        let args: Vec<&str> = a.iter().map(String::as_str).collect();
+        damper(&args)
+    };
+    let (code, _, err) = run("741:ux");
+    assert_eq!(code, 0, "{err}");
+    for (o, needles) in [
+        ("741:rz", &["741:rz", "no DOF", "ux, uy"][..]),
+        ("99999:ux", &["no node 99999"][..]),
+        ("x:ux", &["NODE:DOF"][..]),
+    ] {
+        let a = frf(o);
+        let args: Vec<&str> = a.iter().map(String::as_str).collect();
+        assert_bad_input(&args, needles);
+    }
+    let damper_toml = root().join("scenarios/damper.toml").display().to_string();
+    assert_bad_input(
+        &[
+            "frf",
+            &damper_toml,
+            "--output",
+            "3:ux",
+            "--from",
+            "1",
+            "--to",
+            "2",
+            "--out",
+            &out,
+        ],
+        &["NODE:DOF needs a [structure]"],
+    );
+}
