@@ -313,8 +313,9 @@ fn node_point(
     Ok(p)
 }
 
-/// The point of `structure` at node `node` ([`node_point`]); `Err` on the beam (whose
-/// points are abscissae) or for an unknown or held node.
+/// The point of `structure` at node `node`: its position and the weights of its `ux`, `uy`
+/// (on a reduced model the interface coordinate, or the row of `T` off the interface);
+/// `Err` on the beam (whose points are abscissae) or for an unknown or held node.
 pub fn structure_node(structure: &Structure, node: u64) -> Result<BeamPoint, String> {
     match structure {
         Structure::Beam(_) => Err(format!(
