@@ -632,6 +632,19 @@ impl Resolver<'_> {
             return None;
         }
         let (point, _) = points[a].as_ref()?;
+        // A pivot direction is written in the structure's frame: into the mechanism's.
+        let how = match how {
+            Placement::Along {
+                half_angle_deg,
+                direction,
+                knee,
+            } => Placement::Along {
+                half_angle_deg,
+                direction: mount.to_ground(direction),
+                knee,
+            },
+            other => other,
+        };
         match place_two_bar(sys, *point, how) {
             Ok(two) => {
                 // The beam point (x_b, 0) = origin + R(angle) target.

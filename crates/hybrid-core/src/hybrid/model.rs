@@ -32,6 +32,13 @@ impl Mount {
         [c * v[0] - s * v[1], s * v[0] + c * v[1]]
     }
 
+    /// A beam-frame vector rotated into the mechanism frame, `R(angle)^T v` (the inverse
+    /// of [`Mount::rotate`]).
+    pub fn to_ground(&self, v: [f64; 2]) -> [f64; 2] {
+        let (c, s) = self.rotation();
+        [c * v[0] + s * v[1], -s * v[0] + c * v[1]]
+    }
+
     /// The beam's transverse direction `y` in the mechanism's ground frame,
     /// `R(angle)^T (0, 1, 0) = (sin, cos, 0)`: the direction in which the supports move the
     /// mechanism's ground under a base excitation.

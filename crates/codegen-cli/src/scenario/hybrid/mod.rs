@@ -23,6 +23,10 @@
 //! # A two-bar chain pinned to a beam point, placed as in the damper kind (instead of
 //! # origin and initial): half_angle_deg = 10.0, or pivot = [x, y] from the beam point.
 //! # placement = { attachment = "left_pin", half_angle_deg = 10.0 }
+//! # At a node of a [structure] (or anywhere) the pivot may lie along a direction of the
+//! # structure's frame, at the half-angle's distance, the knee on the counter-clockwise
+//! # ("+") or clockwise ("-", the default) side of the pivot -> point axis:
+//! # placement = { attachment = "pin", half_angle_deg = 10.0, pivot_direction = [-1.0, 0.0], knee = "+" }
 //! [[attachment]]
 //! name = "left_pin"
 //! mechanism = "left"

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use diagnostic::Kind;
 use fem_beam::{Beam, BeamSpec};
-use hybrid_core::hybrid::{AttachmentKind, ForceKind, Placement};
+use hybrid_core::hybrid::{AttachmentKind, ForceKind, Knee, Placement};
 use toml::Spanned;
 use toml::de::DeValue;
 
@@ -466,17 +466,65 @@ fn placement(
         }
         _ => {}
     }
+    let knee = match p.knee.as_ref().map(|k| (k.get_ref().as_str(), k.span())) {
+        None | Some(("-", _)) => Some(Knee::Clockwise),
+        Some(("+", _)) => Some(Knee::CounterClockwise),
+        Some((other, span)) => {
+            let msg = format!(
+                "placement: knee must be \"+\" (counter-clockwise of the pivot -> point axis) or \"-\" (got {other:?})"
+            );
+            doc.push(Kind::InvalidValue, Some(span), Some(entity), msg);
+            None
+        }
+    };
+    let direction = p.pivot_direction.as_ref().and_then(|d| {
+        let [x, y] = *d.get_ref();
+        if x.is_finite() && y.is_finite() && x.hypot(y) > 0.0 {
+            Some([x, y])
+        } else {
+            // As written in TOML (`nan`, `inf`).
+            let toml = |v: f64| if v.is_nan() { "nan".into() } else { v.to_string() };
+            let msg = format!(
+                "placement: pivot_direction must be two finite numbers [dx, dy], not both zero (got [{}, {}])",
+                toml(x),
+                toml(y)
+            );
+            doc.push(Kind::InvalidValue, Some(d.span()), Some(entity), msg);
+            None
+        }
+    });
+    if p.pivot.is_some() && (p.pivot_direction.is_some() || p.knee.is_some()) {
+        let msg = "placement: pivot_direction and knee go with half_angle_deg, not with pivot";
+        doc.push(Kind::InvalidValue, Some(span.clone()), Some(entity), msg);
+        *ok = false;
+    }
     let how = match (&p.half_angle_deg, &p.pivot) {
         (Some(a), None) => {
             let deg = *a.get_ref();
-            if deg.is_finite() && deg > 0.0 && deg < 90.0 {
-                Some(Placement::HalfAngle(deg))
-            } else {
+            if !(deg.is_finite() && deg > 0.0 && deg < 90.0) {
                 let msg = format!(
                     "placement: half_angle_deg must be between 0 (the singular position) and 90 degrees (got {deg})"
                 );
                 doc.push(Kind::InvalidValue, Some(a.span()), Some(entity), msg);
                 None
+            } else if p.pivot_direction.is_none() {
+                if let Some(k) = &p.knee {
+                    let msg = "placement: knee goes with pivot_direction (without it the pivot is on the point's line of motion, the knee on the \"-\" side)";
+                    doc.push(Kind::InvalidValue, Some(k.span()), Some(entity), msg);
+                    None
+                } else {
+                    Some(Placement::HalfAngle(deg))
+                }
+            } else {
+                // The direction is in the structure's frame here; setup turns it into the
+                // mechanism's frame.
+                direction
+                    .zip(knee)
+                    .map(|(direction, knee)| Placement::Along {
+                        half_angle_deg: deg,
+                        direction,
+                        knee,
+                    })
             }
         }
         (None, Some(p)) if p.get_ref().iter().all(|x| x.is_finite()) => {

@@ -35,6 +35,12 @@ pub(super) struct RawPlacement {
     pub(super) half_angle_deg: Option<Spanned<f64>>,
     #[serde(default)]
     pub(super) pivot: Option<Spanned<[f64; 2]>>,
+    /// From the attached point towards the pivot (structure frame), with `half_angle_deg`.
+    #[serde(default)]
+    pub(super) pivot_direction: Option<Spanned<[f64; 2]>>,
+    /// `"+"` (counter-clockwise of the pivot -> point axis) or `"-"`.
+    #[serde(default)]
+    pub(super) knee: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]
