@@ -509,7 +509,21 @@ impl Resolver<'_> {
         entity: &str,
     ) -> Option<BeamPoint> {
         if let Some(node) = a.node {
-            return self.at_node(structure, node, &a.x_span, entity);
+            let p = self.at_node(structure, node, &a.x_span, entity)?;
+            // A roller follows the node's displacement along its direction only.
+            let Some(d) = a.direction else {
+                return Some(p);
+            };
+            let p = p.along(d);
+            if p.is_locked() {
+                let msg = format!(
+                    "node {node} cannot move along [{}, {}] (a support holds it)",
+                    d[0], d[1]
+                );
+                self.report(Kind::InvalidValue, Some(&a.x_span), entity, msg);
+                return None;
+            }
+            return Some(p);
         }
         let beam = structure.and_then(Structure::beam);
         let p = self.on_beam(beam, a.x, &a.x_span, entity)?;
@@ -750,21 +764,8 @@ impl Resolver<'_> {
                         .map(ExcitationTarget::Beam),
                     TargetEntry::Node { node, direction } => self
                         .at_node(structure, *node, &e.at_span, &entity)
-                        .map(|p| {
-                            // The force along `direction`: weights d . e of ux and uy.
-                            let mut weights = p
-                                .axial
-                                .iter()
-                                .map(|&(k, w)| (k, w * direction[0]))
-                                .collect::<Vec<_>>();
-                            weights.extend(p.weights.iter().map(|&(k, w)| (k, w * direction[1])));
-                            weights.retain(|&(_, w)| w != 0.0);
-                            ExcitationTarget::Beam(BeamPoint {
-                                weights,
-                                axial: vec![],
-                                ..p
-                            })
-                        }),
+                        // The force along `direction`: weights d . e of ux and uy.
+                        .map(|p| ExcitationTarget::Beam(p.along(*direction))),
                     TargetEntry::Joint {
                         mechanism,
                         joint: name,

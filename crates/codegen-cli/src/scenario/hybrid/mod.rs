@@ -32,6 +32,8 @@
 //! mechanism = "left"
 //! point = "tip"              # a point of the model (not on ground)
 //! kind = "pin"               # both directions (2 rows) | "roller": transverse only (1 row)
+//! # at a node of a [structure]: node = 12, and for a roller direction = [dx, dy] (the
+//! # node's displacement along it drives the point; free across it)
 //! x = 0.333                  # beam abscissa (m): a node or inside an element (eq. 35)
 //! [[force]]
 //! name = "gen_left"
@@ -138,6 +140,9 @@ pub struct AttachmentEntry {
     pub x: f64,
     /// The node of a `[structure]` it is attached to (`None`: the beam point at `x`).
     pub node: Option<u64>,
+    /// The unit direction (structure frame) a roller at a node follows; `None` for a pin
+    /// and on the beam (where a roller follows `y`).
+    pub direction: Option<[f64; 2]>,
     pub(crate) point_span: Range<usize>,
     /// Where its `x` or `node` is written.
     pub(crate) x_span: Range<usize>,

@@ -57,6 +57,9 @@ pub(super) struct RawAttachment {
     /// A node id (with a `[structure]`).
     #[serde(default)]
     pub(super) node: Option<Spanned<u64>>,
+    /// The direction a roller at a node follows (structure frame).
+    #[serde(default)]
+    pub(super) direction: Option<Spanned<[f64; 2]>>,
 }
 
 /// `[structure]`: a model from another finite-element program.
