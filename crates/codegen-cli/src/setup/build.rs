@@ -304,6 +304,7 @@ fn node_point(
         y: n.position[1],
         weights: weights(NodeDof::Uy),
         axial: weights(NodeDof::Ux),
+        direction: [0.0, 1.0],
     };
     if p.is_locked() {
         return Err(format!(
@@ -551,7 +552,21 @@ impl Resolver<'_> {
         entity: &str,
     ) -> Option<BeamPoint> {
         if let Some(node) = a.node {
-            return self.at_node(structure, node, &a.x_span, entity);
+            let p = self.at_node(structure, node, &a.x_span, entity)?;
+            // A roller follows the node's displacement along its direction only.
+            let Some(d) = a.direction else {
+                return Some(p);
+            };
+            let p = p.along(d);
+            if p.is_locked() {
+                let msg = format!(
+                    "node {node} cannot move along [{}, {}] (a support holds it)",
+                    d[0], d[1]
+                );
+                self.report(Kind::InvalidValue, Some(&a.x_span), entity, msg);
+                return None;
+            }
+            return Some(p);
         }
         let beam = structure.and_then(Structure::beam);
         let p = self.on_beam(beam, a.x, &a.x_span, entity)?;
@@ -673,6 +688,19 @@ impl Resolver<'_> {
             return None;
         }
         let (point, _) = points[a].as_ref()?;
+        // A pivot direction is written in the structure's frame: into the mechanism's.
+        let how = match how {
+            Placement::Along {
+                half_angle_deg,
+                direction,
+                knee,
+            } => Placement::Along {
+                half_angle_deg,
+                direction: mount.to_ground(direction),
+                knee,
+            },
+            other => other,
+        };
         match place_two_bar(sys, *point, how) {
             Ok(two) => {
                 // The beam point (x_b, 0) = origin + R(angle) target.
@@ -778,6 +806,7 @@ impl Resolver<'_> {
                         .map(ExcitationTarget::Beam),
                     TargetEntry::Node { node, direction } => self
                         .at_node(structure, *node, &e.at_span, &entity)
+                        // The force along `direction`: weights d . e of ux and uy.
                         .map(|p| ExcitationTarget::Beam(p.along(*direction))),
                     TargetEntry::Joint {
                         mechanism,

@@ -25,8 +25,16 @@ pub(crate) struct AttachRow {
     pub attachment: usize,
     /// Mechanism point index.
     pub point: usize,
-    /// Row of the transverse constraint in this mechanism's rows.
+    /// Row of the transverse constraint (along the beam point's direction) in this
+    /// mechanism's rows.
     pub row: usize,
+    /// That row's direction `d` in the mechanism's ground frame, `R(angle)^T d` (`(sin,
+    /// cos)` of the mounting angle for `d = y`): the row is `d . p(q) - offset - w`.
+    pub along: [f64; 2],
+    /// `d` itself (structure frame).
+    pub direction: [f64; 2],
+    /// `d . P_0`: the row's value at the undeformed point (`y` for `d = y`).
+    pub offset: f64,
     /// Row of the axial constraint (pins only).
     pub axial_row: Option<usize>,
     /// Abscissa of the beam point (the axial target).
@@ -137,10 +145,15 @@ impl Follower {
                     .iter()
                     .position(|c| c.attachment == i && c.axial == axial)
             };
+            let d = a.beam.direction;
+            let mount = &model.mechanisms[mech].mount;
             atts.push(AttachRow {
                 attachment: i,
                 point: a.point,
                 row,
+                along: mount.to_ground(d),
+                direction: d,
+                offset: d[0] * a.beam.x + d[1] * a.beam.y,
                 axial_row,
                 x: a.beam.x,
                 y: a.beam.y,
@@ -304,10 +317,12 @@ impl Follower {
                 &mut self.ws,
             );
             let p = m.mount.to_beam([self.ws.point_p[0], self.ws.point_p[1]]);
-            self.h[a.row] = p[1] - a.y - w[a.coupling];
+            // Exactly `p_y - y - w` and `sin jx + cos jy` for the direction `y`.
+            let (d, e) = (a.direction, a.along);
+            self.h[a.row] = (d[0] * p[0] + d[1] * p[1]) - a.offset - w[a.coupling];
             for c in 0..self.n {
                 let (jx, jy) = (self.ws.point_j[(0, c)], self.ws.point_j[(1, c)]);
-                self.jfull[(a.row, c)] = sn * jx + cs * jy;
+                self.jfull[(a.row, c)] = e[0] * jx + e[1] * jy;
                 if let Some(r) = a.axial_row {
                     self.jfull[(r, c)] = cs * jx - sn * jy;
                 }
@@ -582,7 +597,7 @@ impl Follower {
                 m.system.point_kinematics(a.point, q, qd, &mut self.ws);
             }
             let (ax, ay) = (self.ws.point_a[0], self.ws.point_a[1]);
-            self.bias[a.row] = sn * ax + cs * ay;
+            self.bias[a.row] = a.along[0] * ax + a.along[1] * ay;
             if let Some(r) = a.axial_row {
                 self.bias[r] = cs * ax - sn * ay;
             }

@@ -624,7 +624,12 @@ impl Linearization {
                     0.0
                 };
                 row += a.kind.rows();
-                let force = [sn * lt + cs_ * la, cs_ * lt - sn * la, 0.0];
+                // The first row's multiplier acts along the point's direction `d` (`y` on the
+                // beam, a roller's direction at a node), the pin's second along `x`; the
+                // force in the mechanism's frame is `R^T (la e_x + lt d)`.
+                let d = a.beam.direction;
+                let v = [lt * d[0] + la, lt * d[1]];
+                let force = [cs_ * v[0] + sn * v[1], cs_ * v[1] - sn * v[0], 0.0];
                 t.evaluate_point(a.point, &q, force, ws);
                 ki += &ws.point_curvature;
             }

@@ -106,7 +106,7 @@ pub use model::{
     HybridModel, JointForce, ModelError, Mount, MountedMechanism,
 };
 pub use pencil::Pencil;
-pub use placement::{Placement, PlacementError, TwoBar, initial_deflection, place_two_bar};
+pub use placement::{Knee, Placement, PlacementError, TwoBar, initial_deflection, place_two_bar};
 pub use run::{
     RunError, RunFigures, RunOptions, RunOutcome, balance_error, dissipated, input_work, run,
     run_observed,

@@ -32,6 +32,13 @@ impl Mount {
         [c * v[0] - s * v[1], s * v[0] + c * v[1]]
     }
 
+    /// A beam-frame vector rotated into the mechanism frame, `R(angle)^T v` (the inverse
+    /// of [`Mount::rotate`]).
+    pub fn to_ground(&self, v: [f64; 2]) -> [f64; 2] {
+        let (c, s) = self.rotation();
+        [c * v[0] + s * v[1], -s * v[0] + c * v[1]]
+    }
+
     /// The beam's transverse direction `y` in the mechanism's ground frame,
     /// `R(angle)^T (0, 1, 0) = (sin, cos, 0)`: the direction in which the supports move the
     /// mechanism's ground under a base excitation.
@@ -81,12 +88,17 @@ pub struct BeamPoint {
     pub x: f64,
     /// The point's undeformed `y` (m; 0 on the beam).
     pub y: f64,
-    /// `(coordinate, weight)` of the displacement along `y`; zero weights and locked DOFs
-    /// are left out.
+    /// `(coordinate, weight)` of the displacement along [`BeamPoint::direction`] (`y`
+    /// unless seen along another direction); zero weights and locked DOFs are left out.
     pub weights: Vec<(usize, f64)>,
     /// `(coordinate, weight)` of the displacement along `x` (empty on the beam, whose
     /// points do not move axially).
     pub axial: Vec<(usize, f64)>,
+    /// The unit direction (structure frame) of the displacement that `weights` give:
+    /// `[0, 1]` (along `y`) on the beam and at a node; a point seen along a direction `d`
+    /// ([`BeamPoint::along`]: a roller at a node, a force along `d`) has the weights of
+    /// `d . (u_x, u_y)` and this `d`.
+    pub direction: [f64; 2],
 }
 
 impl BeamPoint {
@@ -103,6 +115,7 @@ impl BeamPoint {
             y: 0.0,
             weights,
             axial: vec![],
+            direction: [0.0, 1.0],
         })
     }
 
@@ -114,26 +127,25 @@ impl BeamPoint {
             y: position[1],
             weights: uy.map(|k| (k, 1.0)).into_iter().collect(),
             axial: ux.map(|k| (k, 1.0)).into_iter().collect(),
+            direction: [0.0, 1.0],
         }
     }
 
-    /// The point's displacement along the unit `direction` (in the plane), as a point
-    /// whose `y` weights are `d . e` (the `x` weights times `d_x` and the `y` weights times
-    /// `d_y`, zeros left out) and without `x` weights: the functional of a force or an
-    /// output along `direction` ([`BeamPoint::value`], [`BeamPoint::add_force`]).
+    /// This point seen along the unit `direction` (structure frame): one component, the
+    /// displacement `d . (u_x, u_y)`, its weights those of `u_x` times `d_x` then those of
+    /// `u_y` times `d_y` (zeros left out), no axial component.
     pub fn along(&self, direction: [f64; 2]) -> BeamPoint {
-        let mut weights: Vec<(usize, f64)> = self
-            .axial
-            .iter()
-            .map(|&(k, w)| (k, w * direction[0]))
-            .collect();
-        weights.extend(self.weights.iter().map(|&(k, w)| (k, w * direction[1])));
+        let d = direction;
+        let mut weights: Vec<(usize, f64)> =
+            self.axial.iter().map(|&(k, w)| (k, w * d[0])).collect();
+        weights.extend(self.weights.iter().map(|&(k, w)| (k, w * d[1])));
         weights.retain(|&(_, w)| w != 0.0);
         BeamPoint {
             x: self.x,
             y: self.y,
             weights,
             axial: vec![],
+            direction: d,
         }
     }
 
@@ -185,8 +197,9 @@ impl BeamPoint {
 pub enum AttachmentKind {
     /// Both directions: rows `P_y - w(x_b)` and `P_x - x_b` (2 rows).
     Pin,
-    /// The transverse displacement only: row `P_y - w(x_b)`; the point slides freely along
-    /// the beam axis (1 row).
+    /// One component only: row `d . P - d . P_0 - w` with `d` the beam point's
+    /// [`BeamPoint::direction`] (on the beam `d = y`: `P_y - w(x_b)`, the point slides
+    /// freely along the beam axis; at a node along any `d`, free across it) (1 row).
     Roller,
 }
 

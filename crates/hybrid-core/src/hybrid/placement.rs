@@ -1,7 +1,17 @@
 //! Placement helpers: a two-bar chain (the paper's double bar) placed for a beam point by
-//! the half-angle at its pivot or by the pivot's position, with its initial guess and its
-//! reach to the singular (stretched) position; and the initial deflection of a free decay
-//! released from a beam point (the static shape of a point load there).
+//! the half-angle at its pivot (the pivot on the point's line of motion, or along a given
+//! direction with the knee on a given side) or by the pivot's position, with its initial
+//! guess and its reach to the singular (stretched) position; and the initial deflection of a
+//! free decay released from a beam point (the static shape of a point load there).
+//!
+//! With bars `L1`, `L2` at half-angle `a` (the angle at the pivot between the crank and the
+//! pivot -> point axis) the point is at
+//!
+//! ```text
+//! d = L1 cos a + sqrt(L2^2 - L1^2 sin^2 a)        (2 L cos a for equal bars)
+//! ```
+//!
+//! from the pivot (docs/theory.md section 13.3).
 
 use fem_beam::{BeamError, BeamModel};
 use mbs_symbolic::runtime::System;
@@ -16,6 +26,27 @@ pub enum Placement {
     HalfAngle(f64),
     /// The pivot at `[x, y]` (m) from the undeformed beam point.
     Pivot([f64; 2]),
+    /// The pivot at the distance `d` of the half-angle (module documentation) from the point
+    /// along `direction` (the mechanism's ground frame; any length, normalised here), the
+    /// knee on the side `knee` of the pivot -> point axis. `HalfAngle(deg)` is the pivot
+    /// along `[0, -1]` with the knee on the clockwise side.
+    Along {
+        /// The half-angle at the pivot (degrees).
+        half_angle_deg: f64,
+        /// From the point towards the pivot (mechanism frame; not zero).
+        direction: [f64; 2],
+        /// The side of the knee.
+        knee: Knee,
+    },
+}
+
+/// The side of the pivot -> point axis the knee of a double bar lies on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Knee {
+    /// Counter-clockwise from the axis (`"+"`: to the left looking from the pivot).
+    CounterClockwise,
+    /// Clockwise from the axis (`"-"`; the side of [`Placement::HalfAngle`]).
+    Clockwise,
 }
 
 /// Why a double bar cannot be placed for a beam point.
@@ -39,6 +70,14 @@ pub enum PlacementError {
         l1: f64,
         /// Second bar length.
         l2: f64,
+    },
+    /// A pivot direction that is zero or not finite.
+    #[error("the pivot direction [{x}, {y}] must be finite and not zero")]
+    Direction {
+        /// Its x component.
+        x: f64,
+        /// Its y component.
+        y: f64,
     },
     /// The pivot is out of reach.
     #[error("the beam point is {d} m from the pivot, out of the reach of bars {l1} m and {l2} m")]
@@ -99,15 +138,34 @@ pub fn place_two_bar<M: System + ?Sized>(
     if !(l1 > 0.0 && l2 > 0.0) {
         return Err(PlacementError::NotTwoBar { l1, l2 });
     }
+    // The pivot-to-point distance at half-angle `deg` (module documentation).
+    let distance = |deg: f64| {
+        let a = deg.to_radians();
+        let rad = l2 * l2 - (l1 * a.sin()).powi(2);
+        if rad < 0.0 {
+            return Err(PlacementError::AngleUnreachable { deg, l1, l2 });
+        }
+        Ok((l1 * a.cos() + rad.sqrt(), a))
+    };
+    let mut side = Knee::Clockwise;
     // Target of the point in the mechanism frame (pivot at the origin) and the initial guess.
     let (x0, y0, alpha) = match placement {
         Placement::HalfAngle(deg) => {
-            let a = deg.to_radians();
-            let rad = l2 * l2 - (l1 * a.sin()).powi(2);
-            if rad < 0.0 {
-                return Err(PlacementError::AngleUnreachable { deg, l1, l2 });
+            let (d, a) = distance(deg)?;
+            (0.0, d, a)
+        }
+        Placement::Along {
+            half_angle_deg,
+            direction: [dx, dy],
+            knee,
+        } => {
+            let norm = dx.hypot(dy);
+            if !(norm.is_finite() && norm > 0.0) {
+                return Err(PlacementError::Direction { x: dx, y: dy });
             }
-            (0.0, l1 * a.cos() + rad.sqrt(), a)
+            let (d, a) = distance(half_angle_deg)?;
+            side = knee;
+            (-d * dx / norm, -d * dy / norm, a)
         }
         Placement::Pivot(p) => {
             let (x0, y0) = (-p[0], -p[1]);
@@ -127,9 +185,15 @@ pub fn place_two_bar<M: System + ?Sized>(
     // The stretched mechanism (bars in line) bounds the beam point's travel:
     // |p - pivot| <= L1 + L2, i.e. for x0 = 0 and equal bars 2 L (1 - cos a0).
     let reach = ((l1 + l2).powi(2) - x0 * x0).max(0.0).sqrt() - y0;
+    // The crank turned from the pivot -> point axis towards the knee's side; the coupler
+    // bent back by the knee's exterior angle.
+    let guess = match side {
+        Knee::Clockwise => [theta - alpha, std::f64::consts::PI - knee],
+        Knee::CounterClockwise => [theta + alpha, knee - std::f64::consts::PI],
+    };
     Ok(TwoBar {
         target: [x0, y0],
-        guess: [theta - alpha, std::f64::consts::PI - knee],
+        guess,
         reach,
     })
 }

@@ -23,11 +23,17 @@
 //! # A two-bar chain pinned to a beam point, placed as in the damper kind (instead of
 //! # origin and initial): half_angle_deg = 10.0, or pivot = [x, y] from the beam point.
 //! # placement = { attachment = "left_pin", half_angle_deg = 10.0 }
+//! # At a node of a [structure] (or anywhere) the pivot may lie along a direction of the
+//! # structure's frame, at the half-angle's distance, the knee on the counter-clockwise
+//! # ("+") or clockwise ("-", the default) side of the pivot -> point axis:
+//! # placement = { attachment = "pin", half_angle_deg = 10.0, pivot_direction = [-1.0, 0.0], knee = "+" }
 //! [[attachment]]
 //! name = "left_pin"
 //! mechanism = "left"
 //! point = "tip"              # a point of the model (not on ground)
 //! kind = "pin"               # both directions (2 rows) | "roller": transverse only (1 row)
+//! # at a node of a [structure]: node = 12, and for a roller direction = [dx, dy] (the
+//! # node's displacement along it drives the point; free across it)
 //! x = 0.333                  # beam abscissa (m): a node or inside an element (eq. 35)
 //! [[force]]
 //! name = "gen_left"
@@ -134,6 +140,9 @@ pub struct AttachmentEntry {
     pub x: f64,
     /// The node of a `[structure]` it is attached to (`None`: the beam point at `x`).
     pub node: Option<u64>,
+    /// The unit direction (structure frame) a roller at a node follows; `None` for a pin
+    /// and on the beam (where a roller follows `y`).
+    pub direction: Option<[f64; 2]>,
     pub(crate) point_span: Range<usize>,
     /// Where its `x` or `node` is written.
     pub(crate) x_span: Range<usize>,

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use diagnostic::Kind;
 use fem_beam::{Beam, BeamSpec};
-use hybrid_core::hybrid::{AttachmentKind, ForceKind, Placement};
+use hybrid_core::hybrid::{AttachmentKind, ForceKind, Knee, Placement};
 use toml::Spanned;
 use toml::de::DeValue;
 
@@ -291,11 +291,6 @@ fn attachments(
             }
             (None, Some(n)) => {
                 *ok &= on_beam.check_node(doc, n, &entity);
-                if kind == Some(AttachmentKind::Roller) {
-                    let msg = "a roller at a node is not supported yet: use kind = \"pin\" (the node's ux and uy drive the point)";
-                    doc.push(Kind::Unsupported, Some(n.span()), Some(&entity), msg);
-                    *ok = false;
-                }
                 (0.0, Some(*n.get_ref()), n.span())
             }
             _ => {
@@ -305,6 +300,7 @@ fn attachments(
                 (0.0, None, v_span.clone())
             }
         };
+        let direction = roller_direction(doc, &a, kind, &entity, v_span.clone(), ok);
         match (mechanism, kind) {
             (Some(mechanism), Some(kind)) => attachments.push(AttachmentEntry {
                 name: a.name.get_ref().clone(),
@@ -313,6 +309,7 @@ fn attachments(
                 kind,
                 x,
                 node,
+                direction,
                 point_span: a.point.span(),
                 x_span,
             }),
@@ -320,6 +317,69 @@ fn attachments(
         }
     }
     attachments
+}
+
+/// The unit vector along a direction `[dx, dy]` written at `d` (`key` names it in the
+/// message); `None`, reported at `d`, when it is zero or not finite.
+fn unit_direction(
+    doc: &mut Doc<'_>,
+    d: &Spanned<[f64; 2]>,
+    key: &str,
+    entity: &str,
+) -> Option<[f64; 2]> {
+    let [dx, dy] = *d.get_ref();
+    let norm = dx.hypot(dy);
+    if norm.is_finite() && norm > 0.0 {
+        return Some([dx / norm, dy / norm]);
+    }
+    // As TOML writes them (`nan`, `inf`).
+    let toml = |v: f64| {
+        if v.is_nan() {
+            "nan".into()
+        } else {
+            v.to_string()
+        }
+    };
+    let msg = format!(
+        "{key} must be two finite numbers [dx, dy], not both zero (got [{}, {}])",
+        toml(dx),
+        toml(dy)
+    );
+    doc.push(Kind::InvalidValue, Some(d.span()), Some(entity), msg);
+    None
+}
+
+/// The unit `direction` of a roller at a node (required there, normalised); refused
+/// elsewhere (a pin follows both directions, a roller on the beam follows `y`).
+fn roller_direction(
+    doc: &mut Doc<'_>,
+    a: &RawAttachment,
+    kind: Option<AttachmentKind>,
+    entity: &str,
+    span: Range<usize>,
+    ok: &mut bool,
+) -> Option<[f64; 2]> {
+    let roller_at_node = kind == Some(AttachmentKind::Roller) && a.node.is_some();
+    match &a.direction {
+        None if roller_at_node => {
+            let msg = "a roller at a node needs the direction it follows, e.g. direction = [0.0, 1.0] (the node's displacement along it drives the point)";
+            doc.push(Kind::MissingField, Some(span), Some(entity), msg);
+            *ok = false;
+            None
+        }
+        None => None,
+        Some(d) if !roller_at_node => {
+            let msg = "direction is for a roller at a node (a pin follows both directions; a roller on the beam follows y)";
+            doc.push(Kind::InvalidValue, Some(d.span()), Some(entity), msg);
+            *ok = false;
+            None
+        }
+        Some(d) => {
+            let unit = unit_direction(doc, d, "direction", entity);
+            *ok &= unit.is_some();
+            unit
+        }
+    }
 }
 
 /// The values of the `[[mechanism]]` tables (their placements refer to attachments).
@@ -466,17 +526,53 @@ fn placement(
         }
         _ => {}
     }
+    let knee = match p.knee.as_ref().map(|k| (k.get_ref().as_str(), k.span())) {
+        None | Some(("-", _)) => Some(Knee::Clockwise),
+        Some(("+", _)) => Some(Knee::CounterClockwise),
+        Some((other, span)) => {
+            let msg = format!(
+                "placement: knee must be \"+\" (counter-clockwise of the pivot -> point axis) or \"-\" (got {other:?})"
+            );
+            doc.push(Kind::InvalidValue, Some(span), Some(entity), msg);
+            None
+        }
+    };
+    let direction = p
+        .pivot_direction
+        .as_ref()
+        .and_then(|d| unit_direction(doc, d, "placement: pivot_direction", entity));
+    if p.pivot.is_some() && (p.pivot_direction.is_some() || p.knee.is_some()) {
+        let msg = "placement: pivot_direction and knee go with half_angle_deg, not with pivot";
+        doc.push(Kind::InvalidValue, Some(span.clone()), Some(entity), msg);
+        *ok = false;
+    }
     let how = match (&p.half_angle_deg, &p.pivot) {
         (Some(a), None) => {
             let deg = *a.get_ref();
-            if deg.is_finite() && deg > 0.0 && deg < 90.0 {
-                Some(Placement::HalfAngle(deg))
-            } else {
+            if !(deg.is_finite() && deg > 0.0 && deg < 90.0) {
                 let msg = format!(
                     "placement: half_angle_deg must be between 0 (the singular position) and 90 degrees (got {deg})"
                 );
                 doc.push(Kind::InvalidValue, Some(a.span()), Some(entity), msg);
                 None
+            } else if p.pivot_direction.is_none() {
+                if let Some(k) = &p.knee {
+                    let msg = "placement: knee goes with pivot_direction (without it the pivot is on the point's line of motion, the knee on the \"-\" side)";
+                    doc.push(Kind::InvalidValue, Some(k.span()), Some(entity), msg);
+                    None
+                } else {
+                    Some(Placement::HalfAngle(deg))
+                }
+            } else {
+                // The direction is in the structure's frame here; setup turns it into the
+                // mechanism's frame.
+                direction
+                    .zip(knee)
+                    .map(|(direction, knee)| Placement::Along {
+                        half_angle_deg: deg,
+                        direction,
+                        knee,
+                    })
             }
         }
         (None, Some(p)) if p.get_ref().iter().all(|x| x.is_finite()) => {
@@ -677,18 +773,12 @@ fn excitation_target<'a>(
             doc.push(Kind::MissingField, Some(span), Some(entity), msg);
             return None;
         };
-        let [dx, dy] = *d.get_ref();
-        let norm = dx.hypot(dy);
-        if !(norm.is_finite() && norm > 0.0) {
-            let msg = format!("direction [{dx}, {dy}] is not a direction (zero or not finite)");
-            doc.push(Kind::InvalidValue, Some(d.span()), Some(entity), msg);
-            return None;
-        }
+        let direction = unit_direction(doc, d, "direction", entity)?;
         return on_beam
             .check_node(doc, n, entity)
             .then(|| TargetEntry::Node {
                 node: *n.get_ref(),
-                direction: [dx / norm, dy / norm],
+                direction,
             });
     }
     if let Some(d) = &at.direction {

@@ -35,6 +35,12 @@ pub(super) struct RawPlacement {
     pub(super) half_angle_deg: Option<Spanned<f64>>,
     #[serde(default)]
     pub(super) pivot: Option<Spanned<[f64; 2]>>,
+    /// From the attached point towards the pivot (structure frame), with `half_angle_deg`.
+    #[serde(default)]
+    pub(super) pivot_direction: Option<Spanned<[f64; 2]>>,
+    /// `"+"` (counter-clockwise of the pivot -> point axis) or `"-"`.
+    #[serde(default)]
+    pub(super) knee: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]
@@ -51,6 +57,9 @@ pub(super) struct RawAttachment {
     /// A node id (with a `[structure]`).
     #[serde(default)]
     pub(super) node: Option<Spanned<u64>>,
+    /// The direction a roller at a node follows (structure frame).
+    #[serde(default)]
+    pub(super) direction: Option<Spanned<[f64; 2]>>,
 }
 
 /// `[structure]`: a model from another finite-element program.
