@@ -97,6 +97,8 @@ pub(crate) struct Follower {
     pub free_offset: usize,
     /// Its force elements (indices into the model's forces).
     forces: Vec<usize>,
+    /// `(cos, sin)` of its mount's angle ([`super::model::Mount::rotation`]), evaluated once.
+    rot: (f64, f64),
     ws: Workspace,
     jfull: DMatrix<f64>,
     h: DVector<f64>,
@@ -179,6 +181,7 @@ impl Follower {
             free,
             free_offset,
             forces,
+            rot: model.mechanisms[mech].mount.rotation(),
             ws: sys.workspace(),
             jfull: DMatrix::zeros(rows, n),
             h: DVector::zeros(rows),
@@ -308,7 +311,8 @@ impl Follower {
                 }
             }
         }
-        let (cs, sn) = m.mount.rotation();
+        let (cs, sn) = self.rot;
+        let rows = self.rows;
         for a in &self.atts {
             m.system.point_kinematics(
                 a.point,
@@ -316,15 +320,20 @@ impl Follower {
                 self.zero.as_slice(),
                 &mut self.ws,
             );
-            let p = m.mount.to_beam([self.ws.point_p[0], self.ws.point_p[1]]);
+            let p = m
+                .mount
+                .to_beam_with(self.rot, [self.ws.point_p[0], self.ws.point_p[1]]);
             // Exactly `p_y - y - w` and `sin jx + cos jy` for the direction `y`.
             let (d, e) = (a.direction, a.along);
             self.h[a.row] = (d[0] * p[0] + d[1] * p[1]) - a.offset - w[a.coupling];
-            for c in 0..self.n {
-                let (jx, jy) = (self.ws.point_j[(0, c)], self.ws.point_j[(1, c)]);
-                self.jfull[(a.row, c)] = e[0] * jx + e[1] * jy;
+            // Column-major: `J[:, c]` is `jfull[c*rows ..]`, the point's `point_j[3c ..]`.
+            let pj = self.ws.point_j.as_slice().chunks_exact(3);
+            let jf = self.jfull.as_mut_slice().chunks_exact_mut(rows);
+            for (col, pj) in jf.zip(pj) {
+                let (jx, jy) = (pj[0], pj[1]);
+                col[a.row] = e[0] * jx + e[1] * jy;
                 if let Some(r) = a.axial_row {
-                    self.jfull[(r, c)] = cs * jx - sn * jy;
+                    col[r] = cs * jx - sn * jy;
                 }
             }
             if let Some(r) = a.axial_row {
@@ -335,11 +344,7 @@ impl Follower {
 
     /// Copies `J_d = J[:, dep]` into the LU buffer and factorises it.
     fn factor_dependent(&mut self) -> bool {
-        for (k, &c) in self.dep.iter().enumerate() {
-            for r in 0..self.rows {
-                self.lu[(r, k)] = self.jfull[(r, c)];
-            }
-        }
+        dependent_columns(&self.jfull, &self.dep, &mut self.lu);
         lu_in_place(&mut self.lu, &mut self.piv)
     }
 
@@ -421,11 +426,7 @@ impl Follower {
     }
 
     fn measure_condition(&mut self) {
-        for (k, &c) in self.dep.iter().enumerate() {
-            for r in 0..self.rows {
-                self.jd[(r, k)] = self.jfull[(r, c)];
-            }
-        }
+        dependent_columns(&self.jfull, &self.dep, &mut self.jd);
         let (lo, hi) = singular_range(&self.jd, &mut self.svd);
         self.sigma_min = lo;
         self.condition = if lo > 0.0 { hi / lo } else { f64::INFINITY };
@@ -585,7 +586,7 @@ impl Follower {
         }
         // Dynamics and the constraint bias A = J' q' (16), (50).
         let m = &model.mechanisms[self.mech];
-        let (cs, sn) = m.mount.rotation();
+        let (cs, sn) = self.rot;
         self.bias.fill(0.0);
         for (i, a) in self.atts.iter().enumerate() {
             let (q, qd) = (self.q.as_slice(), self.qd.as_slice());
@@ -720,5 +721,18 @@ impl Follower {
                 self.rhs[r] -= self.jfull[(r, c)] * u;
             }
         }
+    }
+}
+
+/// `J_d = J[:, dep]` into `jd` (`rows x dep.len()`): whole columns of the column-major
+/// storage copied as slices.
+fn dependent_columns(j: &DMatrix<f64>, dep: &[usize], jd: &mut DMatrix<f64>) {
+    let rows = j.nrows();
+    if rows == 0 {
+        return;
+    }
+    let j = j.as_slice();
+    for (dst, &c) in jd.as_mut_slice().chunks_exact_mut(rows).zip(dep) {
+        dst.copy_from_slice(&j[c * rows..(c + 1) * rows]);
     }
 }

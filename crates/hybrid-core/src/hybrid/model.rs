@@ -49,7 +49,15 @@ impl Mount {
 
     /// A mechanism-frame point in the beam frame.
     pub fn to_beam(&self, p: [f64; 2]) -> [f64; 2] {
-        let r = self.rotate(p);
+        self.to_beam_with(self.rotation(), p)
+    }
+
+    /// [`Mount::to_beam`] with the rotation `(cos, sin)` already evaluated
+    /// ([`Mount::rotation`]): the step's hot path keeps it instead of evaluating the
+    /// trigonometric functions at every call.
+    #[inline]
+    pub fn to_beam_with(&self, (c, s): (f64, f64), p: [f64; 2]) -> [f64; 2] {
+        let r = [c * p[0] - s * p[1], s * p[0] + c * p[1]];
         [self.origin[0] + r[0], self.origin[1] + r[1]]
     }
 }

@@ -41,6 +41,15 @@ pub(crate) fn norm1(a: &DMatrix<f64>) -> f64 {
 pub(crate) fn lu_in_place(a: &mut DMatrix<f64>, piv: &mut Vec<usize>) -> bool {
     let n = a.nrows();
     piv.clear();
+    if n <= 2 && a.ncols() == n {
+        return lu_small(n, a.as_mut_slice(), piv);
+    }
+    lu_general(a, piv)
+}
+
+/// The loops of [`lu_in_place`] for any size (`piv` empty on entry).
+fn lu_general(a: &mut DMatrix<f64>, piv: &mut Vec<usize>) -> bool {
+    let n = a.nrows();
     for k in 0..n {
         let mut p = k;
         let mut best = a[(k, k)].abs();
@@ -69,9 +78,50 @@ pub(crate) fn lu_in_place(a: &mut DMatrix<f64>, piv: &mut Vec<usize>) -> bool {
     true
 }
 
+/// [`lu_in_place`] written out for the 1 x 1 and 2 x 2 blocks of the step's hot path
+/// (`J_d` of a double bar pinned to the beam, the scalar Jacobian of its quasi-Newton
+/// iteration) on the column-major storage `a`: the same comparisons and operations in the
+/// same order as the general loops (so the same factors bit for bit), without their index
+/// arithmetic and bounds checks. `piv` is empty on entry.
+fn lu_small(n: usize, a: &mut [f64], piv: &mut Vec<usize>) -> bool {
+    let ok = |best: f64| best != 0.0 && best.is_finite();
+    if n == 0 {
+        return true;
+    }
+    if n == 1 {
+        piv.push(0);
+        return ok(a[0].abs());
+    }
+    // Column 0: the pivot row, then the elimination of row 1.
+    let (mut p, mut best) = (0, a[0].abs());
+    if a[1].abs() > best {
+        best = a[1].abs();
+        p = 1;
+    }
+    piv.push(p);
+    if !ok(best) {
+        return false;
+    }
+    if p != 0 {
+        a.swap(0, 1);
+        a.swap(2, 3);
+    }
+    let l = a[1] / a[0];
+    a[1] = l;
+    a[3] -= l * a[2];
+    // Column 1: its only candidate pivot.
+    piv.push(1);
+    ok(a[3].abs())
+}
+
 /// Solves `A x = b` in place with the factors of [`lu_in_place`].
 pub(crate) fn lu_solve(lu: &DMatrix<f64>, piv: &[usize], b: &mut DVector<f64>) {
     let n = lu.nrows();
+    if n == 1 {
+        // The sweeps below for one unknown: `x = b / u`.
+        b[0] /= lu[(0, 0)];
+        return;
+    }
     if n == 2 {
         // The general sweeps below written out for the 2 x 2 blocks of the damper's hot
         // path (the same operations in the same order: the same results bit for bit).
@@ -285,6 +335,40 @@ mod tests {
             lu_solve_transpose_sweeps(&lu, &piv, &mut gy);
             assert_eq!(x, gx);
             assert_eq!(y, gy);
+        }
+    }
+
+    #[test]
+    fn the_small_factorisations_equal_the_general_loops_bit_for_bit() {
+        let mut rng = mbs_symbolic::samples::SplitMix64::new(11);
+        for n in 1..=2 {
+            for case in 0..300 {
+                let mut a = DMatrix::from_fn(n, n, |_, _| rng.symmetric(2.0));
+                // Exactly zero and non-finite pivots take the failure paths.
+                match case % 50 {
+                    0 => a.fill(0.0),
+                    1 => a[(0, 0)] = f64::NAN,
+                    2 => a[(n - 1, n - 1)] = f64::INFINITY,
+                    3 if n == 2 => a.set_column(1, &(a.column(0) * 2.0)),
+                    _ => {}
+                }
+                let (mut small, mut general) = (a.clone(), a.clone());
+                let (mut ps, mut pg) = (Vec::new(), Vec::new());
+                let ok_small = lu_in_place(&mut small, &mut ps);
+                let ok_general = lu_general(&mut general, &mut pg);
+                assert_eq!(ok_small, ok_general, "n = {n}, case {case}");
+                assert_eq!(ps, pg, "n = {n}, case {case}");
+                if ok_small {
+                    assert_eq!(small, general, "n = {n}, case {case}");
+                    let b = DVector::from_fn(n, |_, _| rng.symmetric(1.0));
+                    let (mut x, mut gx) = (b.clone(), b.clone());
+                    lu_solve(&small, &ps, &mut x);
+                    lu_solve_sweeps(&general, &pg, &mut gx);
+                    assert_eq!(x, gx, "n = {n}, case {case}");
+                    // And it solves: A x = b to round-off.
+                    assert!((&a * &x - &b).amax() <= 1e-12 * (1.0 + a.amax() * x.amax()));
+                }
+            }
         }
     }
 
