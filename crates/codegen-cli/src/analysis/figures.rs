@@ -59,8 +59,8 @@ pub enum Param {
     Peak,
     /// A mechanism's name.
     Mechanism,
-    /// An output as `damper random --output` names it: a beam abscissa in m (`1.0`) or
-    /// `MECHANISM/COORDINATE`.
+    /// An output as `damper random --output` names it: a beam abscissa in m (`1.0`),
+    /// `NODE:DOF` on an imported structure (`613:ux`) or `MECHANISM/COORDINATE`.
     Output,
 }
 
@@ -316,9 +316,18 @@ pub static CATALOGUE: &[Entry] = &[
                 &["rad/m"],
                 Linear,
                 Differences,
-                "first generator's amplification dq/dw at the equilibrium",
+                "first generator's amplification dq/dw at the equilibrium (a pin at a node: its larger component)",
             ),
-            |r| r.amplification.first().map(|a| a.joint_per_displacement),
+            |r| {
+                // The first generator's entries for its first attachment: one on the beam,
+                // the x and y components of a pin at a node.
+                let first = r.amplification.first()?;
+                r.amplification
+                    .iter()
+                    .filter(|a| a.generator == first.generator && a.attachment == first.attachment)
+                    .map(|a| a.joint_per_displacement)
+                    .max_by(|x, y| x.abs().total_cmp(&y.abs()))
+            },
         ),
         &["amplification"],
     ),
@@ -779,6 +788,10 @@ pub fn resolve(name: &str, entities: Option<&Entities>) -> Result<Resolved, Unkn
         Param::None => true,
         Param::Peak => crate::linear::PeakSpec::parse(&entry.name_with(param)).is_some(),
         Param::Output => match param.split_once('/') {
+            // `NODE:DOF` of an imported structure.
+            None if param.contains(':') => param.split_once(':').is_some_and(|(n, d)| {
+                n.trim().parse::<u64>().is_ok() && matches!(d.trim(), "ux" | "uy")
+            }),
             None => param.trim().parse::<f64>().is_ok_and(f64::is_finite),
             Some((m, c)) => {
                 !c.is_empty() && entities.is_none_or(|en| en.mechanisms.iter().any(|x| x == m))
@@ -1015,6 +1028,8 @@ mod tests {
         assert_eq!(canonical("peak:1.0:3:12"), "peak:1.0:3:12");
         assert_eq!(canonical("rms:1.0"), "random.rms:1.0");
         assert_eq!(canonical("rms:damper/q1"), "random.rms:damper/q1");
+        assert_eq!(canonical("rms:613:ux"), "random.rms:613:ux");
+        assert!(resolve("random.rms:613:rz", None).is_err());
         let e = resolve("powr", None).unwrap_err();
         assert!(e.nearest.contains(&"power".to_string()), "{e}");
         let e = resolve("linear.zeta", None).unwrap_err();

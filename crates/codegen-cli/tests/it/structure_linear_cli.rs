@@ -225,3 +225,60 @@ fn node_outputs_name_their_node_and_direction() {
         &["NODE:DOF needs a [structure]"],
     );
 }
+
+#[test]
+fn a_sweep_on_the_frame_reads_node_outputs_and_the_pins_amplification() {
+    let dir = scratch("frame_sweep");
+    let d = dir.as_path();
+    let path = frame(
+        d,
+        "noise.toml",
+        "reduction = { kind = \"craig_bampton\", modes = 30 }",
+    );
+    let text = std::fs::read_to_string(&path).unwrap().replace(
+        "amplitude = 5.0                 # N\ntime = { kind = \"harmonic\", frequency_hz = 38.9 }",
+        "time = { kind = \"white_noise\", psd = 1.0, band = [5.0, 200.0] }",
+    );
+    assert!(text.contains("white_noise"));
+    std::fs::write(&path, text).unwrap();
+    let out = d.join("sweep").display().to_string();
+    let (code, _, err) = damper(&[
+        "sweep",
+        &path,
+        "--set",
+        "force[0].load_resistance=3.5",
+        "--map",
+        "random.rms:613:ux",
+        "--threads",
+        "1",
+        "--quiet",
+        "-o",
+        &out,
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let mut r = csv::Reader::from_path(d.join("sweep/sweep.csv")).unwrap();
+    let h: Vec<String> = r.headers().unwrap().iter().map(str::to_string).collect();
+    let row: Vec<String> = r
+        .records()
+        .next()
+        .unwrap()
+        .unwrap()
+        .iter()
+        .map(str::to_string)
+        .collect();
+    let col = |name: &str| -> f64 {
+        let i = h
+            .iter()
+            .position(|c| c.starts_with(name))
+            .unwrap_or_else(|| panic!("no {name} in {h:?}"));
+        row[i].parse().unwrap()
+    };
+    // The pin's amplification is the x component's: 1 / (2 L sin 10 deg), L = 0.1 m.
+    let g1 = 1.0 / (2.0 * 0.1 * 10f64.to_radians().sin());
+    close(col("linear.amplification").abs(), g1, 1e-9, "amplification");
+    // The node output of the sweep is `damper random --output 613:ux`'s.
+    let rnd = json(&["random", &path, "--output", "613:ux", "--json"]);
+    let rms = rnd["outputs"][0]["rms"].as_f64().unwrap();
+    assert_eq!(rnd["outputs"][0]["name"], "613:ux");
+    close(col("random.rms:613:ux"), rms, 1e-6, "RMS of 613:ux");
+}
