@@ -260,21 +260,27 @@ pub(crate) fn reduced_variant(model: &HybridModel, modes: usize) -> (HybridModel
 /// equation 0 is the node's `first` translation (`ux` or `uy`) and equation 1 the other.
 pub(crate) fn one_node(m: f64, k: [f64; 2], first: &str) -> ImportedStructure {
     let second = if first == "ux" { "uy" } else { "ux" };
-    let diag = |a: f64, b: f64| SymTriplets {
-        n: 2,
-        lower: vec![(0, 0, a), (1, 1, b)],
+    node_on_springs(m, &[(first, k[0]), (second, k[1])])
+}
+
+/// Node 7 at the origin with mass `m` on each of its equations, equation `i` the node's
+/// translation `springs[i].0` on a spring of stiffness `springs[i].1`; the translations not
+/// listed are held.
+pub(crate) fn node_on_springs(m: f64, springs: &[(&str, f64)]) -> ImportedStructure {
+    let n = springs.len();
+    let diag = |v: &dyn Fn(usize) -> f64| SymTriplets {
+        n,
+        lower: (0..n).map(|i| (i, i, v(i))).collect(),
     };
     let nodes = parse_nodes("id,x,y\n7,0,0\n", "nodes.csv").unwrap();
-    let dofs = parse_dofs(
-        &format!("eq,node,dof\n0,7,{first}\n1,7,{second}\n"),
-        "dofs.csv",
-        2,
-        &nodes,
-    )
-    .unwrap();
+    let mut table = String::from("eq,node,dof\n");
+    for (i, (dof, _)) in springs.iter().enumerate() {
+        table += &format!("{i},7,{dof}\n");
+    }
+    let dofs = parse_dofs(&table, "dofs.csv", n, &nodes).unwrap();
     ImportedStructure::from_parts(
-        diag(m, m),
-        diag(k[0], k[1]),
+        diag(&|_| m),
+        diag(&|i| springs[i].1),
         None,
         &DampingInput::None,
         nodes,

@@ -11,11 +11,7 @@
 //!   frequency, damping ratio and white-noise variances are the closed forms.
 
 use std::f64::consts::{FRAC_PI_2, PI};
-use std::path::Path;
 
-use fem_structure::mtx::SymTriplets;
-use fem_structure::tables::{parse_dofs, parse_nodes};
-use fem_structure::{DampingInput, ImportedStructure};
 use hybrid_core::hybrid::{
     Attachment, AttachmentKind, BeamPoint, EigenMethod, EquilibriumOptions, ExcitationTarget,
     ForceKind, HybridModel, JointForce, Linearization, Mode, ModeKind, Mount, MountedMechanism,
@@ -24,7 +20,7 @@ use hybrid_core::hybrid::{
 
 use crate::common::damper::{PaperDamper, double_bar};
 use crate::common::tangents;
-use crate::structures::{exported, reduced_variant};
+use crate::structures::{exported, node_on_springs, reduced_variant};
 
 fn linearize(model: &HybridModel) -> Linearization {
     let t = tangents(model, &[]);
@@ -108,27 +104,6 @@ fn the_linearised_damper_is_the_same_on_every_kind_of_structure() {
     }
 }
 
-/// A one-equation structure: node 7 at the origin, its `ux` on a spring `k` with mass `m`;
-/// its `uy` is not a coordinate (locked).
-fn slider(m: f64, k: f64) -> ImportedStructure {
-    let one = |v: f64| SymTriplets {
-        n: 1,
-        lower: vec![(0, 0, v)],
-    };
-    let nodes = parse_nodes("id,x,y\n7,0,0\n", "nodes.csv").unwrap();
-    let dofs = parse_dofs("eq,node,dof\n0,7,ux\n", "dofs.csv", 1, &nodes).unwrap();
-    ImportedStructure::from_parts(
-        one(m),
-        one(k),
-        None,
-        &DampingInput::None,
-        nodes,
-        dofs,
-        (Path::new("M.mtx"), Path::new("K.mtx")),
-    )
-    .unwrap()
-}
-
 #[test]
 fn a_node_on_a_spring_carries_the_double_bars_reflected_mass_and_damping() {
     let paper = PaperDamper {
@@ -148,7 +123,7 @@ fn a_node_on_a_spring_carries_the_double_bars_reflected_mass_and_damping() {
         "{mount:?}"
     );
     let model = HybridModel::new(
-        Some(Structure::Imported(slider(m, k))),
+        Some(Structure::Imported(node_on_springs(m, &[("ux", k)]))),
         vec![MountedMechanism {
             name: "damper".into(),
             system,
