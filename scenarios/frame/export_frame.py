@@ -165,8 +165,11 @@ def lowest_frequencies(k, m, count):
     return np.sqrt(np.sort(w)) / (2.0 * np.pi)
 
 
-def export(out):
-    out.mkdir(parents=True, exist_ok=True)
+def frame():
+    """The frame as assembled: `(k, m, nodes, outline)`, the stiffness and mass over the free
+    nodes' equations (base eliminated; node i+1 at `nodes[i]`, its ux and uy equations
+    2 i and 2 i + 1, the free nodes in order of (y, x)) and the outline's node pairs.
+    Python users hand `k`, `m` and the tables to `damper.Structure.from_matrices` directly."""
     m = mesh()
     basis = Basis(m, ElementVector(ElementQuad2()))
     stiffness, mass = forms()
@@ -178,19 +181,26 @@ def export(out):
     nodes.sort(key=lambda nd: (nd[0][1], nd[0][0]))
     perm = np.array([d for _, uv in nodes for d in uv])
     id_of_position = {p: i + 1 for i, (p, _) in enumerate(nodes)}
+    positions = [p for p, _ in nodes]
+    return k_full[perm][:, perm], m_full[perm][:, perm], positions, outline(m, id_of_position, basis)
 
-    k = k_full[perm][:, perm]
-    mm = m_full[perm][:, perm]
+
+def dof_rows(count):
+    """The DOF table's rows `(eq, node, dof)` of `count` nodes (ux, uy each)."""
+    return [(2 * i + c, i + 1, name) for i in range(count) for c, name in enumerate(("ux", "uy"))]
+
+
+def export(out):
+    out.mkdir(parents=True, exist_ok=True)
+    k, mm, nodes, edges = frame()
     k_written = write_mtx(out / "K.mtx", k)
     m_written = write_mtx(out / "M.mtx", mm)
 
-    rows = ["id,x,y"] + [f"{i + 1},{p[0]!r},{p[1]!r}" for i, (p, _) in enumerate(nodes)]
+    rows = ["id,x,y"] + [f"{i + 1},{p[0]!r},{p[1]!r}" for i, p in enumerate(nodes)]
     (out / "nodes.csv").write_text("\n".join(rows) + "\n")
-    rows = ["eq,node,dof"] + [
-        f"{2 * i + c},{i + 1},{name}" for i in range(len(nodes)) for c, name in enumerate(("ux", "uy"))
-    ]
+    rows = ["eq,node,dof"] + [f"{e},{n},{d}" for e, n, d in dof_rows(len(nodes))]
     (out / "dofs.csv").write_text("\n".join(rows) + "\n")
-    rows = ["node1,node2"] + [f"{a},{b}" for a, b in outline(m, id_of_position, basis)]
+    rows = ["node1,node2"] + [f"{a},{b}" for a, b in edges]
     (out / "elements.csv").write_text("\n".join(rows) + "\n")
 
     f = lowest_frequencies(k_written, m_written, MODES)

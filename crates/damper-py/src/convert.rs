@@ -108,6 +108,14 @@ fn short_repr(v: &Bound<'_, PyAny>) -> String {
 pub fn overrides(sets: &[(String, Bound<'_, PyAny>)]) -> PyResult<Vec<Override>> {
     sets.iter()
         .map(|(path, v)| {
+            if let Ok(s) = v.cast::<crate::structure::PyStructure>() {
+                if path != "structure" {
+                    return Err(PyValueError::new_err(format!(
+                        "set {path}: a given structure replaces `structure`, not `{path}`"
+                    )));
+                }
+                return s.get().to_override();
+            }
             let value = toml_value(v)?;
             let text = value_text(&value);
             Override::new(path, value, &text)

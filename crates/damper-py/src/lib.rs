@@ -18,6 +18,7 @@ mod convert;
 mod errors;
 mod model;
 mod scenario;
+mod structure;
 mod watch;
 
 use pyo3::prelude::*;
@@ -47,6 +48,8 @@ fn _damper(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(scenario::optimize, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::random, m)?)?;
     m.add_function(wrap_pyfunction!(scenario::figures, m)?)?;
+    m.add_function(wrap_pyfunction!(structure::structure_from_matrices, m)?)?;
+    m.add_class::<structure::PyStructure>()?;
     m.add_function(wrap_pyfunction!(model::model_info, m)?)?;
     m.add_function(wrap_pyfunction!(model::model_eval, m)?)?;
     m.add_function(wrap_pyfunction!(model::model_generate, m)?)?;

@@ -31,7 +31,7 @@ pub mod tables;
 pub use craig_bampton::{Reduced, craig_bampton};
 pub use error::StructureError;
 pub use export::{StructureFiles, beam_structure_files};
-pub use model::{DampingInput, ImportedStructure, MatrixFiles};
+pub use model::{DampingInput, Entries, ImportedStructure, MatrixFiles, StructureParts};
 pub use modes::{
     FLOOR_TOL, MAX_ITERATIONS, MODE_TOL, STALL_WINDOW, SparseModes, generalized_eigen, lowest_modes,
 };

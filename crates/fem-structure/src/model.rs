@@ -8,9 +8,10 @@ use std::path::{Path, PathBuf};
 use diagnostic::{Diagnostic, Diagnostics, Kind};
 
 use crate::modes::lowest_modes;
+use crate::mtx::from_entries;
 use crate::mtx::{SymTriplets, read_matrix_market};
 use crate::sparse::SparseSym;
-use crate::tables::{DofTable, Node, read_dofs, read_nodes};
+use crate::tables::{DofTable, Node, dofs_from_rows, nodes_from_rows, read_dofs, read_nodes};
 
 /// How the structure is damped.
 #[derive(Clone, Debug, PartialEq)]
@@ -50,6 +51,99 @@ impl MatrixFiles {
             dofs: dir.join("dofs.csv"),
             damping,
         }
+    }
+}
+
+/// A structure's matrices and tables given in memory instead of files (the Python package's
+/// `Structure.from_matrices`), each checked as its file would be ([`from_entries`],
+/// [`nodes_from_rows`], [`dofs_from_rows`]); messages name `name` and the argument
+/// (`NAME: M`, `NAME: nodes` row 3).
+#[derive(Clone, Debug)]
+pub struct StructureParts {
+    /// What messages call it (e.g. `Structure.from_matrices`).
+    pub name: String,
+    /// `M`.
+    pub mass: SymTriplets,
+    /// `K`.
+    pub stiffness: SymTriplets,
+    /// A damping matrix `C`, if given.
+    pub damping: Option<SymTriplets>,
+    /// The nodes.
+    pub nodes: Vec<Node>,
+    /// The DOF table.
+    pub dofs: DofTable,
+}
+
+/// A matrix given in memory: its rows and its 0-based entries `(row, column, value)`.
+pub type Entries<'a> = (usize, &'a [(usize, usize, f64)]);
+
+impl StructureParts {
+    /// Checks matrices and tables given in memory (sizes agree, symmetric, every equation in
+    /// the DOF table once, known nodes) and that `M` and `K` are positive definite
+    /// ([`ImportedStructure::from_parts`]); nothing else is computed.
+    pub fn new(
+        name: &str,
+        mass: Entries<'_>,
+        stiffness: Entries<'_>,
+        damping: Option<Entries<'_>>,
+        nodes: Vec<Vec<String>>,
+        dofs: Vec<Vec<String>>,
+    ) -> Result<StructureParts, Diagnostics> {
+        let arg = |a: &str| format!("{name}: {a}");
+        let m = from_entries(mass.0, mass.1, &arg("M"))?;
+        let same = |what: &str, n: usize| -> Result<(), Diagnostics> {
+            if n == m.n {
+                return Ok(());
+            }
+            let msg = format!("{n} rows, but M has {}", m.n);
+            Err(Diagnostic::new(Kind::InvalidValue, arg(what), msg).into())
+        };
+        same("K", stiffness.0)?;
+        let k = from_entries(stiffness.0, stiffness.1, &arg("K"))?;
+        let c = match damping {
+            Some(c) => {
+                same("C", c.0)?;
+                Some(from_entries(c.0, c.1, &arg("C"))?)
+            }
+            None => None,
+        };
+        let nodes = nodes_from_rows(nodes, &arg("nodes"))?;
+        let dofs = dofs_from_rows(dofs, &arg("dofs"), m.n, &nodes)?;
+        let parts = StructureParts {
+            name: name.to_string(),
+            mass: m,
+            stiffness: k,
+            damping: c,
+            nodes,
+            dofs,
+        };
+        parts.model(&DampingInput::None)?;
+        Ok(parts)
+    }
+
+    /// The structure of these parts damped by `damping` (`DampingInput::Matrix`: the given
+    /// `C`, whatever its path), checked as [`ImportedStructure::from_parts`] does.
+    pub fn model(&self, damping: &DampingInput) -> Result<ImportedStructure, Diagnostics> {
+        let name = |a: &str| PathBuf::from(format!("{}: {a}", self.name));
+        let (damping, c) = match (damping, &self.damping) {
+            (DampingInput::Matrix(_), Some(c)) => {
+                (DampingInput::Matrix(name("C")), Some(c.clone()))
+            }
+            (DampingInput::Matrix(_), None) => {
+                let msg = "damping by a matrix, but no C was given";
+                return Err(Diagnostic::new(Kind::InvalidValue, self.name.clone(), msg).into());
+            }
+            (d, _) => (d.clone(), None),
+        };
+        ImportedStructure::from_parts(
+            self.mass.clone(),
+            self.stiffness.clone(),
+            c,
+            &damping,
+            self.nodes.clone(),
+            self.dofs.clone(),
+            (&name("M"), &name("K")),
+        )
     }
 }
 

@@ -170,36 +170,108 @@ pub fn parse_matrix_market(text: &str, file: &str) -> Result<SymTriplets, Diagno
     let lower = if symmetric {
         merged.into_iter().map(|(i, j, v, _)| (i, j, v)).collect()
     } else {
-        let scale = merged.iter().fold(0.0f64, |m, e| m.max(e.2.abs()));
-        let find = |i: usize, j: usize| {
-            merged
-                .binary_search_by_key(&(j, i), |&(r, c, _, _)| (c, r))
-                .ok()
-                .map(|k| merged[k].2)
-        };
-        let mut lower = Vec::new();
-        for &(i, j, v, no) in &merged {
-            let other = find(j, i).unwrap_or(0.0);
-            if (v - other).abs() > SYMMETRY_TOL * scale {
-                return Err(err(
-                    no,
-                    format!(
-                        "the matrix is not symmetric: entry ({}, {}) = {v:e} but ({}, {}) = {other:e}",
-                        i + 1,
-                        j + 1,
-                        j + 1,
-                        i + 1
-                    ),
-                ));
-            }
-            if j <= i {
-                lower.push((i, j, v));
-            }
-        }
-        // Entries whose mirror is absent were checked above (against 0).
-        lower
+        general_lower(merged).map_err(|m| {
+            err(
+                m.tag,
+                format!(
+                    "the matrix is not symmetric: entry ({}, {}) = {:e} but ({}, {}) = {:e}",
+                    m.row + 1,
+                    m.column + 1,
+                    m.value,
+                    m.column + 1,
+                    m.row + 1,
+                    m.mirror
+                ),
+            )
+        })?
     };
     Ok(SymTriplets { n: rows, lower })
+}
+
+/// A general matrix's entry whose mirror differs (`|a_ij - a_ji| > SYMMETRY_TOL max|a|`).
+struct Mismatch<T> {
+    row: usize,
+    column: usize,
+    value: f64,
+    mirror: f64,
+    tag: T,
+}
+
+/// The lower triangle of a general matrix's merged entries ([`sum_duplicates`]), after
+/// checking that it is symmetric to [`SYMMETRY_TOL`] of its largest entry (an entry whose
+/// mirror is absent is checked against 0); the first mismatch in `(column, row)` order.
+fn general_lower<T: Copy>(
+    merged: Vec<(usize, usize, f64, T)>,
+) -> Result<Vec<(usize, usize, f64)>, Mismatch<T>> {
+    let scale = merged.iter().fold(0.0f64, |m, e| m.max(e.2.abs()));
+    let find = |i: usize, j: usize| {
+        merged
+            .binary_search_by_key(&(j, i), |&(r, c, _, _)| (c, r))
+            .ok()
+            .map(|k| merged[k].2)
+    };
+    let mut lower = Vec::new();
+    for &(row, column, value, tag) in &merged {
+        let mirror = find(column, row).unwrap_or(0.0);
+        if (value - mirror).abs() > SYMMETRY_TOL * scale {
+            return Err(Mismatch {
+                row,
+                column,
+                value,
+                mirror,
+                tag,
+            });
+        }
+        if column <= row {
+            lower.push((row, column, value));
+        }
+    }
+    Ok(lower)
+}
+
+/// A symmetric matrix given in memory (the Python package's `Structure.from_matrices`):
+/// `n` rows and its entries `(row, column, value)`, 0-based, both triangles as in a
+/// `general` file (duplicates summed, symmetric to [`SYMMETRY_TOL`] of the largest entry),
+/// at most [`MAX_ENTRIES`]. Every problem names `name` (e.g. `Structure.from_matrices: M`)
+/// and the entry's 0-based position `[row, column]`.
+pub fn from_entries(
+    n: usize,
+    entries: &[(usize, usize, f64)],
+    name: &str,
+) -> Result<SymTriplets, Diagnostics> {
+    let err = |message: String| -> Diagnostics {
+        Diagnostic::new(Kind::InvalidValue, name, message).into()
+    };
+    if n == 0 {
+        return Err(err("the matrix has no rows".into()));
+    }
+    if entries.len() > MAX_ENTRIES {
+        return Err(err(format!(
+            "{} entries: more than the {MAX_ENTRIES} this tool reads",
+            entries.len()
+        )));
+    }
+    let mut raw = Vec::with_capacity(entries.len());
+    for &(i, j, v) in entries {
+        if i >= n || j >= n {
+            return Err(err(format!(
+                "entry [{i}, {j}] outside the {n} x {n} matrix (indices are 0-based)"
+            )));
+        }
+        if !v.is_finite() {
+            return Err(err(format!(
+                "entry [{i}, {j}] is {v} (not a finite number)"
+            )));
+        }
+        raw.push((i, j, v, ()));
+    }
+    let lower = general_lower(sum_duplicates(raw)).map_err(|m| {
+        err(format!(
+            "the matrix is not symmetric: entry [{}, {}] = {:e} but [{}, {}] = {:e} (give both triangles)",
+            m.row, m.column, m.value, m.column, m.row, m.mirror
+        ))
+    })?;
+    Ok(SymTriplets { n, lower })
 }
 
 /// Entries `(row, column, value, tag)` sorted by `(column, row)`, the values of equal

@@ -82,8 +82,47 @@ pub struct DofTable {
     pub equation: BTreeMap<(u64, NodeDof), usize>,
 }
 
-fn diag(file: &str, line: Option<u64>, message: String) -> Diagnostic {
-    Diagnostic::new(Kind::InvalidValue, file, message).at_line(line.map(|l| l as usize))
+/// Where a table's rows come from, as its messages name them.
+#[derive(Clone, Copy, Debug)]
+pub enum Place<'a> {
+    /// A CSV file: a row is named by its 1-based line.
+    File(&'a str),
+    /// Rows given in memory (the Python package's `Structure.from_matrices`), named e.g.
+    /// `Structure.from_matrices: nodes`: a row is named by its 0-based index.
+    Rows(&'a str),
+}
+
+impl Place<'_> {
+    /// What a row's number counts.
+    fn unit(self) -> &'static str {
+        match self {
+            Place::File(_) => "line",
+            Place::Rows(_) => "row",
+        }
+    }
+}
+
+fn diag(place: Place<'_>, line: Option<u64>, message: String) -> Diagnostic {
+    match place {
+        Place::File(file) => {
+            Diagnostic::new(Kind::InvalidValue, file, message).at_line(line.map(|l| l as usize))
+        }
+        Place::Rows(name) => {
+            let message = match line {
+                Some(row) => format!("row {row}: {message}"),
+                None => message,
+            };
+            Diagnostic::new(Kind::InvalidValue, name, message)
+        }
+    }
+}
+
+/// Rows given in memory as the records of a table: each row's fields, its 0-based index.
+fn rows_in_memory(rows: Vec<Vec<String>>) -> Vec<(Option<u64>, csv::StringRecord)> {
+    rows.into_iter()
+        .enumerate()
+        .map(|(k, r)| (Some(k as u64), csv::StringRecord::from(r)))
+        .collect()
 }
 
 /// The header and the records (with their 1-based lines) of a CSV table named `file`.
@@ -95,7 +134,7 @@ fn records(text: &str, file: &str) -> Result<Records, Diagnostics> {
         .from_reader(text.as_bytes());
     let header: Vec<String> = rd
         .headers()
-        .map_err(|e| diag(file, Some(1), format!("{e}")))?
+        .map_err(|e| diag(Place::File(file), Some(1), format!("{e}")))?
         .iter()
         .map(str::to_string)
         .collect();
@@ -105,7 +144,7 @@ fn records(text: &str, file: &str) -> Result<Records, Diagnostics> {
             Ok(r) => out.push((r.position().map(|p| p.line()), r)),
             Err(e) => {
                 let line = e.position().map(|p| p.line());
-                return Err(diag(file, line, format!("{e}")).into());
+                return Err(diag(Place::File(file), line, format!("{e}")).into());
             }
         }
     }
@@ -124,7 +163,7 @@ pub fn parse_nodes(text: &str, file: &str) -> Result<Vec<Node>, Diagnostics> {
     let three = header == ["id", "x", "y", "z"];
     if header != ["id", "x", "y"] && !three {
         return Err(diag(
-            file,
+            Place::File(file),
             Some(1),
             format!(
                 "header `{}`: expected `id,x,y` or `id,x,y,z`",
@@ -133,6 +172,33 @@ pub fn parse_nodes(text: &str, file: &str) -> Result<Vec<Node>, Diagnostics> {
         )
         .into());
     }
+    node_records(rows, three, Place::File(file))
+}
+
+/// The node table given in memory, rows `[id, x, y]` or `[id, x, y, z]` (each a number's
+/// text), checked as [`parse_nodes`] checks a file.
+pub fn nodes_from_rows(rows: Vec<Vec<String>>, name: &str) -> Result<Vec<Node>, Diagnostics> {
+    let place = Place::Rows(name);
+    let width = rows.first().map_or(3, Vec::len);
+    if let Some(k) = rows
+        .iter()
+        .position(|r| r.len() != width || !(3..=4).contains(&r.len()))
+    {
+        let msg = format!(
+            "{} values: expected [id, x, y] or [id, x, y, z], every row alike",
+            rows[k].len()
+        );
+        return Err(diag(place, Some(k as u64), msg).into());
+    }
+    node_records(rows_in_memory(rows), width == 4, place)
+}
+
+/// The nodes of a table's records (`three`: with `z`), every problem at its row.
+fn node_records(
+    rows: Vec<(Option<u64>, csv::StringRecord)>,
+    three: bool,
+    file: Place<'_>,
+) -> Result<Vec<Node>, Diagnostics> {
     let mut out = Vec::new();
     let mut seen = BTreeMap::new();
     let mut problems = Diagnostics::default();
@@ -154,7 +220,8 @@ pub fn parse_nodes(text: &str, file: &str) -> Result<Vec<Node>, Diagnostics> {
                 file,
                 line,
                 format!(
-                    "node {id} defined twice (first on line {})",
+                    "node {id} defined twice (first on {} {})",
+                    file.unit(),
                     first.unwrap_or(0)
                 ),
             ));
@@ -186,12 +253,38 @@ pub fn parse_dofs(
     let (header, rows) = records(text, file)?;
     if header != ["eq", "node", "dof"] {
         return Err(diag(
-            file,
+            Place::File(file),
             Some(1),
             format!("header `{}`: expected `eq,node,dof`", header.join(",")),
         )
         .into());
     }
+    dof_records(rows, Place::File(file), n, nodes)
+}
+
+/// The DOF table given in memory, rows `[eq, node, dof]` (texts), checked as
+/// [`parse_dofs`] checks a file.
+pub fn dofs_from_rows(
+    rows: Vec<Vec<String>>,
+    name: &str,
+    n: usize,
+    nodes: &[Node],
+) -> Result<DofTable, Diagnostics> {
+    let place = Place::Rows(name);
+    if let Some(k) = rows.iter().position(|r| r.len() != 3) {
+        let msg = format!("{} values: expected [eq, node, dof]", rows[k].len());
+        return Err(diag(place, Some(k as u64), msg).into());
+    }
+    dof_records(rows_in_memory(rows), place, n, nodes)
+}
+
+/// The DOF table of a table's records, every problem at its row.
+fn dof_records(
+    rows: Vec<(Option<u64>, csv::StringRecord)>,
+    file: Place<'_>,
+    n: usize,
+    nodes: &[Node],
+) -> Result<DofTable, Diagnostics> {
     let known: std::collections::BTreeSet<u64> = nodes.iter().map(|n| n.id).collect();
     let mut of_eq: Vec<Option<(u64, NodeDof)>> = vec![None; n];
     let mut line_of_eq: Vec<Option<u64>> = vec![None; n];
@@ -226,7 +319,10 @@ pub fn parse_dofs(
             problems.push(diag(
                 file,
                 line,
-                format!("equation {eq} listed twice (first on line {first})"),
+                format!(
+                    "equation {eq} listed twice (first on {} {first})",
+                    file.unit()
+                ),
             ));
             continue;
         }
@@ -278,7 +374,7 @@ pub fn parse_elements(
     let (header, rows) = records(text, file)?;
     if header != ["node1", "node2"] {
         return Err(diag(
-            file,
+            Place::File(file),
             Some(1),
             format!("header `{}`: expected `node1,node2`", header.join(",")),
         )
@@ -291,14 +387,14 @@ pub fn parse_elements(
         let id = |k: usize| rec.get(k).and_then(|s| s.parse::<u64>().ok());
         let (Some(a), Some(b), 2) = (id(0), id(1), rec.len()) else {
             problems.push(diag(
-                file,
+                Place::File(file),
                 line,
                 "expected two node ids `node1,node2`".into(),
             ));
             continue;
         };
         match [a, b].into_iter().find(|n| !known.contains(n)) {
-            Some(n) => problems.push(diag(file, line, format!("unknown node {n}"))),
+            Some(n) => problems.push(diag(Place::File(file), line, format!("unknown node {n}"))),
             None => out.push((a, b)),
         }
     }

@@ -105,7 +105,8 @@ pub fn parse_with_in(
 ) -> Result<Loaded, Diagnostics> {
     let file = file.to_string();
     let applied = overrides::apply(text, &file, overrides)?;
-    match parse_in(&applied.text, &file, base) {
+    let given = overrides.iter().rev().find_map(|o| o.structure.clone());
+    match parse_given(&applied.text, &file, base, given) {
         Ok(scenario) => Ok(Loaded {
             scenario,
             applied,
@@ -124,7 +125,18 @@ pub fn parse(text: &str, path: &Path) -> Result<Scenario, Diagnostics> {
 
 /// [`parse`] with the file's name and the directory of relative paths given apart.
 pub fn parse_in(text: &str, file: &str, base: &Path) -> Result<Scenario, Diagnostics> {
+    parse_given(text, file, base, None)
+}
+
+/// [`parse_in`] with the structure that `[structure] kind = "given"` stands for.
+fn parse_given(
+    text: &str,
+    file: &str,
+    base: &Path,
+    given: Option<std::sync::Arc<fem_structure::StructureParts>>,
+) -> Result<Scenario, Diagnostics> {
     let mut doc = Doc::parse(text, file, base)?;
+    doc.given = given;
     let kind = doc.kind();
     let scenario = match kind.as_deref() {
         Some("damper") => {
@@ -162,6 +174,9 @@ pub(crate) struct Doc<'a> {
     cascades: Diagnostics,
     /// `[[mechanism]]` tables that could not be read (their names are unknown).
     pub(crate) unread_mechanisms: usize,
+    /// The structure given in memory ([`Override::structure`]) that `[structure] kind =
+    /// "given"` stands for.
+    given: Option<std::sync::Arc<fem_structure::StructureParts>>,
 }
 
 impl<'a> Doc<'a> {
@@ -184,7 +199,13 @@ impl<'a> Doc<'a> {
             diags: Diagnostics::default(),
             cascades: Diagnostics::default(),
             unread_mechanisms: 0,
+            given: None,
         })
+    }
+
+    /// The structure given in memory, if any ([`Override::structure`]).
+    pub(crate) fn given(&self) -> Option<std::sync::Arc<fem_structure::StructureParts>> {
+        self.given.clone()
     }
 
     /// The scenario file as given.

@@ -84,6 +84,9 @@ pub struct Override {
     pub text: String,
     /// VALUE as a TOML value.
     pub value: Value,
+    /// The structure given in memory that VALUE's `kind = "given"` stands for
+    /// ([`Override::structure`]).
+    pub structure: Option<std::sync::Arc<fem_structure::StructureParts>>,
 }
 
 impl Override {
@@ -94,7 +97,29 @@ impl Override {
             steps: parse_path(path)?,
             text: text.to_string(),
             value,
+            structure: None,
         })
+    }
+
+    /// The scenario's host structure replaced by `parts`, given in memory (the Python
+    /// package's `Structure.from_matrices`): `structure = { kind = "given", ... }` with the
+    /// entries of `table` (its `damping` ratios, its `reduction`), the parts carried along
+    /// to the loader. Later overrides may still set `structure.reduction.modes`.
+    pub fn structure(
+        parts: std::sync::Arc<fem_structure::StructureParts>,
+        table: toml_edit::InlineTable,
+    ) -> Override {
+        let mut t = toml_edit::InlineTable::new();
+        t.insert("kind", Value::from("given"));
+        t.extend(table);
+        let value = Value::InlineTable(t);
+        Override {
+            path: "structure".into(),
+            steps: vec![Step::Key("structure".into())],
+            text: value.to_string(),
+            value,
+            structure: Some(parts),
+        }
     }
 
     /// `--set PATH=VALUE`, as the user wrote it; a VALUE longer than [`OPTION_SHOWN`]

@@ -19,7 +19,9 @@ use mbs_symbolic::model::Model;
 use mbs_symbolic::runtime::{ParamError, System};
 
 use crate::scenario::HybridScenario;
-use crate::scenario::hybrid::{AttachmentEntry, MechanismEntry, TargetEntry, list};
+use crate::scenario::hybrid::{
+    AttachmentEntry, MechanismEntry, StructureSource, TargetEntry, list,
+};
 
 /// A hybrid scenario resolved against its models: the model, its initial state and what
 /// the reports need.
@@ -214,7 +216,10 @@ fn imported_model(sc: &HybridScenario) -> Result<Option<Structure>, Diagnostics>
     let Some(entry) = &sc.structure else {
         return Ok(None);
     };
-    let full = ImportedStructure::from_files(&entry.files)?;
+    let full = match &entry.source {
+        StructureSource::Files(files) => ImportedStructure::from_files(files)?,
+        StructureSource::Given { parts, damping } => parts.model(damping)?,
+    };
     let Some(modes) = entry.reduction_modes else {
         return Ok(Some(Structure::Imported(full)));
     };

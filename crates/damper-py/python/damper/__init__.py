@@ -72,6 +72,7 @@ __all__ = [
     "RandomResult",
     "Run",
     "Scenario",
+    "Structure",
     "ScenarioError",
     "SingularPosition",
     "SweepPart",
@@ -227,6 +228,173 @@ class Linearization:
         return f"Linearization({len(self.modes)} modes{size})"
 
 
+_Coo = Tuple[int, Any, Any, Any]
+
+
+def _coo(a: Any, what: str) -> _Coo:
+    """A square matrix (numpy array, nested lists, or anything with ``tocoo()``: scipy.sparse)
+    as ``(n, rows, columns, values)``, 0-based int64 indices and float64 values."""
+    if hasattr(a, "tocoo"):
+        c = a.tocoo()
+        shape = tuple(c.shape)
+        rows, cols, vals = c.row, c.col, c.data
+    else:
+        arr = np.asarray(a)
+        if arr.dtype.kind not in "biuf":
+            raise TypeError(f"{what}: a real matrix is needed, not an array of {arr.dtype}")
+        shape = arr.shape
+        if arr.ndim != 2:
+            raise ValueError(f"{what}: a square matrix is needed, not an array of shape {shape}")
+        rows, cols = np.nonzero(arr)
+        vals = arr[rows, cols]
+    if len(shape) != 2 or shape[0] != shape[1] or shape[0] == 0:
+        raise ValueError(f"{what}: a square matrix of at least one row is needed, not shape {shape}")
+    if np.asarray(vals).dtype.kind not in "biuf":
+        raise TypeError(f"{what}: a real matrix is needed, not values of {np.asarray(vals).dtype}")
+    return (
+        int(shape[0]),
+        np.ascontiguousarray(rows, dtype=np.int64),
+        np.ascontiguousarray(cols, dtype=np.int64),
+        np.ascontiguousarray(vals, dtype=np.float64),
+    )
+
+
+def _cell(v: Any) -> str:
+    """A table cell as the CSV readers see it: an integral number as an integer, a float
+    in its shortest round-trip form, anything else as ``str``."""
+    if isinstance(v, (bool, np.bool_)):
+        return str(v)
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        f = float(v)
+        return str(int(f)) if f.is_integer() and abs(f) < 2**53 else repr(f)
+    return str(v)
+
+
+def _rows(table: Any, what: str) -> List[List[str]]:
+    """Rows of a table (a 2-D array or a sequence of sequences) as texts."""
+    if isinstance(table, (str, bytes)) or not hasattr(table, "__iter__"):
+        raise TypeError(f"{what}: rows are needed (a 2-D array or a list of lists), not {type(table).__name__}")
+    out = []
+    for r in table:
+        if isinstance(r, (str, bytes)) or not hasattr(r, "__iter__"):
+            raise TypeError(f"{what}: each row must be a sequence, not {type(r).__name__}")
+        out.append([_cell(v) for v in r])
+    return out
+
+
+class Structure:
+    """A structure from another finite-element program given in memory (no files): its
+    mass and stiffness matrices (supports eliminated), where its nodes are and which
+    equation is which node's DOF — what a ``[structure] kind = "matrices"`` table reads
+    from files, checked by the same rules (``ScenarioError`` naming the argument and row).
+
+    Use it in place of a scenario's ``[structure]``: ``Scenario.load(path,
+    structure=s)`` or ``scenario.with_structure(s)``. It pickles (its arrays with it).
+    """
+
+    def __init__(self, state: Tuple[Any, ...]) -> None:
+        self._state = state
+        name, m, k, c, nodes, dofs, ratios, modes = state
+        self._native = _damper.structure_from_matrices(name, m, k, c, nodes, dofs, ratios, modes)
+
+    @classmethod
+    def from_matrices(
+        cls,
+        M: Any,
+        K: Any,
+        nodes: Any,
+        dofs: Any,
+        damping: Any = None,
+        reduction: Optional[Mapping[str, Any]] = None,
+        name: str = "Structure.from_matrices",
+    ) -> "Structure":
+        """A structure from its matrices and tables.
+
+        ``M``, ``K``: square symmetric matrices (numpy arrays or scipy.sparse, both
+        triangles; symmetric to 1e-12 of the largest entry), rows and columns the
+        equations; ``nodes``: rows ``[id, x, y]`` or ``[id, x, y, z]`` (a 2-D array or a
+        list), or a mapping ``{id: (x, y[, z])}``; ``dofs``: rows ``[eq, node, dof]``
+        (``eq`` the 0-based equation, ``dof`` one of ``ux uy uz rx ry rz``), every
+        equation once; ``damping``: ``None`` (undamped), Rayleigh damping from two modal
+        ratios ``{"ratios": [(1, 0.003), (2, 0.003)]}`` (1-based modes), or a damping
+        matrix ``C`` like ``M``; ``reduction``: ``None`` (the full model runs) or
+        ``{"kind": "craig_bampton", "modes": 30}``; ``name`` names it in messages.
+        """
+        if isinstance(nodes, Mapping):
+            nodes = [[i, *xy] for i, xy in nodes.items()]
+        ratios = None
+        c = None
+        if isinstance(damping, Mapping):
+            if set(damping) != {"ratios"}:
+                raise ValueError(f"damping: expected {{'ratios': [(mode, ratio), (mode, ratio)]}} or a matrix, not keys {sorted(damping)}")
+            ratios = []
+            for r in damping["ratios"]:
+                if isinstance(r, Mapping):
+                    r = (r.get("mode"), r.get("ratio"))
+                mode, ratio = r
+                if not isinstance(mode, (int, np.integer)) or isinstance(mode, bool):
+                    raise TypeError(f"damping: a mode number must be an int, not {type(mode).__name__}")
+                ratios.append((int(mode), _real(ratio, "damping ratio")))
+        elif damping is not None:
+            c = _coo(damping, f"{name}: C")
+        modes = None
+        if reduction is not None:
+            if not isinstance(reduction, Mapping) or reduction.get("kind") != "craig_bampton" or set(reduction) != {"kind", "modes"}:
+                raise ValueError("reduction: expected {'kind': 'craig_bampton', 'modes': N}")
+            m = reduction["modes"]
+            if not isinstance(m, (int, np.integer)) or isinstance(m, bool):
+                raise TypeError(f"reduction: modes must be an int, not {type(m).__name__}")
+            modes = int(m)
+        state = (
+            name,
+            _coo(M, f"{name}: M"),
+            _coo(K, f"{name}: K"),
+            c,
+            _rows(nodes, f"{name}: nodes"),
+            _rows(dofs, f"{name}: dofs"),
+            ratios,
+            modes,
+        )
+        return cls(state)
+
+    @property
+    def equations(self) -> int:
+        """Number of equations (rows of the matrices)."""
+        return int(self._native.equations)
+
+    @property
+    def table(self) -> str:
+        """The ``[structure]`` table it stands for, as TOML (``kind = "given"``)."""
+        return str(self._native.table)
+
+    def __reduce__(self) -> Tuple[Any, Tuple[Any, ...]]:
+        return (Structure, (self._state,))
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Structure):
+            return NotImplemented
+        return _equal(self._state, other._state)
+
+    def __repr__(self) -> str:
+        return f"Structure({self._state[0]!r}, {self.equations} equations, {len(self._state[4])} nodes)"
+
+
+def _host(structure: Optional[Structure]) -> List[Tuple[str, Any]]:
+    """The override that makes ``structure`` the host (none for ``None``)."""
+    if structure is None:
+        return []
+    if not isinstance(structure, Structure):
+        raise TypeError(f"structure must be a damper.Structure (Structure.from_matrices), not {type(structure).__name__}")
+    return [("structure", structure)]
+
+
+def _native_sets(sets: Sequence[Tuple[str, Any]]) -> List[Tuple[str, Any]]:
+    """The overrides as the native module takes them (a ``Structure`` by its checked parts)."""
+    return [(p, v._native if isinstance(v, Structure) else v) for p, v in sets]
+
+
 class Scenario:
     """A scenario (``kind = "damper"``, ``"hybrid"`` or ``"mechanism"``) and its overrides.
 
@@ -247,27 +415,41 @@ class Scenario:
         self._file = file
         self._base = os.path.abspath(os.fspath(base_dir))
         self._sets: List[Tuple[str, Any]] = list(sets)
-        self.kind: str = _damper.check(text, file, self._base, self._sets)
+        self.kind: str = _damper.check(text, file, self._base, _native_sets(self._sets))
 
     @classmethod
-    def load(cls, path: PathLike, set: Optional[Mapping[str, SetValue]] = None) -> "Scenario":
+    def load(
+        cls, path: PathLike, set: Optional[Mapping[str, SetValue]] = None, structure: Optional[Structure] = None
+    ) -> "Scenario":
         """Reads and checks the scenario file ``path`` (a regular file of at most 64 MiB)
-        with the overrides ``set``."""
+        with the overrides ``set``; ``structure`` (``Structure.from_matrices``) replaces its
+        host structure (``with_structure``) before the overrides."""
         file = os.fspath(path)
         if not isinstance(file, str):
             raise TypeError(f"path must be a str or os.PathLike[str], not {type(file).__name__}")
-        sets = _items(set, "set")
+        sets = _host(structure) + _items(set, "set")
         text = _damper.read_scenario(file)
         base = os.path.dirname(file)
         return cls(text, file, base, sets)
 
     @classmethod
-    def from_str(cls, text: str, kind: str = "toml", base_dir: PathLike = ".", name: str = "<string>") -> "Scenario":
+    def from_str(
+        cls, text: str, kind: str = "toml", base_dir: PathLike = ".", name: str = "<string>",
+        structure: Optional[Structure] = None,
+    ) -> "Scenario":
         """A scenario from its text (``kind``: the format, ``"toml"``); relative paths in it
-        (the mechanism model) are relative to ``base_dir``; messages name it ``name``."""
+        (the mechanism model) are relative to ``base_dir``; messages name it ``name``;
+        ``structure`` as in ``load``."""
         if kind != "toml":
             raise ValueError(f"kind {kind!r}: scenarios are TOML (kind='toml')")
-        return cls(text, name, base_dir)
+        return cls(text, name, base_dir, _host(structure))
+
+    def with_structure(self, structure: Structure) -> "Scenario":
+        """A copy whose host structure is ``structure`` (given in memory): its ``[structure]``
+        table, if any, is replaced by ``{ kind = "given" }`` with the structure's damping
+        and reduction (later overrides may still set ``structure.reduction.modes``); a
+        scenario with a ``[beam]`` is refused (one host structure)."""
+        return Scenario(self._text, self._file, self._base, self._sets + _host(structure))
 
     @property
     def file(self) -> str:
@@ -284,7 +466,7 @@ class Scenario:
         return Scenario(self._text, self._file, self._base, self._sets + _items(set, "set"))
 
     def _src(self) -> Tuple[str, str, str, List[Tuple[str, Any]]]:
-        return (self._text, self._file, self._base, self._sets)
+        return (self._text, self._file, self._base, _native_sets(self._sets))
 
     def simulate(self, compare: Optional[Sequence[str]] = None, allow_long: bool = False) -> Run:
         """Runs the scenario as ``damper simulate`` does, in memory (no file written).

@@ -1,6 +1,6 @@
 """Type stub of the native module ``damper._damper`` (checked by ``mypy.stubtest``)."""
 
-from typing import Any, List, Optional, Sequence, Tuple
+from typing import Any, List, Optional, Sequence, Tuple, final
 
 import numpy as np
 import numpy.typing as npt
@@ -18,6 +18,7 @@ __all__ = [
     "ScenarioError",
     "SimulationError",
     "SingularPosition",
+    "StructureParts",
     "UnknownName",
     "WorkLimitError",
     "check",
@@ -31,6 +32,7 @@ __all__ = [
     "random",
     "read_scenario",
     "simulate",
+    "structure_from_matrices",
     "sweep_grid",
     "sweep_merge",
     "sweep_points",
@@ -201,6 +203,31 @@ def random(
     modes: int,
     allow_long: bool,
 ) -> Any: ...
+@final
+class StructureParts:
+    @property
+    def equations(self) -> int: ...
+    @property
+    def nodes(self) -> int: ...
+    @property
+    def nonzeros(self) -> Tuple[int, int]: ...
+    @property
+    def table(self) -> str: ...
+    @property
+    def name(self) -> str: ...
+
+_Coo = Tuple[int, npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.float64]]
+
+def structure_from_matrices(
+    name: str,
+    m: _Coo,
+    k: _Coo,
+    c: Optional[_Coo],
+    nodes: List[List[str]],
+    dofs: List[List[str]],
+    ratios: Optional[List[Tuple[int, float]]],
+    modes: Optional[int],
+) -> StructureParts: ...
 def model_info(path: str) -> Tuple[str, List[str], List[Tuple[str, float, bool, bool]]]: ...
 def model_eval(
     path: str, q: Sequence[float], qd: Sequence[float], t: float, backend: str, params: Sequence[str]

@@ -185,3 +185,94 @@ fn bad_input_is_one_line_naming_file_and_line() {
     );
     std::fs::remove_dir_all(d).unwrap();
 }
+
+/// The same chain given in memory (both triangles, rows of texts) is the structure its files
+/// are, bit for bit; the in-memory checks name the argument and the row or entry.
+#[test]
+fn a_structure_given_in_memory_is_its_files() {
+    use fem_structure::StructureParts;
+    let d = dir("given");
+    let f = files(&d);
+    let from_files = ImportedStructure::from_files(&f).unwrap();
+    let (k, m) = chain(4, 100.0, 2.0);
+    let both = |t: &fem_structure::mtx::SymTriplets| -> Vec<(usize, usize, f64)> {
+        t.lower
+            .iter()
+            .flat_map(|&(i, j, v)| {
+                let mirror = (i != j).then_some((j, i, v));
+                std::iter::once((i, j, v)).chain(mirror)
+            })
+            .collect()
+    };
+    let (me, ke) = (both(&m.lower()), both(&k.lower()));
+    let rows = |t: &[&[&str]]| -> Vec<Vec<String>> {
+        t.iter()
+            .map(|r| r.iter().map(|s| s.to_string()).collect())
+            .collect()
+    };
+    let nodes = rows(&[
+        &["1", "0", "0"],
+        &["2", "1", "0"],
+        &["3", "2", "0"],
+        &["4", "3", "0"],
+    ]);
+    let dofs = rows(&[
+        &["0", "1", "ux"],
+        &["1", "2", "ux"],
+        &["2", "3", "ux"],
+        &["3", "4", "ux"],
+    ]);
+    let parts = StructureParts::new(
+        "given",
+        (4, &me),
+        (4, &ke),
+        None,
+        nodes.clone(),
+        dofs.clone(),
+    )
+    .unwrap();
+    let given = parts.model(&f.damping).unwrap();
+    assert_eq!(given.mass.lower(), from_files.mass.lower());
+    assert_eq!(given.stiffness.lower(), from_files.stiffness.lower());
+    let b = |s: &ImportedStructure| s.damping.as_ref().unwrap().lower();
+    assert_eq!(b(&given), b(&from_files));
+    assert_eq!(given.rayleigh, from_files.rayleigh);
+    assert_eq!(given.nodes, from_files.nodes);
+    assert_eq!(given.dofs, from_files.dofs);
+
+    let err = |m: &[(usize, usize, f64)], nodes: Vec<Vec<String>>, dofs: Vec<Vec<String>>| {
+        StructureParts::new("given", (4, m), (4, &ke), None, nodes, dofs)
+            .unwrap_err()
+            .to_string()
+    };
+    // One triangle only (of K, given as M): not symmetric, the entry named 0-based.
+    let lower: Vec<_> = k.lower().lower.clone();
+    let e = err(&lower, nodes.clone(), dofs.clone());
+    assert!(
+        e.starts_with(
+            "given: M: the matrix is not symmetric: entry [1, 0] = -1e2 but [0, 1] = 0e0"
+        ),
+        "{e}"
+    );
+    let mut outside = me.clone();
+    outside.push((4, 0, 1.0));
+    let e = err(&outside, nodes.clone(), dofs.clone());
+    assert_eq!(
+        e,
+        "given: M: entry [4, 0] outside the 4 x 4 matrix (indices are 0-based)"
+    );
+    let mut unknown = dofs.clone();
+    unknown[2][1] = "9".into();
+    let e = err(&me, nodes.clone(), unknown);
+    assert_eq!(e, "given: dofs: row 2: unknown node 9");
+    let mut twice = nodes.clone();
+    twice[3][0] = "1".into();
+    let e = err(&me, twice, dofs.clone());
+    assert!(
+        e.starts_with("given: nodes: row 3: node 1 defined twice (first on row 0)"),
+        "{e}"
+    );
+    let negative: Vec<_> = me.iter().map(|&(i, j, v)| (i, j, -v)).collect();
+    let e = err(&negative, nodes, dofs);
+    assert!(e.starts_with("given: M: "), "{e}");
+}

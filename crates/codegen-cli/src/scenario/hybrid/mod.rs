@@ -90,7 +90,7 @@ use std::path::{Path, PathBuf};
 
 use diagnostic::{Diagnostic, Diagnostics, Kind, LineIndex};
 use fem_beam::{Beam, BeamSpec, TimeFunction};
-use fem_structure::MatrixFiles;
+use fem_structure::{MatrixFiles, StructureParts};
 use hybrid_core::hybrid::Method;
 use hybrid_core::hybrid::{AttachmentKind, ForceKind, Placement};
 
@@ -148,11 +148,44 @@ pub struct AttachmentEntry {
     pub(crate) x_span: Range<usize>,
 }
 
+/// Where a `[structure]`'s matrices and tables come from.
+#[derive(Clone, Debug)]
+pub enum StructureSource {
+    /// Files (`kind = "matrices"`), resolved against the scenario's directory.
+    Files(MatrixFiles),
+    /// Given in memory (`kind = "given"`: the Python package's `Structure.from_matrices`,
+    /// through [`crate::scenario::Override::structure`]), with the damping written in the
+    /// table.
+    Given {
+        /// The matrices and tables, checked.
+        parts: std::sync::Arc<StructureParts>,
+        /// Its damping (`Matrix`: the given `C`).
+        damping: fem_structure::DampingInput,
+    },
+}
+
+impl PartialEq for StructureSource {
+    /// Files by their paths; given parts by identity.
+    fn eq(&self, other: &Self) -> bool {
+        match (self, other) {
+            (StructureSource::Files(a), StructureSource::Files(b)) => a == b,
+            (
+                StructureSource::Given { parts, damping },
+                StructureSource::Given {
+                    parts: p,
+                    damping: d,
+                },
+            ) => std::sync::Arc::ptr_eq(parts, p) && damping == d,
+            _ => false,
+        }
+    }
+}
+
 /// `[structure]`: a model from another finite-element program (`fem_structure`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct StructureEntry {
-    /// The files, resolved against the scenario's directory.
-    pub files: MatrixFiles,
+    /// Its matrices and tables.
+    pub source: StructureSource,
     /// Craig–Bampton reduction with this many fixed-interface modes (`None`: the full
     /// model runs).
     pub reduction_modes: Option<usize>,

@@ -20,7 +20,7 @@ use super::schema::{
 use super::table::time_function;
 use super::{
     AttachmentEntry, ExcitationEntry, ForceEntry, HybridScenario, MechanismEntry, StructureEntry,
-    TargetEntry,
+    StructureSource, TargetEntry,
 };
 use crate::scenario::Doc;
 use crate::scenario::compare::Comparison;
@@ -150,8 +150,10 @@ fn beam(doc: &mut Doc<'_>, ok: &mut bool) -> (Option<(BeamSpec, Beam)>, Option<R
 }
 
 /// `[structure]`: the files of a model from another finite-element program (paths relative to
-/// the scenario), its damping and reduction; refused beside a `[beam]`. The files themselves
-/// are read when the model is built ([`crate::setup::build()`]).
+/// the scenario; `kind = "matrices"`) or the parts given in memory (`kind = "given"`, set by
+/// [`crate::scenario::Override::structure`]), its damping and reduction; refused beside a
+/// `[beam]`. The files themselves are read when the model is built
+/// ([`crate::setup::build()`]).
 fn structure(doc: &mut Doc<'_>, beam_written: bool, ok: &mut bool) -> Option<StructureEntry> {
     let raw = doc.section::<RawStructure>("structure", false);
     let span = doc.span(&["structure"]);
@@ -168,22 +170,71 @@ fn structure(doc: &mut Doc<'_>, beam_written: bool, ok: &mut bool) -> Option<Str
         doc.push(Kind::InvalidValue, Some(span.clone()), Some(entity), msg);
         good = false;
     }
-    if raw.kind.get_ref() != "matrices" {
-        let msg = format!(
-            "unknown kind {:?} (expected \"matrices\")",
-            raw.kind.get_ref()
-        );
-        doc.push(Kind::InvalidValue, Some(raw.kind.span()), Some(entity), msg);
-        good = false;
-    }
     let base = doc.base().to_path_buf();
-    let path = |p: &Spanned<String>| base.join(p.get_ref());
+    let files = [
+        ("mass", &raw.mass),
+        ("stiffness", &raw.stiffness),
+        ("nodes", &raw.nodes),
+        ("dofs", &raw.dofs),
+    ];
+    let given = match raw.kind.get_ref().as_str() {
+        "matrices" => {
+            for (key, _) in files.iter().filter(|(_, f)| f.is_none()) {
+                let msg = format!("missing `{key}` (a file path) for kind = \"matrices\"");
+                doc.push(Kind::InvalidValue, Some(span.clone()), Some(entity), msg);
+                good = false;
+            }
+            None
+        }
+        "given" => match doc.given() {
+            Some(parts) => {
+                for (key, f) in files.iter() {
+                    if let Some(f) = f {
+                        let msg = format!(
+                            "`{key}`: a given structure's matrices come with it, not from files"
+                        );
+                        doc.push(Kind::InvalidValue, Some(f.span()), Some(entity), msg);
+                        good = false;
+                    }
+                }
+                Some(parts)
+            }
+            None => {
+                let msg = "kind \"given\" is a structure given in memory (Python: Structure.from_matrices and Scenario.load(..., structure=...)); a scenario file names its files with kind = \"matrices\"";
+                doc.push(Kind::InvalidValue, Some(raw.kind.span()), Some(entity), msg);
+                good = false;
+                None
+            }
+        },
+        other => {
+            let msg = format!("unknown kind {other:?} (expected \"matrices\")");
+            doc.push(Kind::InvalidValue, Some(raw.kind.span()), Some(entity), msg);
+            good = false;
+            None
+        }
+    };
     let damping = match raw.damping.as_ref().map(|d| (d.get_ref(), d.span())) {
-        None => DampingInput::None,
-        Some((RawStructureDamping::File(f), _)) => DampingInput::Matrix(base.join(f)),
+        None => match &given {
+            Some(p) if p.damping.is_some() => DampingInput::Matrix(PathBuf::new()),
+            _ => DampingInput::None,
+        },
+        Some((RawStructureDamping::File(f), span)) => {
+            if given.is_some() {
+                let msg = "damping: a given structure is damped by its own C (Structure.from_matrices(damping=C)) or by ratios, not by a file";
+                doc.push(Kind::InvalidValue, Some(span), Some(entity), msg);
+                good = false;
+            }
+            DampingInput::Matrix(base.join(f))
+        }
         Some((RawStructureDamping::Ratios { ratios }, span)) => {
             let valid = |r: &RawRatio| r.mode >= 1 && r.ratio.is_finite() && r.ratio >= 0.0;
             match ratios.as_slice() {
+                _ if given.as_ref().is_some_and(|p| p.damping.is_some()) => {
+                    let msg = "damping: the given structure has a damping matrix C: give ratios or C, not both";
+                    doc.push(Kind::InvalidValue, Some(span), Some(entity), msg);
+                    good = false;
+                    DampingInput::None
+                }
                 [a, b] if valid(a) && valid(b) && a.mode != b.mode => {
                     DampingInput::Ratios([(a.mode, a.ratio), (b.mode, b.ratio)])
                 }
@@ -212,14 +263,22 @@ fn structure(doc: &mut Doc<'_>, beam_written: bool, ok: &mut bool) -> Option<Str
         }
     };
     *ok &= good;
-    good.then(|| StructureEntry {
-        files: MatrixFiles {
+    let path = |p: &Option<Spanned<String>>| {
+        p.as_ref()
+            .map_or_else(PathBuf::new, |p| base.join(p.get_ref()))
+    };
+    let source = match given {
+        Some(parts) => StructureSource::Given { parts, damping },
+        None => StructureSource::Files(MatrixFiles {
             mass: path(&raw.mass),
             stiffness: path(&raw.stiffness),
             nodes: path(&raw.nodes),
             dofs: path(&raw.dofs),
             damping,
-        },
+        }),
+    };
+    good.then_some(StructureEntry {
+        source,
         reduction_modes,
         span,
     })

@@ -67,10 +67,14 @@ pub(super) struct RawAttachment {
 #[serde(deny_unknown_fields)]
 pub(super) struct RawStructure {
     pub(super) kind: Spanned<String>,
-    pub(super) mass: Spanned<String>,
-    pub(super) stiffness: Spanned<String>,
-    pub(super) nodes: Spanned<String>,
-    pub(super) dofs: Spanned<String>,
+    #[serde(default)]
+    pub(super) mass: Option<Spanned<String>>,
+    #[serde(default)]
+    pub(super) stiffness: Option<Spanned<String>>,
+    #[serde(default)]
+    pub(super) nodes: Option<Spanned<String>>,
+    #[serde(default)]
+    pub(super) dofs: Option<Spanned<String>>,
     #[serde(default)]
     pub(super) damping: Option<Spanned<RawStructureDamping>>,
     #[serde(default)]
