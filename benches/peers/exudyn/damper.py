@@ -39,7 +39,7 @@ try:
     import exudyn as exu
     from exudyn.itemInterface import (
         MarkerBodyPosition, MarkerNodeCoordinate, MarkerNodePosition, NodeGenericODE2,
-        NodePoint2D, NodePointGround, NodeRigidBody2D, ObjectConnectorCoordinate,
+        NodePoint2D, NodePointGround, NodeRigidBody2D, ObjectConnectorCoordinate, SensorMarker,
         ObjectConnectorCoordinateSpringDamper, ObjectGenericODE2, ObjectGround,
         ObjectJointRevolute2D, ObjectRigidBody2D, SensorNode)
 except ImportError as e:
@@ -241,6 +241,14 @@ def build(p, args):
         sensors[name] = mbs.AddSensor(SensorNode(nodeNumber=node, outputVariableType=ovt,
                                                  writeToFile=bool(out), fileName=fn,
                                                  storeInternal=args.internal))
+    if args.internal:
+        # the drift of the velocity-level constraints: the coupler's end against the beam tip
+        sensors["coupler_end"] = mbs.AddSensor(SensorMarker(
+            markerNumber=m2b, outputVariableType=exu.OutputVariableType.Position,
+            writeToFile=False, storeInternal=True))
+        sensors["tip_position"] = mbs.AddSensor(SensorMarker(
+            markerNumber=mBp, outputVariableType=exu.OutputVariableType.Position,
+            writeToFile=False, storeInternal=True))
     mbs.Assemble()
     info = dict(omega=om, rayleigh=ab, cg=cg, n2Jr=n2Jr, q1_0=phi1, q2_0=phi2 - phi1,
                 ncoords=N + 6)
@@ -330,6 +338,12 @@ def main():
                 q2 = info["q2_0"] + c2[k, 3] - c1[k, 3]
                 f.write(f"{float(w[k,0])!r},{float(w[k,2])!r},{float(v[k,2])!r},{float(q1)!r},{float(q2)!r},{float(r1[k,3])!r},"
                         f"{float(ke_n_R * r1[k,3])!r}\n")
+        e = mbs.GetSensorStoredData(sensors["coupler_end"])
+        b = mbs.GetSensorStoredData(sensors["tip_position"])
+        drift = float(np.max(np.hypot(e[:, 1] - b[:, 1], e[:, 2] - b[:, 2])))
+        ux = float(np.max(np.abs(b[:, 1] - p["length"])))
+        print(f"constraint drift: largest |coupler end - beam tip| {drift:.3g} m, "
+              f"|tip ux| {ux:.3g} m", file=sys.stderr)
     if not args.quiet:
         print(f"exudyn {exu.__version__}: {steps} steps of {dt:g} s in {wall:.3f} s "
               f"(SolveDynamic), {info['ncoords']} ODE2 coordinates; beam f1, f2 = "

@@ -59,7 +59,7 @@ def exu_cmd(args, out, dt=None, every=None, t_end=None, csv_path=None):
         cmd += ["--t-end", repr(t_end)]
     if csv_path:
         cmd += ["--csv", csv_path]
-    return cmd
+    return cmd + args.exu_args.split()
 
 
 def read_csv(path):
@@ -75,6 +75,7 @@ def run(cmd):
     p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     if p.returncode != 0:
         fail(f"{' '.join(cmd)} exited with {p.returncode}: {p.stderr.strip().splitlines()[-1:]}")
+    return p.stderr
 
 
 def agree(args):
@@ -84,13 +85,14 @@ def agree(args):
           f"in damper's run (rows every {args.sample:g} s)")
     print("| dt [s] | " + " | ".join(COLUMNS) + " |")
     print("| --- |" + " --- |" * len(COLUMNS))
+    drifts = []
     with tempfile.TemporaryDirectory(prefix="exu-agree-") as tmp:
         for dt in args.dt:
             every = max(1, round(args.sample / dt))
             ours = os.path.join(tmp, f"ours-{dt:g}")
             theirs = os.path.join(tmp, f"exu-{dt:g}.csv")
             run(ours_cmd(args, ours, dt=dt, every=every, t_end=t_end))
-            run(exu_cmd(args, "", dt=dt, every=every, t_end=t_end, csv_path=theirs))
+            drift = run(exu_cmd(args, "", dt=dt, every=every, t_end=t_end, csv_path=theirs))
             a = read_csv(os.path.join(ours, "time_history.csv"))
             b = read_csv(theirs)
             n = min(len(a["t [s]"]), len(b["t [s]"]))
@@ -108,7 +110,10 @@ def agree(args):
                 diff = max(abs(a[c][k] - b[c][k]) for k in range(n))
                 cells.append(f"{diff / amp:.2e}")
             print(f"| {dt:g} | " + " | ".join(cells) + " |", flush=True)
+            drifts.append(f"dt {dt:g}: exudyn's " + drift.strip())
     print("(q1, q2: relative to their largest excursion from the initial angle)")
+    for d in drifts:
+        print(d)
 
 
 def timing(args):
@@ -149,6 +154,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--damper", default=os.path.join(REPO, "target", "release", "damper"),
                     help="the damper binary (default target/release/damper)")
+    ap.add_argument("--exu-args", default="", metavar="'ARGS'",
+                    help="more arguments for damper.py, e.g. '--rho 0.9'")
     ap.add_argument("--python", default=VENV_PY,
                     help="Python with exudyn and numpy (default target/exu-venv/bin/python)")
     sub = ap.add_subparsers(dest="what", required=True)
