@@ -116,38 +116,60 @@ def agree(args):
         print(d)
 
 
+def run_timed(cmd):
+    """Wall seconds (monotonic clock around start and reap) and the child's user + system
+    CPU seconds (the kernel's accounting, os.wait4)."""
+    t0 = time.perf_counter()
+    p = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                         stderr=subprocess.PIPE)
+    err = p.stderr.read()
+    _, status, ru = os.wait4(p.pid, 0)
+    wall = time.perf_counter() - t0
+    p.returncode = os.waitstatus_to_exitcode(status)
+    if p.returncode != 0:
+        fail(f"{cmd[0]} exited with {p.returncode}: {err.decode(errors='replace').strip()[-300:]}")
+    return wall, ru.ru_utime + ru.ru_stime
+
+
 def timing(args):
     check_tools(args)
-    ours_t, exu_t, ratios = [], [], []
+    names = ["damper simulate", "exudyn damper.py", "python -c 'import numpy, exudyn'"]
+    wall = {n: [] for n in names}
+    cpu = {n: [] for n in names}
+    ratios, cpu_ratios = [], []
     with tempfile.TemporaryDirectory(prefix="exu-time-") as tmp:
         o = os.path.join(tmp, "ours")
         e = os.path.join(tmp, "exu")
-        a = ours_cmd(args, o)
-        b = exu_cmd(args, e)
-        print("ours:   " + " ".join(a).replace(tmp, "TMP"))
-        print("exudyn: " + " ".join(b).replace(tmp, "TMP"))
+        cmds = [(names[0], ours_cmd(args, o), o), (names[1], exu_cmd(args, e), e),
+                (names[2], [args.python, "-c", "import numpy, exudyn"], None)]
+        for n, c, _ in cmds:
+            print(f"{n}: " + " ".join(c).replace(tmp, "TMP"))
         for k in range(args.warmup + args.runs):
-            pair = []
-            for cmd, d in ((a, o), (b, e)):
-                shutil.rmtree(d, ignore_errors=True)
-                t0 = time.perf_counter()
-                p = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-                t = time.perf_counter() - t0
-                if p.returncode != 0:
-                    fail(f"{cmd[0]} exited with {p.returncode}: {p.stderr.strip()[-300:]}")
-                pair.append(t)
+            got = {}
+            for n, c, d in cmds:
+                if d:
+                    shutil.rmtree(d, ignore_errors=True)
+                got[n] = run_timed(c)
             if k >= args.warmup:
-                ours_t.append(pair[0])
-                exu_t.append(pair[1])
-                ratios.append(pair[1] / pair[0])
-                print(f"run {k - args.warmup + 1}: damper {pair[0]:.3f} s, exudyn {pair[1]:.3f} s",
-                      file=sys.stderr, flush=True)
+                for n in names:
+                    wall[n].append(got[n][0])
+                    cpu[n].append(got[n][1])
+                ratios.append(got[names[1]][0] / got[names[0]][0])
+                cpu_ratios.append(got[names[1]][1] / got[names[0]][1])
+                print(f"run {k - args.warmup + 1}: " + ", ".join(
+                    f"{n.split()[0]} {got[n][0]:.3f} s" for n in names[:2]),
+                    file=sys.stderr, flush=True)
     med = statistics.median
-    print(f"whole process, wall, {args.runs} interleaved runs each (min / median / max):")
-    print(f"  damper simulate: {min(ours_t):.3f} / {med(ours_t):.3f} / {max(ours_t):.3f} s")
-    print(f"  exudyn damper.py: {min(exu_t):.3f} / {med(exu_t):.3f} / {max(exu_t):.3f} s")
-    print(f"  ratio exudyn / damper, median of the pairs: {med(ratios):.1f} "
-          f"(min {min(ratios):.1f}, max {max(ratios):.1f})")
+    print(f"whole process, {args.runs} interleaved runs each, seconds (min / median / max):")
+    print("| command | wall | user + system CPU |")
+    print("| --- | --- | --- |")
+    for n in names:
+        w, c = wall[n], cpu[n]
+        print(f"| {n} | {min(w):.3f} / {med(w):.3f} / {max(w):.3f} | "
+              f"{min(c):.3f} / {med(c):.3f} / {max(c):.3f} |")
+    print(f"ratio exudyn / damper, median of the pairs: wall {med(ratios):.1f} "
+          f"(min {min(ratios):.1f}, max {max(ratios):.1f}), CPU {med(cpu_ratios):.1f} "
+          f"(min {min(cpu_ratios):.1f}, max {max(cpu_ratios):.1f})")
 
 
 def main():
