@@ -54,11 +54,41 @@ def fail(msg):
     sys.exit(f"damper.py: {msg}")
 
 
+def only(table, allowed, where):
+    """Refuse a field the peer does not model (rather than silently leave it out)."""
+    extra = sorted(set(table) - set(allowed))
+    if extra:
+        fail(f"{where}: {', '.join(extra)} not modelled by the peer")
+
+
+def numbers(table, where):
+    for k, v in table.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            fail(f"{where}.{k}: a plain number expected (units in strings are not read here)")
+
+
 def load_model(scenario_path):
     """The damper's numbers from the scenario and the mechanism file; refuses what the peer
     model does not represent."""
     with open(scenario_path, "rb") as f:
         sc = tomllib.load(f)
+    only(sc, ["kind", "description", "beam", "mechanism", "generator", "initial",
+              "integrator", "output"], scenario_path)
+    only(sc["beam"], ["name", "segment", "support", "damping"], "[beam]")
+    only(sc["generator"], ["kt", "ke", "armature_resistance", "load_resistance", "inductance",
+                           "gear_ratio", "rotor_inertia"], "[generator]")
+    numbers(sc["generator"], "generator")
+    only(sc["initial"], ["displacement"], "[initial]")
+    only(sc["integrator"], ["method", "dt", "t_end"], "[integrator]")
+    only(sc["mechanism"], ["model", "point", "x", "half_angle_deg", "generator_joint",
+                           "max_condition", "parameters"], "[mechanism]")
+    only(sc["beam"].get("damping", {}), ["ratios"], "[beam.damping]")
+    for seg in sc["beam"]["segment"]:
+        only(seg, ["length", "youngs_modulus", "density", "width", "height", "elements"],
+             "[[beam.segment]]")
+        numbers(seg, "beam.segment")
+    numbers(sc["initial"], "initial")
+    numbers({k: v for k, v in sc["integrator"].items() if k != "method"}, "integrator")
     if sc.get("kind", "damper") != "damper":
         fail(f"{scenario_path}: only kind = \"damper\" is modelled")
     for key in ("excitation",):
