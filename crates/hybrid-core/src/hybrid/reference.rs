@@ -9,9 +9,10 @@
 //!
 //! # The system
 //!
-//! All coordinates `x = [q^c (beam, n); q^1; q^2; ...]` (every mechanism's tree coordinates)
-//! and all multipliers `lambda` (per mechanism: its loop rows, then per attachment of that
-//! mechanism, in the model's order, the transverse row and for a pin the axial row):
+//! All coordinates `x = [q^c (the host structure: the beam or an imported or reduced model,
+//! n); q^1; q^2; ...]` (every mechanism's tree coordinates) and all multipliers `lambda` (per
+//! mechanism: its loop rows, then per attachment of that mechanism, in the model's order, the
+//! row along the point's direction and for a pin the `x` row):
 //!
 //! ```text
 //! [ M_full  J^T ] [ x''    ]   [ rhs ]        M_full = blockdiag(A, M^1, M^2, ...)
@@ -23,13 +24,17 @@
 //!
 //! ```text
 //! loop rows        h = h^b(q^b)                       J = [0 .. J^b ..]       a = A^b   (14)–(16)
-//! transverse row   h = P_y(q^b) - n^T q^c             J = [-n^T .. dP_y/dq^b ..]       (45), (54)
-//! axial row (pin)  h = P_x(q^b) - x_b                 J = [0 .. dP_x/dq^b ..]          (46)
+//! direction row    h = d.(P(q^b) - P_0) - n^T q^c     J = [-n^T .. d.dP/dq^b ..]       (45), (54)
+//! x row (pin)      h = P_x(q^b) - x_0 - m^T q^c       J = [-m^T .. dP_x/dq^b ..]       (46)
 //! ```
 //!
-//! `P = origin + R(angle) p(q^b)` the mechanism point in the beam frame, `a` the bias
-//! `J' x'` (the point bias `point_a` rotated by the mount; `n` is constant so the beam adds
-//! no bias). The first block row is the beam (44) with `-J^c^T lambda` moved to the left, the
+//! `P = origin + R(angle) p(q^b)` the mechanism point in the structure's frame, `P_0 = (x_0,
+//! y_0)` the attachment's undeformed position, `d` its direction (`y` on the beam and for a
+//! pin; a roller at a node follows its own), `n` the weights of its displacement along `d`,
+//! `m` those along `x` (none on the beam, whose points do not move axially: eq. 46 as
+//! written), `a` the bias `J' x'` (the point bias `point_a` rotated by the mount; `n`, `m`
+//! are constant so the structure adds no bias). The structure's dense `M`, `B`, `K` are its
+//! products with the unit vectors. The first block row is the beam (44) with `-J^c^T lambda` moved to the left, the
 //! next ones are each mechanism's `M q'' + F + Q + J^T lambda = 0` (17).
 //!
 //! # Trajectories
@@ -46,6 +51,7 @@ use super::linear::{Linearization, Matrix};
 
 use super::integrator::HybridState;
 use super::model::{AttachmentKind, HybridModel};
+use super::structure::LinearStructure;
 
 /// Index bookkeeping of the full coordinate and multiplier vectors.
 #[derive(Clone, Debug)]
@@ -60,7 +66,7 @@ struct Layout {
     total: usize,
     /// All rows.
     rows: usize,
-    /// The beam's mass, damping and stiffness matrices, dense.
+    /// The structure's mass, damping and stiffness matrices, dense.
     dense: Option<[DMatrix<f64>; 3]>,
 }
 
@@ -87,15 +93,37 @@ impl Layout {
             row,
             total: c,
             rows: r,
-            dense: model.beam().map(|b| {
-                [
-                    b.mass().to_dense(),
-                    b.damping().to_dense(),
-                    b.stiffness().to_dense(),
-                ]
-            }),
+            dense: structure_matrices(model),
         }
     }
+}
+
+/// The host structure's mass, damping and stiffness matrices, dense (`None` without a
+/// structure): its products with the unit vectors.
+pub fn structure_matrices(model: &HybridModel) -> Option<[DMatrix<f64>; 3]> {
+    let n = model.structure_dofs();
+    model.structure.as_ref().map(|s| {
+        [
+            dense(n, |x, y| s.mass_mul_add(1.0, x, y)),
+            dense(n, |x, y| s.damping_mul_add(1.0, x, y)),
+            dense(n, |x, y| s.stiffness_mul_add(1.0, x, y)),
+        ]
+    })
+}
+
+/// The `n x n` matrix of the product `y += A x`, column by column (`A e_j`).
+fn dense(n: usize, mul_add: impl Fn(&[f64], &mut [f64])) -> DMatrix<f64> {
+    let mut a = DMatrix::zeros(n, n);
+    let mut e = vec![0.0; n];
+    let mut col = vec![0.0; n];
+    for j in 0..n {
+        e[j] = 1.0;
+        col.fill(0.0);
+        mul_add(&e, &mut col);
+        a.column_mut(j).copy_from_slice(&col);
+        e[j] = 0.0;
+    }
+    a
 }
 
 /// Constraint values `h`, Jacobian `J = dh/dx` and (with velocities) the bias `a = J' x'`
@@ -139,18 +167,25 @@ fn constraint_terms(
                 m.mount.origin[0] + cs * px - sn * py,
                 m.mount.origin[1] + sn * px + cs * py,
             );
-            // Transverse row: P_y - n^T q^c.
-            h[r] = by - a.beam.value(&x[..lay.n]);
+            // The row along the point's direction d (y on the beam and for a pin):
+            // d . (P - P_0) - n^T q^c.
+            let d = a.beam.direction;
+            h[r] = d[0] * (bx - a.beam.x) + d[1] * (by - a.beam.y) - a.beam.value(&x[..lay.n]);
             for &(k, w) in &a.beam.weights {
                 jac[(r, k)] -= w;
             }
+            let (dx, dy) = (d[0] * cs + d[1] * sn, d[1] * cs - d[0] * sn);
             for c in 0..dof {
-                jac[(r, c0 + c)] = sn * ws.point_j[(0, c)] + cs * ws.point_j[(1, c)];
+                jac[(r, c0 + c)] = dx * ws.point_j[(0, c)] + dy * ws.point_j[(1, c)];
             }
-            bias[r] = sn * ws.point_a[0] + cs * ws.point_a[1];
+            bias[r] = dx * ws.point_a[0] + dy * ws.point_a[1];
             r += 1;
             if a.kind == AttachmentKind::Pin {
-                h[r] = bx - a.beam.x;
+                // The x row: P_x - x_0 - (the node's u_x; nothing on the beam).
+                h[r] = bx - a.beam.x - a.beam.axial.iter().map(|&(k, w)| w * x[k]).sum::<f64>();
+                for &(k, w) in &a.beam.axial {
+                    jac[(r, k)] -= w;
+                }
                 for c in 0..dof {
                     jac[(r, c0 + c)] = cs * ws.point_j[(0, c)] - sn * ws.point_j[(1, c)];
                 }
@@ -222,10 +257,10 @@ fn solve_kkt(
     let mut kkt = DMatrix::zeros(nt + nr, nt + nr);
     let mut rhs = DVector::zeros(nt + nr);
     let n = lay.n;
-    if let (Some(beam), Some([mass, damp, stiff])) = (model.beam(), &lay.dense) {
+    if let (Some(structure), Some([mass, damp, stiff])) = (&model.structure, &lay.dense) {
         kkt.view_mut((0, 0), (n, n)).copy_from(mass);
         let mut p = vec![0.0; n];
-        beam.load_into(t, &mut p);
+        structure.load_into(t, &mut p);
         model.add_beam_excitations(t, &mut p);
         let a = model.base_acceleration(t);
         if a != 0.0 {

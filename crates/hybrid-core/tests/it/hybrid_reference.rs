@@ -62,15 +62,15 @@ impl AccCheck {
             &state.currents,
         );
         assert!(lambda.iter().all(|l| l.is_finite()));
-        let beam = model.beam().unwrap();
-        let mut cq = vec![0.0; a.len()];
-        beam.stiffness().mul_vec_into(&state.q, &mut cq);
-        let elastic = beam.factorize(beam.mass()).unwrap().solve(&cq);
+        let [mass, _, stiffness] = reference::structure_matrices(model).unwrap();
+        let cq = stiffness * nalgebra::DVector::from_column_slice(&state.q);
+        let elastic = mass.lu().solve(&cq).unwrap();
+        let elastic = elastic.as_slice();
         let nm = qdd.len();
         self.diff.resize(nm + 1, 0.0);
         self.scale.resize(nm + 1, 0.0);
         self.diff[0] = self.diff[0].max(max_diff(&a, &state.a));
-        self.scale[0] = self.scale[0].max(max_abs(&a)).max(max_abs(&elastic));
+        self.scale[0] = self.scale[0].max(max_abs(&a)).max(max_abs(elastic));
         for (i, (r, m)) in qdd.iter().zip(&state.mechanisms).enumerate() {
             self.diff[i + 1] = self.diff[i + 1].max(max_diff(r, &m.qdd));
             self.scale[i + 1] = self.scale[i + 1].max(max_abs(r));
@@ -193,6 +193,34 @@ fn base_excited_accelerations_equal_the_kkt_solution() {
         worst_all = worst_all.max(worst);
     }
     println!("worst over the base-excited shapes: {worst_all:e}");
+}
+
+/// On a structure's node (the one-node model of `structures.rs`: 2 kg, springs along `x` and
+/// `y`), the double bar pinned (two rows, the node's `ux` and `uy`) or on a roller along
+/// `[0, 1]` and along the oblique `[0.6, 0.8]` (one row `d . (P - P_0) = d . u`): the engine's
+/// accelerations are the dense KKT solution's, whose rows are written from the attachment's
+/// position, direction and weights apart from the engine's follower.
+#[test]
+fn node_attachments_accelerations_equal_the_kkt_solution() {
+    let paper = crate::structures::weightless_paper();
+    for (kind, direction) in [
+        (AttachmentKind::Pin, [0.0, 1.0]),
+        (AttachmentKind::Roller, [0.0, 1.0]),
+        (AttachmentKind::Roller, [0.6, 0.8]),
+    ] {
+        let model = crate::structures::damper_on_node(&paper, kind, direction, false);
+        let mut state = initial_state(&model, vec![1e-3, 4e-4], vec![0.0; 2]).unwrap();
+        let mut check = AccCheck::default();
+        check.add(&model, &state);
+        let mut integ = Integrator::new(&model, Method::Newmark, 1e-4, &state).unwrap();
+        for _ in 0..300 {
+            integ.step(&model, &mut state).unwrap();
+            check.add(&model, &state);
+        }
+        let worst = check.worst();
+        println!("{kind:?} along {direction:?}: worst relative acceleration error {worst:e}");
+        assert!(worst < ACC_TOL, "{kind:?} {direction:?}: worst {worst:e}");
+    }
 }
 
 // ---------------------------------------------------------------------------------------
@@ -337,6 +365,31 @@ fn paper_damper_trajectory_matches_the_rk4_kkt_reference() {
     let n = q0.len();
     let e = trajectory_errors(&model, q0, vec![0.0; n], 1e-5, 2e-6, 0.5, 1e-3);
     assert_converges("paper damper", &e);
+}
+
+/// The node attachments' trajectories (a pin; a roller along the oblique `[0.6, 0.8]`)
+/// converge to the RK4 KKT reference at second order, the extrapolation within 1e-6. The
+/// node's springs are soft (141 and 224 rad/s); the generator's damping reflected on the
+/// crank sets RK4's step: 1e-5.
+#[test]
+fn node_attachment_trajectories_match_the_rk4_kkt_reference() {
+    let paper = crate::structures::weightless_paper();
+    for (kind, direction) in [
+        (AttachmentKind::Pin, [0.0, 1.0]),
+        (AttachmentKind::Roller, [0.6, 0.8]),
+    ] {
+        let model = crate::structures::damper_on_node(&paper, kind, direction, false);
+        let e = trajectory_errors(
+            &model,
+            vec![1e-3, 4e-4],
+            vec![0.0; 2],
+            1e-4,
+            1e-5,
+            0.2,
+            1e-3,
+        );
+        assert_converges(&format!("{kind:?} along {direction:?}"), &e);
+    }
 }
 
 #[test]

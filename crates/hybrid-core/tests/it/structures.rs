@@ -18,7 +18,7 @@ use hybrid_core::hybrid::{
 };
 use nalgebra::{DMatrix, DVector};
 
-use crate::common::damper::PaperDamper;
+use crate::common::damper::{Geometry, PaperDamper};
 
 fn beam() -> BeamModel {
     let text = r#"
@@ -290,6 +290,88 @@ pub(crate) fn node_on_springs(m: f64, springs: &[(&str, f64)]) -> ImportedStruct
     .unwrap()
 }
 
+/// The paper's double bar (no gravity) on node 7 of [`one_node`] (mass 2 kg, springs 4e4
+/// and 1e5 N/m along `x` and `y`) by `kind` (a roller following `direction`; a pin ignores
+/// it), its generator on the crank; `turned`: the same physical system turned by 90 degrees
+/// (equations `uy`, `ux`, the mount turned, the roller's direction turned by the caller).
+pub(crate) fn damper_on_node(
+    paper: &PaperDamper,
+    kind: AttachmentKind,
+    direction: [f64; 2],
+    turned: bool,
+) -> HybridModel {
+    let (first, (ux, uy)) = if turned {
+        ("uy", (1, 0))
+    } else {
+        ("ux", (0, 1))
+    };
+    let point = BeamPoint::node([0.0, 0.0], Some(ux), Some(uy));
+    let point = match kind {
+        AttachmentKind::Pin => point,
+        AttachmentKind::Roller => point.along(direction),
+    };
+    let mount = |g: &Geometry| {
+        let origin = [-g.target[0], -g.target[1]];
+        match turned {
+            true => Mount {
+                origin: [-origin[1], origin[0]],
+                angle: std::f64::consts::FRAC_PI_2,
+            },
+            false => Mount { origin, angle: 0.0 },
+        }
+    };
+    double_bar_on(paper, one_node(2.0, [4e4, 1e5], first), mount, kind, point).0
+}
+
+/// The paper's double bar attached to `structure` at `point` by `kind`, mounted by
+/// `mount(geometry)` (the geometry of its placement on the paper's beam), its generator on
+/// the crank; and that geometry.
+pub(crate) fn double_bar_on(
+    paper: &PaperDamper,
+    structure: ImportedStructure,
+    mount: impl FnOnce(&Geometry) -> Mount,
+    kind: AttachmentKind,
+    point: BeamPoint,
+) -> (HybridModel, Geometry) {
+    let system = paper.with_parameters(crate::common::damper::double_bar());
+    let g = paper.geometry(&paper.beam(), system.as_ref());
+    let model = HybridModel::new(
+        Some(Structure::Imported(structure)),
+        vec![MountedMechanism {
+            name: "damper".into(),
+            system,
+            mount: mount(&g),
+            max_condition: paper.max_condition,
+            reach: None,
+            initial_q: g.guess.to_vec(),
+        }],
+        vec![Attachment {
+            name: "tip".into(),
+            mechanism: 0,
+            point: g.tip,
+            kind,
+            beam: point,
+        }],
+        vec![JointForce {
+            name: "generator".into(),
+            mechanism: 0,
+            joint: g.joint,
+            kind: ForceKind::Generator(paper.generator.clone()),
+        }],
+        vec![],
+    )
+    .unwrap();
+    (model, g)
+}
+
+/// The paper's damper without gravity (the node tests' mechanism).
+pub(crate) fn weightless_paper() -> PaperDamper {
+    PaperDamper {
+        parameters: vec![("gx", 0.0), ("gy", 0.0)],
+        ..PaperDamper::default()
+    }
+}
+
 /// A node that moves along both axes, with the double bar pinned to it: the pin couples
 /// through both of its rows (the `y` row as on the beam, the `x` row as well). The same
 /// physical system turned by 90 degrees — the structure's equations now `uy`, `ux`, the
@@ -299,59 +381,17 @@ pub(crate) fn node_on_springs(m: f64, springs: &[(&str, f64)]) -> ImportedStruct
 /// damping).
 #[test]
 fn a_pin_on_a_node_couples_both_directions() {
-    let paper = PaperDamper {
-        parameters: vec![("gx", 0.0), ("gy", 0.0)],
-        ..PaperDamper::default()
-    };
+    let paper = weightless_paper();
     let build = |turned: bool| -> (HybridModel, Vec<f64>) {
-        let system = paper.with_parameters(crate::common::damper::double_bar());
-        let beam = paper.beam();
-        let g = paper.geometry(&beam, system.as_ref());
-        let origin = [-g.target[0], -g.target[1]];
-        let (structure, mount, q0) = if turned {
-            (
-                one_node(2.0, [4e4, 1e5], "uy"),
-                Mount {
-                    origin: [-origin[1], origin[0]],
-                    angle: std::f64::consts::FRAC_PI_2,
-                },
-                vec![1e-3, -4e-4],
-            )
+        let q0 = if turned {
+            vec![1e-3, -4e-4]
         } else {
-            (
-                one_node(2.0, [4e4, 1e5], "ux"),
-                Mount { origin, angle: 0.0 },
-                vec![1e-3, 4e-4],
-            )
+            vec![1e-3, 4e-4]
         };
-        let (ux, uy) = if turned { (1, 0) } else { (0, 1) };
-        let model = HybridModel::new(
-            Some(Structure::Imported(structure)),
-            vec![MountedMechanism {
-                name: "damper".into(),
-                system,
-                mount,
-                max_condition: paper.max_condition,
-                reach: None,
-                initial_q: g.guess.to_vec(),
-            }],
-            vec![Attachment {
-                name: "tip".into(),
-                mechanism: 0,
-                point: g.tip,
-                kind: AttachmentKind::Pin,
-                beam: BeamPoint::node([0.0, 0.0], Some(ux), Some(uy)),
-            }],
-            vec![JointForce {
-                name: "generator".into(),
-                mechanism: 0,
-                joint: g.joint,
-                kind: ForceKind::Generator(paper.generator.clone()),
-            }],
-            vec![],
+        (
+            damper_on_node(&paper, AttachmentKind::Pin, [0.0, 1.0], turned),
+            q0,
         )
-        .unwrap();
-        (model, q0)
     };
     let run = |(model, q0): (HybridModel, Vec<f64>)| -> Vec<HybridState> {
         assert_eq!(model.couplings().len(), 2, "the pin couples both rows");
@@ -395,58 +435,10 @@ fn a_pin_on_a_node_couples_both_directions() {
 /// mechanism coordinates to the last bit).
 #[test]
 fn a_roller_on_a_node_follows_its_direction_only() {
-    let paper = PaperDamper {
-        parameters: vec![("gx", 0.0), ("gy", 0.0)],
-        ..PaperDamper::default()
-    };
+    let paper = weightless_paper();
     let build = |turned: bool| -> HybridModel {
-        let system = paper.with_parameters(crate::common::damper::double_bar());
-        let beam = paper.beam();
-        let g = paper.geometry(&beam, system.as_ref());
-        let origin = [-g.target[0], -g.target[1]];
-        let (structure, mount, direction) = if turned {
-            (
-                one_node(2.0, [4e4, 1e5], "uy"),
-                Mount {
-                    origin: [-origin[1], origin[0]],
-                    angle: std::f64::consts::FRAC_PI_2,
-                },
-                [-1.0, 0.0],
-            )
-        } else {
-            (
-                one_node(2.0, [4e4, 1e5], "ux"),
-                Mount { origin, angle: 0.0 },
-                [0.0, 1.0],
-            )
-        };
-        let (ux, uy) = if turned { (1, 0) } else { (0, 1) };
-        HybridModel::new(
-            Some(Structure::Imported(structure)),
-            vec![MountedMechanism {
-                name: "damper".into(),
-                system,
-                mount,
-                max_condition: paper.max_condition,
-                reach: None,
-                initial_q: g.guess.to_vec(),
-            }],
-            vec![Attachment {
-                name: "tip".into(),
-                mechanism: 0,
-                point: g.tip,
-                kind: AttachmentKind::Roller,
-                beam: BeamPoint::node([0.0, 0.0], Some(ux), Some(uy)).along(direction),
-            }],
-            vec![JointForce {
-                name: "generator".into(),
-                mechanism: 0,
-                joint: g.joint,
-                kind: ForceKind::Generator(paper.generator.clone()),
-            }],
-            vec![],
-        )
-        .unwrap()
+        let direction = if turned { [-1.0, 0.0] } else { [0.0, 1.0] };
+        damper_on_node(&paper, AttachmentKind::Roller, direction, turned)
     };
     let run = |model: HybridModel, q0: Vec<f64>| -> Vec<HybridState> {
         assert_eq!(model.couplings().len(), 1, "a roller couples one row");

@@ -13,14 +13,15 @@
 use std::f64::consts::{FRAC_PI_2, PI};
 
 use hybrid_core::hybrid::{
-    Attachment, AttachmentKind, BeamPoint, EigenMethod, EquilibriumOptions, ExcitationTarget,
-    ForceKind, HybridModel, JointForce, Linearization, Mode, ModeKind, Mount, MountedMechanism,
-    StateOutput, StateSpace, Structure, modes,
+    AttachmentKind, BeamPoint, EigenMethod, EquilibriumOptions, ExcitationTarget, HybridModel,
+    Linearization, Mode, ModeKind, Mount, StateOutput, StateSpace, Structure, modes,
 };
 
-use crate::common::damper::{PaperDamper, double_bar};
+use crate::common::damper::{Geometry, PaperDamper};
 use crate::common::tangents;
-use crate::structures::{exported, node_on_springs, reduced_variant};
+use crate::structures::{
+    double_bar_on, exported, node_on_springs, reduced_variant, weightless_paper,
+};
 
 fn linearize(model: &HybridModel) -> Linearization {
     let t = tangents(model, &[]);
@@ -106,48 +107,25 @@ fn the_linearised_damper_is_the_same_on_every_kind_of_structure() {
 
 #[test]
 fn a_node_on_a_spring_carries_the_double_bars_reflected_mass_and_damping() {
-    let paper = PaperDamper {
-        parameters: vec![("gx", 0.0), ("gy", 0.0)],
-        ..PaperDamper::default()
-    };
+    let paper = weightless_paper();
     let (m, k) = (2.0, 4e4);
-    let system = paper.with_parameters(double_bar());
-    let g = paper.geometry(&paper.beam(), system.as_ref());
     // The double bar turned by 90 degrees so that its ground pivot lies on the x axis.
-    let mount = Mount {
+    let mount = |g: &Geometry| Mount {
         origin: [g.target[1], -g.target[0]],
         angle: FRAC_PI_2,
     };
+    let (model, g) = double_bar_on(
+        &paper,
+        node_on_springs(m, &[("ux", k)]),
+        mount,
+        AttachmentKind::Pin,
+        BeamPoint::node([0.0, 0.0], Some(0), None),
+    );
+    let mount = model.mechanisms[0].mount;
     assert!(
         mount.origin[1].abs() < 1e-12 * mount.origin[0].abs(),
         "{mount:?}"
     );
-    let model = HybridModel::new(
-        Some(Structure::Imported(node_on_springs(m, &[("ux", k)]))),
-        vec![MountedMechanism {
-            name: "damper".into(),
-            system,
-            mount,
-            max_condition: paper.max_condition,
-            reach: None,
-            initial_q: g.guess.to_vec(),
-        }],
-        vec![Attachment {
-            name: "tip".into(),
-            mechanism: 0,
-            point: g.tip,
-            kind: AttachmentKind::Pin,
-            beam: BeamPoint::node([0.0, 0.0], Some(0), None),
-        }],
-        vec![JointForce {
-            name: "generator".into(),
-            mechanism: 0,
-            joint: g.joint,
-            kind: ForceKind::Generator(paper.generator.clone()),
-        }],
-        vec![],
-    )
-    .unwrap();
     let lin = linearize(&model);
 
     // The double bar at the equilibrium: both bars of length L, the knee at the half-angle
