@@ -150,8 +150,26 @@ pub fn remaining_reach(model: &HybridModel, i: usize, beam_q: &[f64]) -> Option<
         .attachments
         .iter()
         .find(|a| a.mechanism == i)
-        .map_or(0.0, |a| a.beam.value(beam_q));
+        .map_or(0.0, |a| reach_point(model, i, &a.beam).value(beam_q));
     Some(model.mechanisms[i].reach? - w)
+}
+
+/// The attached point `p` of mechanism `i` seen along the direction its reach is measured
+/// in: a beam point along `y` (itself); a node, which moves in the plane, along the axis
+/// from the mechanism's pivot (its mount's origin, where a placed two-bar chain has its
+/// ground pivot) to the node ([`BeamPoint::along`]).
+fn reach_point(model: &HybridModel, i: usize, p: &BeamPoint) -> BeamPoint {
+    if p.axial.is_empty() {
+        return p.clone();
+    }
+    let o = model.mechanisms[i].mount.origin;
+    let (dx, dy) = (p.x - o[0], p.y - o[1]);
+    let norm = dx.hypot(dy);
+    if norm > 0.0 {
+        p.along([dx / norm, dy / norm])
+    } else {
+        p.clone()
+    }
 }
 
 /// The admissible load of one mechanism (issue #22, item 3): its remaining reach at the
@@ -171,7 +189,8 @@ pub struct LoadLimit {
     pub name: String,
     /// The remaining reach at the equilibrium (m), [`remaining_reach`].
     pub reach: f64,
-    /// The beam point of its first attachment.
+    /// The point of its first attachment, seen along the direction of its reach (a node:
+    /// along the pivot -> node axis).
     pub point: BeamPoint,
 }
 
@@ -186,7 +205,7 @@ impl LoadLimit {
                     mechanism: i,
                     name: model.mechanisms[i].name.clone(),
                     reach: remaining_reach(model, i, beam_q)?,
-                    point: a.beam.clone(),
+                    point: reach_point(model, i, &a.beam),
                 })
             })
             .collect()

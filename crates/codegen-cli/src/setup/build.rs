@@ -669,8 +669,9 @@ impl Resolver<'_> {
     }
 
     /// Places a two-bar chain so that its attached point lies on the beam: the mount's
-    /// origin and the initial coordinates `q` replaced, its reach returned when its angle
-    /// is zero (nothing done when the attachment is not resolved). Records, at
+    /// origin and the initial coordinates `q` replaced, its reach returned (at a node: along
+    /// the pivot -> node axis; on the beam: along y, when its angle is zero) (nothing done
+    /// when the attachment is not resolved). Records, at
     /// `placement`, `Unsupported` for a model that is not a two-bar chain and
     /// `InvalidValue` for a placement that fails.
     fn place_two_bar_chain(
@@ -713,7 +714,13 @@ impl Resolver<'_> {
                 let (_, at) = points[a].as_ref()?;
                 mount.origin = [at.x - r[0], at.y - r[1]];
                 *q = two.guess.to_vec();
-                (m.angle == 0.0).then_some(two.reach)
+                // A node moves in the plane: its reach is along the pivot -> node axis,
+                // whatever the mount's angle; a beam point moves along y only.
+                if self.sc.attachments[a].node.is_some() {
+                    Some(two.stretch)
+                } else {
+                    (m.angle == 0.0).then_some(two.reach)
+                }
             }
             Err(e) => {
                 let msg = format!("placement: {e}");

@@ -17,7 +17,7 @@ fn temp(name: &str) -> PathBuf {
 }
 
 /// (header, rows) of a CSV time history; an empty cell is NaN.
-fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+pub(crate) fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
     let header = lines

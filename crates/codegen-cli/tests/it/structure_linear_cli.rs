@@ -282,3 +282,42 @@ fn a_sweep_on_the_frame_reads_node_outputs_and_the_pins_amplification() {
     assert_eq!(rnd["outputs"][0]["name"], "613:ux");
     close(col("random.rms:613:ux"), rms, 1e-6, "RMS of 613:ux");
 }
+
+/// On a structure's node the double bar's reach is measured along the pivot -> node axis
+/// (a node moves in the plane; the frame's pivot lies beside node 613 along x, the mount
+/// turned by 90 degrees): at rest it is `2 L (1 - cos 10 deg)` (L = 0.1 m, the model's bars),
+/// and the frequency response's admissible force is that reach over the receptance of the
+/// node's `ux` (the axis), at every frequency.
+#[test]
+fn the_reach_at_a_node_is_along_the_pivot_axis() {
+    let dir = scratch("node_reach");
+    let frame = frame(
+        dir.as_path(),
+        "frame.toml",
+        "reduction = { kind = \"craig_bampton\", modes = 10 }",
+    );
+    let lin = json(&["linearize", &frame, "--modes", "1", "--json"]);
+    let reach = lin["equilibrium"]["mechanisms"][0]["reach"]
+        .as_f64()
+        .unwrap();
+    close(
+        reach,
+        0.2 * (1.0 - 10f64.to_radians().cos()),
+        1e-12,
+        "reach at rest",
+    );
+    let out = dir.join("frf");
+    let out = out.display().to_string();
+    let args = [
+        "frf", &frame, "--output", "613:ux", "--from", "30", "--to", "45", "--points", "16", "-o",
+        &out,
+    ];
+    let (code, _, err) = damper(&args);
+    assert_eq!(code, 0, "{err}");
+    let (header, rows) = crate::amplification_cli::read_csv(&dir.join("frf").join("frf.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let (h, f) = (col("|H| with generator [m/N]"), col("max_force [N]"));
+    for r in &rows {
+        close(r[f], reach / r[h], 1e-9, "max force = reach / |H(613:ux)|");
+    }
+}

@@ -115,6 +115,10 @@ pub struct TwoBar {
     /// bars are in line (m): `sqrt((L1 + L2)^2 - x0^2) - y0`, for `x0 = 0` and equal bars
     /// `2 L (1 - cos a0)`.
     pub reach: f64,
+    /// How far the point can move away from the pivot along the pivot -> point axis before
+    /// the bars are in line (m): `L1 + L2 - |target|` (the reach of a point that moves in
+    /// the plane, a structure's node; equal to `reach` when `x0 = 0`).
+    pub stretch: f64,
 }
 
 /// Places a two-bar chain (2 coordinates, no loop rows: crank on the ground pivot, coupler
@@ -195,6 +199,7 @@ pub fn place_two_bar<M: System + ?Sized>(
         target: [x0, y0],
         guess,
         reach,
+        stretch: l1 + l2 - d,
     })
 }
 
