@@ -147,6 +147,12 @@ pub struct Integrator {
     gamma: f64,
     /// The factorised Newmark matrix of the structure ([`LinearStructure::factorize_newmark`]).
     factor: Option<StructureFactor>,
+    /// Rayleigh damping folded into the factorised matrix (average acceleration, `alpha = 0`,
+    /// `B = a A + b C`): `(mu, kappa)` of `K^-1 (P - B v^ - C q^) = K^-1 (P - C (q^ + mu v^))
+    /// - kappa v^` (docs/theory.md section 13.5); `None`: the products with `B` and `C`.
+    fold: Option<(f64, f64)>,
+    /// `q^ + mu v^` of the folded step.
+    q_mix: Vec<f64>,
     nb: usize,
     nz: usize,
     /// The coupling unknowns `w` ([`HybridModel::couplings`]).
@@ -259,6 +265,17 @@ impl Integrator {
             ),
             None => None,
         };
+        // K = A + gh B + bh2 C = (1 + gh a) A + (gh b + bh2) C when B = a A + b C, so
+        // a A = (a / c1) (K - c2 C).
+        let fold = match (&model.structure, &factor) {
+            (Some(structure), Some(_)) if alpha == 0.0 && h > 0.0 => {
+                structure.rayleigh().map(|(a, b)| {
+                    let (c1, c2) = (1.0 + gamma * h * a, gamma * h * b + beta * h * h);
+                    (b - a * c2 / c1, a / c1)
+                })
+            }
+            _ => None,
+        };
         let mut zcols = vec![0.0; n * nb];
         let mut s = DMatrix::zeros(nb, nb);
         if let Some(f) = &factor {
@@ -294,6 +311,12 @@ impl Integrator {
             beta,
             gamma,
             factor,
+            fold,
+            q_mix: if fold.is_some() {
+                vec![0.0; n]
+            } else {
+                Vec::new()
+            },
             nb,
             nz,
             couplings,
@@ -796,7 +819,9 @@ impl Integrator {
     ) -> Result<(), HybridError> {
         let (h, alpha, beta, gamma) = (self.h, self.alpha, self.beta, self.gamma);
         let t_new = state.t + h;
-        if let Some(beam) = &model.structure {
+        if let Some((mu, kappa)) = self.fold {
+            self.step_folded(model, state, mu, kappa);
+        } else if let Some(beam) = &model.structure {
             let (ca, cv) = (h * h * (0.5 - beta), h * (1.0 - gamma));
             for ((qh, vh), ((q, v), a)) in self
                 .q_hat
@@ -808,16 +833,7 @@ impl Integrator {
                 *vh = v + cv * a;
             }
             // r0 = (1+alpha)(P_{n+1} - B v^ - C q^) - alpha (P_n - B v_n - C q_n)
-            // P_n is the last step's P_{n+1} when that step ended here (the loads are
-            // functions of t alone).
-            if self.p_new_t == Some(state.t) {
-                std::mem::swap(&mut self.p_old, &mut self.p_new);
-            } else {
-                Self::load_into(model, &self.base_load, state.t, &mut self.p_old);
-            }
-            Self::load_into(model, &self.base_load, t_new, &mut self.p_new);
-            self.p_new_t = Some(t_new);
-            self.r0.copy_from_slice(&self.p_new);
+            self.advance_loads(model, state.t, t_new);
             beam.damping_mul_add(-1.0, &self.v_hat, &mut self.r0);
             beam.stiffness_mul_add(-1.0, &self.q_hat, &mut self.r0);
             if alpha != 0.0 {
@@ -834,6 +850,65 @@ impl Integrator {
                 Structure::solve_in_place(f, &mut self.r0);
             }
         }
+        self.finish_step(model, state)
+    }
+
+    /// The beam loads of a step from `t` to `t_new`: `P_n` into `p_old` (the last step's
+    /// `P_{n+1}` when that step ended at `t`: the loads are functions of t alone), `P_{n+1}`
+    /// into `p_new` and `r0`.
+    fn advance_loads(&mut self, model: &HybridModel, t: f64, t_new: f64) {
+        if self.p_new_t == Some(t) {
+            std::mem::swap(&mut self.p_old, &mut self.p_new);
+        } else {
+            Self::load_into(model, &self.base_load, t, &mut self.p_old);
+        }
+        Self::load_into(model, &self.base_load, t_new, &mut self.p_new);
+        self.p_new_t = Some(t_new);
+        self.r0.copy_from_slice(&self.p_new);
+    }
+
+    /// The beam's part of a step with the Rayleigh damping folded into the factorised
+    /// matrix (docs/theory.md section 13.5): the predictors, `q_mix = q^ + mu v^` in the
+    /// same pass, then `r0 = K^-1 (P_{n+1} - C q_mix) - kappa v^` — one banded product
+    /// instead of the two with `B` and `C`.
+    fn step_folded(&mut self, model: &HybridModel, state: &HybridState, mu: f64, kappa: f64) {
+        let (h, beta, gamma) = (self.h, self.beta, self.gamma);
+        let Some(beam) = &model.structure else {
+            return;
+        };
+        let t_new = state.t + h;
+        let (ca, cv) = (h * h * (0.5 - beta), h * (1.0 - gamma));
+        for ((qh, vh), (((q, v), a), m)) in self.q_hat.iter_mut().zip(&mut self.v_hat).zip(
+            state
+                .q
+                .iter()
+                .zip(&state.v)
+                .zip(&state.a)
+                .zip(&mut self.q_mix),
+        ) {
+            *qh = q + h * v + ca * a;
+            *vh = v + cv * a;
+            *m = *qh + mu * *vh;
+        }
+        self.advance_loads(model, state.t, t_new);
+        beam.stiffness_mul_add(-1.0, &self.q_mix, &mut self.r0);
+        if let Some(f) = &self.factor {
+            Structure::solve_in_place(f, &mut self.r0);
+        }
+        for (r, vh) in self.r0.iter_mut().zip(&self.v_hat) {
+            *r -= kappa * vh;
+        }
+    }
+
+    /// The rest of [`Integrator::step`] once `q^`, `v^`, the loads and `r0` are set: the
+    /// mechanisms' iteration, the energy account and the Newmark update.
+    fn finish_step(
+        &mut self,
+        model: &HybridModel,
+        state: &mut HybridState,
+    ) -> Result<(), HybridError> {
+        let h = self.h;
+        let t_new = state.t + h;
         self.predict_mechanisms(model, state);
         self.prepare(model);
         self.solve(model, t_new, state)?;

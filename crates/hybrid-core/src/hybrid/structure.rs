@@ -94,6 +94,13 @@ pub trait LinearStructure {
     /// `x^T C x`.
     fn stiffness_quadratic_form(&self, x: &[f64]) -> f64;
 
+    /// The Rayleigh coefficients `(a, b)` when the damping is `B = a A + b C` (assembled
+    /// so, equal to rounding); `None` for any other damping (the default). The Newmark step
+    /// then folds `B` into its factorised matrix (docs/theory.md section 13.5).
+    fn rayleigh(&self) -> Option<(f64, f64)> {
+        None
+    }
+
     /// The structure's own loads `P(t)` into `out` (overwritten); by default none (an
     /// imported model's loads are excitations).
     fn load_into(&self, _t: f64, out: &mut [f64]) {
@@ -167,6 +174,11 @@ impl LinearStructure for BeamModel {
     #[inline]
     fn stiffness_quadratic_form(&self, x: &[f64]) -> f64 {
         self.stiffness().quadratic_form(x)
+    }
+
+    #[inline]
+    fn rayleigh(&self) -> Option<(f64, f64)> {
+        Some(self.rayleigh_coefficients())
     }
 
     #[inline]
@@ -321,6 +333,11 @@ impl LinearStructure for Structure {
     }
 
     #[inline]
+    fn rayleigh(&self) -> Option<(f64, f64)> {
+        each!(self, s => s.rayleigh())
+    }
+
+    #[inline]
     fn stiffness_quadratic_form(&self, x: &[f64]) -> f64 {
         each!(self, s => s.stiffness_quadratic_form(x))
     }
@@ -446,6 +463,13 @@ impl LinearStructure for ImportedStructure {
 
     fn damping_quadratic_form(&self, x: &[f64]) -> f64 {
         self.damping.as_ref().map_or(0.0, |b| b.quadratic_form(x))
+    }
+
+    fn rayleigh(&self) -> Option<(f64, f64)> {
+        match self.damping {
+            Some(_) => self.rayleigh,
+            None => Some((0.0, 0.0)),
+        }
     }
 
     fn stiffness_quadratic_form(&self, x: &[f64]) -> f64 {
