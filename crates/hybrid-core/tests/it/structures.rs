@@ -6,15 +6,16 @@
 
 use std::path::Path;
 
-use fem_beam::{Beam, BeamModel, Dof};
+use fem_beam::{Beam, BeamModel, Dof, TimeFunction};
 use fem_structure::mtx::{SymTriplets, parse_matrix_market};
 use fem_structure::tables::{parse_dofs, parse_nodes};
 use fem_structure::{
     DampingInput, ImportedStructure, Reduced, beam_structure_files, craig_bampton,
 };
 use hybrid_core::hybrid::{
-    Attachment, AttachmentKind, BeamPoint, ForceKind, HybridModel, HybridState, Integrator,
-    JointForce, LinearStructure, Mount, MountedMechanism, Structure, initial_state,
+    Attachment, AttachmentKind, BeamPoint, Excitation, ExcitationTarget, ForceKind, HybridModel,
+    HybridState, Integrator, JointForce, LinearStructure, Mount, MountedMechanism, Structure,
+    initial_state,
 };
 use nalgebra::{DMatrix, DVector};
 
@@ -296,7 +297,9 @@ pub(crate) fn node_on_springs(m: f64, springs: &[(&str, f64)]) -> ImportedStruct
 /// mechanism's mount turned with it — swaps the roles of the two rows; its trajectory must be
 /// the first one turned (equation 0 equal, equation 1 of opposite sign, the mechanism's
 /// coordinates equal) to round-off (1e-9 of the amplitudes over 0.3 s through the generator's
-/// damping).
+/// damping). The supports shake along a direction `[0.6, 0.8]`, turned with the rest
+/// (`[-0.8, 0.6]`): the structure's inertial load and the mechanism's ground motion follow
+/// the direction (docs/theory.md section 13.5).
 #[test]
 fn a_pin_on_a_node_couples_both_directions() {
     let paper = PaperDamper {
@@ -325,6 +328,16 @@ fn a_pin_on_a_node_couples_both_directions() {
             )
         };
         let (ux, uy) = if turned { (1, 0) } else { (0, 1) };
+        let direction = if turned { [-0.8, 0.6] } else { [0.6, 0.8] };
+        let shake = Excitation {
+            name: "base".into(),
+            target: ExcitationTarget::Base { direction },
+            amplitude: 3.0,
+            time: TimeFunction::Harmonic {
+                frequency_hz: 17.0,
+                phase: 0.3,
+            },
+        };
         let model = HybridModel::new(
             Some(Structure::Imported(structure)),
             vec![MountedMechanism {
@@ -348,7 +361,7 @@ fn a_pin_on_a_node_couples_both_directions() {
                 joint: g.joint,
                 kind: ForceKind::Generator(paper.generator.clone()),
             }],
-            vec![],
+            vec![shake],
         )
         .unwrap();
         (model, q0)
