@@ -740,7 +740,7 @@ pub fn evaluate<'a>(
         .map(|(e, w)| ExcitationReport {
             name: e.name.clone(),
             work: *w,
-            supports: e.target == hybrid_core::hybrid::ExcitationTarget::Base,
+            supports: e.target.is_base(),
         })
         .collect();
     let psd = welch

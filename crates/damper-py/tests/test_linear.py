@@ -203,3 +203,30 @@ def test_frf_band_edge_warnings_reach_python(tmp_path: Path, monkeypatch: pytest
     with warnings.catch_warnings():
         warnings.simplefilter("error", damper.DamperWarning)
         sc.frf(1.0, 2.0, 12.0, points=30)
+
+
+def test_a_support_motion_along_a_direction_reaches_python(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, root: Path) -> None:
+    """`at = "base", direction = [...]` on the frame: Python's frf equals the command line's
+    cell for cell, and the direction is taken (along x and along y the girder's node responds
+    differently)."""
+    monkeypatch.chdir(root)
+    text = (root / "scenarios/frame.toml").read_text()
+    text = text.replace('"frame/', f'"{root}/scenarios/frame/').replace('"../models/', f'"{root}/models/')
+    force = "at = { node = 741, direction = [1.0, 0.0] }"
+    assert force in text
+    along_x = tmp_path / "base_x.toml"
+    along_x.write_text(text.replace(force, 'at = "base"\ndirection = [1.0, 0.0]'))
+    along_y = tmp_path / "base_y.toml"
+    along_y.write_text(text.replace(force, 'at = "base"\ndirection = [0.0, 1.0]'))
+    out = tmp_path / "frf_x"
+    cli("frf", str(along_x), "--output", "613:ux", "--from", "30", "--to", "45", "--points", "20", "-o", str(out))
+    cols = damper.Scenario.load(str(along_x)).frf("613:ux", 30.0, 45.0, points=20)
+    cells = read_csv(out / "frf.csv")
+    assert cols.headers == list(cells)
+    for name, values in cols.items():
+        assert_cells_equal(cells[cols.header(name)], values, f"base along x {name}")
+    other = damper.Scenario.load(str(along_y)).frf("613:ux", 30.0, 45.0, points=20)
+    key = cols.columns[1]  # |H| with the generator
+    x, y = np.asarray(cols[key]), np.asarray(other[key])
+    assert np.all(np.isfinite(x)) and np.all(np.isfinite(y))
+    assert np.max(np.abs(x - y)) > 0.1 * np.max(np.abs(x))

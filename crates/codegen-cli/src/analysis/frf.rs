@@ -413,7 +413,7 @@ fn output_of(lin: &Linearization, output: &ExcitationTarget, z: &[Complex<f64>])
         ExcitationTarget::Beam(p) => p.complex_value(z),
         ExcitationTarget::Joint { mechanism, joint } => lin.mechanism_motion(z)[*mechanism][*joint],
         // Every response is relative to the supports.
-        ExcitationTarget::Base => Complex::new(0.0, 0.0),
+        ExcitationTarget::Base { .. } => Complex::new(0.0, 0.0),
     }
 }
 

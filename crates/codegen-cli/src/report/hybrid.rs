@@ -23,12 +23,13 @@
 //! - per excitation `E`: `E.value [N|N m|m/s^2]` and `E.work [J]` (a base excitation's
 //!   work is that of the inertial loads `-m a_b y` on every mass, in the frame moving
 //!   with the supports);
-//! - with a base excitation (`at = "base"`): the supports' motion `base.a [m/s^2]`,
-//!   `base.v [m/s]`, `base.u [m]` ([`HybridModel::support_motion`]: harmonic — the
-//!   zero-mean periodic motion; constant, step, table — the integrals from rest at
-//!   `t = 0`), and per attachment `A` its absolute motion `A.w_abs [m]`,
-//!   `A.w_dot_abs [m/s]` (`w + u`, `w' + v`: every other displacement is relative to the
-//!   supports);
+//! - with a base excitation (`at = "base"`): the supports' motion along its direction `d`
+//!   `base.a [m/s^2]`, `base.v [m/s]`, `base.u [m]` ([`HybridModel::support_motion`]:
+//!   harmonic — the zero-mean periodic motion; constant, step, table — the integrals from
+//!   rest at `t = 0`), and per attachment `A` its absolute motion `A.w_abs [m]`,
+//!   `A.w_dot_abs [m/s]` (`w + (d_A . d) u`, `w' + (d_A . d) v`, `d_A` the direction `w` is
+//!   measured along — the beam's `y`, where `d_A . d = 1`: every other displacement is
+//!   relative to the supports);
 //! - the energy account: `beam_kinetic [J]`, `beam_potential [J]`, per mechanism
 //!   `M.kinetic [J]` and `M.potential [J]`, `magnetic [J]`, `stored [J]`,
 //!   `dissipated_structure [J]`, `beam_load_work [J]` and `balance_error [J]`
@@ -239,9 +240,12 @@ impl Columns {
         if self.base {
             let [u, v, a] = model.support_motion(state.t);
             c.extend([a, v, u]);
+            let d = model.base_direction();
             for at in &model.attachments {
-                c.push(at.beam.value(&state.q) + u);
-                c.push(at.beam.value(&state.v) + v);
+                // The supports' motion along the attachment's direction (1 on a beam).
+                let along = at.beam.direction[0] * d[0] + at.beam.direction[1] * d[1];
+                c.push(at.beam.value(&state.q) + along * u);
+                c.push(at.beam.value(&state.v) + along * v);
             }
         }
         c.push(stored.beam_kinetic);

@@ -829,7 +829,9 @@ impl Resolver<'_> {
                             mechanism: *mechanism,
                             joint: j,
                         }),
-                    TargetEntry::Base => Some(ExcitationTarget::Base),
+                    TargetEntry::Base { direction } => Some(ExcitationTarget::Base {
+                        direction: *direction,
+                    }),
                 };
                 target.map(|target| Excitation {
                     name: e.name.clone(),

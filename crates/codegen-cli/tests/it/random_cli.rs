@@ -424,7 +424,7 @@ fn base_white_noise_input_power_is_the_moving_mass_closed_form() {
         let lz = codegen_cli::setup::tangents_for(&sc).unwrap();
         let lin = lz.linearize(&lz.model).unwrap();
         assert!(lin.electrical.is_empty(), "a generator without inductance");
-        let b = lin.force_vector(&ExcitationTarget::Base);
+        let b = lin.force_vector(&ExcitationTarget::BASE_Y);
         let m = lin.dense(Matrix::Mass);
         let c = lin.dense(Matrix::Damping);
         let bv = nalgebra::DVector::from_column_slice(&b);

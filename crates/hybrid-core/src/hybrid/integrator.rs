@@ -803,7 +803,7 @@ impl Integrator {
             new += f.current_base_power(model);
         }
         for (k, e) in model.excitations.iter().enumerate() {
-            if e.target == ExcitationTarget::Base {
+            if e.target.is_base() {
                 state.account.excitation_work[k] +=
                     0.5 * h * (e.value(state.t) * old + e.value(t_new) * new);
             }
@@ -977,7 +977,7 @@ impl Integrator {
                     ExcitationTarget::Beam(p) => {
                         0.5 * (e.value(state.t) + e.value(t_new)) * p.value(&self.v_mid)
                     }
-                    ExcitationTarget::Base if !self.base_load.is_empty() => {
+                    ExcitationTarget::Base { .. } if !self.base_load.is_empty() => {
                         0.5 * (e.value(state.t) + e.value(t_new)) * base_v
                     }
                     _ => continue,

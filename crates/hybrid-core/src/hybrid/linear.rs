@@ -316,9 +316,10 @@ pub struct Linearization {
     pub ks: DMatrix<f64>,
     /// Inductive generators.
     pub electrical: Vec<ElectricalState>,
-    /// The mechanisms' generalised load in `s` per unit support acceleration,
-    /// `sum_i R_i^T G_i(q0) R_i^T y` ([`ExcitationTarget::Base`]).
-    base_small: DVector<f64>,
+    /// The mechanisms' generalised load in `s` per unit support acceleration along the
+    /// structure's `x` and `y`, `sum_i R_i^T G_i(q0) M_i^T e` ([`ExcitationTarget::Base`];
+    /// `M_i` the mount's rotation, `e` the axis): a direction `d` loads `d_x [0] + d_y [1]`.
+    base_small: [DVector<f64>; 2],
 }
 
 /// Which reduced matrix a product is with.
@@ -356,9 +357,8 @@ fn static_beam_load(model: &HybridModel) -> Vec<f64> {
 /// [`Linearization::force_vector`]`(Base)`), so they are left out of the equilibrium.
 pub(crate) fn static_model(model: &HybridModel) -> HybridModel {
     let mut m = model.clone();
-    m.excitations.retain(|e| {
-        e.time == fem_beam::TimeFunction::Constant && e.target != ExcitationTarget::Base
-    });
+    m.excitations
+        .retain(|e| e.time == fem_beam::TimeFunction::Constant && !e.target.is_base());
     m
 }
 
@@ -550,7 +550,7 @@ impl Linearization {
             residual: 0.0,
         };
         let mut electrical = Vec::new();
-        let mut base_small = DVector::zeros(ns);
+        let mut base_small = [DVector::zeros(ns), DVector::zeros(ns)];
         for (i, f) in mech.followers.iter_mut().enumerate() {
             let m = &model.mechanisms[i];
             let t = tangents[i];
@@ -636,10 +636,13 @@ impl Linearization {
             // Basis R_i and the small blocks.
             let mut ri = DMatrix::zeros(dof, ns);
             f.basis_into(&mut ri);
-            // The supports' inertial load per unit acceleration, G(q0) R^T y.
+            // The supports' inertial load per unit acceleration along x and y, G(q0) R^T e.
             m.system.gravity_load_jacobian(&q, &mut sws);
-            let y = nalgebra::Vector3::from(m.mount.transverse_in_ground());
-            base_small += ri.transpose() * (&sws.gravity_jacobian * y);
+            for (small, e) in base_small.iter_mut().zip([[1.0, 0.0], [0.0, 1.0]]) {
+                let [gx, gy] = m.mount.to_ground(e);
+                let e = nalgebra::Vector3::new(gx, gy, 0.0);
+                *small += ri.transpose() * (&sws.gravity_jacobian * e);
+            }
             ms += ri.transpose() * &mi * &ri;
             cs += ri.transpose() * &ci * &ri;
             ks += ri.transpose() * &ki * &ri;
@@ -899,12 +902,12 @@ fn joint_terms(
 impl Linearization {
     /// The generalised force in `z` of a unit excitation at `target`: a unit transverse force
     /// at a beam point (`n`), a unit torque/force driving a mechanism joint (`Q_j -= f`,
-    /// so `+P^T R_i^T e_j`), or a unit support acceleration (1 m/s^2): the inertial loads
-    /// `-(A r)` on the beam (`r` the rigid transverse translation, see
-    /// [`ExcitationTarget::Base`]) and `P^T sum_i R_i^T G_i(q0) R_i^T y` from the
-    /// mechanisms, which equals `-(M_R r_z)` for the rigid translation `r_z` of the whole
-    /// system in `z` (beam `w = 1`, the free coordinates as the mechanisms move with their
-    /// grounds).
+    /// so `+P^T R_i^T e_j`), or a unit support acceleration (1 m/s^2) along its direction
+    /// `d`: the inertial loads `-(A r)` on the structure (`r` the rigid translation along
+    /// `d`, see [`ExcitationTarget::Base`]) and `P^T sum_i R_i^T G_i(q0) M_i^T d` from the
+    /// mechanisms (`M_i` the mount's rotation), which equals `-(M_R r_z)` for the rigid
+    /// translation `r_z` of the whole system in `z` (structure `r`, the free coordinates as
+    /// the mechanisms move with their grounds).
     pub fn force_vector(&self, target: &ExcitationTarget) -> Vec<f64> {
         let mut f = vec![0.0; self.dim()];
         match target {
@@ -914,11 +917,17 @@ impl Linearization {
                 let s: Vec<f64> = (0..r.ncols()).map(|c| r[(*joint, c)]).collect();
                 self.add_from_small(&s, &mut f);
             }
-            ExcitationTarget::Base => {
+            ExcitationTarget::Base { direction: d } => {
                 if let Some(st) = &self.structure {
-                    f[..self.n].copy_from_slice(&st.base_load([0.0, 1.0]));
+                    f[..self.n].copy_from_slice(&st.base_load(*d));
                 }
-                self.add_from_small(self.base_small.as_slice(), &mut f);
+                let [bx, by] = &self.base_small;
+                let small: Vec<f64> = bx
+                    .iter()
+                    .zip(by)
+                    .map(|(x, y)| d[0] * x + d[1] * y)
+                    .collect();
+                self.add_from_small(&small, &mut f);
             }
         }
         f

@@ -40,8 +40,8 @@ impl Mount {
     }
 
     /// The beam's transverse direction `y` in the mechanism's ground frame,
-    /// `R(angle)^T (0, 1, 0) = (sin, cos, 0)`: the direction in which the supports move the
-    /// mechanism's ground under a base excitation.
+    /// `R(angle)^T (0, 1, 0) = (sin, cos, 0)`: the direction in which a beam's supports move
+    /// the mechanism's ground under a base excitation.
     pub fn transverse_in_ground(&self) -> [f64; 3] {
         let (c, s) = self.rotation();
         [s, c, 0.0]
@@ -378,15 +378,32 @@ pub enum ExcitationTarget {
         /// Coordinate index of the joint.
         joint: usize,
     },
-    /// The supports: a prescribed transverse acceleration `a_b(t)` (m/s^2) of everything
-    /// that holds the system — the beam's supports and every mechanism's ground frame move
-    /// together along the beam's `y`. The equations are written in the frame moving with
-    /// the supports: beam DOFs are relative to the supports, mechanism grounds move with
-    /// them, and every mass carries the inertial load `-m a_b y`: `P += -(A r) a_b` on the
-    /// beam (`r` the rigid transverse translation, `w = 1` and rotations 0, in the reduced
-    /// DOFs) and `F^b += -G(q) a_b R^T y` on each mechanism (`G = dF^b/dg`,
-    /// [`System::gravity_load_jacobian`]).
-    Base,
+    /// The supports: a prescribed acceleration `a_b(t) d` (m/s^2) of everything that holds
+    /// the system — the structure's supports and every mechanism's ground frame move
+    /// together along the unit `direction` `d` of the structure's x-y plane (`[0, 1]`, the
+    /// beam's `y`, on a beam: the only direction a beam accepts). The equations are written
+    /// in the frame moving with the supports: structure DOFs are relative to the supports,
+    /// mechanism grounds move with them, and every mass carries the inertial load
+    /// `-m a_b d`: `P += -(A r) a_b` on the structure (`r` the rigid translation along `d`,
+    /// [`LinearStructure::rigid_translation`]) and `F^b += -G(q) a_b R^T d` on each
+    /// mechanism (`G = dF^b/dg`, [`System::gravity_load_jacobian`]; `R^T d` the direction in
+    /// the mechanism's ground frame). docs/theory.md section 13.6.
+    Base {
+        /// The unit direction of the support motion in the structure's (beam's) frame.
+        direction: [f64; 2],
+    },
+}
+
+impl ExcitationTarget {
+    /// The supports' motion along the beam's transverse `y` (the only direction on a beam).
+    pub const BASE_Y: ExcitationTarget = ExcitationTarget::Base {
+        direction: [0.0, 1.0],
+    };
+
+    /// Whether this is the supports' motion ([`ExcitationTarget::Base`]).
+    pub fn is_base(&self) -> bool {
+        matches!(self, ExcitationTarget::Base { .. })
+    }
 }
 
 /// An external excitation: `amplitude * time(t)` at `target`.
@@ -608,6 +625,42 @@ pub enum ModelError {
         /// The value.
         value: f64,
     },
+    /// A support motion whose direction is not a unit vector of finite components.
+    #[error("{entity}: direction = [{}, {}] is not a unit vector", .direction[0], .direction[1])]
+    BaseDirection {
+        /// The excitation.
+        entity: String,
+        /// The direction.
+        direction: [f64; 2],
+    },
+    /// A support motion along a direction other than the beam's transverse `y`.
+    #[error(
+        "{entity}: direction = [{}, {}]: the beam's supports move along its transverse y only ([0.0, 1.0]); \
+         axial support motion needs a [structure]",
+        .direction[0], .direction[1]
+    )]
+    BaseNotTransverse {
+        /// The excitation.
+        entity: String,
+        /// The direction.
+        direction: [f64; 2],
+    },
+    /// Support motions along different directions.
+    #[error(
+        "{entity}: direction = [{}, {}] differs from excitation \"{first}\"'s [{}, {}]; \
+         every support motion of a scenario must share one direction",
+        .direction[0], .direction[1], .first_direction[0], .first_direction[1]
+    )]
+    BaseDirections {
+        /// The excitation.
+        entity: String,
+        /// Its direction.
+        direction: [f64; 2],
+        /// The first support motion.
+        first: String,
+        /// Its direction.
+        first_direction: [f64; 2],
+    },
 }
 
 impl HybridModel {
@@ -773,7 +826,34 @@ impl HybridModel {
                         });
                     }
                 }
-                ExcitationTarget::Base => {}
+                ExcitationTarget::Base { direction: d } => {
+                    let unit =
+                        d.iter().all(|x| x.is_finite()) && (d[0].hypot(d[1]) - 1.0).abs() <= 1e-12;
+                    if !unit {
+                        return Err(ModelError::BaseDirection {
+                            entity,
+                            direction: *d,
+                        });
+                    }
+                    if self.beam().is_some() && d[0] != 0.0 {
+                        return Err(ModelError::BaseNotTransverse {
+                            entity,
+                            direction: *d,
+                        });
+                    }
+                    let first = self.excitations.iter().find(|f| f.target.is_base());
+                    if let Some(f) = first
+                        && f.target != e.target
+                        && let ExcitationTarget::Base { direction: fd } = f.target
+                    {
+                        return Err(ModelError::BaseDirections {
+                            entity,
+                            direction: *d,
+                            first: f.name.clone(),
+                            first_direction: fd,
+                        });
+                    }
+                }
             }
         }
         Ok(())
@@ -870,25 +950,43 @@ impl HybridModel {
             ExcitationTarget::Joint { mechanism, joint } => {
                 self.mechanisms[*mechanism].system.coordinate_units()[*joint].force()
             }
-            ExcitationTarget::Base => "m/s^2",
+            ExcitationTarget::Base { .. } => "m/s^2",
         }
     }
 
     /// Whether an excitation moves the supports ([`ExcitationTarget::Base`]).
     pub fn has_base_excitation(&self) -> bool {
-        self.excitations
-            .iter()
-            .any(|e| e.target == ExcitationTarget::Base)
+        self.excitations.iter().any(|e| e.target.is_base())
     }
 
-    /// The supports' transverse acceleration `a_b(t)` (m/s^2): the sum of the base
-    /// excitations (0 without one).
+    /// The direction `d` of the supports' motion (structure frame, unit): the one every
+    /// base excitation shares ([`HybridModel::new`] refuses two), `[0, 1]` without one.
+    pub fn base_direction(&self) -> [f64; 2] {
+        self.excitations
+            .iter()
+            .find_map(|e| match e.target {
+                ExcitationTarget::Base { direction } => Some(direction),
+                _ => None,
+            })
+            .unwrap_or([0.0, 1.0])
+    }
+
+    /// The supports' acceleration `a_b(t)` along [`HybridModel::base_direction`] (m/s^2):
+    /// the sum of the base excitations (0 without one).
     pub fn base_acceleration(&self, t: f64) -> f64 {
         self.excitations
             .iter()
-            .filter(|e| e.target == ExcitationTarget::Base)
+            .filter(|e| e.target.is_base())
             .map(|e| e.value(t))
             .sum()
+    }
+
+    /// The direction of the supports' motion in mechanism `mech`'s ground frame,
+    /// `R^T d` ([`Mount::to_ground`]; `[sin, cos, 0]` of the mounting angle for `d = y`,
+    /// exactly).
+    fn base_direction_in_ground(&self, mech: usize) -> [f64; 3] {
+        let d = self.mechanisms[mech].mount.to_ground(self.base_direction());
+        [d[0], d[1], 0.0]
     }
 
     /// The supports' motion at `t`: `[u, v, a]`, displacement (m), velocity (m/s) and
@@ -898,7 +996,7 @@ impl HybridModel {
     pub fn support_motion(&self, t: f64) -> [f64; 3] {
         let mut out = [0.0; 3];
         for e in &self.excitations {
-            if e.target == ExcitationTarget::Base {
+            if e.target.is_base() {
                 let (u, v) = e.support_motion(t);
                 out[0] += u;
                 out[1] += v;
@@ -908,19 +1006,19 @@ impl HybridModel {
         out
     }
 
-    /// The beam load per unit support acceleration, `-(A r)` (N per m/s^2; `A` the reduced
-    /// mass matrix, `r` the rigid transverse translation: 1 on every free transverse DOF, 0
-    /// on the rotations; locked DOFs are not in the reduced vector). Empty without a beam.
-    /// Allocates: computed once at setup.
+    /// The structure load per unit support acceleration, `-(A r)` (N per m/s^2; `A` the
+    /// mass matrix, `r` the rigid translation along [`HybridModel::base_direction`]: on the
+    /// beam 1 on every free transverse DOF, 0 on the rotations; locked DOFs are not in the
+    /// reduced vector). Empty without a structure. Allocates: computed once at setup.
     pub fn base_beam_load(&self) -> Vec<f64> {
         let Some(structure) = &self.structure else {
             return Vec::new();
         };
-        structure.base_load([0.0, 1.0])
+        structure.base_load(self.base_direction())
     }
 
     /// Adds the inertial load of the supports' acceleration at time `t` to mechanism
-    /// `mech`'s `Q^b` (in `ws.q`) at `q`: `Q^b -= G(q) a_b(t) R^T y` (see
+    /// `mech`'s `Q^b` (in `ws.q`) at `q`: `Q^b -= G(q) a_b(t) R^T d` (see
     /// [`ExcitationTarget::Base`]), leaving `G(q)` in `ws.gravity_jacobian`. Nothing (and
     /// no evaluation) while `a_b(t) = 0`. Allocation-free on the generated and interpreted
     /// backends.
@@ -931,7 +1029,7 @@ impl HybridModel {
         }
         let m = &self.mechanisms[mech];
         m.system.gravity_load_jacobian(q, ws);
-        let d = m.mount.transverse_in_ground();
+        let d = self.base_direction_in_ground(mech);
         for r in 0..ws.q.len() {
             let g = &ws.gravity_jacobian;
             ws.q[r] -= a * (g[(r, 0)] * d[0] + g[(r, 1)] * d[1] + g[(r, 2)] * d[2]);
@@ -939,7 +1037,7 @@ impl HybridModel {
     }
 
     /// The power of the supports' inertial loads on mechanism `mech` per unit support
-    /// acceleration at `(q, q')`: `q'^T G(q) R^T y = -y . sum_i m_i v_Ci` (W per m/s^2;
+    /// acceleration at `(q, q')`: `q'^T G(q) R^T d = -d . sum_i m_i v_Ci` (W per m/s^2;
     /// `v_Ci` relative to the supports). Evaluates `G(q)` into `ws`.
     pub fn base_power_mechanism(
         &self,
@@ -950,7 +1048,7 @@ impl HybridModel {
     ) -> f64 {
         let m = &self.mechanisms[mech];
         m.system.gravity_load_jacobian(q, ws);
-        let d = m.mount.transverse_in_ground();
+        let d = self.base_direction_in_ground(mech);
         let g = &ws.gravity_jacobian;
         (0..qd.len())
             .map(|r| qd[r] * (g[(r, 0)] * d[0] + g[(r, 1)] * d[1] + g[(r, 2)] * d[2]))

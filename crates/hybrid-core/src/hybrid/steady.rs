@@ -184,7 +184,7 @@ pub fn output_value(output: &ExcitationTarget, state: &HybridState) -> f64 {
     match output {
         ExcitationTarget::Beam(p) => p.value(&state.q),
         ExcitationTarget::Joint { mechanism, joint } => state.mechanisms[*mechanism].q[*joint],
-        ExcitationTarget::Base => 0.0,
+        ExcitationTarget::Base { .. } => 0.0,
     }
 }
 

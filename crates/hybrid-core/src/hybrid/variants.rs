@@ -32,7 +32,12 @@ impl HybridModel {
         let excitations = self
             .excitations
             .iter()
-            .filter(|e| matches!(e.target, ExcitationTarget::Beam(_) | ExcitationTarget::Base))
+            .filter(|e| {
+                matches!(
+                    e.target,
+                    ExcitationTarget::Beam(_) | ExcitationTarget::Base { .. }
+                )
+            })
             .cloned()
             .collect();
         // Valid by construction: the beam-point excitations were checked with this beam, and

@@ -34,7 +34,7 @@ fn linearize(model: &HybridModel) -> Linearization {
 fn base(amplitude: f64, time: TimeFunction) -> Excitation {
     Excitation {
         name: "support".into(),
-        target: ExcitationTarget::Base,
+        target: ExcitationTarget::BASE_Y,
         amplitude,
         time,
     }
@@ -109,7 +109,7 @@ fn base_input_vector_is_minus_mass_times_rigid_translation() {
     assert_eq!(rz.len(), lin.dim());
     let mut mr = vec![0.0; lin.dim()];
     lin.mul(Matrix::Mass, &rz, &mut mr);
-    let f = lin.force_vector(&ExcitationTarget::Base);
+    let f = lin.force_vector(&ExcitationTarget::BASE_Y);
     let scale = max_abs(&mr);
     let err = f
         .iter()
@@ -150,7 +150,7 @@ fn bare_beam_transmissibility_is_the_modal_closed_form() {
     let (alpha, beta) = bm.rayleigh_coefficients();
     let model = HybridModel::new(Some(bm.clone().into()), vec![], vec![], vec![], vec![]).unwrap();
     let lin = linearize(&model);
-    let f = lin.force_vector(&ExcitationTarget::Base);
+    let f = lin.force_vector(&ExcitationTarget::BASE_Y);
     // -(A r): the beam's input vector.
     let mut ar = vec![0.0; n];
     bm.mass().mul_vec_into(&r, &mut ar);

@@ -169,7 +169,7 @@ fn base_excited_accelerations_equal_the_kkt_solution() {
         let mut case = random_case(2000 + seed, None, false);
         case.model.excitations.push(Excitation {
             name: "support".into(),
-            target: ExcitationTarget::Base,
+            target: ExcitationTarget::BASE_Y,
             amplitude: 3.0,
             time: TimeFunction::Harmonic {
                 frequency_hz: 7.0,

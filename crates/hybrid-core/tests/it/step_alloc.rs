@@ -63,7 +63,7 @@ fn hybrid_step_does_not_allocate() {
         if base {
             hm.excitations.push(Excitation {
                 name: "support".into(),
-                target: ExcitationTarget::Base,
+                target: ExcitationTarget::BASE_Y,
                 amplitude: 0.5,
                 time: TimeFunction::Harmonic {
                     frequency_hz: 6.0,

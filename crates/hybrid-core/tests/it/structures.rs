@@ -6,15 +6,16 @@
 
 use std::path::Path;
 
-use fem_beam::{Beam, BeamModel, Dof};
+use fem_beam::{Beam, BeamModel, Dof, TimeFunction};
 use fem_structure::mtx::{SymTriplets, parse_matrix_market};
 use fem_structure::tables::{parse_dofs, parse_nodes};
 use fem_structure::{
     DampingInput, ImportedStructure, Reduced, beam_structure_files, craig_bampton,
 };
 use hybrid_core::hybrid::{
-    Attachment, AttachmentKind, BeamPoint, ForceKind, HybridModel, HybridState, Integrator,
-    JointForce, LinearStructure, Mount, MountedMechanism, Structure, initial_state,
+    Attachment, AttachmentKind, BeamPoint, Excitation, ExcitationTarget, ForceKind, HybridModel,
+    HybridState, Integrator, JointForce, LinearStructure, Mount, MountedMechanism, Structure,
+    initial_state,
 };
 use nalgebra::{DMatrix, DVector};
 
@@ -378,7 +379,9 @@ pub(crate) fn weightless_paper() -> PaperDamper {
 /// mechanism's mount turned with it — swaps the roles of the two rows; its trajectory must be
 /// the first one turned (equation 0 equal, equation 1 of opposite sign, the mechanism's
 /// coordinates equal) to round-off (1e-9 of the amplitudes over 0.3 s through the generator's
-/// damping).
+/// damping). The supports shake along a direction `[0.6, 0.8]`, turned with the rest
+/// (`[-0.8, 0.6]`): the structure's inertial load and the mechanism's ground motion follow
+/// the direction (docs/theory.md section 13.6).
 #[test]
 fn a_pin_on_a_node_couples_both_directions() {
     let paper = weightless_paper();
@@ -388,10 +391,19 @@ fn a_pin_on_a_node_couples_both_directions() {
         } else {
             vec![1e-3, 4e-4]
         };
-        (
-            damper_on_node(&paper, AttachmentKind::Pin, [0.0, 1.0], turned),
-            q0,
-        )
+        let direction = if turned { [-0.8, 0.6] } else { [0.6, 0.8] };
+        let shake = Excitation {
+            name: "base".into(),
+            target: ExcitationTarget::Base { direction },
+            amplitude: 3.0,
+            time: TimeFunction::Harmonic {
+                frequency_hz: 17.0,
+                phase: 0.3,
+            },
+        };
+        let mut model = damper_on_node(&paper, AttachmentKind::Pin, [0.0, 1.0], turned);
+        model.excitations.push(shake);
+        (model, q0)
     };
     let run = |(model, q0): (HybridModel, Vec<f64>)| -> Vec<HybridState> {
         assert_eq!(model.couplings().len(), 2, "the pin couples both rows");

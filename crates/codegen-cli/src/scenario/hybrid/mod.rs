@@ -221,8 +221,13 @@ pub enum TargetEntry {
         /// Body name whose joint it drives.
         joint: String,
     },
-    /// The supports' transverse acceleration (`at = "base"`; amplitude in m/s^2).
-    Base,
+    /// The supports' acceleration along a unit direction of the structure's x-y plane
+    /// (`at = "base"`, `direction = [dx, dy]`, default `[0, 1]`: the beam's transverse
+    /// `y`, the only direction on a beam; amplitude in m/s^2).
+    Base {
+        /// The direction (unit vector).
+        direction: [f64; 2],
+    },
     /// A force at a node of a `[structure]` along a unit direction in its x-y plane.
     Node {
         /// The node id.

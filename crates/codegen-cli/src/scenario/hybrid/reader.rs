@@ -740,6 +740,8 @@ fn excitations(
 ) -> Vec<ExcitationEntry> {
     let mut excitations = vec![];
     let mut seen = BTreeMap::new();
+    // The first support motion's name and direction: every other must share it.
+    let mut base: Option<(String, [f64; 2])> = None;
     for v in tables(doc, "excitation") {
         let (mut taken, rest) = split(&v, &["time", "at"]);
         let Some(e) = de::<RawExcitation>(doc, rest, "[[excitation]]") else {
@@ -755,7 +757,13 @@ fn excitations(
             continue;
         };
         let at_span = at.span();
-        let target = excitation_target(doc, at, names, on_beam, &entity);
+        let target = excitation_target(doc, at, names, on_beam, &entity).and_then(|t| {
+            let (where_, who) = (
+                (on_beam, at_span.clone()),
+                (e.name.get_ref().as_str(), entity.as_str()),
+            );
+            base_direction(doc, t, e.direction.as_ref(), where_, &mut base, who)
+        });
         let time = match taken.remove("time") {
             None => {
                 let msg = "missing field `time` (e.g. { kind = \"harmonic\", frequency_hz = 5.0 })";
@@ -797,6 +805,52 @@ fn excitations(
     excitations
 }
 
+/// A support motion's `direction` (`at = "base"`; normalised, default `[0, 1]`), set on
+/// `target`; refused (one line at the key) on any other target, along a beam's axis, or
+/// differing from the first support motion's (`base`, recorded here).
+fn base_direction(
+    doc: &mut Doc<'_>,
+    target: TargetEntry,
+    direction: Option<&Spanned<[f64; 2]>>,
+    (on_beam, at_span): (&OnBeam, Range<usize>),
+    base: &mut Option<(String, [f64; 2])>,
+    (name, entity): (&str, &str),
+) -> Option<TargetEntry> {
+    if !matches!(target, TargetEntry::Base { .. }) {
+        if let Some(d) = direction {
+            let msg = "direction here is for a support motion (at = \"base\"); a force at a node takes it in at = { node = ..., direction = [...] }";
+            doc.push(Kind::InvalidValue, Some(d.span()), Some(entity), msg);
+            return None;
+        }
+        return Some(target);
+    }
+    let (direction, span) = match direction {
+        None => ([0.0, 1.0], at_span),
+        Some(d) => (unit_direction(doc, d, "direction", entity)?, d.span()),
+    };
+    if on_beam.written && direction[0] != 0.0 {
+        let msg = format!(
+            "a beam's supports move along its transverse y only (direction = [0.0, 1.0]), not [{}, {}]: axial support motion needs a [structure]",
+            direction[0], direction[1]
+        );
+        doc.push(Kind::InvalidValue, Some(span), Some(entity), msg);
+        return None;
+    }
+    match base {
+        Some((first, f)) if *f != direction => {
+            let msg = format!(
+                "every support motion shares one direction: [{}, {}] differs from excitation \"{first}\"'s [{}, {}]",
+                direction[0], direction[1], f[0], f[1]
+            );
+            doc.push(Kind::InvalidValue, Some(span), Some(entity), msg);
+            return None;
+        }
+        Some(_) => {}
+        None => *base = Some((name.to_string(), direction)),
+    }
+    Some(TargetEntry::Base { direction })
+}
+
 /// An excitation's `at`: `"base"` (the supports), `{ x = ... }` (a beam point) or
 /// `{ mechanism = ..., joint = ... }`; `None` (reported at the value) for anything else.
 fn excitation_target<'a>(
@@ -809,7 +863,11 @@ fn excitation_target<'a>(
     const FORMS: &str = "at must be \"base\" (the supports), { x = ... } (a beam point), { node = ..., direction = [...] } (a node of a [structure]) or { mechanism = ..., joint = ... }";
     let span = at.span();
     match at.get_ref() {
-        DeValue::String(s) if s == "base" => return Some(TargetEntry::Base),
+        DeValue::String(s) if s == "base" => {
+            return Some(TargetEntry::Base {
+                direction: [0.0, 1.0],
+            });
+        }
         DeValue::Table(_) => {}
         DeValue::String(s) => {
             let msg = format!("{FORMS}, not {s:?}");

@@ -135,6 +135,9 @@ pub(super) struct RawExcitation {
     /// Absent for a random `time` (its PSD carries the level), required otherwise.
     #[serde(default)]
     pub(super) amplitude: Option<Spanned<f64>>,
+    /// The direction of a support motion (`at = "base"`), structure frame.
+    #[serde(default)]
+    pub(super) direction: Option<Spanned<[f64; 2]>>,
 }
 
 /// The table form of an excitation's `at` (its string form `"base"` is read apart).
