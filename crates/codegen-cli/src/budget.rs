@@ -46,6 +46,7 @@
 //! | `sweep --time-domain` | steps of one point (the `simulate` estimate) | [`MAX_STEPS`] |
 //! | `sweep` | core time of the shard's points: `points (t_p + steps / r)`, `t_p` = [`SWEEP_POINT_SECONDS`], `r` = [`SWEEP_STEPS_PER_SECOND`] (`steps` 0 without `--time-domain`) | [`MAX_SWEEP_SECONDS`] |
 //! | every command on a beam (and every Python call) | beam elements; memory [`BEAM_BYTES_PER_ELEMENT`] an element | [`MAX_BEAM_ELEMENTS`]; 1 GiB |
+//! | every command on a reduced structure (and every Python call) | the Craig–Bampton reduction's memory and flops from the structure's size ([`reduction_work`]) | 1 GiB; [`MAX_FLOPS`] |
 //! | `merge` | bytes of the part files; grid points | 1 GiB; [`MAX_MERGE_POINTS`] |
 //! | `generate` | source size `400 ((n + n_c)^2 + 3 p n)` bytes (`n` coordinates, `n_c` constraint rows, `p` points; 354 to 408 measured on chains of 200 to 1000 bodies), memory about 4 times that | [`MAX_SOURCE_BYTES`] |
 //!
@@ -341,12 +342,16 @@ pub fn beam_elements(spec: &fem_beam::BeamSpec) -> f64 {
     spec.segments.iter().map(|s| s.elements as f64).sum()
 }
 
-/// The work quantities of a scenario's structure: its beam elements and their memory
-/// ([`MAX_BEAM_ELEMENTS`], [`BEAM_BYTES_PER_ELEMENT`]); none without a beam.
+/// The work quantities of a scenario's structure: a beam's elements and their memory
+/// ([`MAX_BEAM_ELEMENTS`], [`BEAM_BYTES_PER_ELEMENT`]); an imported structure's
+/// Craig–Bampton reduction ([`reduction_work`]); none otherwise.
 pub fn structure_work(sc: &Scenario) -> Vec<Quantity> {
     let Scenario::Hybrid(h) = sc else {
         return vec![];
     };
+    if let Some(entry) = &h.structure {
+        return reduction_work(h, entry);
+    }
     let Some((spec, _)) = &h.beam else {
         return vec![];
     };
@@ -361,13 +366,76 @@ pub fn structure_work(sc: &Scenario) -> Vec<Quantity> {
     ]
 }
 
+/// Iterations of the fixed-interface eigen-solve assumed by [`reduction_work`]: 21 on the
+/// bundled frame (30 modes of 1,990 equations, measured), rounded up.
+pub const REDUCTION_ITERATIONS: f64 = 30.0;
+
+/// The memory and work of an imported structure's Craig–Bampton reduction to `k` modes,
+/// from its size (the mass matrix's size line, or the given parts) before anything is read:
+/// with `n` equations, `r` interface DOFs (at most two per attachment node and loaded node)
+/// and the eigen-solver's block of `p = min(n, max(2 k, k + 8))` vectors,
+///
+/// ```text
+/// memory = 8 n (4 p + r + k) bytes          (the block X, M X, Y, M Y; the basis T)
+/// flops  = 30 * 8 n p^2                     (p < n: the projections and updates per iteration)
+///        = 10 n^3                           (p = n: the dense pencil)
+/// ```
+///
+/// against [`MAX_MEMORY`] and [`MAX_FLOPS`]; none without a reduction or when the size
+/// cannot be read (the loader then reports the file's problem).
+pub fn reduction_work(
+    h: &HybridScenario,
+    entry: &crate::scenario::hybrid::StructureEntry,
+) -> Vec<Quantity> {
+    use crate::scenario::hybrid::{StructureSource, TargetEntry};
+    let Some(k) = entry.reduction_modes else {
+        return vec![];
+    };
+    let n = match &entry.source {
+        StructureSource::Files(f) => fem_structure::mtx::read_size(&f.mass).map(|s| s.0),
+        StructureSource::Given { parts, .. } => Some(parts.mass.n),
+    };
+    let Some(n) = n.map(|n| n as f64) else {
+        return vec![];
+    };
+    let nodes = h.attachments.iter().filter(|a| a.node.is_some()).count()
+        + h.excitations
+            .iter()
+            .filter(|e| matches!(e.target, TargetEntry::Node { .. }))
+            .count();
+    let (k, r) = (k as f64, 2.0 * nodes as f64);
+    let p = n.min((2.0 * k).max(k + 8.0));
+    let flops = if p >= n {
+        10.0 * n * n * n
+    } else {
+        REDUCTION_ITERATIONS * 8.0 * n * p * p
+    };
+    vec![
+        Quantity::bytes(
+            "memory of the Craig–Bampton reduction",
+            8.0 * n * (4.0 * p + r + k),
+            MAX_MEMORY,
+        ),
+        Quantity::count(
+            "floating-point operations of the reduction",
+            flops,
+            MAX_FLOPS,
+        ),
+    ]
+}
+
 /// Refuses a scenario whose structure is above the limits unless `allow_long` (every
 /// command and Python call, before any work): `subject` names the scenario.
 pub fn structure(sc: &Scenario, subject: &str, allow_long: bool) -> Result<(), Error> {
+    let reduced = matches!(sc, Scenario::Hybrid(h) if h.structure.is_some());
     refuse_above(
         subject,
         &structure_work(sc),
-        "use fewer beam elements",
+        if reduced {
+            "use fewer reduction modes"
+        } else {
+            "use fewer beam elements"
+        },
         allow_long,
     )
 }

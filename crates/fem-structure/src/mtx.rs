@@ -30,6 +30,36 @@ pub struct SymTriplets {
     pub lower: Vec<(usize, usize, f64)>,
 }
 
+/// The size line of a Matrix Market file, `(rows, declared entries)`, read from its first
+/// lines only (the work estimates' look at a structure before it is loaded); `None` when
+/// the file cannot be opened or has no size line within its first 64 KiB (the loader
+/// reports why).
+pub fn read_size(path: &Path) -> Option<(usize, usize)> {
+    use std::io::Read;
+    let mut head = Vec::with_capacity(1 << 16);
+    std::fs::File::open(path)
+        .ok()?
+        .take(1 << 16)
+        .read_to_end(&mut head)
+        .ok()?;
+    let text = String::from_utf8_lossy(&head);
+    let mut lines = text.lines();
+    lines.next()?.starts_with("%%").then_some(())?;
+    let size = lines.find(|l| {
+        let t = l.trim();
+        !t.is_empty() && !t.starts_with('%')
+    })?;
+    let v: Vec<usize> = size
+        .split_whitespace()
+        .map(str::parse)
+        .collect::<Result<_, _>>()
+        .ok()?;
+    match v[..] {
+        [rows, _, entries] => Some((rows, entries)),
+        _ => None,
+    }
+}
+
 /// Reads a Matrix Market file (size-capped by [`diagnostic::read_input`]).
 pub fn read_matrix_market(path: &Path) -> Result<SymTriplets, Diagnostics> {
     let text = diagnostic::read_input(path, "matrix file")?;

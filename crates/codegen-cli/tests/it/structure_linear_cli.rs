@@ -321,3 +321,37 @@ fn the_reach_at_a_node_is_along_the_pivot_axis() {
         close(r[f], reach / r[h], 1e-9, "max force = reach / |H(613:ux)|");
     }
 }
+
+/// A Craig–Bampton reduction above the work limits is refused from the structure's size line
+/// alone, before its entries are read: a mass matrix that declares a million equations (and
+/// holds none) asks for 8 n (4 p + r + k) = 2.2e9 bytes (p = 60, r = 4, k = 30), above the
+/// 1 GiB limit; the same scenario at the frame's own size goes on to the loader.
+#[test]
+fn a_reduction_above_the_work_limits_is_refused_from_the_size_line() {
+    let dir = scratch("reduction_budget");
+    let d = dir.as_path();
+    let scenario = frame(
+        d,
+        "big.toml",
+        "reduction = { kind = \"craig_bampton\", modes = 30 }",
+    );
+    let fake = d.join("M.mtx");
+    std::fs::write(
+        &fake,
+        "%%MatrixMarket matrix coordinate real symmetric\n% declared only\n1000000 1000000 1000000\n",
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(&scenario).unwrap();
+    let mass = root().join("scenarios").join("frame/M.mtx");
+    let text = text.replace(
+        &format!("\"{}\"", mass.display()),
+        &format!("\"{}\"", fake.display()),
+    );
+    assert!(text.contains(&fake.display().to_string()), "{text}");
+    std::fs::write(&scenario, text).unwrap();
+    let err = assert_bad_input(
+        &["linearize", &scenario],
+        &["memory of the Craig–Bampton reduction", "--allow-long"],
+    );
+    assert!(err.contains("2.0") && err.contains("GiB"), "{err}");
+}
