@@ -108,8 +108,9 @@ pub fn lowest_modes(
         // Y = K^-1 M X, and M Y.
         let mut y = mx.clone();
         factor.solve_columns_in_place(y.as_mut_slice());
+        let yt = y.transpose();
         rows.fill(0.0);
-        m.mul_rows_add_into(y.transpose().as_slice(), &mut rows, p);
+        m.mul_rows_add_into(yt.as_slice(), &mut rows, p);
         let my = DMatrix::from_row_slice(n, p, &rows);
         // Converged when each wanted Ritz pair (unit modal mass) is a fixed point of the
         // inverse iteration, rho = |lambda K^-1 M x - x|_M <= MODE_TOL; or, at the solves'
@@ -117,42 +118,99 @@ pub fn lowest_modes(
         // eigenvalue's error from the residual (about rho^2 lambda) is within what the
         // rounding of the matrices' entries already makes of it: rho^2 <= rounding_floor.
         if it > 1 {
-            let mut worst = 0.0f64;
-            let mut all_at_floor = true;
-            for i in 0..count {
-                let l = lambda[i];
-                let r = y.column(i) * l - x.column(i);
-                let mr = my.column(i) * l - mx.column(i);
-                let rho = r.dot(&mr).max(0.0).sqrt();
-                if rho > MODE_TOL {
-                    worst = worst.max(rho);
-                    all_at_floor = all_at_floor
-                        && rho * rho <= rounding_floor(k, m, l, x.column(i).as_slice());
-                }
-            }
+            let rho: Vec<f64> = (0..count)
+                .map(|i| {
+                    let r = y.column(i) * lambda[i] - x.column(i);
+                    let mr = my.column(i) * lambda[i] - mx.column(i);
+                    r.dot(&mr).max(0.0).sqrt()
+                })
+                .collect();
+            let worst = rho
+                .iter()
+                .copied()
+                .filter(|&r| r > MODE_TOL)
+                .fold(0.0, f64::max);
             history.push(worst);
             let stalled = history.len() > STALL_WINDOW
                 && worst > 0.5 * history[history.len() - 1 - STALL_WINDOW];
-            if worst == 0.0 || (all_at_floor && stalled) {
+            let at_floor = || {
+                rho.iter().enumerate().all(|(i, &r)| {
+                    r <= MODE_TOL
+                        || r * r <= rounding_floor(k, m, lambda[i], x.column(i).as_slice())
+                })
+            };
+            if worst == 0.0 || (stalled && at_floor()) {
                 return Ok(finish(x, &lambda, count, it - 1));
             }
         }
         // Rayleigh–Ritz on span Y with K Y = M X: Y^T K Y = Y^T (M X), no product with the
-        // ill-conditioned K. Columns scaled to unit M-norm for the small Cholesky.
-        let kp = symmetrize(y.tr_mul(&mx));
-        let mp = symmetrize(y.tr_mul(&my));
-        let d = DVector::from_fn(p, |j, _| 1.0 / mp[(j, j)].sqrt());
-        let scale = |a: DMatrix<f64>| DMatrix::from_fn(p, p, |i, j| a[(i, j)] * d[i] * d[j]);
-        let (l, q) = generalized_eigen(scale(kp), scale(mp))?;
-        let dq = DMatrix::from_fn(p, p, |i, j| d[i] * q[(i, j)]);
+        // ill-conditioned K. Columns scaled to unit M-norm for the small Cholesky. The
+        // first block (from the random start) can be too close to dependent for that
+        // Cholesky; it, and any block whose projected mass is not numerically positive
+        // definite, is orthonormalised instead.
+        let ritz = if it == 1 {
+            None
+        } else {
+            ritz_from_solves(&yt, &mx, &my)?
+        };
+        let (l, dq, basis, m_basis) = match ritz {
+            Some((l, dq)) => (l, dq, y, my),
+            None => ritz_orthonormal(k, m, y)?,
+        };
         lambda = l;
-        x = &y * &dq;
-        mx = &my * &dq;
+        x = &basis * &dq;
+        mx = &m_basis * &dq;
     }
     Err(StructureError::NoConvergence {
         what: "shift-invert subspace iteration",
         iterations: MAX_ITERATIONS,
     })
+}
+
+/// The Ritz pairs of span `Y` with `K Y = M X` from `Y^T (M X)` and `Y^T (M Y)` (`yt` is
+/// `Y^T`): eigenvalues and the combination `D Q` of the columns of `Y`; `None` when the
+/// projected mass is not numerically positive definite.
+#[allow(clippy::type_complexity)]
+fn ritz_from_solves(
+    yt: &DMatrix<f64>,
+    mx: &DMatrix<f64>,
+    my: &DMatrix<f64>,
+) -> Result<Option<(Vec<f64>, DMatrix<f64>)>, StructureError> {
+    // (Products as GEMMs with Y^T: nalgebra's `tr_mul` is a loop of dot products.)
+    let kp = symmetrize(yt * mx);
+    let mp = symmetrize(yt * my);
+    let p = mp.nrows();
+    let d = DVector::from_fn(p, |j, _| 1.0 / mp[(j, j)].sqrt());
+    if d.iter().any(|v| !v.is_finite()) {
+        return Ok(None);
+    }
+    let scale = |a: DMatrix<f64>| DMatrix::from_fn(p, p, |i, j| a[(i, j)] * d[i] * d[j]);
+    match generalized_eigen(scale(kp), scale(mp)) {
+        Ok((l, q)) => Ok(Some((l, DMatrix::from_fn(p, p, |i, j| d[i] * q[(i, j)])))),
+        Err(StructureError::NotPositiveDefinite { .. }) => Ok(None),
+        Err(e) => Err(e),
+    }
+}
+
+/// The Ritz pairs of span `Y` from an orthonormal basis `Q` of it and products with `K`
+/// and `M`: eigenvalues, the combination of the columns of `Q`, `Q` and `M Q`.
+#[allow(clippy::type_complexity)]
+fn ritz_orthonormal(
+    k: &SparseSym,
+    m: &SparseSym,
+    y: DMatrix<f64>,
+) -> Result<(Vec<f64>, DMatrix<f64>, DMatrix<f64>, DMatrix<f64>), StructureError> {
+    let (n, p) = y.shape();
+    let q = y.qr().q();
+    let qt = q.transpose();
+    let product = |a: &SparseSym| {
+        let mut rows = vec![0.0; n * p];
+        a.mul_rows_add_into(qt.as_slice(), &mut rows, p);
+        DMatrix::from_row_slice(n, p, &rows)
+    };
+    let (kq, mq) = (product(k), product(m));
+    let (l, u) = generalized_eigen(symmetrize(&qt * kq), symmetrize(&qt * &mq))?;
+    Ok((l, u, q, mq))
 }
 
 /// The first `count` Ritz pairs, each shape's largest component positive.
