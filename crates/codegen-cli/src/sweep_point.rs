@@ -284,7 +284,12 @@ fn random(
     if !model.excitations.iter().any(|e| e.time.is_random()) {
         return Ok(vec![]);
     }
-    let limits = crate::linear::LoadLimit::of(model, lin);
+    // The reach figures read each limit's point as a beam abscissa output: on the beam only
+    // (a node's reach is along its pivot axis, which no output names yet).
+    let limits = match model.beam() {
+        Some(_) => crate::linear::LoadLimit::of(model, lin),
+        None => vec![],
+    };
     let mut outputs: Vec<String> = limits
         .iter()
         .map(|l| crate::report::csv::cell(Some(l.point.x)))

@@ -33,6 +33,7 @@ pub use error::StructureError;
 pub use export::{StructureFiles, beam_structure_files};
 pub use model::{DampingInput, Entries, ImportedStructure, MatrixFiles, StructureParts};
 pub use modes::{
-    FLOOR_TOL, MAX_ITERATIONS, MODE_TOL, STALL_WINDOW, SparseModes, generalized_eigen, lowest_modes,
+    MAX_ITERATIONS, MODE_TOL, STALL_WINDOW, SparseModes, generalized_eigen, lowest_modes,
+    rounding_floor,
 };
 pub use sparse::{ComplexFactor, SparseFactor, SparseSym};

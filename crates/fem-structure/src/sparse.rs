@@ -87,6 +87,28 @@ impl SparseSym {
         }
     }
 
+    /// `Y += A X` for a block of `cols` vectors stored by rows (`X[i * cols + c]`, row-major
+    /// `n x cols`): one pass over the non-zeros for the whole block, the inner loop over
+    /// the block's contiguous row.
+    pub fn mul_rows_add_into(&self, x: &[f64], y: &mut [f64], cols: usize) {
+        let n = self.n();
+        assert!(
+            x.len() == n * cols && y.len() == n * cols,
+            "SparseSym::mul_rows_add_into: wrong block size"
+        );
+        if cols == 0 {
+            return;
+        }
+        let r = self.mat.as_ref();
+        for (j, xj) in x.chunks_exact(cols).enumerate() {
+            for (i, v) in r.row_idx_of_col(j).zip(r.val_of_col(j)) {
+                for (yc, xc) in y[i * cols..(i + 1) * cols].iter_mut().zip(xj) {
+                    *yc += v * xc;
+                }
+            }
+        }
+    }
+
     /// `x^T A x`.
     pub fn quadratic_form(&self, x: &[f64]) -> f64 {
         let r = self.mat.as_ref();
@@ -97,6 +119,22 @@ impl SparseSym {
                 c += v * x[i];
             }
             s += x[j] * c;
+        }
+        s
+    }
+
+    /// `|x|^T |A| |x|` (entries and components by their absolute values): the first-order
+    /// change of `x^T A x` when every stored entry of `A` changes by at most one part in
+    /// `1 / eps`, over `eps`.
+    pub fn abs_quadratic_form(&self, x: &[f64]) -> f64 {
+        let r = self.mat.as_ref();
+        let mut s = 0.0;
+        for j in 0..self.n() {
+            let mut c = 0.0;
+            for (i, v) in r.row_idx_of_col(j).zip(r.val_of_col(j)) {
+                c += v.abs() * x[i].abs();
+            }
+            s += x[j].abs() * c;
         }
         s
     }

@@ -9,7 +9,7 @@ use std::ops::Range;
 use diagnostic::{Diagnostic, Diagnostics, Kind};
 use fem_beam::BeamModel;
 use fem_structure::tables::NodeDof;
-use fem_structure::{ImportedStructure, Reduced, craig_bampton};
+use fem_structure::{ImportedStructure, Reduced};
 use hybrid_core::hybrid::{
     Attachment, BeamPoint, Excitation, ExcitationTarget, HybridError, HybridModel, HybridState,
     JointForce, Mount, MountedMechanism, Placement, Structure, initial_deflection, initial_state,
@@ -19,9 +19,7 @@ use mbs_symbolic::model::Model;
 use mbs_symbolic::runtime::{ParamError, System};
 
 use crate::scenario::HybridScenario;
-use crate::scenario::hybrid::{
-    AttachmentEntry, MechanismEntry, StructureSource, TargetEntry, list,
-};
+use crate::scenario::hybrid::{AttachmentEntry, MechanismEntry, TargetEntry, list};
 
 /// A hybrid scenario resolved against its models: the model, its initial state and what
 /// the reports need.
@@ -210,16 +208,13 @@ fn beam_model(sc: &HybridScenario) -> Result<Option<BeamModel>, Diagnostics> {
 
 /// The imported structure of `[structure]`, if any: its files read and checked
 /// ([`ImportedStructure::from_files`]: every problem with its file and line), reduced by
-/// Craig–Bampton when asked, the interface being the attachment nodes' and loaded nodes'
+/// Craig–Bampton when asked (both once per distinct input: [`super::structures`]), the interface being the attachment nodes' and loaded nodes'
 /// `ux`, `uy` (unknown nodes are left to the resolver, which reports them).
 fn imported_model(sc: &HybridScenario) -> Result<Option<Structure>, Diagnostics> {
     let Some(entry) = &sc.structure else {
         return Ok(None);
     };
-    let full = match &entry.source {
-        StructureSource::Files(files) => ImportedStructure::from_files(files)?,
-        StructureSource::Given { parts, damping } => parts.model(damping)?,
-    };
+    let full = super::structures::load(&entry.source)?;
     let Some(modes) = entry.reduction_modes else {
         return Ok(Some(Structure::Imported(full)));
     };
@@ -256,14 +251,7 @@ fn imported_model(sc: &HybridScenario) -> Result<Option<Structure>, Diagnostics>
                 .into(),
         ));
     }
-    let reduced = craig_bampton(
-        &full.stiffness,
-        &full.mass,
-        full.damping.as_ref(),
-        &interface,
-        modes,
-    )
-    .map_err(|e| at(e.to_string()))?;
+    let reduced = super::structures::reduce(&entry.source, &full, &interface, modes).map_err(at)?;
     Ok(Some(Structure::Reduced {
         full: Box::new(full),
         reduced: Box::new(reduced),

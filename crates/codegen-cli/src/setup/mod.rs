@@ -9,10 +9,13 @@
 //!   the scenario file's line;
 //! - [`tangents`]: the same system with one exact tangent model per mechanism, for
 //!   linearisation ([`tangents_for`], [`Linearizable`]);
+//! - [`structures`]: the imported structures read and reduced once per distinct input
+//!   (files, damping, reduction settings, interface) and reused by every evaluation;
 //! - [`variants`]: the comparison runs of a built scenario (generators disconnected, the
 //!   bare beam with its probes).
 
 pub mod build;
+pub mod structures;
 pub mod tangents;
 pub mod variants;
 

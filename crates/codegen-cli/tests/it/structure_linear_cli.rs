@@ -355,3 +355,91 @@ fn a_reduction_above_the_work_limits_is_refused_from_the_size_line() {
     );
     assert!(err.contains("2.0") && err.contains("GiB"), "{err}");
 }
+
+/// The reduction is built once per distinct structure and reused (issue #30): four sweep
+/// points of a copy of the frame (its own paths, so no other test shares its cache
+/// entries), evaluated at the same time on four threads with different load resistances,
+/// read the files once and reduce them once; the reduction they share is bit for bit a
+/// fresh `craig_bampton` of freshly read files (the uncached path), and each point's
+/// figures are bit for bit those of the same point evaluated again alone.
+#[test]
+fn the_frames_reduction_is_built_once_for_every_sweep_point() {
+    use codegen_cli::scenario::overrides::{Override, parse_value};
+    use codegen_cli::setup::structures;
+    use codegen_cli::sweep_point::{PointOptions, evaluate};
+    use fem_structure::{DampingInput, ImportedStructure, MatrixFiles, craig_bampton};
+
+    let dir = scratch("frame_cache");
+    let d = dir.as_path();
+    let copy = d.join("frame");
+    std::fs::create_dir_all(&copy).unwrap();
+    for f in ["M.mtx", "K.mtx", "nodes.csv", "dofs.csv"] {
+        std::fs::copy(root().join("scenarios/frame").join(f), copy.join(f)).unwrap();
+    }
+    let src = root().join("scenarios");
+    let text = std::fs::read_to_string(src.join("frame.toml"))
+        .unwrap()
+        .replace("\"../models/", &format!("\"{}/../models/", src.display()));
+    let path = d.join("frame.toml");
+    std::fs::write(&path, &text).unwrap();
+    let point = |r: f64| {
+        let o = Override::new("force[0].load_resistance", parse_value(&r.to_string()), "").unwrap();
+        evaluate(&path, &text, &[o], &PointOptions::default())
+            .unwrap()
+            .figures
+            .iter()
+            .map(|f| (f.name.clone(), f.value.map(f64::to_bits)))
+            .collect::<Vec<_>>()
+    };
+    let values = [2.0, 3.5, 5.0, 8.0];
+    let together: Vec<_> = std::thread::scope(|s| {
+        let h: Vec<_> = values.iter().map(|&r| s.spawn(move || point(r))).collect();
+        h.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    let files = MatrixFiles {
+        damping: DampingInput::Ratios([(1, 0.002), (2, 0.002)]),
+        ..MatrixFiles::in_directory(&copy, DampingInput::None)
+    };
+    assert_eq!(structures::computations(&files), (1, 1));
+    for (r, t) in values.iter().zip(&together) {
+        assert_eq!(&point(*r), t, "load resistance {r}");
+        assert!(t.iter().any(|(n, v)| n == "linear.f1" && v.is_some()));
+    }
+    assert_eq!(structures::computations(&files), (1, 1));
+
+    // The cached reduction is the uncached one, bit for bit.
+    let full = ImportedStructure::from_files(&files).unwrap();
+    let source = codegen_cli::scenario::hybrid::StructureSource::Files(files.clone());
+    let cached_full = structures::load(&source).unwrap();
+    use fem_structure::tables::NodeDof::{Ux, Uy};
+    let interface: Vec<usize> = [(613, Ux), (613, Uy), (741, Ux), (741, Uy)]
+        .iter()
+        .map(|k| full.dofs.equation[k])
+        .collect();
+    let mut interface = interface;
+    interface.sort_unstable();
+    let fresh = craig_bampton(
+        &full.stiffness,
+        &full.mass,
+        full.damping.as_ref(),
+        &interface,
+        30,
+    )
+    .unwrap();
+    let cached = structures::reduce(&source, &cached_full, &interface, 30).unwrap();
+    assert_eq!(structures::computations(&files), (1, 1), "the sweep's key");
+    assert_eq!(cached.interface, fresh.interface);
+    for (a, b) in [
+        (&cached.transform, &fresh.transform),
+        (&cached.mass, &fresh.mass),
+        (&cached.stiffness, &fresh.stiffness),
+        (&cached.damping, &fresh.damping),
+    ] {
+        assert!(
+            a.iter()
+                .zip(b.iter())
+                .all(|(x, y)| x.to_bits() == y.to_bits())
+        );
+        assert_eq!(a.shape(), b.shape());
+    }
+}

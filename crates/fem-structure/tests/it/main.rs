@@ -5,4 +5,5 @@ mod beam_export;
 mod chain;
 mod files;
 mod frame;
+mod long_beam;
 mod reduction;
