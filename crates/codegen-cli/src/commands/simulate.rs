@@ -4,8 +4,8 @@
 //! [`crate::scenario::preset`]); it and every `kind = "hybrid"` scenario run through
 //! [`crate::run_hybrid`]: the system as described and the comparison runs of `[output]
 //! compare` (`generator_disconnected`: every generator's circuit open, the mechanism and
-//! rotor inertia still attached; `bare_beam`: the beam alone, read at the attachments'
-//! points), writing `time_history.csv` and `time_history_<comparison>.csv` (entity-prefixed
+//! rotor inertia still attached; `bare_beam`/`bare_structure`: the host alone, read at the
+//! attachments' points), writing `time_history.csv` and `time_history_<comparison>.csv` (entity-prefixed
 //! columns, units in every header: [`crate::report::hybrid::Columns`]), `summary.json`
 //! ([`crate::report::hybrid::HybridSummary`], with a `comparisons` block per comparison
 //! run), `beam_displacement.svg` and `damping_vs_amplitude.svg`.

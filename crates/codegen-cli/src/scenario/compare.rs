@@ -13,17 +13,25 @@ pub enum Comparison {
     GeneratorDisconnected,
     /// The beam alone, without the mechanism: the structure before any damper.
     BareBeam,
+    /// The `[structure]` alone, without the mechanisms, under the same loads, read at the
+    /// attachments' nodes: `bare_beam`'s counterpart where the host is not a beam.
+    BareStructure,
 }
 
 impl Comparison {
     /// Every comparison, in output order.
-    pub const ALL: [Comparison; 2] = [Comparison::GeneratorDisconnected, Comparison::BareBeam];
+    pub const ALL: [Comparison; 3] = [
+        Comparison::GeneratorDisconnected,
+        Comparison::BareBeam,
+        Comparison::BareStructure,
+    ];
 
     /// The key in the scenario, the summary and the output file names.
     pub fn key(self) -> &'static str {
         match self {
             Comparison::GeneratorDisconnected => "generator_disconnected",
             Comparison::BareBeam => "bare_beam",
+            Comparison::BareStructure => "bare_structure",
         }
     }
 
@@ -34,6 +42,7 @@ impl Comparison {
                 "generator disconnected (mechanism + rotor inertia attached)"
             }
             Comparison::BareBeam => "bare beam (no mechanism)",
+            Comparison::BareStructure => "bare structure (no mechanism)",
         }
     }
 }

@@ -1,5 +1,6 @@
 //! The comparison runs of a built hybrid scenario (`[output] compare`) as engine models:
-//! every generator disconnected, or the bare beam read at the attachments' beam points
+//! every generator disconnected, or the bare beam (structure) read at the attachments' beam
+//! points (nodes)
 //! (`hybrid_core::hybrid::HybridModel::generators_disconnected`, `bare_beam`), each from the
 //! scenario's initial state.
 
@@ -14,7 +15,7 @@ pub type Probes = Vec<(String, BeamPoint)>;
 
 /// The system of a comparison run of a built scenario, from the same initial state, and the
 /// beam points it reads as probes (the bare beam's: where the attachments were); `None` for
-/// `bare_beam` without a beam (the loader refuses it).
+/// `bare_beam`/`bare_structure` without a host (the loader refuses it).
 pub fn comparison(
     file: &str,
     built: &Built,
@@ -27,7 +28,7 @@ pub fn comparison(
             built.models.clone(),
             vec![],
         ),
-        Comparison::BareBeam => {
+        Comparison::BareBeam | Comparison::BareStructure => {
             let Some(bare) = model.bare_beam() else {
                 return Ok(None);
             };

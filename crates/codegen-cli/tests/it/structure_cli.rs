@@ -61,6 +61,19 @@ pub(crate) fn export(dir: &Path) -> std::path::PathBuf {
     beam_path
 }
 
+/// `damper simulate P -o OUT --quiet`, which must succeed; returns `OUT`.
+fn simulated(p: &Path, out: &Path) -> std::path::PathBuf {
+    let (code, stdout, err) = damper(&[
+        "simulate",
+        p.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(code, 0, "{stdout}\n{err}");
+    out.to_path_buf()
+}
+
 /// A fresh directory under the system's temporary directory.
 pub(crate) fn scratch(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("structure_cli_{name}_{}", std::process::id()));
@@ -81,8 +94,13 @@ pub(crate) fn structure(extra: &str) -> String {
 /// the energy balance's error and the structure's own loads' work (zero but for round-off
 /// when every load is an excitation) against the stored energy.
 fn worst(a: &Path, b: &Path) -> f64 {
-    let read = |p: &Path| {
-        let mut r = csv::Reader::from_path(p.join("time_history.csv")).unwrap();
+    worst_of(a, "time_history.csv", b, "time_history.csv")
+}
+
+/// [`worst`] of the time history `fa` in `a` against `fb` in `b`.
+fn worst_of(a: &Path, fa: &str, b: &Path, fb: &str) -> f64 {
+    let read = |p: &Path, f: &str| {
+        let mut r = csv::Reader::from_path(p.join(f)).unwrap();
         let h: Vec<String> = r.headers().unwrap().iter().map(str::to_string).collect();
         let rows: Vec<Vec<f64>> = r
             .records()
@@ -103,7 +121,7 @@ fn worst(a: &Path, b: &Path) -> f64 {
             .collect();
         (h, rows)
     };
-    let ((ha, ra), (hb, rb)) = (read(a), read(b));
+    let ((ha, ra), (hb, rb)) = (read(a, fa), read(b, fb));
     assert_eq!(ha, hb, "the same columns");
     assert_eq!(ra.len(), rb.len());
     let amplitude = |c: usize| ra.iter().fold(0.0f64, |m, r| m.max(r[c].abs()));
@@ -155,18 +173,7 @@ fn the_beam_as_matrices_runs_as_the_beam() {
         host("reduction = { kind = \"craig_bampton\", modes = 47 }\n"),
     )
     .unwrap();
-    let run = |p: &Path, out: &str| {
-        let o = d.join(out);
-        let (code, stdout, err) = damper(&[
-            "simulate",
-            p.to_str().unwrap(),
-            "-o",
-            o.to_str().unwrap(),
-            "--quiet",
-        ]);
-        assert_eq!(code, 0, "{stdout}\n{err}");
-        o
-    };
+    let run = |p: &Path, out: &str| simulated(p, &d.join(out));
     let (a, b, c) = (
         run(&beam, "beam"),
         run(&full, "full"),
@@ -233,6 +240,129 @@ fn the_beam_as_matrices_runs_as_the_beam() {
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("above the reduction's cutoff"), "{err}");
     std::fs::remove_dir_all(d).unwrap();
+}
+
+/// `compare = ["bare_structure"]` on the beam's Matrix Market export is `bare_beam` on the
+/// beam: the comparison run's time history (the structure alone under the same force, read
+/// where the attachments were, `left_pin.w`, `right_pin.w`: the nodes' `uy`, the beam's
+/// `x = L/3, 2L/3`) within 1e-10 of each column's amplitude, as the runs with the dampers
+/// ([`the_beam_as_matrices_runs_as_the_beam`]); the summary's entry under its own key and
+/// label. `bare_beam` on a structure and `bare_structure` on a beam are refused in one line.
+#[test]
+fn bare_structure_on_the_beam_as_matrices_is_the_bare_beam() {
+    let dir = scratch("bare");
+    let d = dir.as_path();
+    let beam = export(d);
+    let text = std::fs::read_to_string(&beam).unwrap();
+    let with =
+        |t: &str, c: &str| t.replace("[output]\n", &format!("[output]\ncompare = [{c:?}]\n"));
+    std::fs::write(&beam, with(&text, "bare_beam")).unwrap();
+    let host = scenario(
+        &structure(""),
+        "node = 8",
+        "node = 16",
+        "{ node = 12, direction = [0.0, 1.0] }",
+    );
+    let full = d.join("full.toml");
+    std::fs::write(&full, with(&host, "bare_structure")).unwrap();
+    let run = |p: &Path, out: &str| simulated(p, &d.join(out));
+    let (a, b) = (run(&beam, "beam"), run(&full, "full"));
+    let w = worst_of(
+        &a,
+        "time_history_bare_beam.csv",
+        &b,
+        "time_history_bare_structure.csv",
+    );
+    assert!(w <= 1e-10, "bare structure vs bare beam: {w:e}");
+    let header = std::fs::read_to_string(b.join("time_history_bare_structure.csv")).unwrap();
+    let header = header.lines().next().unwrap();
+    assert!(
+        header
+            .ends_with("left_pin.w [m],left_pin.w_dot [m/s],right_pin.w [m],right_pin.w_dot [m/s]"),
+        "{header}"
+    );
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(b.join("summary.json")).unwrap()).unwrap();
+    let c = &s["comparisons"]["bare_structure"];
+    assert_eq!(c["label"], "bare structure (no mechanism)");
+    let peak = |s: &serde_json::Value| s["peak_amplitude"].as_f64().unwrap();
+    let sa: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(a.join("summary.json")).unwrap()).unwrap();
+    let pb = peak(&sa["comparisons"]["bare_beam"]);
+    assert!((peak(c) - pb).abs() <= 1e-10 * pb, "{} vs {pb}", peak(c));
+
+    // The wrong host's name, in one line naming the file and the key.
+    std::fs::write(&full, with(&host, "bare_beam")).unwrap();
+    std::fs::write(&beam, with(&text, "bare_structure")).unwrap();
+    let out = d.join("out");
+    for (p, needles) in [
+        (
+            &full,
+            ["\"bare_beam\" is for a [beam]", "use \"bare_structure\""],
+        ),
+        (
+            &beam,
+            [
+                "\"bare_structure\" is for a [structure]",
+                "use \"bare_beam\"",
+            ],
+        ),
+    ] {
+        let e = assert_bad_input(
+            &["simulate", p.to_str().unwrap(), "-o", out.to_str().unwrap()],
+            &needles,
+        );
+        assert!(
+            e.contains(p.to_str().unwrap()) && e.contains("[output] compare"),
+            "{e}"
+        );
+    }
+    std::fs::remove_dir_all(d).unwrap();
+}
+
+/// The frame (`scenarios/frame.toml`, 20 ms) with `compare = ["bare_structure"]`: the
+/// comparison run writes `time_history_bare_structure.csv` with the damper's node read as
+/// the attachment reads it (`pin.w`, node 613), its summary entry keeps its energy balance
+/// (1e-9 of the input work) and the bare structure's own peak at node 613.
+#[test]
+fn the_frame_runs_its_bare_structure() {
+    let dir = scratch("frame_bare");
+    let o = dir.join("out");
+    let frame = root().join("scenarios/frame.toml");
+    let (code, stdout, err) = damper(&[
+        "simulate",
+        frame.to_str().unwrap(),
+        "-o",
+        o.to_str().unwrap(),
+        "--set",
+        "integrator.t_end=0.02",
+        "--set",
+        "output.compare=[\"bare_structure\"]",
+        "--quiet",
+    ]);
+    assert_eq!(code, 0, "{stdout}\n{err}");
+    let mut r = csv::Reader::from_path(o.join("time_history_bare_structure.csv")).unwrap();
+    let h: Vec<String> = r.headers().unwrap().iter().map(str::to_string).collect();
+    let w = h.iter().position(|c| c == "pin.w [m]").expect("pin.w");
+    let peak = r
+        .records()
+        .map(|x| x.unwrap()[w].parse::<f64>().unwrap().abs())
+        .fold(0.0f64, f64::max);
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(o.join("summary.json")).unwrap()).unwrap();
+    let c = &s["comparisons"]["bare_structure"];
+    assert_eq!(c["label"], "bare structure (no mechanism)");
+    assert!(
+        c["energy_balance_rel_error"].as_f64().unwrap() < 1e-9,
+        "{c}"
+    );
+    let a = &c["attachments"][0];
+    assert_eq!(a["name"], "pin");
+    assert!(
+        peak > 0.0 && (a["peak_displacement"].as_f64().unwrap() - peak).abs() <= 1e-6 * peak,
+        "{a} vs {peak}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -678,18 +808,7 @@ fn a_roller_at_a_node_along_y_is_the_beams_roller() {
         at_node(&along(8, "[0.0, 1.0]"), &along(16, "[0.0, 1.0]")),
     )
     .unwrap();
-    let run = |p: &Path, out: &str| {
-        let o = d.join(out);
-        let (code, stdout, err) = damper(&[
-            "simulate",
-            p.to_str().unwrap(),
-            "-o",
-            o.to_str().unwrap(),
-            "--quiet",
-        ]);
-        assert_eq!(code, 0, "{stdout}\n{err}");
-        o
-    };
+    let run = |p: &Path, out: &str| simulated(p, &d.join(out));
     let w = worst(&run(&beam, "beam"), &run(&nodes, "nodes"));
     assert!(w <= 1e-10, "roller at a node vs the beam's roller: {w:e}");
 

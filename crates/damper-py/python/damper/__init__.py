@@ -471,7 +471,8 @@ class Scenario:
     def simulate(self, compare: Optional[Sequence[str]] = None, allow_long: bool = False) -> Run:
         """Runs the scenario as ``damper simulate`` does, in memory (no file written).
 
-        ``compare``: the comparison runs (``"generator_disconnected"``, ``"bare_beam"``),
+        ``compare``: the comparison runs (``"generator_disconnected"``, ``"bare_beam"`` on a
+        beam, ``"bare_structure"`` on a structure),
         replacing the scenario's ``[output] compare``; ``None`` keeps the scenario's.
         """
         sc = self if compare is None else self.with_set({"output.compare": _names(compare, "compare")})

@@ -64,7 +64,8 @@
 //! every = 10                 # a CSV row every 10 steps
 //! compare = ["generator_disconnected", "bare_beam"]   # comparison runs (none by default):
 //!                            #   every generator's circuit open; the beam alone, read at
-//!                            #   the attachments' beam points (needs a [beam])
+//!                            #   the attachments' beam points (needs a [beam];
+//!                            #   "bare_structure" for a [structure])
 //! ```
 //!
 //! Loading (`reader::from_doc`, through the one loader [`super::load`]) checks the file itself:

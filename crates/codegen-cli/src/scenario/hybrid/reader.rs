@@ -75,7 +75,7 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<HybridScenario> {
     let method = integrator
         .as_ref()
         .and_then(|ig| check_integrator(doc, ig.get_ref()));
-    let (every, compare) = output(doc, beam_span.is_some(), &mut ok);
+    let (every, compare) = output(doc, beam_span.is_some(), on_beam.structure, &mut ok);
     let (integrator, method) = (integrator?.into_inner(), method?);
     if !ok {
         return None;
@@ -934,8 +934,13 @@ fn initial(doc: &mut Doc<'_>, on_beam: &OnBeam, ok: &mut bool) -> Option<(f64, f
 }
 
 /// `[output]`: a row every `every` steps, and the comparison runs (`bare_beam` only with a
-/// beam written).
-fn output(doc: &mut Doc<'_>, beam_written: bool, ok: &mut bool) -> (usize, Vec<Comparison>) {
+/// beam written, `bare_structure` only with a structure written).
+fn output(
+    doc: &mut Doc<'_>,
+    beam_written: bool,
+    structure_written: bool,
+    ok: &mut bool,
+) -> (usize, Vec<Comparison>) {
     let output = doc.section::<RawOutput>("output", false);
     *ok &= output.is_some() || !doc.root.contains_key("output");
     let every = match output.as_ref().and_then(|o| o.get_ref().every.as_ref()) {
@@ -971,13 +976,33 @@ fn output(doc: &mut Doc<'_>, beam_written: bool, ok: &mut bool) -> (usize, Vec<C
                 *ok = false;
             }
         }
+        // The bare host's comparison is named after the host: one problem for the wrong one.
+        let (wrong, msg) = if beam_written {
+            (
+                Comparison::BareStructure,
+                "\"bare_structure\" is for a [structure]: on a [beam] use \"bare_beam\"",
+            )
+        } else if structure_written {
+            (
+                Comparison::BareBeam,
+                "\"bare_beam\" is for a [beam]: on a [structure] use \"bare_structure\"",
+            )
+        } else {
+            (Comparison::BareBeam, "\"bare_beam\" needs a [beam]")
+        };
         let mut refused = false;
         for c in list.get_ref() {
-            if compare.contains(c) || (*c == Comparison::BareBeam && refused) {
+            let host_missing = *c == wrong
+                || (*c == Comparison::BareStructure && !structure_written && !beam_written);
+            if compare.contains(c) || (host_missing && refused) {
                 continue;
-            } else if *c == Comparison::BareBeam && !beam_written {
+            } else if host_missing {
                 refused = true;
-                let msg = "\"bare_beam\" needs a [beam]";
+                let msg = if *c == wrong {
+                    msg
+                } else {
+                    "\"bare_structure\" needs a [structure]"
+                };
                 doc.push(
                     Kind::InvalidValue,
                     Some(list.span()),
