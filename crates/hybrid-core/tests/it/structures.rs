@@ -365,6 +365,20 @@ pub(crate) fn double_bar_on(
     (model, g)
 }
 
+/// 0.3 s of `model` from rest at `q0` by the paper's method and step, a state every 50 steps.
+fn sampled(paper: &PaperDamper, model: &HybridModel, q0: Vec<f64>) -> Vec<HybridState> {
+    let mut state = initial_state(model, q0, vec![0.0; 2]).unwrap();
+    let mut integrator = Integrator::new(model, paper.method, paper.dt, &state).unwrap();
+    let mut out = vec![state.clone()];
+    for k in 1..=3000 {
+        integrator.step(model, &mut state).unwrap();
+        if k % 50 == 0 {
+            out.push(state.clone());
+        }
+    }
+    out
+}
+
 /// The paper's damper without gravity (the node tests' mechanism).
 pub(crate) fn weightless_paper() -> PaperDamper {
     PaperDamper {
@@ -407,16 +421,7 @@ fn a_pin_on_a_node_couples_both_directions() {
     };
     let run = |(model, q0): (HybridModel, Vec<f64>)| -> Vec<HybridState> {
         assert_eq!(model.couplings().len(), 2, "the pin couples both rows");
-        let mut state = initial_state(&model, q0, vec![0.0; 2]).unwrap();
-        let mut integrator = Integrator::new(&model, paper.method, paper.dt, &state).unwrap();
-        let mut out = vec![state.clone()];
-        for k in 1..=3000 {
-            integrator.step(&model, &mut state).unwrap();
-            if k % 50 == 0 {
-                out.push(state.clone());
-            }
-        }
-        out
+        sampled(&paper, &model, q0)
     };
     let a = run(build(false));
     let b = run(build(true));
@@ -454,16 +459,7 @@ fn a_roller_on_a_node_follows_its_direction_only() {
     };
     let run = |model: HybridModel, q0: Vec<f64>| -> Vec<HybridState> {
         assert_eq!(model.couplings().len(), 1, "a roller couples one row");
-        let mut state = initial_state(&model, q0, vec![0.0; 2]).unwrap();
-        let mut integrator = Integrator::new(&model, paper.method, paper.dt, &state).unwrap();
-        let mut out = vec![state.clone()];
-        for k in 1..=3000 {
-            integrator.step(&model, &mut state).unwrap();
-            if k % 50 == 0 {
-                out.push(state.clone());
-            }
-        }
-        out
+        sampled(&paper, &model, q0)
     };
     let a = run(build(false), vec![1e-3, 4e-4]);
     let b = run(build(true), vec![1e-3, -4e-4]);
