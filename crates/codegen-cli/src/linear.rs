@@ -139,6 +139,10 @@ pub struct LinearReport {
     /// absent without mechanisms): `bare_beam`'s counterpart.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bare_structure: Option<Vec<ModeReport>>,
+    /// An imported host structure, with a Craig–Bampton reduction's check (absent on a beam; set by
+    /// [`crate::analysis::linearize::linearize`], not by the sweeps' linearisations).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub structure: Option<crate::report::structure::StructureReport>,
 }
 
 /// How far mechanism `i`'s first attached beam point can still move from the beam state
@@ -481,6 +485,7 @@ pub fn analyse_linearization_with(
         generator_disconnected,
         bare_beam,
         bare_structure,
+        structure: None,
     };
     Ok((report, lin))
 }

@@ -58,6 +58,8 @@ pub struct Samples {
     second: Arc<[f64]>,
     seed: u64,
     psd_mean_square: f64,
+    /// The highest frequency of the realised PSD (Hz).
+    highest_hz: f64,
 }
 
 impl Samples {
@@ -99,6 +101,12 @@ impl Samples {
     /// `∫ G df` of the PSD it realises.
     pub fn psd_mean_square(&self) -> f64 {
         self.psd_mean_square
+    }
+
+    /// The highest frequency of the PSD realised (Hz): [`top_frequency`] of the random kind
+    /// it was made from.
+    pub fn highest_hz(&self) -> f64 {
+        self.highest_hz
     }
 
     /// The mean square over one period.
@@ -209,6 +217,21 @@ pub fn psd_integral(time: &TimeFunction, a: f64, b: f64) -> f64 {
 }
 
 /// The highest frequency with a positive PSD (0 when there is none).
+/// The highest frequency a time function carries (Hz): a harmonic's frequency, the upper
+/// band edge of a white noise, the last frequency of a PSD table where the density is not
+/// zero, a realisation's; `None` for the kinds without a stated upper frequency (constant,
+/// step, table) and for a zero PSD.
+pub fn top_frequency(time: &TimeFunction) -> Option<f64> {
+    match time {
+        TimeFunction::Harmonic { frequency_hz, .. } => Some(*frequency_hz),
+        TimeFunction::WhiteNoise { .. } | TimeFunction::Psd { .. } => {
+            Some(highest(time)).filter(|f| *f > 0.0)
+        }
+        TimeFunction::Sampled(s) => Some(s.highest_hz),
+        _ => None,
+    }
+}
+
 fn highest(time: &TimeFunction) -> f64 {
     match time {
         TimeFunction::WhiteNoise { psd, band, .. } if *psd > 0.0 => band[1],
@@ -304,6 +327,7 @@ pub fn realise(
         second: c2.iter().map(|v| v.re).collect(),
         seed,
         psd_mean_square: psd_integral(time, 0.0, f64::INFINITY),
+        highest_hz: f_max,
     })
 }
 

@@ -17,8 +17,9 @@ use nalgebra::DMatrix;
 use crate::Error;
 use crate::analysis::AnalysisError;
 use crate::budget::{self, Quantity};
-use crate::linear::{LinearReport, analyse_linearization};
-use crate::scenario::Loaded;
+use crate::linear::{LinearReport, analyse_linearization, analyse_linearization_with};
+use crate::report::structure::{CoupledCheck, StructureReport};
+use crate::scenario::{Loaded, Scenario};
 use crate::setup::{Linearizable, tangents_for};
 
 /// What to compute: the linearisation of a loaded scenario.
@@ -80,6 +81,7 @@ pub fn linearize(req: &LinearizeRequest, loaded: &Loaded) -> Result<Linearized, 
     let (mut report, lin) =
         analyse_linearization(&req.file, &input, req.modes, req.method).map_err(remap)?;
     report.overrides = loaded.applied.records();
+    report.structure = structure_report(req, loaded, &input, &report);
     let matrices = if req.matrices {
         let d = lin.dim() as f64;
         budget::refuse_above(
@@ -101,6 +103,67 @@ pub fn linearize(req: &LinearizeRequest, loaded: &Loaded) -> Result<Linearized, 
         None
     };
     Ok(Linearized { report, matrices })
+}
+
+/// An imported host structure's report ([`StructureReport`]; `None` on a beam); for a
+/// Craig–Bampton reduction, its
+/// first coupled mode against the full model's, linearised from the same scenario without
+/// the reduction when that is within the work limits (shift-invert, one mode, no comparison
+/// variants).
+fn structure_report(
+    req: &LinearizeRequest,
+    loaded: &Loaded,
+    input: &Linearizable,
+    report: &LinearReport,
+) -> Option<StructureReport> {
+    if input.model.beam().is_some() {
+        // The beam's size is in its scenario; the report is about imported models.
+        return None;
+    }
+    let mut structure = StructureReport::of(&input.model)?;
+    let (Some(check), Some(reduced), Scenario::Hybrid(sc)) = (
+        structure.reduction.as_mut(),
+        report.modes.first(),
+        &loaded.scenario,
+    ) else {
+        return Some(structure);
+    };
+    let mut full = sc.clone();
+    if let Some(entry) = full.structure.as_mut() {
+        entry.reduction_modes = None;
+    }
+    let full = Scenario::Hybrid(full);
+    let first = tangents_for(&full).and_then(|full_input| {
+        check_work(&req.file, &full_input, 1, EigenMethod::ShiftInvert, false)?;
+        analyse_linearization_with(
+            &req.file,
+            &full_input,
+            1,
+            EigenMethod::ShiftInvert,
+            false,
+            None,
+        )
+    });
+    check.first_coupled = Some(match first {
+        Ok((full_report, _)) => match full_report.modes.first() {
+            Some(f) => CoupledCheck::Compared {
+                reduced_hz: reduced.natural_frequency_hz,
+                full_hz: f.natural_frequency_hz,
+                reduced_damping_ratio: reduced.damping_ratio,
+                full_damping_ratio: f.damping_ratio,
+                frequency_error: (reduced.natural_frequency_hz - f.natural_frequency_hz)
+                    / f.natural_frequency_hz,
+                damping_error: (reduced.damping_ratio - f.damping_ratio) / f.damping_ratio,
+            },
+            None => CoupledCheck::Skipped {
+                reason: "the full model has no mode".into(),
+            },
+        },
+        Err(e) => CoupledCheck::Skipped {
+            reason: e.to_string(),
+        },
+    });
+    Some(structure)
 }
 
 /// Refuses the eigen-solves of `modes` modes by `method` estimated above the limits unless

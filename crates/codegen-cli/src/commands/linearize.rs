@@ -19,6 +19,7 @@ use crate::analysis::linearize::{LinearizeRequest, check, linearize, parse_metho
 use crate::budget;
 use crate::linear::{LinearReport, ModeReport};
 use crate::report::ReportError;
+use crate::report::structure::{CoupledCheck, StructureReport};
 use crate::report::summary::json_bytes;
 use crate::scenario::{self, Override};
 
@@ -58,6 +59,14 @@ pub fn run(args: Args) -> Result<(), Error> {
     let loaded = scenario::load_with(&args.scenario, &args.set)?;
     budget::structure(&loaded.scenario, &req.file, args.allow_long)?;
     let report = linearize(&req, &loaded)?.report;
+    if let Some(w) = report
+        .structure
+        .as_ref()
+        .and_then(|s| s.reduction.as_ref())
+        .and_then(|r| r.warning.as_ref())
+    {
+        eprintln!("{}: warning: {w}", req.file);
+    }
     if args.json {
         let bytes = json_bytes(&report).map_err(ReportError::Json)?;
         return crate::print(&String::from_utf8_lossy(&bytes));
@@ -93,10 +102,54 @@ fn mode_rows(out: &mut String, title: &str, modes: &[ModeReport]) {
     }
 }
 
+/// The host structure and, for a reduction, its check.
+fn structure_lines(out: &mut String, s: &StructureReport) {
+    let Some(c) = &s.reduction else {
+        let _ = writeln!(out, "structure: {}, {} equations", s.kind, s.equations);
+        return;
+    };
+    let _ = writeln!(
+        out,
+        "structure: {}, {} equations reduced to {} coordinates ({} interface DOFs, {} fixed-interface modes up to {:.4} Hz)",
+        s.kind, s.equations, s.coordinates, c.interface, c.modes, c.cutoff_hz
+    );
+    let _ = writeln!(
+        out,
+        "  bare structure: {} mode(s) below the cutoff, reduced frequencies above the full model's by at most {:.2e}",
+        c.full_hz.len(),
+        c.max_relative_error
+    );
+    match &c.first_coupled {
+        Some(CoupledCheck::Compared {
+            reduced_hz,
+            full_hz,
+            reduced_damping_ratio,
+            full_damping_ratio,
+            frequency_error,
+            damping_error,
+        }) => {
+            let _ = writeln!(
+                out,
+                "  first coupled mode: reduced {reduced_hz:.6} Hz, zeta {reduced_damping_ratio:.6e}; full {full_hz:.6} Hz, zeta {full_damping_ratio:.6e} (differences {frequency_error:.2e}, {damping_error:.2e})"
+            );
+        }
+        Some(CoupledCheck::Skipped { reason }) => {
+            let _ = writeln!(
+                out,
+                "  first coupled mode not checked against the full model: {reason}"
+            );
+        }
+        None => {}
+    }
+}
+
 /// The terminal table.
 fn table(r: &LinearReport) -> String {
     let mut out = String::new();
     let _ = writeln!(out, "scenario: {}", r.scenario);
+    if let Some(s) = &r.structure {
+        structure_lines(&mut out, s);
+    }
     let eq = &r.equilibrium;
     let _ = writeln!(
         out,

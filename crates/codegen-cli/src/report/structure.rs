@@ -1,7 +1,9 @@
 //! What a run's host structure is (issue #30): the beam or an imported model, its size,
 //! and for a Craig–Bampton reduction its check — the reduced bare structure's natural
 //! frequencies against the full model's up to the cutoff (the highest fixed-interface mode
-//! kept), and a warning when a harmonic excitation lies above that cutoff.
+//! kept), a warning when an excitation (a harmonic's frequency, a random excitation's band)
+//! reaches above that cutoff, and in `damper linearize` the first coupled mode against the
+//! full model's.
 //!
 //! Each reduced frequency lies at or above the full model's (the reduced model is a
 //! Rayleigh–Ritz projection of the full one), and the agreement improves as modes are
@@ -47,9 +49,42 @@ pub struct ReductionCheck {
     pub reduced_hz: Vec<f64>,
     /// The largest `(reduced - full) / full` over them.
     pub max_relative_error: f64,
-    /// A harmonic excitation above the cutoff, or the check that could not be made.
+    /// An excitation above the cutoff (a harmonic's frequency, a random excitation's band),
+    /// or the check that could not be made.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub warning: Option<String>,
+    /// The first coupled mode (generators connected) of the reduced model against the full
+    /// model's: `damper linearize` only (a simulation does not linearise the full model).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub first_coupled: Option<CoupledCheck>,
+}
+
+/// The first coupled mode of a reduced model against the full model's, or why it was not
+/// compared.
+#[derive(Clone, Debug, Serialize)]
+#[serde(tag = "status", rename_all = "snake_case")]
+pub enum CoupledCheck {
+    /// Both linearised.
+    Compared {
+        /// The reduced model's natural frequency (Hz).
+        reduced_hz: f64,
+        /// The full model's (Hz).
+        full_hz: f64,
+        /// The reduced model's damping ratio.
+        reduced_damping_ratio: f64,
+        /// The full model's.
+        full_damping_ratio: f64,
+        /// `(reduced - full) / full` of the frequency.
+        frequency_error: f64,
+        /// `(reduced - full) / full` of the damping ratio.
+        damping_error: f64,
+    },
+    /// The full model's linearisation was not made: the reason (above the work limits, or
+    /// its error).
+    Skipped {
+        /// Why.
+        reason: String,
+    },
 }
 
 impl StructureReport {
@@ -128,11 +163,13 @@ fn check(
     let above: Vec<String> = model
         .excitations
         .iter()
-        .filter_map(|e| match e.time {
-            TimeFunction::Harmonic { frequency_hz, .. } if frequency_hz > cutoff_hz => {
-                Some(format!("{} ({frequency_hz} Hz)", e.name))
-            }
-            _ => None,
+        .filter_map(|e| {
+            let top = fem_beam::random::top_frequency(&e.time)?;
+            let what = match e.time {
+                TimeFunction::Harmonic { .. } => "at",
+                _ => "band up to",
+            };
+            (top > cutoff_hz).then(|| format!("{} ({what} {top} Hz)", e.name))
         })
         .collect();
     if !above.is_empty() && warning.is_none() {
@@ -149,5 +186,6 @@ fn check(
         reduced_hz,
         max_relative_error,
         warning,
+        first_coupled: None,
     }
 }

@@ -126,10 +126,12 @@ fn tangent(model: &Model, params: &[(String, f64)]) -> Result<TangentSystem, Err
 
 impl Linearizable {
     /// An upper bound of the first-order states of its linearisation, known before it is
-    /// made (the work estimates of `linearize` and `random`): twice the beam's reduced DOFs
+    /// made (the work estimates of `linearize` and `random`): twice the structure's coordinates
     /// and every mechanism coordinate, plus one current per generator.
     pub fn first_order_states(&self) -> usize {
-        let beam = self.model.beam().map_or(0, |b| b.dofs().reduced_len());
+        // The structure's coordinates: the beam's reduced DOFs, an imported model's
+        // equations, a reduction's reduced coordinates.
+        let beam = self.model.structure_dofs();
         let coordinates: usize = self.tangents.iter().map(|t| t.dof()).sum();
         let generators = self
             .model

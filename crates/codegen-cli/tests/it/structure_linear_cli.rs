@@ -166,6 +166,90 @@ fn thirty_fixed_interface_modes_give_the_frames_first_coupled_mode() {
         .collect();
     assert_eq!(amp.len(), 2);
     assert!(amp[1].0 == "x" && amp[1].1 > 5.0 * amp[0].1, "{amp:?}");
+    // The reduced model's report carries the check: the full model's first coupled mode, as
+    // the full model's own run gives it (to the eigen-solvers' round-off: Arnoldi there, the
+    // dense solver here), and the differences of the reduced one.
+    assert!(
+        a.get("structure")
+            .is_some_and(|s| s.get("reduction").is_none())
+    );
+    let check = &b["structure"]["reduction"]["first_coupled"];
+    assert_eq!(check["status"], "compared", "{check}");
+    let field = |k: &str| check[k].as_f64().unwrap();
+    close(field("full_hz"), fa, 1e-10, "checked full frequency");
+    close(
+        field("full_damping_ratio"),
+        za,
+        1e-8,
+        "checked full damping ratio",
+    );
+    close(field("reduced_hz"), fb, 1e-14, "checked reduced frequency");
+    close(
+        field("frequency_error"),
+        (fb - fa) / fa,
+        1e-4,
+        "frequency error",
+    );
+    assert!(field("frequency_error").abs() < 1e-6, "{check}");
+    assert!(field("damping_error").abs() < 1e-6, "{check}");
+    assert_eq!(b["structure"]["coordinates"], 34);
+    assert_eq!(b["structure"]["equations"], 1990);
+}
+
+/// An excitation whose content reaches above the reduction's cutoff is warned about by
+/// `damper linearize` and `damper simulate`: white noise whose band ends above the highest
+/// fixed-interface mode kept (one mode), not a band below it.
+#[test]
+fn a_random_band_above_the_cutoff_is_warned_about() {
+    let dir = scratch("cutoff_band");
+    let d = dir.as_path();
+    let path = frame(
+        d,
+        "one.toml",
+        "reduction = { kind = \"craig_bampton\", modes = 1 }",
+    );
+    let lin = json(&["linearize", &path, "--modes", "1", "--json"]);
+    let cutoff = lin["structure"]["reduction"]["cutoff_hz"].as_f64().unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    let harmonic = "time = { kind = \"harmonic\", frequency_hz = 38.9 }";
+    assert!(text.contains(harmonic));
+    let noisy = |top: f64| {
+        let p = d.join(format!("noise{top}.toml"));
+        let noise = format!("time = {{ kind = \"white_noise\", psd = 0.5, band = [1.0, {top}] }}");
+        std::fs::write(
+            &p,
+            text.replace(harmonic, &noise)
+                .replace("amplitude = 5.0", ""),
+        )
+        .unwrap();
+        let (code, _, err) = damper(&["linearize", p.to_str().unwrap(), "--modes", "1"]);
+        assert_eq!(code, 0, "{err}");
+        err
+    };
+    let err = noisy(2.0 * cutoff);
+    let warned = |err: &str| {
+        err.contains("warning: excitation shaker (band up to")
+            && err.contains("above the reduction's cutoff")
+    };
+    assert!(warned(&err), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    // A simulation realises the noise before the run; its summary warns as well.
+    let p = d.join(format!("noise{}.toml", 2.0 * cutoff));
+    let out = d.join("sim");
+    let (code, _, err) = damper(&[
+        "simulate",
+        p.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--quiet",
+        "--set",
+        "integrator.t_end=0.01",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(warned(&err), "{err}");
+    let err = noisy(0.5 * cutoff);
+    assert!(!err.contains("warning"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
