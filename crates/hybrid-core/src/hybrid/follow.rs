@@ -234,22 +234,25 @@ impl Follower {
         if !self.solved {
             return;
         }
-        self.rhs.fill(0.0);
+        let rhs = self.rhs.as_mut_slice();
+        rhs.fill(0.0);
         for a in &self.atts {
-            self.rhs[a.row] = w[a.coupling] - self.w_last[a.coupling];
+            rhs[a.row] = w[a.coupling] - self.w_last[a.coupling];
             if let (Some(r), Some(c)) = (a.axial_row, a.axial_coupling) {
-                self.rhs[r] = w[c] - self.w_last[c];
+                rhs[r] = w[c] - self.w_last[c];
             }
         }
+        let (q, rows) = (self.q.as_mut_slice(), self.rows);
+        let jfull = self.jfull.as_slice();
         for &c in &self.free {
-            let du = self.q[c] - self.u_last[c];
-            for r in 0..self.rows {
-                self.rhs[r] -= self.jfull[(r, c)] * du;
+            let du = q[c] - self.u_last[c];
+            for (r, j) in rhs.iter_mut().zip(&jfull[c * rows..(c + 1) * rows]) {
+                *r -= j * du;
             }
         }
         lu_solve(&self.lu, &self.piv, &mut self.rhs);
-        for (k, &c) in self.dep.iter().enumerate() {
-            self.q[c] += self.rhs[k];
+        for (&c, d) in self.dep.iter().zip(self.rhs.as_slice()) {
+            q[c] += d;
         }
     }
 
@@ -302,17 +305,21 @@ impl Follower {
     /// `h` and `J` at `self.q` for beam-point displacements `w` (global attachment order).
     pub fn eval_rows(&mut self, model: &HybridModel, w: &[f64]) {
         let m = &model.mechanisms[self.mech];
+        let rows = self.rows;
+        let (h, jfull) = (self.h.as_mut_slice(), self.jfull.as_mut_slice());
         if self.loops > 0 {
             m.system.evaluate_positions(self.q.as_slice(), &mut self.ws);
-            for r in 0..self.loops {
-                self.h[r] = self.ws.h[r];
-                for c in 0..self.n {
-                    self.jfull[(r, c)] = self.ws.j[(r, c)];
-                }
+            // The loop rows are the first `loops` of every column (column-major).
+            let loops = self.loops;
+            h[..loops].copy_from_slice(&self.ws.h.as_slice()[..loops]);
+            for (dst, src) in jfull
+                .chunks_exact_mut(rows)
+                .zip(self.ws.j.as_slice().chunks_exact(loops))
+            {
+                dst[..loops].copy_from_slice(src);
             }
         }
         let (cs, sn) = self.rot;
-        let rows = self.rows;
         for a in &self.atts {
             m.system.point_kinematics(
                 a.point,
@@ -325,11 +332,10 @@ impl Follower {
                 .to_beam_with(self.rot, [self.ws.point_p[0], self.ws.point_p[1]]);
             // Exactly `p_y - y - w` and `sin jx + cos jy` for the direction `y`.
             let (d, e) = (a.direction, a.along);
-            self.h[a.row] = (d[0] * p[0] + d[1] * p[1]) - a.offset - w[a.coupling];
+            h[a.row] = (d[0] * p[0] + d[1] * p[1]) - a.offset - w[a.coupling];
             // Column-major: `J[:, c]` is `jfull[c*rows ..]`, the point's `point_j[3c ..]`.
             let pj = self.ws.point_j.as_slice().chunks_exact(3);
-            let jf = self.jfull.as_mut_slice().chunks_exact_mut(rows);
-            for (col, pj) in jf.zip(pj) {
+            for (col, pj) in jfull.chunks_exact_mut(rows).zip(pj) {
                 let (jx, jy) = (pj[0], pj[1]);
                 col[a.row] = e[0] * jx + e[1] * jy;
                 if let Some(r) = a.axial_row {
@@ -337,7 +343,7 @@ impl Follower {
                 }
             }
             if let Some(r) = a.axial_row {
-                self.h[r] = p[0] - a.x - a.axial_coupling.map_or(0.0, |c| w[c]);
+                h[r] = p[0] - a.x - a.axial_coupling.map_or(0.0, |c| w[c]);
             }
         }
     }
@@ -464,7 +470,7 @@ impl Follower {
         let mut last = f64::INFINITY;
         for it in 0..60 {
             self.eval_rows(model, w);
-            let rn = self.h.norm();
+            let rn = norm(self.h.as_slice());
             if !rn.is_finite() {
                 return Err(FollowError::NoAssembly {
                     residual: rn,
@@ -472,9 +478,10 @@ impl Follower {
                 });
             }
             last = rn;
-            let jmax = self.jfull.amax();
+            let jmax = amax(self.jfull.as_slice());
+            let rows = self.rows;
             if !self.factor_dependent()
-                || (0..self.rows).any(|i| self.lu[(i, i)].abs() <= 1e-14 * jmax.max(1e-300))
+                || (0..rows).any(|i| self.lu[(i, i)].abs() <= 1e-14 * jmax.max(1e-300))
             {
                 self.measure_condition();
                 return Err(FollowError::Singular {
@@ -482,18 +489,19 @@ impl Follower {
                     sigma_min: self.sigma_min,
                 });
             }
-            self.rhs.copy_from(&self.h);
+            self.rhs.as_mut_slice().copy_from_slice(self.h.as_slice());
             lu_solve(&self.lu, &self.piv, &mut self.rhs);
-            let mut len = self.rhs.norm();
+            let mut len = norm(self.rhs.as_slice());
             let mut step = 1.0;
             if len > 0.3 {
                 step = 0.3 / len;
                 len = 0.3;
             }
-            for (k, &c) in self.dep.iter().enumerate() {
-                self.q[c] -= step * self.rhs[k];
+            let q = self.q.as_mut_slice();
+            for (&c, d) in self.dep.iter().zip(self.rhs.as_slice()) {
+                q[c] -= step * d;
             }
-            if len <= 1e-13 * (1.0 + self.q.iter().map(|x| x.abs()).sum::<f64>()) {
+            if len <= 1e-13 * (1.0 + q.iter().map(|x| x.abs()).sum::<f64>()) {
                 if rn <= 1e-12 * scale {
                     self.residual = rn;
                     self.mark_solved(w);
@@ -571,25 +579,27 @@ impl Follower {
         phi: &mut [f64],
     ) -> Result<(), FollowError> {
         let off = self.nb + self.free_offset;
-        for (k, &c) in self.free.iter().enumerate() {
-            self.q[c] = pos[off + k];
+        for (&c, x) in self.free.iter().zip(&pos[off..]) {
+            self.q[c] = *x;
         }
         self.solve_positions(model, pos)?;
         // Velocities (18): J_d qd_d = E w' - J_f u'.
-        for (k, &c) in self.free.iter().enumerate() {
-            self.qd[c] = vel[off + k];
+        for (&c, x) in self.free.iter().zip(&vel[off..]) {
+            self.qd[c] = *x;
         }
         self.constraint_rhs(vel);
         lu_solve(&self.lu, &self.piv, &mut self.rhs);
-        for (k, &c) in self.dep.iter().enumerate() {
-            self.qd[c] = self.rhs[k];
+        let qd = self.qd.as_mut_slice();
+        for (&c, x) in self.dep.iter().zip(self.rhs.as_slice()) {
+            qd[c] = *x;
         }
         // Dynamics and the constraint bias A = J' q' (16), (50).
         let m = &model.mechanisms[self.mech];
         let (cs, sn) = self.rot;
-        self.bias.fill(0.0);
+        let bias = self.bias.as_mut_slice();
+        bias.fill(0.0);
+        let (q, qd) = (self.q.as_slice(), self.qd.as_slice());
         for (i, a) in self.atts.iter().enumerate() {
-            let (q, qd) = (self.q.as_slice(), self.qd.as_slice());
             if i == 0 {
                 // M, F, Q, A and the first point from one (generated: fused) call.
                 m.system
@@ -598,21 +608,18 @@ impl Follower {
                 m.system.point_kinematics(a.point, q, qd, &mut self.ws);
             }
             let (ax, ay) = (self.ws.point_a[0], self.ws.point_a[1]);
-            self.bias[a.row] = a.along[0] * ax + a.along[1] * ay;
+            bias[a.row] = a.along[0] * ax + a.along[1] * ay;
             if let Some(r) = a.axial_row {
-                self.bias[r] = cs * ax - sn * ay;
+                bias[r] = cs * ax - sn * ay;
             }
         }
         if self.atts.is_empty() {
-            m.system
-                .evaluate(self.q.as_slice(), self.qd.as_slice(), t, &mut self.ws);
+            m.system.evaluate(q, qd, t, &mut self.ws);
         }
-        for r in 0..self.loops {
-            self.bias[r] = self.ws.a[r];
-        }
+        bias[..self.loops].copy_from_slice(&self.ws.a.as_slice()[..self.loops]);
         for &f in &self.forces {
             let force = &model.forces[f];
-            let w = self.qd[force.joint];
+            let w = qd[force.joint];
             currents[f] = if force.has_current_state() {
                 let g = force.generator().expect("a current state is a generator's");
                 let (l, r) = (g.inductance, g.resistance());
@@ -626,44 +633,58 @@ impl Follower {
         model.add_joint_forces(
             self.mech,
             t,
-            self.q.as_slice(),
-            self.qd.as_slice(),
+            q,
+            qd,
             currents,
             &mut self.ws.m,
             &mut self.ws.q,
         );
-        model.add_base_load(self.mech, t, self.q.as_slice(), &mut self.ws);
+        model.add_base_load(self.mech, t, q, &mut self.ws);
         // Accelerations (19): J_d qdd_d = E w'' - J_f u'' - A.
-        for (k, &c) in self.free.iter().enumerate() {
-            self.qdd[c] = acc[off + k];
+        for (&c, x) in self.free.iter().zip(&acc[off..]) {
+            self.qdd[c] = *x;
         }
         self.constraint_rhs(acc);
-        self.rhs -= &self.bias;
+        for (r, b) in self.rhs.as_mut_slice().iter_mut().zip(self.bias.as_slice()) {
+            *r -= b;
+        }
         lu_solve(&self.lu, &self.piv, &mut self.rhs);
-        for (k, &c) in self.dep.iter().enumerate() {
-            self.qdd[c] = self.rhs[k];
+        let qdd = self.qdd.as_mut_slice();
+        for (&c, x) in self.dep.iter().zip(self.rhs.as_slice()) {
+            qdd[c] = *x;
         }
         // g = M q'' + F + Q; phi = R^T g with R = [J_d^-1 E, e_f - J_d^-1 J_f]:
         // mu = J_d^-T g_d, phi_w = E^T mu, phi_u = g_f - J_f^T mu.
-        self.ws.m.mul_to(&self.qdd, &mut self.g);
-        self.g += &self.ws.f;
-        self.g += &self.ws.q;
-        for (k, &c) in self.dep.iter().enumerate() {
-            self.rhs[k] = self.g[c];
+        // `M q''` column by column, as nalgebra's `gemv` sums it (the same results bit for
+        // bit), then `+ F`, `+ Q`.
+        let (n, g) = (self.n, self.g.as_mut_slice());
+        let mm = self.ws.m.as_slice();
+        for (i, gi) in g.iter_mut().enumerate() {
+            let mut s = mm[i] * qdd[0];
+            for j in 1..n {
+                s += mm[j * n + i] * qdd[j];
+            }
+            *gi = (s + self.ws.f[i]) + self.ws.q[i];
+        }
+        let rhs = self.rhs.as_mut_slice();
+        for (&c, r) in self.dep.iter().zip(rhs.iter_mut()) {
+            *r = g[c];
         }
         lu_solve_transpose(&self.lu, &self.piv, &mut self.rhs);
+        let mu = self.rhs.as_slice();
         for a in &self.atts {
-            phi[a.coupling] = self.rhs[a.row];
+            phi[a.coupling] = mu[a.row];
             if let (Some(r), Some(c)) = (a.axial_row, a.axial_coupling) {
-                phi[c] = self.rhs[r];
+                phi[c] = mu[r];
             }
         }
-        for (k, &c) in self.free.iter().enumerate() {
-            let mut s = self.g[c];
-            for r in 0..self.rows {
-                s -= self.jfull[(r, c)] * self.rhs[r];
+        let (rows, jfull) = (self.rows, self.jfull.as_slice());
+        for (&c, p) in self.free.iter().zip(&mut phi[off..]) {
+            let mut s = g[c];
+            for (j, m) in jfull[c * rows..(c + 1) * rows].iter().zip(mu) {
+                s -= j * m;
             }
-            phi[off + k] = s;
+            *p = s;
         }
         Ok(())
     }
@@ -707,21 +728,37 @@ impl Follower {
 
     /// `rhs = E x_w - J_f x_u` for a position-level vector `x` in the global layout.
     fn constraint_rhs(&mut self, x: &[f64]) {
-        self.rhs.fill(0.0);
+        let rhs = self.rhs.as_mut_slice();
+        rhs.fill(0.0);
         for a in &self.atts {
-            self.rhs[a.row] = x[a.coupling];
+            rhs[a.row] = x[a.coupling];
             if let (Some(r), Some(c)) = (a.axial_row, a.axial_coupling) {
-                self.rhs[r] = x[c];
+                rhs[r] = x[c];
             }
         }
-        let off = self.nb + self.free_offset;
-        for (k, &c) in self.free.iter().enumerate() {
-            let u = x[off + k];
-            for r in 0..self.rows {
-                self.rhs[r] -= self.jfull[(r, c)] * u;
+        let (off, rows) = (self.nb + self.free_offset, self.rows);
+        let jfull = self.jfull.as_slice();
+        for (&c, u) in self.free.iter().zip(&x[off..]) {
+            for (r, j) in rhs.iter_mut().zip(&jfull[c * rows..(c + 1) * rows]) {
+                *r -= j * u;
             }
         }
     }
+}
+
+/// The 2-norm of `x`, summed in order as nalgebra's `norm` sums a short vector (the same
+/// value bit for bit).
+fn norm(x: &[f64]) -> f64 {
+    let mut s = 0.0;
+    for v in x {
+        s += v * v;
+    }
+    s.sqrt()
+}
+
+/// The largest `|x_i|` (0 for an empty slice).
+fn amax(x: &[f64]) -> f64 {
+    x.iter().fold(0.0, |m: f64, v| m.max(v.abs()))
 }
 
 /// `J_d = J[:, dep]` into `jd` (`rows x dep.len()`): whole columns of the column-major

@@ -391,9 +391,15 @@ impl Integrator {
     ) -> Result<(), HybridError> {
         let (bh2, gh) = (self.beta * self.h * self.h, self.gamma * self.h);
         let z = if z_is_new { &self.z_new } else { &self.z };
-        for i in 0..self.nz {
-            self.pos[i] = self.pos_hat[i] + bh2 * z[i];
-            self.vel[i] = self.vel_hat[i] + gh * z[i];
+        for (((p, v), (ph, vh)), zi) in self
+            .pos
+            .iter_mut()
+            .zip(&mut self.vel)
+            .zip(self.pos_hat.iter().zip(&self.vel_hat))
+            .zip(z)
+        {
+            *p = ph + bh2 * zi;
+            *v = vh + gh * zi;
         }
         let rule = CurrentRule {
             h: self.h,
@@ -419,15 +425,19 @@ impl Integrator {
         } else {
             &mut self.res
         };
+        // r_w = z_w - a0_w + S phi_w (S column-major), r_u = phi_u.
         let nb = self.nb;
-        for i in 0..nb {
-            let mut r = z[i] - self.a0w[i];
-            for k in 0..nb {
-                r += self.s[(i, k)] * self.phi[k];
+        let s = self.s.as_slice();
+        for (i, ((r, zi), a)) in res.iter_mut().zip(z).zip(&self.a0w).enumerate() {
+            let mut x = zi - a;
+            for (k, p) in self.phi[..nb].iter().enumerate() {
+                x += s[k * nb + i] * p;
             }
-            res[i] = r;
+            *r = x;
         }
-        res[nb..self.nz].copy_from_slice(&self.phi[nb..self.nz]);
+        for (r, p) in res[nb..].iter_mut().zip(&self.phi[nb..]) {
+            *r = *p;
+        }
         Ok(())
     }
 
@@ -445,8 +455,10 @@ impl Integrator {
             let d = 1e-7 * self.scale[j].max(1.0);
             self.z_new[j] += d;
             self.residual(model, t, true, state)?;
-            for i in 0..self.nz {
-                self.jac[(i, j)] = (self.res_new[i] - self.res[i]) / d;
+            let nz = self.nz;
+            let col = &mut self.jac.as_mut_slice()[j * nz..(j + 1) * nz];
+            for (c, (rn, r)) in col.iter_mut().zip(self.res_new.iter().zip(&self.res)) {
+                *c = (rn - r) / d;
             }
         }
         self.factor_jacobian();
@@ -454,7 +466,9 @@ impl Integrator {
     }
 
     fn factor_jacobian(&mut self) {
-        self.jac_lu.copy_from(&self.jac);
+        self.jac_lu
+            .as_mut_slice()
+            .copy_from_slice(self.jac.as_slice());
         self.jac_valid = lu_in_place(&mut self.jac_lu, &mut self.jac_piv);
     }
 
@@ -549,20 +563,20 @@ impl Integrator {
                 }
             }
             iterations += 1;
-            for i in 0..nz {
-                self.dz[i] = -self.res[i];
+            for (d, r) in self.dz.as_mut_slice().iter_mut().zip(&self.res) {
+                *d = -r;
             }
             lu_solve(&self.jac_lu, &self.jac_piv, &mut self.dz);
             // Converged when the next quasi-Newton correction is below round-off level:
             // `z` is then the solution to that accuracy and the followers already hold it.
-            if (0..nz).all(|i| self.dz[i].abs() <= 1e-13 * self.scale[i].max(self.z[i].abs())) {
+            if below_round_off(self.dz.as_slice(), &self.scale, &self.z) {
                 if !at_z {
                     self.residual(model, t, false, state)?;
                 }
                 return Ok(());
             }
-            for i in 0..nz {
-                self.z_new[i] = self.z[i] + self.dz[i];
+            for ((zn, z), d) in self.z_new.iter_mut().zip(&self.z).zip(self.dz.as_slice()) {
+                *zn = z + d;
             }
             if let Err(e) = self.residual(model, t, true, state) {
                 // A quasi-Newton step from a stale Jacobian may leave the mechanisms'
@@ -585,32 +599,41 @@ impl Integrator {
                 && (0..nz).all(|i| {
                     self.dz[i].abs() <= 1e-6 * self.scale[i].max(1.0).max(self.z_new[i].abs())
                 });
-            let converged = (0..nz)
-                .all(|i| self.dz[i].abs() <= 1e-13 * self.scale[i].max(self.z_new[i].abs()))
+            let converged = below_round_off(self.dz.as_slice(), &self.scale, &self.z_new)
                 || self.res_new.iter().all(|r| *r == 0.0)
                 || stalled;
             // Broyden's update J += ((dr - J dz) dz^T) / (dz^T dz) (the secant method in
             // one dimension); not from the last, converged step, whose residual change is
             // round-off.
-            let dd: f64 = self.dz.iter().map(|x| x * x).sum();
+            let dz = self.dz.as_slice();
+            let dd: f64 = dz.iter().map(|x| x * x).sum();
             if dd > 0.0 && !converged {
-                for i in 0..nz {
+                // `jac` column-major: J_ij at `j nz + i`.
+                let jac = self.jac.as_mut_slice();
+                for (i, (jdz, (rn, r))) in self
+                    .jdz
+                    .iter_mut()
+                    .zip(self.res_new.iter().zip(&self.res))
+                    .enumerate()
+                {
                     let mut jd = 0.0;
-                    for j in 0..nz {
-                        jd += self.jac[(i, j)] * self.dz[j];
+                    for (j, d) in dz.iter().enumerate() {
+                        jd += jac[j * nz + i] * d;
                     }
-                    self.jdz[i] = (self.res_new[i] - self.res[i] - jd) / dd;
+                    *jdz = (rn - r - jd) / dd;
                 }
-                for i in 0..nz {
-                    for j in 0..nz {
-                        self.jac[(i, j)] += self.jdz[i] * self.dz[j];
+                for (col, d) in jac.chunks_exact_mut(nz).zip(dz) {
+                    for (c, jdz) in col.iter_mut().zip(&self.jdz) {
+                        *c += jdz * d;
                     }
                 }
                 self.factor_jacobian();
                 fresh = false;
             }
-            self.z.copy_from_slice(&self.z_new);
-            self.res.copy_from_slice(&self.res_new);
+            // The new iterate and its residual become the current ones (`z_new` and
+            // `res_new` are written in full before they are read again).
+            std::mem::swap(&mut self.z, &mut self.z_new);
+            std::mem::swap(&mut self.res, &mut self.res_new);
             if converged {
                 return Ok(());
             }
@@ -1086,6 +1109,14 @@ impl Integrator {
             }
         }
     }
+}
+
+/// Whether every correction `dz_i` is below round-off level of its unknown:
+/// `|dz_i| <= 1e-13 max(scale_i, |z_i|)`.
+fn below_round_off(dz: &[f64], scale: &[f64], z: &[f64]) -> bool {
+    dz.iter()
+        .zip(scale.iter().zip(z))
+        .all(|(d, (s, z))| d.abs() <= 1e-13 * s.max(z.abs()))
 }
 
 fn norm(x: &[f64]) -> f64 {

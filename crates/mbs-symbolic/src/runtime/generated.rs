@@ -102,6 +102,31 @@ impl<T: Mechanism<N, NC>, const N: usize, const NC: usize> GeneratedSystem<T, N,
         &self.mech
     }
 
+    /// [`System::evaluate_with_point`] through [`Mechanism::evaluate_with_points`] for a
+    /// mechanism with exactly `P` named points (`k < P`): the
+    /// evaluation and point `k` into `ws`; `false`, with nothing written, when the
+    /// mechanism has another number of points.
+    fn fused<const P: usize>(
+        &self,
+        k: usize,
+        q: &[f64; N],
+        qd: &[f64; N],
+        t: f64,
+        ws: &mut Workspace,
+    ) -> bool {
+        let mut e = Evaluation::<N, NC>::default();
+        let mut points = [PointKinematics::<N>::default(); P];
+        if !self
+            .mech
+            .evaluate_with_points(q, qd, t, &mut e, &mut points)
+        {
+            return false;
+        }
+        store_evaluation(&e, ws);
+        store_point(&points[k], ws);
+        true
+    }
+
     /// The wrapped mechanism, mutably (to set run-time parameters).
     pub fn mechanism_mut(&mut self) -> &mut T {
         &mut self.mech
@@ -199,19 +224,27 @@ where
         ws: &mut Workspace,
     ) -> bool {
         let np = self.names.points.len();
-        if np > FUSED_POINTS || k >= np {
+        let (qa, qda) = (array::<N>(q), array::<N>(qd));
+        // Mechanisms with at most 8 named points use the fused body, the points on the
+        // stack, exactly as many as the mechanism names (zeroing a fixed 8 of them on every
+        // call cost about as much as the generated body itself); larger ones make the two
+        // separate calls.
+        let fused = k < np
+            && match np {
+                1 => self.fused::<1>(k, &qa, &qda, t, ws),
+                2 => self.fused::<2>(k, &qa, &qda, t, ws),
+                3 => self.fused::<3>(k, &qa, &qda, t, ws),
+                4 => self.fused::<4>(k, &qa, &qda, t, ws),
+                5 => self.fused::<5>(k, &qa, &qda, t, ws),
+                6 => self.fused::<6>(k, &qa, &qda, t, ws),
+                7 => self.fused::<7>(k, &qa, &qda, t, ws),
+                8 => self.fused::<8>(k, &qa, &qda, t, ws),
+                _ => false,
+            };
+        if !fused {
             self.evaluate(q, qd, t, ws);
             return self.point_kinematics(k, q, qd, ws);
         }
-        let (q, qd) = (array::<N>(q), array::<N>(qd));
-        let mut e = Evaluation::<N, NC>::default();
-        let mut points = [PointKinematics::<N>::default(); FUSED_POINTS];
-        let fused = self
-            .mech
-            .evaluate_with_points(&q, &qd, t, &mut e, &mut points[..np]);
-        debug_assert!(fused, "one entry per named point");
-        store_evaluation(&e, ws);
-        store_point(&points[k], ws);
         true
     }
 
@@ -219,8 +252,3 @@ where
         Box::new(self.clone())
     }
 }
-
-/// Mechanisms with at most this many named points use the fused
-/// [`Mechanism::evaluate_with_points`] in [`System::evaluate_with_point`] (the points live
-/// on the stack); larger ones make the two separate calls.
-const FUSED_POINTS: usize = 8;

@@ -62,11 +62,13 @@ impl Workspace {
 /// is `x` itself except that `-0.0` becomes `+0.0`. Every term of a bias is a product with
 /// a joint rate, so at `q' = 0` it is zero exactly, but a sum of such zeros carries the
 /// sign of its terms; stored this way a bias at rest is bitwise `0.0` on every backend.
+#[inline]
 pub(super) fn bias_entry(x: f64) -> f64 {
     x + 0.0
 }
 
 /// Stores `values` into `out` as bias entries ([`bias_entry`]).
+#[inline]
 pub(super) fn store_bias(values: &[f64], out: &mut [f64]) {
     for (o, v) in out.iter_mut().zip(values) {
         *o = bias_entry(*v);
