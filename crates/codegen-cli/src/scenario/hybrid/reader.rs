@@ -935,6 +935,9 @@ fn initial(doc: &mut Doc<'_>, on_beam: &OnBeam, ok: &mut bool) -> Option<(f64, f
     initial
 }
 
+/// `[output] points` as written.
+type RawPoints = Spanned<Vec<Spanned<String>>>;
+
 /// `[output]`: a row every `every` steps, and the comparison runs (`bare_beam` only with a
 /// beam written, `bare_structure` only with a structure written).
 fn output(
@@ -942,11 +945,7 @@ fn output(
     beam_written: bool,
     structure_written: bool,
     ok: &mut bool,
-) -> (
-    usize,
-    Vec<Comparison>,
-    Option<Spanned<Vec<Spanned<String>>>>,
-) {
+) -> (usize, Vec<Comparison>, Option<RawPoints>) {
     let mut output = doc.section::<RawOutput>("output", false);
     let points = output.as_mut().and_then(|o| o.get_mut().points.take());
     *ok &= output.is_some() || !doc.root.contains_key("output");
@@ -1032,7 +1031,7 @@ fn output(
 fn output_points(
     doc: &mut Doc<'_>,
     on_beam: &OnBeam,
-    list: Option<Spanned<Vec<Spanned<String>>>>,
+    list: Option<RawPoints>,
     ok: &mut bool,
 ) -> Vec<PointEntry> {
     let entity = "[output] points";
