@@ -48,7 +48,7 @@ use crate::budget::Estimate;
 use crate::report::digest::Decimator;
 use crate::report::hybrid::{
     AttachmentReport, Columns, ComparisonReport, EnergySplit, ExcitationReport, GeneratorReport,
-    HybridEnergy, HybridSummary, MechanismReport, RepartitionReport, amplifications,
+    HybridEnergy, HybridSummary, MechanismReport, PointReport, RepartitionReport, amplifications,
 };
 use crate::report::plot::{plot_damping_vs_amplitude_svg, plot_displacements_svg, tick_label};
 use crate::report::rows::{ColumnRows, CsvRows, RowSink};
@@ -79,6 +79,9 @@ struct Tracks {
     max_condition: Vec<f64>,
     max_residual: Vec<f64>,
     peak_current: Vec<f64>,
+    /// Largest |u| and largest |u| from `final_from` on of every node reading and output
+    /// point (the summary's `points`).
+    read: Vec<(f64, f64)>,
 }
 
 /// A finished hybrid run as kept in memory: its summary and the displacement of every
@@ -112,7 +115,9 @@ fn runs<'a, S: RowSink>(
 ) -> Result<Runs<'a, S>, Error> {
     let file = sc.path.display().to_string();
     let model = &built.model;
-    let mut columns = Columns::new(model, &built.state).with_model_elements(model, &built.models);
+    let mut columns = Columns::new(model, &built.state)
+        .with_model_elements(model, &built.models)
+        .with_points(&built.points);
     let mut sink = open(None, columns.header())?;
     let run = evaluate(
         sc,
@@ -130,8 +135,9 @@ fn runs<'a, S: RowSink>(
             continue;
         };
         let mut columns = Columns::new(&variant.model, &variant.state)
-            .with_probes(&probes)
-            .with_model_elements(&variant.model, &variant.models);
+            .with_probes(&variant.model, &probes)
+            .with_model_elements(&variant.model, &variant.models)
+            .with_points(&variant.points);
         let mut sink = open(Some(c), columns.header())?;
         let r = evaluate(
             sc,
@@ -209,7 +215,7 @@ pub fn in_memory(
 ) -> Result<InMemory, Error> {
     let file = sc.path.display().to_string();
     let built = crate::setup::build(sc)?;
-    let columns = Columns::new(&built.model, &built.state);
+    let columns = Columns::new(&built.model, &built.state).with_points(&built.points);
     Estimate::hybrid(sc, columns.header().len(), built.model.attachments.len())
         .check(&file, allow_long)?;
     let mut keys: Vec<&'static str> = vec![];
@@ -244,7 +250,9 @@ pub fn simulate(
     let file = sc.path.display().to_string();
     let built = crate::setup::build(sc)?;
     let model = &built.model;
-    let columns = Columns::new(model, &built.state).with_model_elements(model, &built.models);
+    let columns = Columns::new(model, &built.state)
+        .with_model_elements(model, &built.models)
+        .with_points(&built.points);
     // The run as described and each comparison run.
     Estimate::hybrid(sc, columns.header().len(), model.attachments.len())
         .check(&file, allow_long)?;
@@ -454,6 +462,21 @@ pub fn evaluate<'a>(
         .chain(probes.iter().map(|p| &p.1))
         .collect();
     let np = points.len();
+    // Every node reading (the attachments' and the probes' `ux`, `uy`) and output point,
+    // for the summary's `points`.
+    let read: crate::setup::Probes = match model.beam() {
+        Some(_) => vec![],
+        None => model
+            .attachments
+            .iter()
+            .map(|a| (&a.name, &a.beam))
+            .chain(probes.iter().map(|(n, p)| (n, p)))
+            .flat_map(|(n, p)| crate::setup::build::readings(model, n, p))
+            .collect(),
+    }
+    .into_iter()
+    .chain(built.points.iter().cloned())
+    .collect();
     // The steps and rows `run` makes (its own rounding), for the plot's decimation and the
     // last tenth of the run.
     let dt = integrator.step_size();
@@ -472,6 +495,7 @@ pub fn evaluate<'a>(
         max_condition: vec![0.0; model.mechanisms.len()],
         max_residual: vec![0.0; model.mechanisms.len()],
         peak_current: vec![0.0; model.forces.len()],
+        read: vec![(0.0, 0.0); read.len()],
     };
     // A free decay is read through the modal filter of the first linearised mode (the
     // system's own first mode, free of the others), scaled to the first attachment's beam
@@ -569,6 +593,13 @@ pub fn evaluate<'a>(
                 tracks.peak[k] = tracks.peak[k].max(w.abs());
                 if state.t >= tracks.final_from {
                     tracks.final_amplitude[k] = tracks.final_amplitude[k].max(w.abs());
+                }
+            }
+            for ((_, p), (peak, last)) in read.iter().zip(&mut tracks.read) {
+                let u = p.value(&state.q).abs();
+                *peak = peak.max(u);
+                if state.t >= tracks.final_from {
+                    *last = last.max(u);
                 }
             }
             for (k, a) in model.attachments.iter().enumerate() {
@@ -776,6 +807,15 @@ pub fn evaluate<'a>(
         },
         mechanisms,
         attachments,
+        points: read
+            .iter()
+            .zip(&tracks.read)
+            .map(|((name, _), &(peak, last))| PointReport {
+                name: name.clone(),
+                peak_displacement: peak,
+                final_amplitude: last,
+            })
+            .collect(),
         generators,
         excitations,
         steady_power: steady.as_ref().and_then(|s| s.finish(model)),

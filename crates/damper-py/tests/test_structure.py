@@ -205,15 +205,19 @@ def test_given_structure_where_it_cannot_go(given: damper.Structure) -> None:
 
 def test_frame_simulates_with_its_bare_structure() -> None:
     """``compare=["bare_structure"]`` on the frame: the structure alone, read at the damper's
-    node as the damped run reads it (``pin.w``), the same rows; ``bare_beam`` is refused."""
+    node as the damped run reads it (``pin.ux``, ``pin.uy``), the same rows, the summary's
+    ``points`` peaks the columns'; ``bare_beam`` is refused."""
     sc = damper.Scenario.load(str(SCENARIO), set={"integrator.t_end": 0.01})
     run = sc.simulate(compare=["bare_structure"])
     assert list(run.comparisons) == ["bare_structure"]
     bare = run.comparisons["bare_structure"]
     assert len(bare) == len(run)
-    peak = float(np.max(np.abs(bare["pin.w [m]"])))
+    peak = float(np.max(np.abs(bare["pin.uy [m]"])))
     entry = run.summary["comparisons"]["bare_structure"]
     assert entry["label"] == "bare structure (no mechanism)"
     assert entry["attachments"][0]["peak_displacement"] == pytest.approx(peak, rel=1e-6)
+    sway = float(np.max(np.abs(bare["pin.ux [m]"])))
+    points = {p["name"]: p["peak_displacement"] for p in entry["points"]}
+    assert points["pin.ux"] == pytest.approx(sway, rel=1e-12) and sway > 100 * peak
     with pytest.raises(Exception, match="use \"bare_structure\""):
         sc.simulate(compare=["bare_beam"])

@@ -7,8 +7,11 @@
 //! - per mechanism `M`: every coordinate `M.q [rad|m]`, every rate `M.q_dot [rad/s|m/s]`,
 //!   `M.cond_jd [-]` (2-norm condition number of its dependent Jacobian) and
 //!   `M.constraint_residual [m]` (|h| after the position solve);
-//! - per attachment `A`: `A.w [m]`, `A.w_dot [m/s]` (the beam point's displacement and
-//!   velocity) and, where a generator is on its mechanism, `A.amplification [rad/m]`: the
+//! - per attachment `A`: on the beam `A.w [m]`, `A.w_dot [m/s]` (the beam point's
+//!   displacement and velocity); at a node of a `[structure]` the node's two in-plane
+//!   components `A.ux [m]`, `A.ux_dot [m/s]`, `A.uy [m]`, `A.uy_dot [m/s]` (pin or roller;
+//!   0 along a direction a support holds; on a reduced model read through `q = T z`) and,
+//!   where a generator is on its mechanism, `A.amplification [rad/m]`: the
 //!   kinematic influence `dq/dw` of the beam point's displacement on the generator joint
 //!   (free coordinates held; a column of `R`, eq. 18, from the constraint Jacobian at the
 //!   row's configuration — defined at rest, so written from `t = 0` on, and the same
@@ -29,14 +32,17 @@
 //!   rest at `t = 0`), and per attachment `A` its absolute motion `A.w_abs [m]`,
 //!   `A.w_dot_abs [m/s]` (`w + (d_A . d) u`, `w' + (d_A . d) v`, `d_A` the direction `w` is
 //!   measured along — the beam's `y`, where `d_A . d = 1`: every other displacement is
-//!   relative to the supports);
+//!   relative to the supports; at a node `A.ux_abs`, `A.ux_dot_abs`, `A.uy_abs`,
+//!   `A.uy_dot_abs` with `d_A` the axis);
 //! - the energy account: `beam_kinetic [J]`, `beam_potential [J]`, per mechanism
 //!   `M.kinetic [J]` and `M.potential [J]`, `magnetic [J]`, `stored [J]`,
 //!   `dissipated_structure [J]`, `beam_load_work [J]` and `balance_error [J]`
 //!   (`(E_0 + W) - (E + D)`, every dissipation and input work in it);
-//! - a comparison run's probes `P.w [m]`, `P.w_dot [m/s]`;
+//! - a comparison run's probes `P.w [m]`, `P.w_dot [m/s]` (at a node `P.ux`, `P.ux_dot`,
+//!   `P.uy`, `P.uy_dot`), named as the attachments they stand for;
 //! - per mechanism `M` whose model has force elements of its own:
-//!   `M.dissipated_model [J]` (its dampers) and `M.model_work [J]` (its constant loads).
+//!   `M.dissipated_model [J]` (its dampers) and `M.model_work [J]` (its constant loads);
+//! - per `[output] points` entry `P` (`741:ux`, `w(x=0.5)`): `P [m]`, `P_dot [m/s]`.
 
 use std::collections::BTreeMap;
 
@@ -45,6 +51,8 @@ use mbs_symbolic::model::Model;
 use serde::Serialize;
 
 use crate::scenario::OverrideRecord;
+use crate::setup::Probes;
+use crate::setup::build::readings;
 
 use crate::scenario::integrator::IntegratorSpec;
 
@@ -55,8 +63,13 @@ pub struct Columns {
     /// Per attachment: the generator force element on its mechanism, if any, and whether
     /// the speed ratio has its own column.
     amplifier: Vec<Option<(usize, bool)>>,
-    /// Beam points read but not attached.
-    probes: Vec<BeamPoint>,
+    /// Per attachment, the displacements it writes (`A.w`, or a node's `A.ux`, `A.uy`).
+    attached: Vec<Probes>,
+    /// Structure points read but not attached, each seen along one direction: the probes'
+    /// readings, then the output points.
+    probes: Probes,
+    /// How many of [`Columns::probes`] are the output points (the last ones).
+    points: usize,
     /// The mechanisms whose own model's force elements have columns (the last ones).
     model_elements: Vec<usize>,
     /// Whether the supports' motion and the absolute attachment motion have columns.
@@ -83,9 +96,16 @@ impl Columns {
             h.push(format!("{}.constraint_residual [m]", m.name));
         }
         let mut amplifier = vec![];
-        for a in &model.attachments {
-            h.push(format!("{}.w [m]", a.name));
-            h.push(format!("{}.w_dot [m/s]", a.name));
+        let attached: Vec<Probes> = model
+            .attachments
+            .iter()
+            .map(|a| readings(model, &a.name, &a.beam))
+            .collect();
+        for (a, read) in model.attachments.iter().zip(&attached) {
+            for (name, _) in read {
+                h.push(format!("{name} [m]"));
+                h.push(format!("{name}_dot [m/s]"));
+            }
             let g = model
                 .forces
                 .iter()
@@ -127,9 +147,9 @@ impl Columns {
         let base = model.has_base_excitation();
         if base {
             h.extend(["base.a [m/s^2]", "base.v [m/s]", "base.u [m]"].map(String::from));
-            for a in &model.attachments {
-                h.push(format!("{}.w_abs [m]", a.name));
-                h.push(format!("{}.w_dot_abs [m/s]", a.name));
+            for (name, _) in attached.iter().flatten() {
+                h.push(format!("{name}_abs [m]"));
+                h.push(format!("{name}_dot_abs [m/s]"));
             }
         }
         h.push("beam_kinetic [J]".into());
@@ -151,7 +171,9 @@ impl Columns {
         Columns {
             header: h,
             amplifier,
+            attached,
             probes: vec![],
+            points: 0,
             model_elements: vec![],
             base,
             cells,
@@ -173,14 +195,30 @@ impl Columns {
         self
     }
 
-    /// These columns and, last, `P.w [m]` and `P.w_dot [m/s]` of every probe `P`: a beam
-    /// point read but not attached (a comparison run's bare beam read where the
-    /// attachments were).
-    pub fn with_probes(mut self, probes: &[(String, BeamPoint)]) -> Columns {
+    /// These columns and, after the energy account, `P.w [m]` and `P.w_dot [m/s]` of every
+    /// probe `P` of `model` (at a node `P.ux`, `P.ux_dot`, `P.uy`, `P.uy_dot`): a structure
+    /// point read but not attached (a comparison run's bare structure read where the
+    /// attachments were). Before [`Columns::with_points`].
+    pub fn with_probes(mut self, model: &HybridModel, probes: &[(String, BeamPoint)]) -> Columns {
+        debug_assert_eq!(self.points, 0, "probes before the output points");
         for (name, point) in probes {
-            self.header.push(format!("{name}.w [m]"));
-            self.header.push(format!("{name}.w_dot [m/s]"));
-            self.probes.push(point.clone());
+            for (name, p) in readings(model, name, point) {
+                self.header.push(format!("{name} [m]"));
+                self.header.push(format!("{name}_dot [m/s]"));
+                self.probes.push((name, p));
+            }
+        }
+        self
+    }
+
+    /// These columns and, last, `P [m]` and `P_dot [m/s]` of every output point `P`
+    /// (`[output] points`, [`crate::setup::build::output_points`]).
+    pub fn with_points(mut self, points: &[(String, BeamPoint)]) -> Columns {
+        for (name, p) in points {
+            self.header.push(format!("{name} [m]"));
+            self.header.push(format!("{name}_dot [m/s]"));
+            self.probes.push((name.clone(), p.clone()));
+            self.points += 1;
         }
         self
     }
@@ -209,10 +247,18 @@ impl Columns {
             c.push(ms.condition);
             c.push(ms.residual);
         }
-        for (k, (a, g)) in model.attachments.iter().zip(&self.amplifier).enumerate() {
+        for (k, ((a, g), read)) in model
+            .attachments
+            .iter()
+            .zip(&self.amplifier)
+            .zip(&self.attached)
+            .enumerate()
+        {
             let wd = a.beam.value(&state.v);
-            c.push(a.beam.value(&state.q));
-            c.push(wd);
+            for (_, p) in read {
+                c.push(p.value(&state.q));
+                c.push(p.value(&state.v));
+            }
             if let Some((g, speed_ratio)) = *g {
                 let f = &model.forces[g];
                 c.push(amplification[k]);
@@ -241,11 +287,11 @@ impl Columns {
             let [u, v, a] = model.support_motion(state.t);
             c.extend([a, v, u]);
             let d = model.base_direction();
-            for at in &model.attachments {
-                // The supports' motion along the attachment's direction (1 on a beam).
-                let along = at.beam.direction[0] * d[0] + at.beam.direction[1] * d[1];
-                c.push(at.beam.value(&state.q) + along * u);
-                c.push(at.beam.value(&state.v) + along * v);
+            for (_, p) in self.attached.iter().flatten() {
+                // The supports' motion along the reading's direction (1 on a beam).
+                let along = p.direction[0] * d[0] + p.direction[1] * d[1];
+                c.push(p.value(&state.q) + along * u);
+                c.push(p.value(&state.v) + along * v);
             }
         }
         c.push(stored.beam_kinetic);
@@ -263,13 +309,18 @@ impl Columns {
         c.push(state.account.dissipated_structure);
         c.push(state.account.beam_load_work);
         c.push(balance_error(e0, stored, &state.account));
-        for p in &self.probes {
+        let (probes, points) = self.probes.split_at(self.probes.len() - self.points);
+        for (_, p) in probes {
             c.push(p.value(&state.q));
             c.push(p.value(&state.v));
         }
         for &k in &self.model_elements {
             c.push(state.account.dissipated_model[k]);
             c.push(state.account.model_input_work[k]);
+        }
+        for (_, p) in points {
+            c.push(p.value(&state.q));
+            c.push(p.value(&state.v));
         }
         debug_assert_eq!(c.len(), self.header.len());
         &self.cells
@@ -351,6 +402,11 @@ pub struct HybridSummary<'a> {
     pub mechanisms: Vec<MechanismReport>,
     /// The attachments.
     pub attachments: Vec<AttachmentReport>,
+    /// Every node displacement column and output point of the time history (`pin.ux`,
+    /// `741:ux`), with its peak; absent on a beam without `[output] points` (a beam
+    /// attachment's `A.w` has its peak in `attachments`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub points: Vec<PointReport>,
     /// The generators.
     pub generators: Vec<GeneratorReport>,
     /// The excitations.
@@ -396,6 +452,9 @@ pub struct ComparisonReport {
     /// The beam points read (the attachments, or for the bare beam the points where they
     /// were).
     pub attachments: Vec<AttachmentReport>,
+    /// Its node displacement columns and output points with their peaks (as the run's).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub points: Vec<PointReport>,
     /// Its energy account.
     pub energy: HybridEnergy,
     /// Largest |energy balance error| / `energy.relative_to` at the output steps.
@@ -414,6 +473,7 @@ impl ComparisonReport {
             decay_signal: s.decay_signal,
             peak_amplitude: s.peak_amplitude,
             attachments: s.attachments,
+            points: s.points,
             energy: s.energy,
             energy_balance_rel_error: s.energy_balance_rel_error,
             output_rows: s.output_rows,
@@ -467,6 +527,18 @@ pub struct AttachmentReport {
     /// ratio, not the kinematic amplification `dq/dw` of the time history).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub speed_ratio_rms: Option<f64>,
+}
+
+/// One displacement column of a hybrid run's time history read at a node or an output
+/// point: its peak.
+#[derive(Clone, Debug, Serialize)]
+pub struct PointReport {
+    /// The column's name without its unit (`pin.ux`, `741:ux`, `w(x=0.5)`).
+    pub name: String,
+    /// Largest |displacement| at the output steps (m).
+    pub peak_displacement: f64,
+    /// Largest |displacement| over the last tenth of the run (m).
+    pub final_amplitude: f64,
 }
 
 /// One generator of a hybrid run.

@@ -19,7 +19,8 @@ use mbs_symbolic::model::Model;
 use mbs_symbolic::runtime::{ParamError, System};
 
 use crate::scenario::HybridScenario;
-use crate::scenario::hybrid::{AttachmentEntry, MechanismEntry, TargetEntry, list};
+use crate::scenario::hybrid::{AttachmentEntry, MechanismEntry, PointAt, TargetEntry, list};
+use crate::setup::Probes;
 
 /// A hybrid scenario resolved against its models: the model, its initial state and what
 /// the reports need.
@@ -31,6 +32,9 @@ pub struct Built {
     pub state: HybridState,
     /// The mechanism models, in the order of the mechanisms.
     pub models: Vec<Model>,
+    /// The displacements of `[output] points`, each named by its column and seen along its
+    /// direction ([`output_points`]).
+    pub points: Probes,
 }
 
 /// Loads the mechanism models (generated code when compiled in, the interpreter
@@ -39,6 +43,7 @@ pub struct Built {
 /// and its initial state. Every problem is reported at once.
 pub fn build(sc: &HybridScenario) -> Result<Built, Diagnostics> {
     let (mut model, models) = build_model(sc)?;
+    let points = output_points(sc, &model)?;
     realise_random(sc, &mut model)?;
     let n = model.structure_dofs();
     let q0 = match (sc.initial, model.beam()) {
@@ -86,7 +91,65 @@ pub fn build(sc: &HybridScenario) -> Result<Built, Diagnostics> {
         model,
         state,
         models,
+        points,
     })
+}
+
+/// The points of `[output] points` on the built host: a beam abscissa's transverse
+/// displacement ([`BeamPoint::on`]), a node's `ux` or `uy` ([`structure_node`] seen along
+/// the axis: on a reduced model the row of `T`, `q = T z`). Every problem at once, at its
+/// entry: a point a support locks, an unknown node, a node held along the DOF.
+pub fn output_points(sc: &HybridScenario, model: &HybridModel) -> Result<Probes, Diagnostics> {
+    let mut diags = vec![];
+    let mut out = vec![];
+    for p in &sc.points {
+        let point = match (p.at, model.structure.as_ref()) {
+            (PointAt::Beam { x }, _) => model
+                .beam()
+                .and_then(|b| BeamPoint::on(b, x))
+                .filter(|p| !p.is_locked())
+                .ok_or_else(|| format!("{}: a support locks the beam there", p.name)),
+            (PointAt::Node { node, direction }, Some(st)) => structure_node(st, node)
+                .map(|q| q.along(direction))
+                .and_then(|q| match q.weights.is_empty() {
+                    true => Err(format!("{}: a support holds node {node} along it", p.name)),
+                    false => Ok(q),
+                }),
+            (PointAt::Node { .. }, None) => Err(format!("{}: no [structure]", p.name)),
+        };
+        match point {
+            Ok(q) => out.push((p.name.clone(), q)),
+            Err(msg) => {
+                diags.push(sc.at(Kind::InvalidValue, Some(&p.span), "[output] points", msg))
+            }
+        }
+    }
+    if diags.is_empty() {
+        Ok(out)
+    } else {
+        Err(Diagnostics(diags))
+    }
+}
+
+/// The displacements a time history writes of the structure's point `p` (an attachment's,
+/// named `name`): on the beam its transverse displacement `name.w` (`p` itself); at a node
+/// of an imported structure its two in-plane components `name.ux`, `name.uy` (0 where a
+/// support holds the node that way), read from the node whatever the attachment's kind (a
+/// roller's point is seen along its own direction).
+pub fn readings(model: &HybridModel, name: &str, p: &BeamPoint) -> Probes {
+    let node = model
+        .structure
+        .as_ref()
+        .filter(|s| s.beam().is_none())
+        .and_then(|s| Some((s, node_at(s, p)?)))
+        .and_then(|(s, n)| structure_node(s, n).ok());
+    match node {
+        Some(q) => vec![
+            (format!("{name}.ux"), q.along([1.0, 0.0])),
+            (format!("{name}.uy"), q.along([0.0, 1.0])),
+        ],
+        None => vec![(format!("{name}.w"), p.clone())],
+    }
 }
 
 /// Replaces every random excitation's time function by its seeded realisation on the run's

@@ -51,6 +51,7 @@ pub fn comparison(
         model: variant,
         state,
         models,
+        points: built.points.clone(),
     };
     Ok(Some((variant, probes)))
 }

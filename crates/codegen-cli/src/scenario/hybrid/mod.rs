@@ -66,6 +66,10 @@
 //!                            #   every generator's circuit open; the beam alone, read at
 //!                            #   the attachments' beam points (needs a [beam];
 //!                            #   "bare_structure" for a [structure])
+//! points = ["741:ux", "741:uy"]  # displacements written as time-history columns in every
+//!                            #   run (`741:ux [m]`, `741:ux_dot [m/s]`): NODE:DOF on a
+//!                            #   [structure], a beam abscissa ("0.5", column `w(x=0.5)`)
+//!                            #   on a [beam]; on a reduced model read through q = T z
 //! ```
 //!
 //! Loading (`reader::from_doc`, through the one loader [`super::load`]) checks the file itself:
@@ -252,6 +256,33 @@ pub struct ExcitationEntry {
     pub(crate) at_span: Range<usize>,
 }
 
+/// Where an `[output] points` entry reads the structure.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PointAt {
+    /// The beam's transverse displacement at abscissa `x` (m).
+    Beam {
+        /// The abscissa.
+        x: f64,
+    },
+    /// A node's displacement along `direction` (`[1, 0]`: its `ux`; `[0, 1]`: its `uy`).
+    Node {
+        /// The node id.
+        node: u64,
+        /// The unit direction.
+        direction: [f64; 2],
+    },
+}
+
+/// One `[output] points` entry: a displacement written as a time-history column.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointEntry {
+    /// The column's name (unit aside): `741:ux`, or `w(x=0.5)` on the beam.
+    pub name: String,
+    /// What it reads.
+    pub at: PointAt,
+    pub(crate) span: Range<usize>,
+}
+
 /// A loaded and checked hybrid scenario (models not loaded yet: [`crate::setup::build()`]).
 #[derive(Clone, Debug)]
 pub struct HybridScenario {
@@ -282,6 +313,8 @@ pub struct HybridScenario {
     /// The comparison runs beside the run as described (`[output] compare`; none by
     /// default, `["generator_disconnected"]` for the damper preset).
     pub compare: Vec<Comparison>,
+    /// Displacements written as time-history columns in every run (`[output] points`).
+    pub points: Vec<PointEntry>,
     pub(crate) index: LineIndex,
     pub(crate) beam_span: Option<Range<usize>>,
     pub(crate) initial_x_span: Option<Range<usize>>,

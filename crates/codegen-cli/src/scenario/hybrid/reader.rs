@@ -19,8 +19,8 @@ use super::schema::{
 };
 use super::table::time_function;
 use super::{
-    AttachmentEntry, ExcitationEntry, ForceEntry, HybridScenario, MechanismEntry, StructureEntry,
-    StructureSource, TargetEntry,
+    AttachmentEntry, ExcitationEntry, ForceEntry, HybridScenario, MechanismEntry, PointAt,
+    PointEntry, StructureEntry, StructureSource, TargetEntry,
 };
 use crate::scenario::Doc;
 use crate::scenario::compare::Comparison;
@@ -75,7 +75,8 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<HybridScenario> {
     let method = integrator
         .as_ref()
         .and_then(|ig| check_integrator(doc, ig.get_ref()));
-    let (every, compare) = output(doc, beam_span.is_some(), on_beam.structure, &mut ok);
+    let (every, compare, raw_points) = output(doc, beam_span.is_some(), on_beam.structure, &mut ok);
+    let points = output_points(doc, &on_beam, raw_points, &mut ok);
     let (integrator, method) = (integrator?.into_inner(), method?);
     if !ok {
         return None;
@@ -98,6 +99,7 @@ pub(crate) fn from_doc(doc: &mut Doc<'_>) -> Option<HybridScenario> {
         method,
         every,
         compare,
+        points,
         index: doc.index().clone(),
         beam_span,
         initial_x_span,
@@ -933,6 +935,9 @@ fn initial(doc: &mut Doc<'_>, on_beam: &OnBeam, ok: &mut bool) -> Option<(f64, f
     initial
 }
 
+/// `[output] points` as written.
+type RawPoints = Spanned<Vec<Spanned<String>>>;
+
 /// `[output]`: a row every `every` steps, and the comparison runs (`bare_beam` only with a
 /// beam written, `bare_structure` only with a structure written).
 fn output(
@@ -940,8 +945,9 @@ fn output(
     beam_written: bool,
     structure_written: bool,
     ok: &mut bool,
-) -> (usize, Vec<Comparison>) {
-    let output = doc.section::<RawOutput>("output", false);
+) -> (usize, Vec<Comparison>, Option<RawPoints>) {
+    let mut output = doc.section::<RawOutput>("output", false);
+    let points = output.as_mut().and_then(|o| o.get_mut().points.take());
     *ok &= output.is_some() || !doc.root.contains_key("output");
     let every = match output.as_ref().and_then(|o| o.get_ref().every.as_ref()) {
         Some(e) if *e.get_ref() == 0 => {
@@ -1015,5 +1021,82 @@ fn output(
             }
         }
     }
-    (every, compare)
+    (every, compare, points)
+}
+
+/// `[output] points`: displacements written as time-history columns, named as `--output`
+/// names them: `NODE:DOF` on a `[structure]` (`741:ux`; `ux` or `uy`) or a beam abscissa in
+/// m on a `[beam]` (`"0.5"`). Each entry is checked here for its form, its host and (on the
+/// beam) its abscissa; a node is looked up when the model is built. Repeats are refused.
+fn output_points(
+    doc: &mut Doc<'_>,
+    on_beam: &OnBeam,
+    list: Option<RawPoints>,
+    ok: &mut bool,
+) -> Vec<PointEntry> {
+    let entity = "[output] points";
+    let Some(list) = list else {
+        return vec![];
+    };
+    let mut out: Vec<PointEntry> = vec![];
+    for p in list.into_inner() {
+        let (text, span) = (p.get_ref().trim().to_string(), p.span());
+        let at = match text.split_once(':') {
+            Some((node, dof)) => {
+                let direction = match dof.trim() {
+                    "ux" => Some([1.0, 0.0]),
+                    "uy" => Some([0.0, 1.0]),
+                    _ => None,
+                };
+                match (node.trim().parse::<u64>(), direction) {
+                    (Ok(node), Some(direction)) => {
+                        let n = Spanned::new(span.clone(), node);
+                        on_beam
+                            .check_node(doc, &n, entity)
+                            .then_some(PointAt::Node { node, direction })
+                    }
+                    _ => {
+                        let msg = format!(
+                            "{text:?}: give NODE:DOF with NODE a node id and DOF ux or uy (741:ux)"
+                        );
+                        doc.push(Kind::InvalidValue, Some(span.clone()), Some(entity), msg);
+                        None
+                    }
+                }
+            }
+            None => match text.parse::<f64>() {
+                Ok(x) => {
+                    let x = Spanned::new(span.clone(), x);
+                    on_beam
+                        .check(doc, &x, entity)
+                        .then_some(PointAt::Beam { x: *x.get_ref() })
+                }
+                Err(_) => {
+                    let msg = format!(
+                        "{text:?}: give a beam abscissa in m (\"0.5\") or NODE:DOF on a [structure] (\"741:ux\")"
+                    );
+                    doc.push(Kind::InvalidValue, Some(span.clone()), Some(entity), msg);
+                    None
+                }
+            },
+        };
+        let Some(at) = at else {
+            *ok = false;
+            continue;
+        };
+        let name = match at {
+            PointAt::Beam { x } => format!("w(x={x})"),
+            PointAt::Node { node, direction } => {
+                format!("{node}:{}", if direction[0] != 0.0 { "ux" } else { "uy" })
+            }
+        };
+        if out.iter().any(|o| o.name == name) {
+            let msg = format!("{name:?} is listed twice");
+            doc.push(Kind::InvalidValue, Some(span), Some(entity), msg);
+            *ok = false;
+            continue;
+        }
+        out.push(PointEntry { name, at, span });
+    }
+    out
 }

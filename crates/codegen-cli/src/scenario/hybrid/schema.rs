@@ -171,4 +171,6 @@ pub(super) struct RawOutput {
     pub(super) every: Option<Spanned<usize>>,
     #[serde(default)]
     pub(super) compare: Option<Spanned<Vec<Comparison>>>,
+    #[serde(default)]
+    pub(super) points: Option<Spanned<Vec<Spanned<String>>>>,
 }
