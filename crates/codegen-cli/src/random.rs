@@ -24,8 +24,8 @@
 
 use fem_beam::TimeFunction;
 use hybrid_core::hybrid::{
-    EigenMethod, ExcitationTarget, HybridModel, Linearization, Mode, PsdInput, StateOutput,
-    StateSpace, modes, psd_at, psd_variances,
+    BeamPoint, EigenMethod, ExcitationTarget, HybridModel, Linearization, Mode, PsdInput,
+    StateOutput, StateSpace, modes, psd_at, psd_variances,
 };
 use serde::Serialize;
 
@@ -279,6 +279,32 @@ struct Outputs {
     gens: Vec<GeneratorOutputs>,
 }
 
+/// The default displacement outputs of the attachments (unit m), as `damper random` and a
+/// run's `random` block name them: a node of an imported structure gives its `ux` and `uy`
+/// (`NODE:DOF`, those a support does not hold), a beam point its transverse displacement
+/// (`w(x=X)`).
+pub fn attachment_outputs(model: &HybridModel) -> Vec<(String, BeamPoint)> {
+    let mut out = vec![];
+    for a in &model.attachments {
+        let node = model
+            .structure
+            .as_ref()
+            .and_then(|st| crate::setup::build::node_at(st, &a.beam));
+        match node {
+            Some(id) => {
+                for (dof, direction) in [("ux", [1.0, 0.0]), ("uy", [0.0, 1.0])] {
+                    let p = a.beam.along(direction);
+                    if !p.weights.is_empty() {
+                        out.push((format!("{id}:{dof}"), p));
+                    }
+                }
+            }
+            None => out.push((format!("w(x={})", a.beam.x), a.beam.clone())),
+        }
+    }
+    out
+}
+
 /// The outputs of `model`'s random response on `lin`: the `requested` ones (`--output`
 /// names) or, without any, every attachment's beam point and every mechanism coordinate,
 /// each with its rate; then every generator's current and rotor speed.
@@ -304,27 +330,8 @@ fn outputs_of(
         });
     };
     if requested.is_empty() {
-        for a in &model.attachments {
-            // A node of an imported structure: its ux and uy (`NODE:DOF`); a beam point: its
-            // transverse displacement.
-            let node = model
-                .structure
-                .as_ref()
-                .and_then(|st| crate::setup::build::node_at(st, &a.beam));
-            match node {
-                Some(id) => {
-                    for (dof, direction) in [("ux", [1.0, 0.0]), ("uy", [0.0, 1.0])] {
-                        let p = a.beam.along(direction);
-                        if !p.weights.is_empty() {
-                            push_pair(&ExcitationTarget::Beam(p), format!("{id}:{dof}"), "m");
-                        }
-                    }
-                }
-                None => {
-                    let t = ExcitationTarget::Beam(a.beam.clone());
-                    push_pair(&t, format!("w(x={})", a.beam.x), "m");
-                }
-            }
+        for (label, p) in attachment_outputs(model) {
+            push_pair(&ExcitationTarget::Beam(p), label, "m");
         }
         for (i, m) in model.mechanisms.iter().enumerate() {
             let names = m.system.coordinate_names();

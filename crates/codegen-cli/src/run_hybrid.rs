@@ -523,7 +523,8 @@ pub fn evaluate<'a>(
     let mut e0 = None;
     let mut output_rows: u64 = 0;
     // Under random excitation: the stationary statistics (report::random_run), their names.
-    let random_signals = random_signal_names(model);
+    let random_points = crate::random::attachment_outputs(model);
+    let random_signals = random_signal_names(model, &random_points);
     let random = model
         .excitations
         .iter()
@@ -562,7 +563,7 @@ pub fn evaluate<'a>(
         &mut |state| {
             if let Some((from, w)) = &mut welch {
                 if state.t >= *from {
-                    random_signals_into(model, state, &mut signals);
+                    random_signals_into(model, &random_points, state, &mut signals);
                     w.push(&signals);
                 }
             }
@@ -625,7 +626,7 @@ pub fn evaluate<'a>(
                 s.push(state);
             }
             if let Some(st) = &mut random_stats {
-                random_signals_into(model, state, &mut signals_at_rows);
+                random_signals_into(model, &random_points, state, &mut signals_at_rows);
                 st.push(state.t, signals_at_rows.iter().copied());
             }
             output_rows += 1;
@@ -881,14 +882,20 @@ enum Halt {
     Interrupted,
 }
 
-/// The signals of a run under random excitation, as `damper random` names them, with
-/// their units and whether they are centred: every attachment's `w` and `w'`, every
-/// mechanism coordinate and rate, every generator's current (not centred) and rotor speed.
-fn random_signal_names(model: &HybridModel) -> Vec<(String, String, bool)> {
+/// The signals of a run under random excitation, as `damper random` names them and in its
+/// order (the linear prediction is paired with them by position), with their units and
+/// whether they are centred: every attachment's displacements and rates
+/// ([`crate::random::attachment_outputs`]: a beam point's `w`, a node's `ux` and `uy`),
+/// every mechanism coordinate and rate, every generator's current (not centred) and rotor
+/// speed.
+fn random_signal_names(
+    model: &HybridModel,
+    displacements: &[(String, BeamPoint)],
+) -> Vec<(String, String, bool)> {
     let mut out = vec![];
-    for a in &model.attachments {
-        out.push((format!("w(x={})", a.beam.x), "m".to_string(), true));
-        out.push((format!("w(x={})'", a.beam.x), "m/s".to_string(), true));
+    for (label, _) in displacements {
+        out.push((label.clone(), "m".to_string(), true));
+        out.push((format!("{label}'"), "m/s".to_string(), true));
     }
     for m in &model.mechanisms {
         let units = m.system.coordinate_units();
@@ -909,6 +916,7 @@ fn random_signal_names(model: &HybridModel) -> Vec<(String, String, bool)> {
 /// step's observer: plain loops, no allocation).
 fn random_signals_into(
     model: &HybridModel,
+    displacements: &[(String, BeamPoint)],
     state: &hybrid_core::hybrid::HybridState,
     out: &mut [f64],
 ) {
@@ -917,9 +925,9 @@ fn random_signals_into(
         out[k] = v;
         k += 1;
     };
-    for a in &model.attachments {
-        put(a.beam.value(&state.q));
-        put(a.beam.value(&state.v));
+    for (_, p) in displacements {
+        put(p.value(&state.q));
+        put(p.value(&state.v));
     }
     for m in &state.mechanisms {
         for (q, qd) in m.q.iter().zip(&m.qd) {

@@ -608,3 +608,97 @@ fn the_optimum_on_a_structure_is_on_its_reach_constraint_with_adjoint_gradients(
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A run of the frame under white noise reports its random response under `damper random`'s
+/// names and order: the pin's node `613:ux`, `613:uy` (not a beam abscissa), each RMS within
+/// four standard errors of the linear prediction of `damper random` (damping raised to 5 % so
+/// that the transient is short); in `random_psd.csv` each rate's prediction is its
+/// displacement's times `(2 pi f)^2` (1e-9), the prediction paired with its own output.
+#[test]
+fn a_random_run_on_a_structure_names_its_nodes_as_damper_random() {
+    let dir = scratch("frame_random_run");
+    let d = dir.as_path();
+    let path = frame(
+        d,
+        "noise.toml",
+        "reduction = { kind = \"craig_bampton\", modes = 10 }",
+    );
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("ratio = 0.002 }", "ratio = 0.05 }")
+        .replace(
+            "time = { kind = \"harmonic\", frequency_hz = 38.9 }",
+            "time = { kind = \"white_noise\", psd = 0.5, band = [1.0, 200.0] }",
+        )
+        .replace("amplitude = 5.0", "");
+    std::fs::write(&path, text).unwrap();
+    let out = d.join("run");
+    let (code, _, err) = damper(&[
+        "simulate",
+        &path,
+        "-o",
+        out.to_str().unwrap(),
+        "--quiet",
+        "--set",
+        "integrator.t_end=2.0",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let linear = json(&["random", &path, "--json"]);
+    let predicted = |name: &str| {
+        linear["outputs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|o| o["name"] == name)
+            .unwrap_or_else(|| panic!("no {name} in {linear}"))["rms"]
+            .as_f64()
+            .unwrap()
+    };
+    let summary: Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let block = &summary["random"]["outputs"];
+    let names: Vec<&str> = block
+        .as_array()
+        .unwrap_or_else(|| panic!("{}", summary["random"]))
+        .iter()
+        .map(|o| o["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(&names[..4], ["613:ux", "613:ux'", "613:uy", "613:uy'"]);
+    for o in block.as_array().unwrap().iter().take(4) {
+        let name = o["name"].as_str().unwrap();
+        let (rms, se) = (
+            o["rms"]["value"].as_f64().unwrap(),
+            o["rms"]["standard_error"].as_f64().unwrap(),
+        );
+        let p = predicted(name);
+        assert!(
+            (rms - p).abs() <= 4.0 * se,
+            "{name}: {rms} ± {se} vs linear {p}"
+        );
+    }
+    let csv = std::fs::read_to_string(out.join("random_psd.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |n: &str| {
+        header
+            .iter()
+            .position(|h| *h == n)
+            .unwrap_or_else(|| panic!("{n}: {header:?}"))
+    };
+    for dof in ["ux", "uy"] {
+        let (x, v) = (
+            col(&format!("613:{dof} prediction [m^2/Hz]")),
+            col(&format!("613:{dof}' prediction [(m/s)^2/Hz]")),
+        );
+        for line in lines.clone() {
+            let r: Vec<f64> = line.split(',').map(|c| c.parse().unwrap()).collect();
+            let w2 = (2.0 * std::f64::consts::PI * r[0]).powi(2);
+            assert!(
+                (r[v] - w2 * r[x]).abs() <= 1e-9 * r[v].abs().max(1e-300),
+                "{dof} at {} Hz",
+                r[0]
+            );
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
