@@ -753,11 +753,11 @@ impl Integrator {
         let mut finite = true;
         // One entry: q, v and v_mid updated, whether they are finite.
         let update = |q: &mut f64, v: &mut f64, qh: f64, vh: f64, a: f64, m: &mut f64| {
-            let v_new = vh + cv * a;
-            *q = qh + cq * a;
+            let (q_new, v_new) = (qh + cq * a, vh + cv * a);
+            *q = q_new;
             *m = 0.5 * (*v + v_new);
             *v = v_new;
-            q.is_finite() & v_new.is_finite()
+            both_finite(q_new, v_new)
         };
         let newmark = state
             .q
@@ -1118,4 +1118,39 @@ impl Integrator {
 
 fn norm(x: &[f64]) -> f64 {
     x.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
+/// `x.is_finite() && y.is_finite()` in three operations that vectorise: `x - x` is 0 for a
+/// finite `x` and NaN for an infinite or NaN one (instead of the absolute value and two
+/// comparisons of each `is_finite`).
+#[inline(always)]
+#[allow(clippy::eq_op)] // `x - x` is the test itself, not a slip
+fn both_finite(x: f64, y: f64) -> bool {
+    (x - x) + (y - y) == 0.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::both_finite;
+
+    #[test]
+    fn both_finite_is_is_finite_of_both() {
+        let values = [
+            0.0,
+            -0.0,
+            1.5,
+            -3e300,
+            f64::MAX,
+            f64::MIN_POSITIVE,
+            5e-324,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        for x in values {
+            for y in values {
+                assert_eq!(both_finite(x, y), x.is_finite() && y.is_finite(), "{x} {y}");
+            }
+        }
+    }
 }
