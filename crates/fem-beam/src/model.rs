@@ -329,6 +329,12 @@ impl BeamModel {
         }
     }
 
+    /// Whether the description has loads (else [`load_into`](Self::load_into) writes zeros
+    /// at every `t`, and a time integration need not evaluate it).
+    pub fn has_loads(&self) -> bool {
+        !self.loads.is_empty()
+    }
+
     /// The time-independent part of the load vector: the loads whose time function is
     /// [`TimeFunction::Constant`] (the static loads of an equilibrium; harmonic, step and
     /// table loads are the dynamic input) into `out`.

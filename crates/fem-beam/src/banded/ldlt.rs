@@ -3,6 +3,8 @@
 //! its `O(n kd)` allocation-free solves, and the Sturm count of negative pivots, which runs
 //! the same elimination kernel on an indefinite matrix.
 
+use std::cell::Cell;
+
 use super::{BandedSym, slot};
 use crate::error::LinalgError;
 
@@ -222,51 +224,65 @@ fn solve_kernel(kd: usize, data: &[f64], b: &mut [f64]) {
 
 /// [`solve_kernel`] for the half-bandwidth 3 of the beam, with the same operations in the
 /// same order (so bit-identical results), the last three entries of each sweep held in
-/// registers and the rows as fixed-size chunks: no bounds checks in the loops, and
-/// `D z = y` folded into the forward sweep.
+/// registers and the rows as fixed-size chunks, three at a time (the window of three
+/// entries then stays in the same registers): no bounds checks in the loops, and `D z = y`
+/// folded into the forward sweep.
 fn solve_kernel_kd3(data: &[f64], b: &mut [f64]) {
     let n = b.len();
     if n < 4 || data.len() != 4 * n {
         solve_kernel(3, data, b);
         return;
     }
-    let row = |i: usize| -> [f64; 4] {
-        [
-            data[4 * i],
-            data[4 * i + 1],
-            data[4 * i + 2],
-            data[4 * i + 3],
-        ]
+    let (r0, r1, r2) = (&data[..4], &data[4..8], &data[8..12]);
+    // L y = b and z = D^-1 y; `y` holds y_{i-3}, y_{i-2}, y_{i-1}. Row i (`r`, with b_i):
+    // y_i, and z_i returned.
+    let mut y = [b[0], 0.0, 0.0];
+    y[1] = b[1] - r1[2] * y[0];
+    y[2] = b[2] - (r2[1] * y[0] + r2[2] * y[1]);
+    b[0] = y[0] / r0[3];
+    b[1] = y[1] / r1[3];
+    b[2] = y[2] / r2[3];
+    let mut forward = |r: &[f64], bi: f64| -> f64 {
+        let yi = bi - (r[0] * y[0] + r[1] * y[1] + r[2] * y[2]);
+        y = [y[1], y[2], yi];
+        yi / r[3]
     };
-    // L y = b and z = D^-1 y; (y0, y1, y2) are y_{i-3}, y_{i-2}, y_{i-1}.
-    let (r1, r2) = (row(1), row(2));
-    let mut y0 = b[0];
-    let mut y1 = b[1] - r1[2] * y0;
-    let mut y2 = b[2] - (r2[1] * y0 + r2[2] * y1);
-    b[0] = y0 / row(0)[3];
-    b[1] = y1 / r1[3];
-    b[2] = y2 / r2[3];
-    for (bi, r) in b[3..].iter_mut().zip(data[12..].chunks_exact(4)) {
-        let y = *bi - (r[0] * y0 + r[1] * y1 + r[2] * y2);
-        *bi = y / r[3];
-        (y0, y1, y2) = (y1, y2, y);
+    let rows = data[12..].chunks_exact(12);
+    let done = 3 + 3 * rows.len();
+    for (r, bs) in rows.zip(b[3..].chunks_exact_mut(3)) {
+        bs[0] = forward(&r[..4], bs[0]);
+        bs[1] = forward(&r[4..8], bs[1]);
+        bs[2] = forward(&r[8..], bs[2]);
+    }
+    for (r, bi) in data[4 * done..].chunks_exact(4).zip(&mut b[done..]) {
+        *bi = forward(r, *bi);
     }
     // L^T x = z, the column sweep: row i subtracts L_ij x_i from x_j, j = i-3 .. i-1, rows
-    // from the last up; (u1, u2, u3) are the partial x_i, x_{i-1}, x_{i-2}.
-    let (mut u1, mut u2, mut u3) = (b[n - 1], b[n - 2], b[n - 3]);
-    for i in (3..n).rev() {
-        let r = &data[4 * i..4 * i + 3];
-        let x = u1;
-        b[i] = x;
-        let u4 = b[i - 3] - r[0] * x;
-        (u1, u2, u3) = (u2 - r[2] * x, u3 - r[1] * x, u4);
+    // from the last up; `u` holds the partial x_i, x_{i-1}, x_{i-2}. Row i (`r`, with the
+    // entry i - 3 of z): x_i returned.
+    let mut u = [b[n - 1], b[n - 2], b[n - 3]];
+    let mut backward = |r: &[f64], z: f64| -> f64 {
+        let x = u[0];
+        u = [u[1] - r[2] * x, u[2] - r[1] * x, z - r[0] * x];
+        x
+    };
+    let b = Cell::from_mut(b).as_slice_of_cells();
+    let rows = data[12..].rchunks_exact(12);
+    let front = rows.remainder().len() / 4;
+    for (r, (xs, zs)) in rows.zip(b[3..].rchunks_exact(3).zip(b[..n - 3].rchunks_exact(3))) {
+        xs[2].set(backward(&r[8..], zs[2].get()));
+        xs[1].set(backward(&r[4..8], zs[1].get()));
+        xs[0].set(backward(&r[..4], zs[0].get()));
+    }
+    for i in (3..3 + front).rev() {
+        b[i].set(backward(&data[4 * i..4 * i + 4], b[i - 3].get()));
     }
     // Rows 2 and 1 (row 0 has no strict lower part).
-    let x2 = u1;
-    b[2] = x2;
-    let (u2, u3) = (u2 - r2[2] * x2, u3 - r2[1] * x2);
-    b[1] = u2;
-    b[0] = u3 - r1[2] * u2;
+    let x2 = u[0];
+    b[2].set(x2);
+    let (u2, u3) = (u[1] - r2[2] * x2, u[2] - r2[1] * x2);
+    b[1].set(u2);
+    b[0].set(u3 - r1[2] * u2);
 }
 
 /// The factorisation `A = L D L^T` of a [`BandedSym`]; solves are `O(n kd)` and allocate

@@ -2,6 +2,8 @@
 //! documentation): construction, element access, scaling, and the products `A x`,
 //! `y += alpha A x` and `x^T A x` into caller buffers.
 
+use std::cell::Cell;
+
 use nalgebra::DMatrix;
 
 use super::slot;
@@ -165,9 +167,31 @@ impl BandedSym {
             "BandedSym::mul_add_into: y has the wrong length"
         );
         // The half-bandwidth of the beam (3) gets its own inlined copy of the kernel.
-        if self.kd == 3 && self.n >= 3 {
-            mul_add_kd3(&self.data, alpha, x, y);
+        if self.kd == 3 && self.n >= 3 && self.data.len() == 4 * self.n {
+            // In place: the kernel reads `y_i` before it writes it (the writes lag 3 rows).
+            let y = Cell::from_mut(y).as_slice_of_cells();
+            mul_add_kd3_dispatch(&self.data, alpha, x, y, y);
         } else {
+            mul_add_kernel(self.kd, &self.data, alpha, x, y);
+        }
+    }
+
+    /// `y = b + alpha A x`, into the caller's buffer (the operations of `y = b` followed by
+    /// [`mul_add_into`](Self::mul_add_into), in the same order: bit-identical); no
+    /// allocation, and one pass instead of a copy and a product.
+    ///
+    /// # Panics
+    /// If `x`, `b` or `y` does not have length [`size`](Self::size).
+    pub fn mul_add_to(&self, alpha: f64, x: &[f64], b: &[f64], y: &mut [f64]) {
+        assert!(
+            x.len() == self.n && b.len() == self.n && y.len() == self.n,
+            "BandedSym::mul_add_to: a vector has the wrong length"
+        );
+        if self.kd == 3 && self.n >= 3 && self.data.len() == 4 * self.n {
+            let y = Cell::from_mut(y).as_slice_of_cells();
+            mul_add_kd3_dispatch(&self.data, alpha, x, b, y);
+        } else {
+            y.copy_from_slice(b);
             mul_add_kernel(self.kd, &self.data, alpha, x, y);
         }
     }
@@ -182,7 +206,7 @@ impl BandedSym {
             self.n,
             "BandedSym::quadratic_form: x has the wrong length"
         );
-        if self.kd == 3 && self.n >= 3 {
+        if self.kd == 3 && self.n >= 3 && self.data.len() == 4 * self.n {
             return quadratic_form_kd3(&self.data, x);
         }
         let w = self.kd + 1;
@@ -240,54 +264,142 @@ fn mul_add_kernel(kd: usize, data: &[f64], alpha: f64, x: &[f64], y: &mut [f64])
 
 /// `x^T A x` for the half-bandwidth 3 (`n >= 3`), the operations of
 /// [`BandedSym::quadratic_form`] in the same order (bit-identical), the rows as fixed-size
-/// chunks and `x_{i-3} .. x_{i-1}` in registers.
+/// chunks, three at a time, and `x_{i-3} .. x_{i-1}` in registers.
 fn quadratic_form_kd3(data: &[f64], x: &[f64]) -> f64 {
+    let n = x.len();
+    if n < 3 || data.len() != 4 * n {
+        return f64::NAN;
+    }
     let (r1, r2) = (&data[4..8], &data[8..12]);
     let mut s = 0.0;
     s += x[0] * (data[3] * x[0] + 2.0 * 0.0);
     s += x[1] * (r1[3] * x[1] + 2.0 * (0.0 + r1[2] * x[0]));
     s += x[2] * (r2[3] * x[2] + 2.0 * (0.0 + r2[1] * x[0] + r2[2] * x[1]));
-    let (mut x0, mut x1, mut x2) = (x[0], x[1], x[2]);
-    for (&xi, r) in x[3..].iter().zip(data[12..].chunks_exact(4)) {
-        let off = 0.0 + r[0] * x0 + r[1] * x1 + r[2] * x2;
+    let mut w = [x[0], x[1], x[2]];
+    // Row i (`r`) adds its term x_i (A_ii x_i + 2 sum_j A_ij x_j) to `s`.
+    let mut row = |r: &[f64], xi: f64| {
+        let off = 0.0 + r[0] * w[0] + r[1] * w[1] + r[2] * w[2];
         s += xi * (r[3] * xi + 2.0 * off);
-        (x0, x1, x2) = (x1, x2, xi);
+        w = [w[1], w[2], xi];
+    };
+    let rows = data[12..].chunks_exact(12);
+    let done = 3 + 3 * rows.len();
+    for (r, xs) in rows.zip(x[3..].chunks_exact(3)) {
+        row(&r[..4], xs[0]);
+        row(&r[4..8], xs[1]);
+        row(&r[8..], xs[2]);
+    }
+    for (r, &xi) in data[4 * done..].chunks_exact(4).zip(&x[done..]) {
+        row(r, xi);
     }
     s
 }
 
-/// `y += alpha A x` for the half-bandwidth 3 (`n >= 3`), the operations of
-/// [`mul_add_kernel`] in the same order (bit-identical), the rows as fixed-size chunks and the
-/// partial sums of `y_{i-3} .. y_{i-1}` in registers.
-fn mul_add_kd3(data: &[f64], alpha: f64, x: &[f64], y: &mut [f64]) {
-    let n = x.len();
-    if data.len() != 4 * n || y.len() != n {
-        mul_add_kernel(3, data, alpha, x, y);
-        return;
+/// A vector entry read by value: a plain `f64` or a [`Cell`] (a vector the kernel also
+/// writes, read ahead of the writes).
+trait Entry {
+    fn get(&self) -> f64;
+}
+
+impl Entry for f64 {
+    #[inline(always)]
+    fn get(&self) -> f64 {
+        *self
     }
-    // Rows 0 .. 2 (fewer than 3 lower entries) as the general kernel does them.
-    mul_add_kernel(3, &data[..12], alpha, &x[..3], &mut y[..3]);
-    // (v0, v1, v2): y_{i-3}, y_{i-2}, y_{i-1} with the updates of the rows before i.
-    let (mut v0, mut v1, mut v2) = (y[0], y[1], y[2]);
-    let (mut x0, mut x1, mut x2) = (x[0], x[1], x[2]);
-    for (i, r) in data.chunks_exact(4).enumerate().skip(3) {
-        let xi = x[i];
+}
+
+impl Entry for Cell<f64> {
+    #[inline(always)]
+    fn get(&self) -> f64 {
+        Cell::get(self)
+    }
+}
+
+/// [`mul_add_kd3`] with `alpha = -1` (the step's residual `P - C x`) as its own copy: the
+/// products with `-1` are negations, which the compiler folds into subtractions (exact:
+/// `v + l (-x) = v - l x` in IEEE arithmetic), so the results are the general kernel's.
+#[inline(always)]
+fn mul_add_kd3_dispatch(data: &[f64], alpha: f64, x: &[f64], b: &[impl Entry], y: &[Cell<f64>]) {
+    if alpha == -1.0 {
+        mul_add_kd3(data, -1.0, x, b, y);
+    } else {
+        mul_add_kd3(data, alpha, x, b, y);
+    }
+}
+
+/// The running state of [`mul_add_kd3`] before row `i`: the partial sums of
+/// `y_{i-3} .. y_{i-1}` (`v`) and `x_{i-3} .. x_{i-1}` (`x`).
+struct Window {
+    v: [f64; 3],
+    x: [f64; 3],
+}
+
+impl Window {
+    /// Row `i` (`r`: its band, `A[i, i-3 ..= i]`): completes and returns `y_{i-3}`, takes
+    /// `b_i + alpha (A x)_i` (its lower part and diagonal) as the partial `y_i`.
+    #[inline(always)]
+    fn row(&mut self, alpha: f64, r: &[f64], xi: f64, bi: f64) -> f64 {
+        let Window { v, x } = self;
         let axi = alpha * xi;
         let mut acc = r[3] * xi;
-        acc += r[0] * x0;
-        v0 += r[0] * axi;
-        acc += r[1] * x1;
-        v1 += r[1] * axi;
-        acc += r[2] * x2;
-        v2 += r[2] * axi;
-        y[i - 3] = v0;
-        let yi = y[i] + alpha * acc;
-        (v0, v1, v2) = (v1, v2, yi);
-        (x0, x1, x2) = (x1, x2, xi);
+        acc += r[0] * x[0];
+        let done = v[0] + r[0] * axi;
+        acc += r[1] * x[1];
+        let v1 = v[1] + r[1] * axi;
+        acc += r[2] * x[2];
+        let v2 = v[2] + r[2] * axi;
+        *v = [v1, v2, bi + alpha * acc];
+        *x = [x[1], x[2], xi];
+        done
     }
-    y[n - 3] = v0;
-    y[n - 2] = v1;
-    y[n - 1] = v2;
+}
+
+/// `y = b + alpha A x` for the half-bandwidth 3 (`n >= 3`, `data` of `4 n` entries), the
+/// operations of `y = b` and [`mul_add_kernel`] in the same order (bit-identical): the rows
+/// as fixed-size chunks, three at a time (so that the window of partial sums stays in the
+/// same registers), `x_{i-3} .. x_{i-1}` and the partial sums of `y_{i-3} .. y_{i-1}` in
+/// registers, the vectors read and written through chunked iterators. `b` may be `y`'s own
+/// cells (the product in place): `y_i` is written three rows after `b_i` is read.
+#[inline(always)]
+fn mul_add_kd3(data: &[f64], alpha: f64, x: &[f64], b: &[impl Entry], y: &[Cell<f64>]) {
+    let n = x.len();
+    if n < 3 || data.len() != 4 * n || b.len() != n || y.len() != n {
+        return;
+    }
+    let (r0, r1, r2) = (&data[..4], &data[4..8], &data[8..12]);
+    let (x0, x1, x2) = (x[0], x[1], x[2]);
+    // Rows 0 .. 2 (fewer than 3 lower entries) in the order of the general kernel.
+    let mut v0 = b[0].get() + alpha * (r0[3] * x0);
+    let (mut acc, axi) = (r1[3] * x1, alpha * x1);
+    acc += r1[2] * x0;
+    v0 += r1[2] * axi;
+    let mut v1 = b[1].get() + alpha * acc;
+    let (mut acc, axi) = (r2[3] * x2, alpha * x2);
+    acc += r2[1] * x0;
+    v0 += r2[1] * axi;
+    acc += r2[2] * x1;
+    v1 += r2[2] * axi;
+    let v2 = b[2].get() + alpha * acc;
+    let mut w = Window {
+        v: [v0, v1, v2],
+        x: [x0, x1, x2],
+    };
+    let rows = data[12..].chunks_exact(12);
+    let done = 3 + 3 * rows.len();
+    for ((r, xs), (bs, out)) in rows
+        .zip(x[3..].chunks_exact(3))
+        .zip(b[3..].chunks_exact(3).zip(y.chunks_exact(3)))
+    {
+        out[0].set(w.row(alpha, &r[..4], xs[0], bs[0].get()));
+        out[1].set(w.row(alpha, &r[4..8], xs[1], bs[1].get()));
+        out[2].set(w.row(alpha, &r[8..], xs[2], bs[2].get()));
+    }
+    for i in done..n {
+        y[i - 3].set(w.row(alpha, &data[4 * i..4 * i + 4], x[i], b[i].get()));
+    }
+    for (out, v) in y[n - 3..].iter().zip(w.v) {
+        out.set(v);
+    }
 }
 
 #[cfg(test)]
@@ -325,10 +437,18 @@ mod tests {
             let a = sample(n, 3);
             let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.9).cos() + 0.1).collect();
             let y0: Vec<f64> = (0..n).map(|i| (i as f64 * 0.4).sin()).collect();
-            let (mut y3, mut y) = (y0.clone(), y0.clone());
-            mul_add_kd3(&a.data, -0.7, &x, &mut y3);
+            // In place and into another buffer, with the general alpha and the copy of
+            // alpha = -1 (the step's).
+            for alpha in [-0.7, -1.0] {
+                let (mut y3, mut y, mut to) = (y0.clone(), y0.clone(), vec![f64::NAN; n]);
+                a.mul_add_into(alpha, &x, &mut y3);
+                a.mul_add_to(alpha, &x, &y0, &mut to);
+                mul_add_kernel(3, &a.data, alpha, &x, &mut y);
+                assert_eq!(y3, y, "n = {n}, alpha = {alpha}");
+                assert_eq!(to, y, "n = {n}, alpha = {alpha}");
+            }
+            let mut y = y0.clone();
             mul_add_kernel(3, &a.data, -0.7, &x, &mut y);
-            assert_eq!(y3, y, "n = {n}");
             // Against the dense product.
             let d = a.to_dense() * nalgebra::DVector::from_column_slice(&x);
             for i in 0..n {

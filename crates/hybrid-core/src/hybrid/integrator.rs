@@ -199,6 +199,10 @@ pub struct Integrator {
     base_load: Vec<f64>,
     /// Whether the model has a base excitation.
     base: bool,
+    /// Whether the beam load `P(t)` can be non-zero (the structure's own loads, beam
+    /// excitations, a base excitation's inertial load); without, `p_old` and `p_new` stay
+    /// zero and are not evaluated.
+    loaded: bool,
     checked_condition: Vec<f64>,
     /// Changes of independent coordinates so far.
     pub repartitions: Vec<Repartition>,
@@ -305,6 +309,17 @@ impl Integrator {
         }
         let nz = nb + offset;
         let nf = model.forces.len();
+        let base_load = if model.has_base_excitation() {
+            model.base_beam_load()
+        } else {
+            Vec::new()
+        };
+        let loaded = model.structure.as_ref().is_some_and(|s| s.has_loads())
+            || model
+                .excitations
+                .iter()
+                .any(|e| matches!(e.target, ExcitationTarget::Beam(_)))
+            || !base_load.is_empty();
         Ok(Integrator {
             h,
             alpha,
@@ -350,11 +365,8 @@ impl Integrator {
             jac_valid: false,
             currents: vec![0.0; nf],
             base: model.has_base_excitation(),
-            base_load: if model.has_base_excitation() {
-                model.base_beam_load()
-            } else {
-                Vec::new()
-            },
+            base_load,
+            loaded,
             checked_condition: state.mechanisms.iter().map(|m| m.condition).collect(),
             repartitions: Vec::new(),
         })
@@ -715,12 +727,19 @@ impl Integrator {
     /// velocities are [`Integrator::integrate_beam`]'s.
     fn accept(&mut self, model: &HybridModel, state: &mut HybridState) {
         let n = state.q.len();
-        state.a.copy_from_slice(&self.r0);
-        if n > 0 {
-            for (col, phi) in self.zcols.chunks_exact(n).zip(&self.phi) {
-                for (a, z) in state.a.iter_mut().zip(col) {
-                    *a -= z * phi;
+        // The first column in the same pass as the copy of `r0` (the same operations).
+        let mut cols = self.zcols.chunks_exact(n.max(1)).zip(&self.phi);
+        match cols.next() {
+            Some((col, phi)) if n > 0 => {
+                for ((a, r), z) in state.a.iter_mut().zip(&self.r0).zip(col) {
+                    *a = r - z * phi;
                 }
+            }
+            _ => state.a.copy_from_slice(&self.r0),
+        }
+        for (col, phi) in cols {
+            for (a, z) in state.a.iter_mut().zip(col) {
+                *a -= z * phi;
             }
         }
         for (m, z) in self.zmax.iter_mut().zip(&self.z) {
@@ -755,25 +774,32 @@ impl Integrator {
     fn integrate_beam(&mut self, state: &mut HybridState) -> (bool, f64) {
         let (cq, cv) = (self.beta * self.h * self.h, self.gamma * self.h);
         let mut finite = true;
-        let mut work = 0.0;
-        for (((q, v), (qh, vh)), ((a, m), (po, pn))) in state
+        // One entry: q, v and v_mid updated, whether they are finite.
+        let update = |q: &mut f64, v: &mut f64, qh: f64, vh: f64, a: f64, m: &mut f64| {
+            let (q_new, v_new) = (qh + cq * a, vh + cv * a);
+            *q = q_new;
+            *m = 0.5 * (*v + v_new);
+            *v = v_new;
+            both_finite(q_new, v_new)
+        };
+        let newmark = state
             .q
             .iter_mut()
             .zip(&mut state.v)
             .zip(self.q_hat.iter().zip(&self.v_hat))
-            .zip(
-                state
-                    .a
-                    .iter()
-                    .zip(&mut self.v_mid)
-                    .zip(self.p_old.iter().zip(&self.p_new)),
-            )
+            .zip(state.a.iter().zip(&mut self.v_mid));
+        if !self.loaded {
+            // P = 0: the power of the loads is zero (each term is a signed zero).
+            for (((q, v), (qh, vh)), (a, m)) in newmark {
+                finite &= update(q, v, *qh, *vh, *a, m);
+            }
+            return (finite, 0.0);
+        }
+        let mut work = 0.0;
+        for ((((q, v), (qh, vh)), (a, m)), (po, pn)) in
+            newmark.zip(self.p_old.iter().zip(&self.p_new))
         {
-            let v_new = vh + cv * a;
-            *q = qh + cq * a;
-            *m = 0.5 * (*v + v_new);
-            *v = v_new;
-            finite &= q.is_finite() & v_new.is_finite();
+            finite &= update(q, v, *qh, *vh, *a, m);
             work += 0.5 * (po + pn) * *m;
         }
         (finite, work)
@@ -857,6 +883,7 @@ impl Integrator {
             }
             // r0 = (1+alpha)(P_{n+1} - B v^ - C q^) - alpha (P_n - B v_n - C q_n)
             self.advance_loads(model, state.t, t_new);
+            self.r0.copy_from_slice(&self.p_new);
             beam.damping_mul_add(-1.0, &self.v_hat, &mut self.r0);
             beam.stiffness_mul_add(-1.0, &self.q_hat, &mut self.r0);
             if alpha != 0.0 {
@@ -878,16 +905,17 @@ impl Integrator {
 
     /// The beam loads of a step from `t` to `t_new`: `P_n` into `p_old` (the last step's
     /// `P_{n+1}` when that step ended at `t`: the loads are functions of t alone), `P_{n+1}`
-    /// into `p_new` and `r0`.
+    /// into `p_new`. Without loads both stay zero.
     fn advance_loads(&mut self, model: &HybridModel, t: f64, t_new: f64) {
-        if self.p_new_t == Some(t) {
-            std::mem::swap(&mut self.p_old, &mut self.p_new);
-        } else {
-            Self::load_into(model, &self.base_load, t, &mut self.p_old);
+        if self.loaded {
+            if self.p_new_t == Some(t) {
+                std::mem::swap(&mut self.p_old, &mut self.p_new);
+            } else {
+                Self::load_into(model, &self.base_load, t, &mut self.p_old);
+            }
+            Self::load_into(model, &self.base_load, t_new, &mut self.p_new);
         }
-        Self::load_into(model, &self.base_load, t_new, &mut self.p_new);
         self.p_new_t = Some(t_new);
-        self.r0.copy_from_slice(&self.p_new);
     }
 
     /// The beam's part of a step with the Rayleigh damping folded into the factorised
@@ -914,7 +942,7 @@ impl Integrator {
             *m = *qh + mu * *vh;
         }
         self.advance_loads(model, state.t, t_new);
-        beam.stiffness_mul_add(-1.0, &self.q_mix, &mut self.r0);
+        beam.stiffness_mul_add_to(-1.0, &self.q_mix, &self.p_new, &mut self.r0);
         if let Some(f) = &self.factor {
             Structure::solve_in_place(f, &mut self.r0);
         }
@@ -1121,4 +1149,39 @@ fn below_round_off(dz: &[f64], scale: &[f64], z: &[f64]) -> bool {
 
 fn norm(x: &[f64]) -> f64 {
     x.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
+/// `x.is_finite() && y.is_finite()` in three operations that vectorise: `x - x` is 0 for a
+/// finite `x` and NaN for an infinite or NaN one (instead of the absolute value and two
+/// comparisons of each `is_finite`).
+#[inline(always)]
+#[allow(clippy::eq_op)] // `x - x` is the test itself, not a slip
+fn both_finite(x: f64, y: f64) -> bool {
+    (x - x) + (y - y) == 0.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::both_finite;
+
+    #[test]
+    fn both_finite_is_is_finite_of_both() {
+        let values = [
+            0.0,
+            -0.0,
+            1.5,
+            -3e300,
+            f64::MAX,
+            f64::MIN_POSITIVE,
+            5e-324,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        for x in values {
+            for y in values {
+                assert_eq!(both_finite(x, y), x.is_finite() && y.is_finite(), "{x} {y}");
+            }
+        }
+    }
 }

@@ -85,6 +85,14 @@ pub trait LinearStructure {
     /// `y += s C x`.
     fn stiffness_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]);
 
+    /// `y = b + s C x`: the operations of `y = b` then
+    /// [`stiffness_mul_add`](LinearStructure::stiffness_mul_add) (the beam: in one pass,
+    /// bit-identical).
+    fn stiffness_mul_add_to(&self, s: f64, x: &[f64], b: &[f64], y: &mut [f64]) {
+        y.copy_from_slice(b);
+        self.stiffness_mul_add(s, x, y);
+    }
+
     /// `x^T A x`.
     fn mass_quadratic_form(&self, x: &[f64]) -> f64;
 
@@ -105,6 +113,12 @@ pub trait LinearStructure {
     /// imported model's loads are excitations).
     fn load_into(&self, _t: f64, out: &mut [f64]) {
         out.fill(0.0);
+    }
+
+    /// Whether the structure has loads of its own; `false` when
+    /// [`load_into`](LinearStructure::load_into) writes zeros at every `t` (the default).
+    fn has_loads(&self) -> bool {
+        false
     }
 
     /// Factorises the Newmark matrix `K = A + c_damping B + c_stiffness C`.
@@ -162,6 +176,11 @@ impl LinearStructure for BeamModel {
     }
 
     #[inline]
+    fn stiffness_mul_add_to(&self, s: f64, x: &[f64], b: &[f64], y: &mut [f64]) {
+        self.stiffness().mul_add_to(s, x, b, y);
+    }
+
+    #[inline]
     fn mass_quadratic_form(&self, x: &[f64]) -> f64 {
         self.mass().quadratic_form(x)
     }
@@ -184,6 +203,11 @@ impl LinearStructure for BeamModel {
     #[inline]
     fn load_into(&self, t: f64, out: &mut [f64]) {
         BeamModel::load_into(self, t, out);
+    }
+
+    #[inline]
+    fn has_loads(&self) -> bool {
+        BeamModel::has_loads(self)
     }
 
     fn factorize_newmark(
@@ -323,6 +347,11 @@ impl LinearStructure for Structure {
     }
 
     #[inline]
+    fn stiffness_mul_add_to(&self, k: f64, x: &[f64], b: &[f64], y: &mut [f64]) {
+        each!(self, s => s.stiffness_mul_add_to(k, x, b, y))
+    }
+
+    #[inline]
     fn mass_quadratic_form(&self, x: &[f64]) -> f64 {
         each!(self, s => s.mass_quadratic_form(x))
     }
@@ -345,6 +374,11 @@ impl LinearStructure for Structure {
     #[inline]
     fn load_into(&self, t: f64, out: &mut [f64]) {
         each!(self, s => LinearStructure::load_into(s, t, out))
+    }
+
+    #[inline]
+    fn has_loads(&self) -> bool {
+        each!(self, s => LinearStructure::has_loads(s))
     }
 
     fn factorize_newmark(
