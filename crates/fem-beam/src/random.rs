@@ -216,7 +216,6 @@ pub fn psd_integral(time: &TimeFunction, a: f64, b: f64) -> f64 {
     }
 }
 
-/// The highest frequency with a positive PSD (0 when there is none).
 /// The highest frequency a time function carries (Hz): a harmonic's frequency, the upper
 /// band edge of a white noise, the last frequency of a PSD table where the density is not
 /// zero, a realisation's; `None` for the kinds without a stated upper frequency (constant,
@@ -232,6 +231,7 @@ pub fn top_frequency(time: &TimeFunction) -> Option<f64> {
     }
 }
 
+/// The highest frequency with a positive PSD (0 when there is none).
 fn highest(time: &TimeFunction) -> f64 {
     match time {
         TimeFunction::WhiteNoise { psd, band, .. } if *psd > 0.0 => band[1],

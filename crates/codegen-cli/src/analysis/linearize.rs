@@ -106,10 +106,9 @@ pub fn linearize(req: &LinearizeRequest, loaded: &Loaded) -> Result<Linearized, 
 }
 
 /// An imported host structure's report ([`StructureReport`]; `None` on a beam); for a
-/// Craig–Bampton reduction, its
-/// first coupled mode against the full model's, linearised from the same scenario without
-/// the reduction when that is within the work limits (shift-invert, one mode, no comparison
-/// variants).
+/// Craig–Bampton reduction, its first coupled mode against the full model's, linearised
+/// from the same scenario without the reduction when that is within the work limits
+/// (shift-invert, one mode, no comparison variants).
 fn structure_report(
     req: &LinearizeRequest,
     loaded: &Loaded,
