@@ -534,14 +534,30 @@ fn mode_report(i: usize, m: &Mode, lin: &Linearization, model: &HybridModel) -> 
 /// [`ModeReport::structure_shape`] of the state `z` on an imported structure (empty on the
 /// beam).
 fn node_shape(st: &Structure, z: &[Complex<f64>]) -> Vec<[f64; 5]> {
+    let n = st.dof_count();
+    let (re, im): (Vec<f64>, Vec<f64>) = z[..n].iter().map(|v| (v.re, v.im)).unzip();
+    node_translations(st, &re)
+        .into_iter()
+        .zip(node_translations(st, &im))
+        .map(|((node, [a, c]), (_, [b, d]))| [node as f64, a, b, c, d])
+        .collect()
+}
+
+/// The in-plane translations `(node, [u_x, u_y])` of an imported structure's nodes that
+/// move in the mechanisms' plane (a held translation 0), in the node table's order, for
+/// the structure's coordinates `q` (a reduced model's expanded to every node, `q = T z`);
+/// empty on the beam.
+pub fn node_translations(st: &Structure, q: &[f64]) -> Vec<(u64, [f64; 2])> {
     let Some(full) = st.imported() else {
         return vec![];
     };
-    let n = st.dof_count();
-    let (re, im): (Vec<f64>, Vec<f64>) = z[..n].iter().map(|v| (v.re, v.im)).unzip();
-    let (re, im) = match st {
-        Structure::Reduced { reduced, .. } => (reduced.expand(&re), reduced.expand(&im)),
-        _ => (re, im),
+    let expanded;
+    let q = match st {
+        Structure::Reduced { reduced, .. } => {
+            expanded = reduced.expand(q);
+            &expanded[..]
+        }
+        _ => q,
     };
     full.nodes
         .iter()
@@ -551,9 +567,8 @@ fn node_shape(st: &Structure, z: &[Complex<f64>]) -> Vec<[f64; 5]> {
             if ux.is_none() && uy.is_none() {
                 return None;
             }
-            let part = |e: Option<usize>| e.map_or([0.0, 0.0], |i| [re[i], im[i]]);
-            let ([a, b], [c, d]) = (part(ux), part(uy));
-            Some([node.id as f64, a, b, c, d])
+            let part = |e: Option<usize>| e.map_or(0.0, |i| q[i]);
+            Some((node.id, [part(ux), part(uy)]))
         })
         .collect()
 }

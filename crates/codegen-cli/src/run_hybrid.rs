@@ -14,6 +14,9 @@
 //! - per `[output] compare` entry, `time_history_<key>.csv` of that comparison run (the
 //!   system with every generator disconnected, or the bare beam read at the attachments'
 //!   beam points as probes) and its block in the summary's `comparisons`;
+//! - `deformed_shape.svg` (a `[structure]` with `elements` and an attachment): the
+//!   structure at the output step of the largest displacement of the first attachment's
+//!   point, magnified, over the undeformed structure ([`crate::report::shape`]);
 //! - `damping_vs_amplitude.svg` (free decay with comparisons): the damping ratio of each
 //!   cycle against its amplitude, one series per run;
 //! - `random_rms.svg` (under random excitation): the beam points' RMS against time over
@@ -95,6 +98,9 @@ pub struct HybridRun<'a> {
     /// Under random excitation, the response spectra of the stationary part beside the
     /// linear prediction (`random_psd.csv`), when the part holds enough samples.
     pub psd: Option<RandomPsd>,
+    /// On a structure with elements (`deformed_shape.svg`), `(t, q)`: the structure's
+    /// coordinates at the output step of the largest displacement of the first attachment.
+    pub deformed: Option<(f64, Vec<f64>)>,
 }
 
 /// Where the rows of a hybrid run go: the columns and a row sink.
@@ -341,6 +347,21 @@ pub fn simulate(
             .map_err(ReportError::from)?,
         });
     }
+    if let (Some(drawing), Some((t, q))) = (
+        sc.structure.as_ref().and_then(|s| s.drawing.as_ref()),
+        &run.deformed,
+    ) {
+        let translations = model
+            .structure
+            .as_ref()
+            .map_or_else(Vec::new, |st| crate::linear::node_translations(st, q));
+        let (_, svg) = crate::report::shape::deformed_shape(sc, drawing, *t, &translations)
+            .map_err(ReportError::from)?;
+        files.push(OutputFile {
+            path: out.join("deformed_shape.svg"),
+            bytes: svg,
+        });
+    }
     if let Some(random) = &summary.random {
         files.extend(random_rms_plot(out, sc, random)?);
     }
@@ -551,6 +572,12 @@ pub fn evaluate<'a>(
     let mut signals = vec![0.0; random_signals.len()];
     let mut signals_at_rows = signals.clone();
     let mut amplification = Vec::with_capacity(na);
+    // The deformed shape to draw: `(|u|, t, q)` at the largest displacement magnitude of the
+    // first attachment's point (a pin's `|(u_x, u_y)|`, a roller's along its direction),
+    // copied into a buffer allocated once, on structures with elements only.
+    let drawn = sc.structure.as_ref().is_some_and(|s| s.drawing.is_some());
+    let mut deformed =
+        (drawn && na > 0).then(|| (-1.0, 0.0, Vec::with_capacity(model.structure_dofs())));
     let bar = progress_bar(progress);
     let outcome = run_observed(
         model,
@@ -583,6 +610,15 @@ pub fn evaluate<'a>(
                 }
                 decay.push(state.t, f.apply_state(&z, &zd, &state.currents));
                 decay_samples += 1;
+            }
+            if let Some((peak, t, q)) = &mut deformed {
+                let p = points[0];
+                let u = p.value(&state.q).hypot(p.value_along(true, &state.q));
+                if u > *peak {
+                    (*peak, *t) = (u, state.t);
+                    q.clear();
+                    q.extend_from_slice(&state.q);
+                }
             }
             for (k, p) in points.iter().enumerate() {
                 let w = p.value(&state.q);
@@ -871,6 +907,7 @@ pub fn evaluate<'a>(
         summary,
         displacements: tracks.w.iter().map(Decimator::points).collect(),
         psd,
+        deformed: deformed.map(|(_, t, q)| (t, q)),
     })
 }
 

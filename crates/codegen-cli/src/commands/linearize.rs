@@ -1,16 +1,19 @@
-//! `damper linearize SCENARIO [--modes K] [--json] [--method M] [--set PATH=VALUE ...]`:
+//! `damper linearize SCENARIO [--modes K] [--json] [--method M] [--set PATH=VALUE ...]
+//! [-o DIR]`:
 //! the static equilibrium of a damper or hybrid scenario and the first `K` modes of its
 //! linearised reduced equations ([`crate::linear`]): undamped and damped natural
 //! frequencies, damping ratios, decay rates, mode shapes (beam deflection and mechanism
 //! motion), with the generators connected, disconnected, and for the bare beam; the
 //! generators' velocity amplification at the equilibrium. A table on standard output, or the
-//! whole report as JSON with `--json`.
+//! whole report as JSON with `--json`. With `-o DIR`, the report is also written to
+//! `DIR/linearize.json`, and on a `[structure]` with `elements` the first mode shapes are
+//! drawn in `DIR/mode_shape.svg` ([`crate::report::shape`]), both by the one atomic writer.
 //!
 //! The analysis and its limits are [`crate::analysis::linearize`]; above them the command
 //! is refused unless `--allow-long`.
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use hybrid_core::hybrid::{EigenMethod, ModeKind};
 
@@ -18,9 +21,10 @@ use crate::Error;
 use crate::analysis::linearize::{LinearizeRequest, check, linearize, parse_method};
 use crate::budget;
 use crate::linear::{LinearReport, ModeReport};
-use crate::report::ReportError;
+use crate::report::shape::mode_shape;
 use crate::report::structure::{CoupledCheck, StructureReport};
 use crate::report::summary::json_bytes;
+use crate::report::{OutputFile, OutputLock, ReportError, commit_files};
 use crate::scenario::{self, Override};
 
 /// Arguments of `damper linearize`.
@@ -44,6 +48,10 @@ pub struct Args {
     /// above the limits (`codegen_cli::budget`).
     #[arg(long)]
     pub allow_long: bool,
+    /// Also write the report into DIR: `linearize.json`, and `mode_shape.svg` when the
+    /// scenario's `[structure]` has `elements` (nothing is written without it).
+    #[arg(short = 'o', long = "out", value_name = "DIR")]
+    pub out: Option<PathBuf>,
 }
 
 /// Runs `damper linearize`.
@@ -58,6 +66,21 @@ pub fn run(args: Args) -> Result<(), Error> {
     check(&req)?;
     let loaded = scenario::load_with(&args.scenario, &args.set)?;
     budget::structure(&loaded.scenario, &req.file, args.allow_long)?;
+    if let Some(out) = &args.out {
+        if std::fs::metadata(out).is_ok_and(|m| !m.is_dir()) {
+            return Err(Error::Usage(format!(
+                "output directory {} is not a directory",
+                out.display()
+            )));
+        }
+    }
+    // One run at a time into a directory; the files a killed run left are removed here.
+    let _lock = args
+        .out
+        .as_deref()
+        .map(OutputLock::acquire)
+        .transpose()
+        .map_err(ReportError::from)?;
     let report = linearize(&req, &loaded)?.report;
     if let Some(w) = report
         .structure
@@ -67,11 +90,49 @@ pub fn run(args: Args) -> Result<(), Error> {
     {
         eprintln!("{}: warning: {w}", req.file);
     }
+    let written = match &args.out {
+        Some(out) => write(out, &report, &loaded.scenario)?,
+        None => String::new(),
+    };
     if args.json {
         let bytes = json_bytes(&report).map_err(ReportError::Json)?;
         return crate::print(&String::from_utf8_lossy(&bytes));
     }
-    crate::print(&table(&report))
+    crate::print(&(table(&report) + &written))
+}
+
+/// Writes `linearize.json` and, on a structure with elements, `mode_shape.svg` into `out`
+/// (together, or nothing); returns the line that names them.
+fn write(out: &Path, report: &LinearReport, sc: &scenario::Scenario) -> Result<String, Error> {
+    let mut files = vec![OutputFile {
+        path: out.join("linearize.json"),
+        bytes: json_bytes(report).map_err(ReportError::Json)?,
+    }];
+    let structure = match sc {
+        scenario::Scenario::Hybrid(sc) => sc
+            .structure
+            .as_ref()
+            .and_then(|s| s.drawing.as_ref())
+            .map(|d| (sc, d)),
+        scenario::Scenario::Mechanism(_) => None,
+    };
+    if let Some((sc, drawing)) = structure {
+        let (_, svg) = mode_shape(sc, drawing, report).map_err(ReportError::from)?;
+        files.push(OutputFile {
+            path: out.join("mode_shape.svg"),
+            bytes: svg,
+        });
+    }
+    commit_files(&files).map_err(ReportError::from)?;
+    let names: Vec<String> = files
+        .iter()
+        .filter_map(|f| Some(f.path.file_name()?.to_string_lossy().into_owned()))
+        .collect();
+    Ok(format!(
+        "outputs in {}: {}\n",
+        out.display(),
+        names.join(", ")
+    ))
 }
 
 fn mode_rows(out: &mut String, title: &str, modes: &[ModeReport]) {

@@ -16,6 +16,7 @@ pub mod plot;
 pub mod random_psd;
 pub mod random_run;
 pub mod rows;
+pub mod shape;
 pub mod steady_power;
 pub mod stream;
 pub mod structure;

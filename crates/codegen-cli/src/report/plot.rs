@@ -108,14 +108,26 @@ fn with_legend(
     labels: &[&str],
     draw: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), PlotError>,
 ) -> Result<Vec<u8>, PlotError> {
-    let rows: Vec<(Option<usize>, String)> = labels
+    let swatches: Vec<(&str, RGBColor)> = labels
         .iter()
         .enumerate()
-        .flat_map(|(k, label)| {
+        .map(|(k, l)| (*l, color(k)))
+        .collect();
+    with_swatches(&swatches, draw)
+}
+
+/// [`with_legend`] with each label's swatch in a colour of its own.
+pub(crate) fn with_swatches(
+    labels: &[(&str, RGBColor)],
+    draw: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), PlotError>,
+) -> Result<Vec<u8>, PlotError> {
+    let rows: Vec<(Option<RGBColor>, String)> = labels
+        .iter()
+        .flat_map(|(label, c)| {
             wrap(label, LINE_CHARS)
                 .into_iter()
                 .enumerate()
-                .map(move |(i, line)| ((i == 0).then_some(k), line))
+                .map(move |(i, line)| ((i == 0).then_some(*c), line))
         })
         .collect();
     let mut svg = String::new();
@@ -127,11 +139,11 @@ fn with_legend(
         draw(&plot)?;
         for (row, (series, line)) in rows.iter().enumerate() {
             let y = 5 + (LEGEND_ROW * row as u32 + LEGEND_ROW / 2) as i32;
-            if let Some(k) = series {
+            if let Some(c) = series {
                 legend
                     .draw(&PathElement::new(
                         vec![(80, y), (120, y)],
-                        color(*k).stroke_width(2),
+                        c.stroke_width(2),
                     ))
                     .map_err(PlotError::of)?;
             }

@@ -194,7 +194,21 @@ pub struct StructureEntry {
     /// Craig–Bampton reduction with this many fixed-interface modes (`None`: the full
     /// model runs).
     pub reduction_modes: Option<usize>,
+    /// What the deformed-shape plots draw (`elements = "..."`, or a given structure's
+    /// `elements`), read and checked against the node table when the scenario is read;
+    /// `None` when no elements are given (no such plot).
+    pub drawing: Option<StructureDrawing>,
     pub(crate) span: Range<usize>,
+}
+
+/// What the deformed-shape plots draw of a node-based structure
+/// ([`crate::report::shape`]): its nodes and the lines between them (drawing only).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StructureDrawing {
+    /// The node table.
+    pub nodes: Vec<fem_structure::tables::Node>,
+    /// `(node1, node2)` per line, in the table's order; every node one of `nodes`.
+    pub elements: Vec<(u64, u64)>,
 }
 
 /// One `[[force]]`.

@@ -20,11 +20,12 @@ use super::schema::{
 use super::table::time_function;
 use super::{
     AttachmentEntry, ExcitationEntry, ForceEntry, HybridScenario, MechanismEntry, PointAt,
-    PointEntry, StructureEntry, StructureSource, TargetEntry,
+    PointEntry, StructureDrawing, StructureEntry, StructureSource, TargetEntry,
 };
 use crate::scenario::Doc;
 use crate::scenario::compare::Comparison;
 use crate::scenario::integrator::{IntegratorSpec, check_integrator};
+use fem_structure::tables::{read_elements, read_nodes};
 use fem_structure::{DampingInput, MatrixFiles};
 
 /// Reads the sections of a hybrid scenario and checks every value and every name that
@@ -154,8 +155,10 @@ fn beam(doc: &mut Doc<'_>, ok: &mut bool) -> (Option<(BeamSpec, Beam)>, Option<R
 /// `[structure]`: the files of a model from another finite-element program (paths relative to
 /// the scenario; `kind = "matrices"`) or the parts given in memory (`kind = "given"`, set by
 /// [`crate::scenario::Override::structure`]), its damping and reduction; refused beside a
-/// `[beam]`. The files themselves are read when the model is built
-/// ([`crate::setup::build()`]).
+/// `[beam]`. The matrix files themselves are read when the model is built
+/// ([`crate::setup::build()`]); the optional `elements` table (drawing only) is read here
+/// with the node table, so that an unknown node or a malformed line is reported (file and
+/// line) before any work.
 fn structure(doc: &mut Doc<'_>, beam_written: bool, ok: &mut bool) -> Option<StructureEntry> {
     let raw = doc.section::<RawStructure>("structure", false);
     let span = doc.span(&["structure"]);
@@ -264,10 +267,39 @@ fn structure(doc: &mut Doc<'_>, beam_written: bool, ok: &mut bool) -> Option<Str
             Some(*r.modes.get_ref())
         }
     };
-    *ok &= good;
     let path = |p: &Option<Spanned<String>>| {
         p.as_ref()
             .map_or_else(PathBuf::new, |p| base.join(p.get_ref()))
+    };
+    let drawing = match (&raw.elements, &given) {
+        (Some(f), Some(_)) => {
+            let msg = "`elements`: a given structure's elements come with it (Structure.from_matrices(elements=...)), not from a file";
+            doc.push(Kind::InvalidValue, Some(f.span()), Some(entity), msg);
+            good = false;
+            None
+        }
+        (None, Some(parts)) => (!parts.elements.is_empty()).then(|| StructureDrawing {
+            nodes: parts.nodes.clone(),
+            elements: parts.elements.clone(),
+        }),
+        (None, None) => None,
+        (Some(f), None) => match &raw.nodes {
+            Some(nodes) => {
+                let read = read_nodes(&base.join(nodes.get_ref())).and_then(|nodes| {
+                    let elements = read_elements(&base.join(f.get_ref()), &nodes)?;
+                    Ok(StructureDrawing { nodes, elements })
+                });
+                match read {
+                    Ok(d) => Some(d),
+                    Err(d) => {
+                        doc.diags.0.extend(d.0);
+                        good = false;
+                        None
+                    }
+                }
+            }
+            None => None,
+        },
     };
     let source = match given {
         Some(parts) => StructureSource::Given { parts, damping },
@@ -279,9 +311,11 @@ fn structure(doc: &mut Doc<'_>, beam_written: bool, ok: &mut bool) -> Option<Str
             damping,
         }),
     };
+    *ok &= good;
     good.then_some(StructureEntry {
         source,
         reduction_modes,
+        drawing,
         span,
     })
 }

@@ -79,6 +79,9 @@ pub(super) struct RawStructure {
     pub(super) damping: Option<Spanned<RawStructureDamping>>,
     #[serde(default)]
     pub(super) reduction: Option<Spanned<RawReduction>>,
+    /// `elements.csv` (`node1,node2`), for the deformed-shape plots only.
+    #[serde(default)]
+    pub(super) elements: Option<Spanned<String>>,
 }
 
 /// `[structure] damping`: a matrix file, or Rayleigh damping from two modal ratios.
