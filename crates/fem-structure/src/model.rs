@@ -11,9 +11,7 @@ use crate::modes::lowest_modes;
 use crate::mtx::from_entries;
 use crate::mtx::{SymTriplets, read_matrix_market};
 use crate::sparse::SparseSym;
-use crate::tables::{
-    DofTable, Node, dofs_from_rows, elements_from_rows, nodes_from_rows, read_dofs, read_nodes,
-};
+use crate::tables::{DofTable, Node, dofs_from_rows, nodes_from_rows, read_dofs, read_nodes};
 
 /// How the structure is damped.
 #[derive(Clone, Debug, PartialEq)]
@@ -74,8 +72,6 @@ pub struct StructureParts {
     pub nodes: Vec<Node>,
     /// The DOF table.
     pub dofs: DofTable,
-    /// Lines between nodes, for drawing only (empty: none given; [`StructureParts::with_elements`]).
-    pub elements: Vec<(u64, u64)>,
 }
 
 /// A matrix given in memory: its rows and its 0-based entries `(row, column, value)`.
@@ -120,23 +116,9 @@ impl StructureParts {
             damping: c,
             nodes,
             dofs,
-            elements: vec![],
         };
         parts.model(&DampingInput::None)?;
         Ok(parts)
-    }
-
-    /// These parts with the lines between nodes that a deformed-shape plot draws, rows
-    /// `[node1, node2]` (texts), checked as an `elements.csv` is ([`elements_from_rows`]:
-    /// `NAME: elements` row 3: unknown node 99).
-    pub fn with_elements(mut self, rows: Vec<Vec<String>>) -> Result<StructureParts, Diagnostics> {
-        let name = format!("{}: elements", self.name);
-        if let Some(k) = rows.iter().position(|r| r.len() != 2) {
-            let msg = format!("row {k}: {} values: expected [node1, node2]", rows[k].len());
-            return Err(Diagnostic::new(Kind::InvalidValue, name, msg).into());
-        }
-        self.elements = elements_from_rows(rows, &name, &self.nodes)?;
-        Ok(self)
     }
 
     /// The structure of these parts damped by `damping` (`DampingInput::Matrix`: the given

@@ -380,25 +380,6 @@ pub fn parse_elements(
         )
         .into());
     }
-    element_records(rows, Place::File(file), nodes)
-}
-
-/// The element table given in memory, rows `[node1, node2]` (texts; the Python package's
-/// `Structure.from_matrices(elements=...)`), checked as [`parse_elements`] checks a file.
-pub fn elements_from_rows(
-    rows: Vec<Vec<String>>,
-    name: &str,
-    nodes: &[Node],
-) -> Result<Vec<(u64, u64)>, Diagnostics> {
-    element_records(rows_in_memory(rows), Place::Rows(name), nodes)
-}
-
-/// The elements of a table's records, every problem at its row.
-fn element_records(
-    rows: Vec<(Option<u64>, csv::StringRecord)>,
-    file: Place<'_>,
-    nodes: &[Node],
-) -> Result<Vec<(u64, u64)>, Diagnostics> {
     let known: std::collections::BTreeSet<u64> = nodes.iter().map(|n| n.id).collect();
     let mut out = Vec::with_capacity(rows.len());
     let mut problems = Diagnostics::default();
@@ -406,14 +387,14 @@ fn element_records(
         let id = |k: usize| rec.get(k).and_then(|s| s.parse::<u64>().ok());
         let (Some(a), Some(b), 2) = (id(0), id(1), rec.len()) else {
             problems.push(diag(
-                file,
+                Place::File(file),
                 line,
                 "expected two node ids `node1,node2`".into(),
             ));
             continue;
         };
         match [a, b].into_iter().find(|n| !known.contains(n)) {
-            Some(n) => problems.push(diag(file, line, format!("unknown node {n}"))),
+            Some(n) => problems.push(diag(Place::File(file), line, format!("unknown node {n}"))),
             None => out.push((a, b)),
         }
     }

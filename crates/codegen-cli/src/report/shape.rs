@@ -221,7 +221,7 @@ fn equal_axes(lo: [f64; 2], hi: [f64; 2], (width, height): (u32, u32)) -> (Ticke
         _ => 0.0,
     };
     let on = |r: &std::ops::Range<f64>| -> Vec<f64> {
-        if !(step > 0.0) {
+        if step.is_nan() || step <= 0.0 {
             return vec![];
         }
         let first = (r.start / step).ceil() as i64;

@@ -32,6 +32,7 @@ mod readme_cli;
 mod reliability_cli;
 mod scenario_loader;
 mod sensitivity;
+mod shape_plot_cli;
 mod simulate_cli;
 mod simulate_mechanism_cli;
 mod special_files_cli;

@@ -457,7 +457,7 @@ fn the_frames_reduction_is_built_once_for_every_sweep_point() {
     let d = dir.as_path();
     let copy = d.join("frame");
     std::fs::create_dir_all(&copy).unwrap();
-    for f in ["M.mtx", "K.mtx", "nodes.csv", "dofs.csv"] {
+    for f in ["M.mtx", "K.mtx", "nodes.csv", "dofs.csv", "elements.csv"] {
         std::fs::copy(root().join("scenarios/frame").join(f), copy.join(f)).unwrap();
     }
     let src = root().join("scenarios");

@@ -194,9 +194,9 @@ pub struct StructureEntry {
     /// Craig–Bampton reduction with this many fixed-interface modes (`None`: the full
     /// model runs).
     pub reduction_modes: Option<usize>,
-    /// What the deformed-shape plots draw (`elements = "..."`, or a given structure's
-    /// `elements`), read and checked against the node table when the scenario is read;
-    /// `None` when no elements are given (no such plot).
+    /// What the deformed-shape plots draw (`elements = "..."` of a `matrices` structure),
+    /// read and checked against the node table when the scenario is read; `None` when no
+    /// elements are given (no such plot).
     pub drawing: Option<StructureDrawing>,
     pub(crate) span: Range<usize>,
 }

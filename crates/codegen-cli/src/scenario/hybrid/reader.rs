@@ -273,16 +273,12 @@ fn structure(doc: &mut Doc<'_>, beam_written: bool, ok: &mut bool) -> Option<Str
     };
     let drawing = match (&raw.elements, &given) {
         (Some(f), Some(_)) => {
-            let msg = "`elements`: a given structure's elements come with it (Structure.from_matrices(elements=...)), not from a file";
+            let msg = "`elements`: a structure given in memory (Structure.from_matrices) is not drawn; the shape plots need a `matrices` structure's files";
             doc.push(Kind::InvalidValue, Some(f.span()), Some(entity), msg);
             good = false;
             None
         }
-        (None, Some(parts)) => (!parts.elements.is_empty()).then(|| StructureDrawing {
-            nodes: parts.nodes.clone(),
-            elements: parts.elements.clone(),
-        }),
-        (None, None) => None,
+        (None, _) => None,
         (Some(f), None) => match &raw.nodes {
             Some(nodes) => {
                 let read = read_nodes(&base.join(nodes.get_ref())).and_then(|nodes| {
