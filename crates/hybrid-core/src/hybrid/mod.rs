@@ -76,6 +76,7 @@
 //! (`dz = S^-1 (df - dS z)`) with respect to a parameter, given the pencil's derivative, are
 //! [`EigenSensitivity`] and [`response_derivative`].
 
+mod dense;
 mod eigen;
 mod error;
 mod follow;
@@ -94,6 +95,7 @@ mod stochastic;
 mod structure;
 mod variants;
 
+pub use dense::DenseCholesky;
 pub use eigen::{EigenMethod, Mode, ModeKind, modes};
 pub use error::HybridError;
 pub use integrator::{Account, HybridState, Integrator, MechanismState, Repartition, Stored};

@@ -33,7 +33,9 @@
 
 use fem_beam::{BandedFactor, BandedSym, BeamError, BeamModel, Dof, LinalgError};
 use fem_structure::{ImportedStructure, Reduced, SparseFactor, tables::NodeDof};
-use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
+use nalgebra::DVector;
+
+use super::dense::{self, DenseCholesky};
 
 /// The lowest natural modes of a structure: `C phi_i = omega_i^2 A phi_i`, ascending, shapes
 /// with unit modal mass `phi_i^T A phi_i = 1`.
@@ -272,7 +274,7 @@ pub enum StructureFactor {
     /// An imported model's sparse Cholesky.
     Sparse(SparseFactor),
     /// A reduced model's dense Cholesky.
-    Dense(Cholesky<f64, Dyn>),
+    Dense(DenseCholesky),
 }
 
 impl From<BeamModel> for Structure {
@@ -361,9 +363,14 @@ impl LinearStructure for Structure {
         each!(self, s => s.damping_quadratic_form(x))
     }
 
+    /// A reduced model's damping `T^T B T` is Rayleigh when the full model's `B = a M + b K`
+    /// is: `T^T (a M + b K) T = a M_r + b K_r`, equal to rounding.
     #[inline]
     fn rayleigh(&self) -> Option<(f64, f64)> {
-        each!(self, s => s.rayleigh())
+        match self {
+            Structure::Reduced { full, .. } => LinearStructure::rayleigh(&**full),
+            _ => each!(self, s => s.rayleigh()),
+        }
     }
 
     #[inline]
@@ -429,28 +436,6 @@ impl LinearStructure for Structure {
     fn modes(&self, count: usize) -> Result<StructureModes, StructureError> {
         each!(self, s => LinearStructure::modes(s, count))
     }
-}
-
-/// `y += s A x` for a dense symmetric `A`.
-fn dense_mul_add(a: &DMatrix<f64>, s: f64, x: &[f64], y: &mut [f64]) {
-    for (j, &xj) in x.iter().enumerate() {
-        let c = s * xj;
-        if c != 0.0 {
-            for (yi, aij) in y.iter_mut().zip(a.column(j).iter()) {
-                *yi += aij * c;
-            }
-        }
-    }
-}
-
-/// `x^T A x` for a dense `A`.
-fn dense_quadratic(a: &DMatrix<f64>, x: &[f64]) -> f64 {
-    let mut s = 0.0;
-    for (j, &xj) in x.iter().enumerate() {
-        let c: f64 = a.column(j).iter().zip(x).map(|(aij, xi)| aij * xi).sum();
-        s += xj * c;
-    }
-    s
 }
 
 /// The rigid translation of an imported model: `d . e_k` on each translational DOF along
@@ -544,55 +529,55 @@ impl LinearStructure for ImportedStructure {
 }
 
 /// A Craig–Bampton reduced model: dense `T^T M T`, `T^T B T`, `T^T K T` and a dense
-/// Cholesky factorisation. Its support load is `T^T (-M r)`, which needs the full model:
+/// Cholesky factorisation ([`DenseCholesky`]), through column-wise kernels that the
+/// compiler vectorises. Its support load is `T^T (-M r)`, which needs the full model:
 /// [`Reduced`] alone has no rigid translation (see [`reduced_base_load`]).
 impl LinearStructure for Reduced {
-    type Factor = Cholesky<f64, Dyn>;
+    type Factor = DenseCholesky;
 
     fn dof_count(&self) -> usize {
         Reduced::dof_count(self)
     }
 
     fn mass_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]) {
-        dense_mul_add(&self.mass, s, x, y);
+        dense::mul_add(&self.mass, s, x, y);
     }
 
     fn damping_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]) {
-        dense_mul_add(&self.damping, s, x, y);
+        dense::mul_add(&self.damping, s, x, y);
     }
 
     fn stiffness_mul_add(&self, s: f64, x: &[f64], y: &mut [f64]) {
-        dense_mul_add(&self.stiffness, s, x, y);
+        dense::mul_add(&self.stiffness, s, x, y);
     }
 
     fn mass_quadratic_form(&self, x: &[f64]) -> f64 {
-        dense_quadratic(&self.mass, x)
+        dense::quadratic(&self.mass, x)
     }
 
     fn damping_quadratic_form(&self, x: &[f64]) -> f64 {
-        dense_quadratic(&self.damping, x)
+        dense::quadratic(&self.damping, x)
     }
 
     fn stiffness_quadratic_form(&self, x: &[f64]) -> f64 {
-        dense_quadratic(&self.stiffness, x)
+        dense::quadratic(&self.stiffness, x)
     }
 
     fn factorize_newmark(
         &self,
         c_damping: f64,
         c_stiffness: f64,
-    ) -> Result<Cholesky<f64, Dyn>, StructureError> {
+    ) -> Result<DenseCholesky, StructureError> {
         let k = &self.mass + &self.damping * c_damping + &self.stiffness * c_stiffness;
-        Cholesky::new(k).ok_or_else(|| {
+        DenseCholesky::new(k).ok_or_else(|| {
             StructureError::Imported(fem_structure::StructureError::NotPositiveDefinite {
                 what: "reduced Newmark matrix".into(),
             })
         })
     }
 
-    fn solve_in_place(factor: &Cholesky<f64, Dyn>, x: &mut [f64]) {
-        let mut v = nalgebra::DVectorViewMut::from_slice(x, x.len());
-        factor.solve_mut(&mut v);
+    fn solve_in_place(factor: &DenseCholesky, x: &mut [f64]) {
+        factor.solve_in_place(x);
     }
 
     fn rigid_translation(&self, _direction: [f64; 2]) -> Vec<f64> {
