@@ -16,7 +16,9 @@ use mbs_symbolic::runtime::Workspace;
 use nalgebra::{DMatrix, DVector};
 
 use super::model::{AttachmentKind, HybridModel};
-use crate::partition::dense::{lu_in_place, lu_solve, lu_solve_transpose, singular_range};
+use crate::partition::dense::{
+    copy_short, lu_in_place, lu_solve, lu_solve_transpose, singular_range, zero_short,
+};
 
 /// One attachment as seen by its mechanism.
 #[derive(Clone, Debug)]
@@ -235,7 +237,7 @@ impl Follower {
             return;
         }
         let rhs = self.rhs.as_mut_slice();
-        rhs.fill(0.0);
+        zero_short(rhs);
         for a in &self.atts {
             rhs[a.row] = w[a.coupling] - self.w_last[a.coupling];
             if let (Some(r), Some(c)) = (a.axial_row, a.axial_coupling) {
@@ -311,12 +313,12 @@ impl Follower {
             m.system.evaluate_positions(self.q.as_slice(), &mut self.ws);
             // The loop rows are the first `loops` of every column (column-major).
             let loops = self.loops;
-            h[..loops].copy_from_slice(&self.ws.h.as_slice()[..loops]);
+            copy_short(&mut h[..loops], &self.ws.h.as_slice()[..loops]);
             for (dst, src) in jfull
                 .chunks_exact_mut(rows)
                 .zip(self.ws.j.as_slice().chunks_exact(loops))
             {
-                dst[..loops].copy_from_slice(src);
+                copy_short(&mut dst[..loops], src);
             }
         }
         let (cs, sn) = self.rot;
@@ -489,7 +491,7 @@ impl Follower {
                     sigma_min: self.sigma_min,
                 });
             }
-            self.rhs.as_mut_slice().copy_from_slice(self.h.as_slice());
+            copy_short(self.rhs.as_mut_slice(), self.h.as_slice());
             lu_solve(&self.lu, &self.piv, &mut self.rhs);
             let mut len = norm(self.rhs.as_slice());
             let mut step = 1.0;
@@ -597,7 +599,7 @@ impl Follower {
         let m = &model.mechanisms[self.mech];
         let (cs, sn) = self.rot;
         let bias = self.bias.as_mut_slice();
-        bias.fill(0.0);
+        zero_short(bias);
         let (q, qd) = (self.q.as_slice(), self.qd.as_slice());
         for (i, a) in self.atts.iter().enumerate() {
             if i == 0 {
@@ -616,7 +618,7 @@ impl Follower {
         if self.atts.is_empty() {
             m.system.evaluate(q, qd, t, &mut self.ws);
         }
-        bias[..self.loops].copy_from_slice(&self.ws.a.as_slice()[..self.loops]);
+        copy_short(&mut bias[..self.loops], &self.ws.a.as_slice()[..self.loops]);
         for &f in &self.forces {
             let force = &model.forces[f];
             let w = qd[force.joint];
@@ -729,7 +731,7 @@ impl Follower {
     /// `rhs = E x_w - J_f x_u` for a position-level vector `x` in the global layout.
     fn constraint_rhs(&mut self, x: &[f64]) {
         let rhs = self.rhs.as_mut_slice();
-        rhs.fill(0.0);
+        zero_short(rhs);
         for a in &self.atts {
             rhs[a.row] = x[a.coupling];
             if let (Some(r), Some(c)) = (a.axial_row, a.axial_coupling) {
@@ -770,6 +772,6 @@ fn dependent_columns(j: &DMatrix<f64>, dep: &[usize], jd: &mut DMatrix<f64>) {
     }
     let j = j.as_slice();
     for (dst, &c) in jd.as_mut_slice().chunks_exact_mut(rows).zip(dep) {
-        dst.copy_from_slice(&j[c * rows..(c + 1) * rows]);
+        copy_short(dst, &j[c * rows..(c + 1) * rows]);
     }
 }

@@ -11,7 +11,7 @@ use super::method::Method;
 use super::model::{Coupling, ExcitationTarget, HybridModel};
 use super::structure::{LinearStructure, Structure, StructureFactor};
 use crate::partition::choose_partition;
-use crate::partition::dense::{lu_in_place, lu_solve};
+use crate::partition::dense::{copy_short, lu_in_place, lu_solve};
 
 /// The state of one mechanism.
 #[derive(Clone, Debug, PartialEq)]
@@ -478,9 +478,7 @@ impl Integrator {
     }
 
     fn factor_jacobian(&mut self) {
-        self.jac_lu
-            .as_mut_slice()
-            .copy_from_slice(self.jac.as_slice());
+        copy_short(self.jac_lu.as_mut_slice(), self.jac.as_slice());
         self.jac_valid = lu_in_place(&mut self.jac_lu, &mut self.jac_piv);
     }
 
@@ -746,9 +744,9 @@ impl Integrator {
             *m = m.max(z.abs());
         }
         for (f, ms) in self.followers.iter().zip(state.mechanisms.iter_mut()) {
-            ms.q.copy_from_slice(f.q.as_slice());
-            ms.qd.copy_from_slice(f.qd.as_slice());
-            ms.qdd.copy_from_slice(f.qdd.as_slice());
+            copy_short(&mut ms.q, f.q.as_slice());
+            copy_short(&mut ms.qd, f.qd.as_slice());
+            copy_short(&mut ms.qdd, f.qdd.as_slice());
             ms.condition = f.condition;
             ms.sigma_min = f.sigma_min;
             ms.residual = f.residual;

@@ -29,6 +29,50 @@ pub(crate) fn resize_v(v: &mut DVector<f64>, n: usize) {
     }
 }
 
+/// `dst.copy_from_slice(src)` for the short vectors of the step's hot path (a mechanism's
+/// constraint rows, a column of `J_d`, its coordinates): up to three entries one by one,
+/// longer ones through the library copy. A copy of one or two numbers through libc's
+/// `memcpy` (what `copy_from_slice` of a length unknown at compile time becomes) costs
+/// several times the copy itself. The same values either way. Panics like
+/// `copy_from_slice` when the lengths differ.
+#[inline(always)]
+pub(crate) fn copy_short(dst: &mut [f64], src: &[f64]) {
+    match (dst, src) {
+        ([], []) => {}
+        ([d0], [s0]) => *d0 = *s0,
+        ([d0, d1], [s0, s1]) => {
+            *d0 = *s0;
+            *d1 = *s1;
+        }
+        ([d0, d1, d2], [s0, s1, s2]) => {
+            *d0 = *s0;
+            *d1 = *s1;
+            *d2 = *s2;
+        }
+        (d, s) => d.copy_from_slice(s),
+    }
+}
+
+/// `dst.fill(0.0)` for the short vectors of the step's hot path, without libc's `memset`
+/// for up to three entries (see [`copy_short`]).
+#[inline(always)]
+pub(crate) fn zero_short(dst: &mut [f64]) {
+    match dst {
+        [] => {}
+        [d0] => *d0 = 0.0,
+        [d0, d1] => {
+            *d0 = 0.0;
+            *d1 = 0.0;
+        }
+        [d0, d1, d2] => {
+            *d0 = 0.0;
+            *d1 = 0.0;
+            *d2 = 0.0;
+        }
+        d => d.fill(0.0),
+    }
+}
+
 /// 1-norm of a matrix: the largest column sum of absolute values.
 pub(crate) fn norm1(a: &DMatrix<f64>) -> f64 {
     a.column_iter()
@@ -318,6 +362,19 @@ pub(crate) fn singular_range(a: &DMatrix<f64>, w: &mut DMatrix<f64>) -> (f64, f6
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_short_copy_and_zero_equal_the_library_ones_at_every_length() {
+        for n in 0..7 {
+            let src: Vec<f64> = (0..n).map(|i| -1.5 * i as f64 + 0.25).collect();
+            let (mut a, mut b) = (vec![f64::NAN; n], vec![f64::NAN; n]);
+            copy_short(&mut a, &src);
+            b.copy_from_slice(&src);
+            assert_eq!(a, b, "copy, n = {n}");
+            zero_short(&mut a);
+            assert!(a.iter().all(|x| x.to_bits() == 0), "zero, n = {n}: {a:?}");
+        }
+    }
 
     #[test]
     fn the_two_by_two_solves_equal_the_general_sweeps_bit_for_bit() {
