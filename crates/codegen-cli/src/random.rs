@@ -97,6 +97,7 @@ pub fn output_rms_of(
             method: RandomMethod::Auto,
             modes: 20,
             outputs: vec![output.to_string()],
+            points: vec![],
         },
     )?;
     let first = report
@@ -202,8 +203,15 @@ pub struct RandomOptions {
     pub method: RandomMethod,
     /// Modes of the modal basis (and of the quadrature's breakpoints).
     pub modes: usize,
-    /// Outputs as `--output` names them (default: every attachment, mechanism coordinate).
+    /// Outputs as `--output` names them (default, when `points` is empty too: every
+    /// attachment, mechanism coordinate).
     pub outputs: Vec<String>,
+    /// Outputs that no name selects, given by their point with a label, reported after the
+    /// named ones in this order (displacement and rate each, in m and m/s): a node seen along
+    /// a direction ([`BeamPoint::along`]), e.g. along a double bar's pivot -> node axis
+    /// ([`crate::linear::LoadLimit::point`], the reach figures of [`crate::sweep_point`]),
+    /// the same `(label, point)` pairs as [`attachment_outputs`].
+    pub points: Vec<(String, BeamPoint)>,
 }
 
 /// An output to report: name, unit, the linear functional.
@@ -306,12 +314,14 @@ pub fn attachment_outputs(model: &HybridModel) -> Vec<(String, BeamPoint)> {
 }
 
 /// The outputs of `model`'s random response on `lin`: the `requested` ones (`--output`
-/// names) or, without any, every attachment's beam point and every mechanism coordinate,
-/// each with its rate; then every generator's current and rotor speed.
+/// names), then the `points`, or, without any of either, every attachment's beam point and
+/// every mechanism coordinate, each with its rate; then every generator's current and rotor
+/// speed.
 fn outputs_of(
     model: &HybridModel,
     lin: &Linearization,
     requested: &[String],
+    points: &[(String, BeamPoint)],
 ) -> Result<Outputs, Error> {
     // The outputs: the named ones (displacement and rate each), or every attachment and
     // every mechanism coordinate.
@@ -329,7 +339,7 @@ fn outputs_of(
             output: StateOutput::rate(c),
         });
     };
-    if requested.is_empty() {
+    if requested.is_empty() && points.is_empty() {
         for (label, p) in attachment_outputs(model) {
             push_pair(&ExcitationTarget::Beam(p), label, "m");
         }
@@ -352,6 +362,9 @@ fn outputs_of(
                 _ => o.clone(),
             };
             push_pair(&t, label, unit);
+        }
+        for (label, p) in points {
+            push_pair(&ExcitationTarget::Beam(p.clone()), label.clone(), "m");
         }
     }
     // Per generator: its current and rotor speed, and R, R_L.
@@ -400,7 +413,7 @@ pub fn response_psd(
     excitations: &[hybrid_core::hybrid::Excitation],
     frequencies: &[f64],
 ) -> Result<Vec<Vec<f64>>, Error> {
-    let Outputs { named, gens } = outputs_of(model, lin, &[])?;
+    let Outputs { named, gens } = outputs_of(model, lin, &[], &[])?;
     let mut outputs: Vec<StateOutput> = named.into_iter().map(|n| n.output).collect();
     for g in gens {
         outputs.push(g.current);
@@ -458,7 +471,7 @@ fn analyse_with(
             "no random excitation: give one `time = { kind = \"white_noise\", psd = G, band = [F1, F2] }` or `{ kind = \"psd\", table = [[f, G], ...] }`".into(),
         ));
     }
-    let Outputs { named, gens } = outputs_of(model, lin, &opts.outputs)?;
+    let Outputs { named, gens } = outputs_of(model, lin, &opts.outputs, &opts.points)?;
     let mut outputs: Vec<StateOutput> = named.iter().map(|n| n.output.clone()).collect();
     for g in &gens {
         outputs.push(g.current.clone());

@@ -259,10 +259,12 @@ fn on_request(
 
 /// The random figures of a scenario with a random excitation (none otherwise), from one
 /// stationary random response of the point's linearisation ([`crate::random`]: `method`,
-/// automatic by default; 20 modes where modal): `random.rms:OUTPUT` of every requested output, the mean
-/// load and dissipated powers of all generators and of each, each generator's RMS current,
-/// and per mechanism with a reach `a` and an attachment whose displacement `x` has RMS
-/// `sigma_x` and rate RMS `sigma_v`:
+/// automatic by default; 20 modes where modal): `random.rms:OUTPUT` of every requested
+/// output, the mean load and dissipated powers of all generators and of each, each
+/// generator's RMS current, and per mechanism with a reach `a` and an attachment whose
+/// displacement `x` towards the toggle ([`crate::linear::LoadLimit::point`]: a beam point's
+/// `w`, a node's displacement along the pivot -> node axis) has RMS `sigma_x` and rate RMS
+/// `sigma_v`:
 ///
 /// ```text
 /// random.reach_sigma  = a / sigma_x
@@ -284,21 +286,13 @@ fn random(
     if !model.excitations.iter().any(|e| e.time.is_random()) {
         return Ok(vec![]);
     }
-    // The reach figures read each limit's point as a beam abscissa output: on the beam only
-    // (a node's reach is along its pivot axis, which no output names yet).
-    let limits = match model.beam() {
-        Some(_) => crate::linear::LoadLimit::of(model, lin),
-        None => vec![],
-    };
-    let mut outputs: Vec<String> = limits
-        .iter()
-        .map(|l| crate::report::csv::cell(Some(l.point.x)))
-        .collect();
+    // The reach figures read each limit's point along its reach (a beam point's `w`; a
+    // node's displacement along its pivot -> node axis), after the requested outputs.
+    let limits = crate::linear::LoadLimit::of(model, lin);
     let asked: Vec<&str> = requested
         .iter()
         .filter_map(|n| n.strip_prefix("random.rms:"))
         .collect();
-    outputs.extend(asked.iter().map(|o| o.to_string()));
     let report = crate::random::figures_of(
         file,
         input,
@@ -307,7 +301,11 @@ fn random(
         &crate::random::RandomOptions {
             method,
             modes: 20,
-            outputs,
+            outputs: asked.iter().map(|o| o.to_string()).collect(),
+            points: limits
+                .iter()
+                .map(|l| (format!("reach:{}", l.name), l.point.clone()))
+                .collect(),
         },
     )?;
     // The outputs come in pairs: the displacement, then its rate.
@@ -315,7 +313,7 @@ fn random(
     let rate = |k: usize| report.outputs.get(2 * k + 1).map(|o| o.rms);
     let mut out = vec![];
     for (j, name) in asked.iter().enumerate() {
-        if let Some((v, unit)) = rms(limits.len() + j) {
+        if let Some((v, unit)) = rms(j) {
             out.push(Figure {
                 name: format!("random.rms:{name}"),
                 unit: if unit == "rad" { "rad" } else { "m" },
@@ -341,7 +339,7 @@ fn random(
         ));
     }
     for (k, l) in limits.iter().enumerate() {
-        let (Some((sx, _)), Some(sv)) = (rms(k), rate(k)) else {
+        let (Some((sx, _)), Some(sv)) = (rms(asked.len() + k), rate(asked.len() + k)) else {
             continue;
         };
         let moves = sx > 0.0;

@@ -530,6 +530,7 @@ pub fn random<'py>(
             method,
             modes,
             outputs,
+            points: vec![],
         },
         allow_long,
     };

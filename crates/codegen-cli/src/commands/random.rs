@@ -62,6 +62,7 @@ pub fn run(args: Args) -> Result<(), Error> {
             method,
             modes: args.modes,
             outputs: args.output.clone(),
+            points: vec![],
         },
         allow_long: args.allow_long,
     };

@@ -110,6 +110,7 @@ pub fn output_points(sc: &HybridScenario, model: &HybridModel) -> Result<Probes,
                 .filter(|p| !p.is_locked())
                 .ok_or_else(|| format!("{}: a support locks the beam there", p.name)),
             (PointAt::Node { node, direction }, Some(st)) => structure_node(st, node)
+                .map_err(|m| format!("{}: {m}", p.name))
                 .map(|q| q.along(direction))
                 .and_then(|q| match q.weights.is_empty() {
                     true => Err(format!("{}: a support holds node {node} along it", p.name)),

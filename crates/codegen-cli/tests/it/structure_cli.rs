@@ -666,7 +666,7 @@ fn a_support_motion_along_y_on_the_beam_as_matrices_is_the_beams() {
 /// A one-node structure in `dir`: node 7 at `at`, mass `m` on each of its two equations,
 /// springs `k[0]`, `k[1]` on them; equation 0 is the node's `first` translation (`ux` or
 /// `uy`), equation 1 the other.
-fn one_node(dir: &Path, at: [f64; 2], m: f64, k: [f64; 2], first: &str) {
+pub(crate) fn one_node(dir: &Path, at: [f64; 2], m: f64, k: [f64; 2], first: &str) {
     let second = if first == "ux" { "uy" } else { "ux" };
     let diag = |a: f64, b: f64| {
         format!("%%MatrixMarket matrix coordinate real symmetric\n2 2 2\n1 1 {a:e}\n2 2 {b:e}\n")
@@ -688,7 +688,7 @@ fn one_node(dir: &Path, at: [f64; 2], m: f64, k: [f64; 2], first: &str) {
 /// A double bar (`models/double_bar.toml`, bars 0.1 m) with its generator pinned at node 7
 /// of a one-node structure, placed by `placement` (the inside of the braces after the
 /// attachment), mounted at `angle_deg`; a force along `force` at the node.
-fn placed(placement: &str, angle_deg: f64, force: [f64; 2]) -> String {
+pub(crate) fn placed(placement: &str, angle_deg: f64, force: [f64; 2]) -> String {
     let models = root().join("models/double_bar.toml");
     format!(
         "kind = \"hybrid\"\n[structure]\nkind = \"matrices\"\nmass = \"M.mtx\"\nstiffness = \"K.mtx\"\nnodes = \"nodes.csv\"\ndofs = \"dofs.csv\"\n\
@@ -954,5 +954,104 @@ fn a_roller_at_a_node_along_y_is_the_beams_roller() {
         at_node(&along(8, "[1.0, 0.0]"), &along(16, "[0.0, 1.0]")),
         &["attachment \"left_pin\"", "node 8 cannot move along [1, 0]"],
     );
+    std::fs::remove_dir_all(d).unwrap();
+}
+
+/// Bad `[output] points` entries, on a structure (the beam's Matrix Market export: nodes with
+/// `uy` and `rz`, node 0 on a support) and on the beam: each is refused in one line naming
+/// the file, the entry's line and the entry, with a non-zero exit and no output written. An
+/// unknown node, a DOF outside the plane, a direction the node has no equation for, a node a
+/// support holds, an abscissa on a structure (name a node as `NODE:DOF`), a word; an abscissa
+/// off the beam, one a support locks, a node on the beam.
+#[test]
+fn bad_output_points_are_refused_in_one_line_naming_the_entry() {
+    let dir = scratch("bad_points");
+    let d = dir.as_path();
+    export(d);
+    let on_nodes = scenario(
+        &structure(""),
+        "node = 8",
+        "node = 16",
+        "{ node = 12, direction = [0.0, 1.0] }",
+    );
+    let on_beam = scenario(
+        BEAM,
+        "x = 0.3333333333333333",
+        "x = 0.6666666666666666",
+        "{ x = 0.5 }",
+    );
+    // (host, scenario, entry, what the message must say: the entry's name among it)
+    let cases: [(&str, &str, &str, &[&str]); 10] = [
+        (
+            "nodes",
+            &on_nodes,
+            "99999:ux",
+            &["99999:ux", "no node 99999"],
+        ),
+        ("nodes", &on_nodes, "8:rz", &["8:rz", "DOF ux or uy"]),
+        (
+            "nodes",
+            &on_nodes,
+            "8:ux",
+            &["8:ux", "a support holds node 8 along it"],
+        ),
+        (
+            "nodes",
+            &on_nodes,
+            "0:uy",
+            &["0:uy", "node 0 has no ux or uy equation"],
+        ),
+        (
+            "nodes",
+            &on_nodes,
+            "0.5",
+            &["\"0.5\"", "name a node as NODE:DOF"],
+        ),
+        ("nodes", &on_nodes, "tip", &["\"tip\"", "NODE:DOF"]),
+        (
+            "beam",
+            &on_beam,
+            "1.5",
+            &["must lie on the beam, 0 to 1 m (got 1.5)"],
+        ),
+        (
+            "beam",
+            &on_beam,
+            "0",
+            &["w(x=0)", "a support locks the beam there"],
+        ),
+        (
+            "beam",
+            &on_beam,
+            "8:uy",
+            &["\"8:uy\"", "the host is a [beam]", "not NODE:DOF"],
+        ),
+        (
+            "beam",
+            &on_beam,
+            "left",
+            &["\"left\"", "give a beam abscissa"],
+        ),
+    ];
+    for (k, (host, text, entry, needles)) in cases.iter().enumerate() {
+        let name = format!("points{k}.toml");
+        // The entry on the file's last line.
+        let text = format!("{text}points = [{entry:?}]\n");
+        let line = text.lines().count();
+        let p = d.join(&name);
+        std::fs::write(&p, &text).unwrap();
+        let out = d.join(format!("out{k}"));
+        let file_line = format!("{name}:{line}:");
+        let mut all = vec![file_line.as_str(), "[output] points"];
+        all.extend_from_slice(needles);
+        let err = assert_bad_input(
+            &["simulate", p.to_str().unwrap(), "-o", out.to_str().unwrap()],
+            &all,
+        );
+        assert!(
+            !out.exists(),
+            "{host} {entry}: output written despite {err}"
+        );
+    }
     std::fs::remove_dir_all(d).unwrap();
 }

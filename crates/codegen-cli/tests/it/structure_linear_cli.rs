@@ -49,40 +49,14 @@ fn the_beam_as_matrices_linearises_as_the_beam() {
     let d = dir.as_path();
     let beam = export(d);
     let text = std::fs::read_to_string(&beam).unwrap();
-    let host_start = text.find("[beam]").unwrap();
-    let host_end = text.find("[[mechanism]]").unwrap();
-    let as_matrices = |extra: &str| {
-        let host = structure(extra);
-        let mut t = text.clone();
-        t.replace_range(host_start..host_end, &host);
-        // The beam's nodes are the attachments' and the load's: node ids are node indices.
-        t.replace("x = 0.3333333333333333", "node = 8")
-            .replace("x = 0.6666666666666666", "node = 16")
-            .replace(
-                "at = { x = 0.5 }",
-                "at = { node = 12, direction = [0.0, 1.0] }",
-            )
-    };
-    let write = |name: &str, t: &str| {
-        let p = d.join(name);
-        std::fs::write(&p, t).unwrap();
-        p.display().to_string()
-    };
+    let as_matrices = |extra: &str| on_the_nodes(&text, extra, "");
+    let write = |name: &str, t: &str| write_in(d, name, t);
     let full = write("full.toml", &as_matrices(""));
     let beam = beam.display().to_string();
 
     let a = json(&["linearize", &beam, "--modes", "4", "--json"]);
     let b = json(&["linearize", &full, "--modes", "4", "--json"]);
-    for (va, vb) in [
-        ("modes", "modes"),
-        ("generator_disconnected", "generator_disconnected"),
-        ("bare_beam", "bare_structure"),
-    ] {
-        for ((fa, za), (fb, zb)) in modes(&a, va).iter().zip(&modes(&b, vb)) {
-            close(*fb, *fa, 1e-10, &format!("{vb} frequency"));
-            close(*zb, *za, 1e-10, &format!("{vb} damping"));
-        }
-    }
+    same_modes(&a, &b, "pins");
     assert!(b.get("bare_beam").is_none(), "the host is not a beam");
 
     // White noise at mid-span: every default output's RMS (the attachments' transverse
@@ -113,6 +87,72 @@ fn the_beam_as_matrices_linearises_as_the_beam() {
     }
 }
 
+/// The beam scenario `text` written by [`export`] with its `[beam]` replaced by the exported
+/// matrices (`structure(extra)`): the attachments at nodes 8 and 16 (`attach` after each
+/// `node = N` line), the load at node 12 along `y` (node ids are the beam's node indices).
+fn on_the_nodes(text: &str, extra: &str, attach: &str) -> String {
+    let host_start = text.find("[beam]").unwrap();
+    let host_end = text.find("[[mechanism]]").unwrap();
+    let mut t = text.to_string();
+    t.replace_range(host_start..host_end, &structure(extra));
+    t.replace("x = 0.3333333333333333", &format!("node = 8{attach}"))
+        .replace("x = 0.6666666666666666", &format!("node = 16{attach}"))
+        .replace(
+            "at = { x = 0.5 }",
+            "at = { node = 12, direction = [0.0, 1.0] }",
+        )
+}
+
+/// Writes `text` to `dir/name`; its path.
+fn write_in(dir: &Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.display().to_string()
+}
+
+/// The beam's `damper linearize` report `a` and the same structure's as matrices `b` have
+/// the same modes with and without the generators and the same bare structure (1e-10).
+fn same_modes(a: &Value, b: &Value, what: &str) {
+    for (va, vb) in [
+        ("modes", "modes"),
+        ("generator_disconnected", "generator_disconnected"),
+        ("bare_beam", "bare_structure"),
+    ] {
+        let (ma, mb) = (modes(a, va), modes(b, vb));
+        assert!(!ma.is_empty(), "{what}: {va}");
+        assert_eq!(ma.len(), mb.len(), "{what}: {vb}");
+        for ((fa, za), (fb, zb)) in ma.iter().zip(&mb) {
+            close(*fb, *fa, 1e-10, &format!("{what}: {vb} frequency"));
+            close(*zb, *za, 1e-10, &format!("{what}: {vb} damping"));
+        }
+    }
+}
+
+/// The first row of a sweep's `sweep.csv`: the value of the column whose header starts with
+/// a figure's name.
+fn first_sweep_row(csv: &Path) -> impl Fn(&str) -> f64 + use<> {
+    let mut r = csv::Reader::from_path(csv).unwrap();
+    let h: Vec<String> = r.headers().unwrap().iter().map(str::to_string).collect();
+    let row: Vec<String> = r
+        .records()
+        .next()
+        .unwrap()
+        .unwrap()
+        .iter()
+        .map(str::to_string)
+        .collect();
+    let file = csv.display().to_string();
+    move |figure: &str| -> f64 {
+        let i = h
+            .iter()
+            .position(|c| c.starts_with(figure))
+            .unwrap_or_else(|| panic!("{file}: no {figure} in {h:?}"));
+        row[i]
+            .parse()
+            .unwrap_or_else(|_| panic!("{file}: {figure} = {:?}", row[i]))
+    }
+}
+
 /// The bundled frame with its paths made absolute, its reduction line replaced by `reduction`.
 fn frame(dir: &Path, name: &str, reduction: &str) -> String {
     let src = root().join("scenarios");
@@ -124,9 +164,7 @@ fn frame(dir: &Path, name: &str, reduction: &str) -> String {
             "reduction = { kind = \"craig_bampton\", modes = 30 }",
             reduction,
         );
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p.display().to_string()
+    write_in(dir, name, &text)
 }
 
 #[test]
@@ -340,23 +378,7 @@ fn a_sweep_on_the_frame_reads_node_outputs_and_the_pins_amplification() {
         &out,
     ]);
     assert_eq!(code, 0, "{err}");
-    let mut r = csv::Reader::from_path(d.join("sweep/sweep.csv")).unwrap();
-    let h: Vec<String> = r.headers().unwrap().iter().map(str::to_string).collect();
-    let row: Vec<String> = r
-        .records()
-        .next()
-        .unwrap()
-        .unwrap()
-        .iter()
-        .map(str::to_string)
-        .collect();
-    let col = |name: &str| -> f64 {
-        let i = h
-            .iter()
-            .position(|c| c.starts_with(name))
-            .unwrap_or_else(|| panic!("no {name} in {h:?}"));
-        row[i].parse().unwrap()
-    };
+    let col = first_sweep_row(&d.join("sweep/sweep.csv"));
     // The pin's amplification is the x component's: 1 / (2 L sin 10 deg), L = 0.1 m.
     let g1 = 1.0 / (2.0 * 0.1 * 10f64.to_radians().sin());
     close(col("linear.amplification").abs(), g1, 1e-9, "amplification");
@@ -699,6 +721,208 @@ fn a_random_run_on_a_structure_names_its_nodes_as_damper_random() {
                 r[0]
             );
         }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue #30: the reach figures of a double bar at a node under random load. The reach is
+/// measured along the pivot -> node axis, so `random.reach_sigma:damper = a / sigma_x` and
+/// `random.toggle_rate:damper = (sigma_v / sigma_x) exp(-a^2 / 2 sigma_x^2) / 2 pi` (Rice)
+/// with `sigma_x`, `sigma_v` the RMS of the node's displacement along that axis and of its
+/// rate. On the frame (30 fixed-interface modes, a white-noise force) with the pivot beside
+/// node 613 along `x` (the bundled placement) the axis is `x`, and with
+/// `pivot_direction = [0, -1]` (under the node, the force along `y` at the node) it is `y`:
+/// `sigma_x`, `sigma_v` are then `damper random --output 613:ux` (`613:uy`) and its rate's,
+/// computed by the Lyapunov equation's Schur form, while the sweep's figures come from the
+/// complete modal decomposition (`random::modal_variances`); `a` is `damper linearize`'s
+/// remaining reach. Both figures agree to 1e-10.
+#[test]
+fn the_reach_figures_at_a_node_are_along_its_pivot_axis() {
+    let dir = scratch("node_reach_sigma");
+    let d = dir.as_path();
+    let base = frame(
+        d,
+        "base.toml",
+        "reduction = { kind = \"craig_bampton\", modes = 30 }",
+    );
+    let text = std::fs::read_to_string(&base).unwrap();
+    let harmonic =
+        "amplitude = 5.0                 # N\ntime = { kind = \"harmonic\", frequency_hz = 38.9 }";
+    assert!(text.contains(harmonic));
+    let cases = [
+        (
+            "along_x",
+            "613:ux",
+            "",
+            "at = { node = 741, direction = [1.0, 0.0] }",
+            16.0,
+        ),
+        (
+            "along_y",
+            "613:uy",
+            ", pivot_direction = [0.0, -1.0]",
+            "at = { node = 613, direction = [0.0, 1.0] }",
+            50.0,
+        ),
+    ];
+    for (name, output, pivot, at, psd) in cases {
+        let path = d.join(format!("{name}.toml"));
+        let noise =
+            format!("time = {{ kind = \"white_noise\", psd = {psd:?}, band = [5.0, 200.0] }}");
+        let scenario = text
+            .replace(harmonic, &noise)
+            .replace("at = { node = 741, direction = [1.0, 0.0] }", at)
+            .replace(
+                "half_angle_deg = 10.0 }",
+                &format!("half_angle_deg = 10.0{pivot} }}"),
+            );
+        std::fs::write(&path, scenario).unwrap();
+        let path = path.display().to_string();
+        let out = d.join(name).display().to_string();
+        let (code, _, err) = damper(&[
+            "sweep",
+            &path,
+            "--set",
+            "force[0].load_resistance=3.5",
+            "--map",
+            "random.toggle_rate:damper",
+            "--threads",
+            "1",
+            "--quiet",
+            "-o",
+            &out,
+        ]);
+        assert_eq!(code, 0, "{name}: {err}");
+        let col = first_sweep_row(&d.join(name).join("sweep.csv"));
+        let rnd = json(&["random", &path, "--output", output, "--json"]);
+        assert_eq!(rnd["outputs"][0]["name"], output);
+        let sx = rnd["outputs"][0]["rms"].as_f64().unwrap();
+        let sv = rnd["outputs"][1]["rms"].as_f64().unwrap();
+        let lin = json(&["linearize", &path, "--modes", "1", "--json"]);
+        let a = lin["equilibrium"]["mechanisms"][0]["reach"]
+            .as_f64()
+            .unwrap();
+        let reach_sigma = a / sx;
+        // A reach of a few RMS: the toggle rate is a number, not an underflow.
+        assert!(
+            (2.0..5.0).contains(&reach_sigma),
+            "{name}: a / sigma = {reach_sigma}"
+        );
+        let rate = sv / sx * (-0.5 * reach_sigma * reach_sigma).exp() / std::f64::consts::TAU;
+        close(
+            col("random.reach_sigma:damper"),
+            reach_sigma,
+            1e-10,
+            &format!("{name}: reach / RMS({output})"),
+        );
+        close(
+            col("random.toggle_rate:damper"),
+            rate,
+            1e-10,
+            &format!("{name}: Rice's rate with RMS({output}')"),
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The linearised analyses take a roller's direction at a node. Along `[0, 1]` it is the
+/// beam's roller: the two-damper beam with rollers at x = L/3, 2L/3 and its Matrix Market
+/// export with rollers at nodes 8 and 16 along `[0.0, 1.0]` give the same modes with and
+/// without the generators and the same bare structure (`damper linearize`, 1e-10). Along a
+/// tilted direction `d` on a one-node structure with equal springs along `x` and `y`: the
+/// node's motion across `d` does not reach the mechanism (the roller's point is free across
+/// `d`), so one mode is the bare oscillator's, `f = sqrt(k / m) / 2 pi` with no damping
+/// (1e-10), and the system turned as a whole (the roller along `d = (0.6, 0.8)`, the pivot
+/// along `-d`, the mount turned by `atan2(0.8, 0.6)`) has the modes of the unturned one
+/// (roller along `x`, pivot along `-x`), 1e-10.
+#[test]
+fn the_linearised_analyses_take_a_rollers_direction() {
+    let dir = scratch("roller_linear");
+    let d = dir.as_path();
+    let beam = export(d);
+    let text = std::fs::read_to_string(&beam)
+        .unwrap()
+        .replace("kind = \"pin\"", "kind = \"roller\"");
+    let nodes = on_the_nodes(&text, "", "\ndirection = [0.0, 1.0]");
+    let write = |name: &str, t: &str| write_in(d, name, t);
+    // A roller leaves the double bar free to slide across it: a spring on each crank, at
+    // its placed angle (the pinned scenario's equilibrium), holds it.
+    let held = |t: &str, pinned: &str| -> String {
+        let lin = json(&[
+            "linearize",
+            &write("pinned.toml", pinned),
+            "--modes",
+            "1",
+            "--json",
+        ]);
+        let mut springs = String::new();
+        for m in lin["equilibrium"]["mechanisms"].as_array().unwrap() {
+            let (name, q) = (m["name"].as_str().unwrap(), m["q"][0][1].as_f64().unwrap());
+            springs += &format!(
+                "[[force]]\nname = \"spring_{name}\"\nmechanism = \"{name}\"\njoint = \"crank\"\nkind = \"spring\"\nk = 1.0\nq0 = {q:?}\n"
+            );
+        }
+        t.replacen("[[excitation]]", &(springs + "[[excitation]]"), 1)
+    };
+    let pinned = text.replace("kind = \"roller\"", "kind = \"pin\"");
+    let (text, nodes) = (held(&text, &pinned), held(&nodes, &pinned));
+    assert!(nodes.contains("spring_right") && text.contains("spring_left"));
+    let (beam_roller, node_roller) = (write("beam.toml", &text), write("nodes.toml", &nodes));
+    let a = json(&["linearize", &beam_roller, "--modes", "4", "--json"]);
+    let b = json(&["linearize", &node_roller, "--modes", "4", "--json"]);
+    assert_eq!(modes(&a, "modes").len(), 4);
+    same_modes(&a, &b, "roller");
+
+    // A tilted roller on a one-node structure, equal springs along x and y.
+    let (m, k) = (2.0, 4e4);
+    crate::structure_cli::one_node(d, [0.5, 0.25], m, [k, k], "ux");
+    let free = (k / m).sqrt() / std::f64::consts::TAU;
+    let tilted = |name: &str, along: [f64; 2]| {
+        let angle = along[1].atan2(along[0]).to_degrees();
+        let t = crate::structure_cli::placed(
+            &format!(
+                "half_angle_deg = 10.0, pivot_direction = [{:?}, {:?}], knee = \"-\"",
+                -along[0], -along[1]
+            ),
+            angle,
+            along,
+        )
+        .replace(
+            "kind = \"pin\"\nnode = 7",
+            &format!(
+                "kind = \"roller\"\nnode = 7\ndirection = [{:?}, {:?}]",
+                along[0], along[1]
+            ),
+        );
+        assert!(t.contains("roller"));
+        let t = held(
+            &t,
+            &t.replace("kind = \"roller\"", "kind = \"pin\"").replace(
+                &format!("\ndirection = [{:?}, {:?}]", along[0], along[1]),
+                "",
+            ),
+        );
+        let r = json(&["linearize", &write(name, &t), "--modes", "3", "--json"]);
+        modes(&r, "modes")
+    };
+    let straight = tilted("along_x.toml", [1.0, 0.0]);
+    let turned = tilted("along_d.toml", [0.6, 0.8]);
+    assert_eq!(straight.len(), 3);
+    let across = turned
+        .iter()
+        .find(|(f, _)| (f - free).abs() <= 1e-6 * free)
+        .unwrap_or_else(|| panic!("no mode at {free} Hz across d: {turned:?}"));
+    close(across.0, free, 1e-10, "the mode across d");
+    assert!(across.1.abs() <= 1e-10, "undamped across d: {}", across.1);
+    // The mechanism is in the other modes: one of them is damped by the generator.
+    assert!(turned.iter().any(|(_, z)| *z > 1e-3), "{turned:?}");
+    for ((fs, zs), (ft, zt)) in straight.iter().zip(&turned) {
+        close(*ft, *fs, 1e-10, "turned frequency");
+        // (The mode across the roller is undamped: its ratio is compared to 1e-10 absolute.)
+        assert!(
+            (zt - zs).abs() <= 1e-10 * zs.abs().max(1.0),
+            "turned damping {zt} vs {zs}"
+        );
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -1079,6 +1079,13 @@ fn output_points(
                     _ => None,
                 };
                 match (node.trim().parse::<u64>(), direction) {
+                    (Ok(_), Some(_)) if on_beam.written && !on_beam.structure => {
+                        let msg = format!(
+                            "{text:?}: the host is a [beam]: give a beam abscissa in m (\"0.5\"), not NODE:DOF"
+                        );
+                        doc.push(Kind::InvalidValue, Some(span.clone()), Some(entity), msg);
+                        None
+                    }
                     (Ok(node), Some(direction)) => {
                         let n = Spanned::new(span.clone(), node);
                         on_beam
@@ -1095,6 +1102,13 @@ fn output_points(
                 }
             }
             None => match text.parse::<f64>() {
+                Ok(_) if on_beam.structure => {
+                    let msg = format!(
+                        "{text:?}: the host is a [structure]: name a node as NODE:DOF (\"741:ux\"), not a beam abscissa"
+                    );
+                    doc.push(Kind::InvalidValue, Some(span.clone()), Some(entity), msg);
+                    None
+                }
                 Ok(x) => {
                     let x = Spanned::new(span.clone(), x);
                     on_beam
