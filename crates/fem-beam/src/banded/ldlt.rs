@@ -285,6 +285,58 @@ fn solve_kernel_kd3(data: &[f64], b: &mut [f64]) {
     b[0].set(u3 - r1[2] * u2);
 }
 
+/// [`solve_kernel_kd3`] for a factor eliminated node pair by node pair from the far end
+/// ([`BandedSym::factorize_reversed`] with groups of two, `n = 2 m`), with the pair
+/// reversal `P` of [`BandedFactor::permute`] folded into the sweeps instead of two passes of
+/// its own: row `i` of the elimination is entry `2 (m - 1 - i / 2) + i % 2` of `b`, so the
+/// forward sweep `L D z = P b` runs over `b`'s pairs from the last to the first and writes
+/// each `z_i` where it read `b_i`, and the backward sweep `L^T P x = z` runs over them from
+/// the first to the last. The same operations on every entry in the same order as the two
+/// permutations around [`solve_kernel_kd3`] (equal results): its first three rows,
+/// which have fewer lower entries, are the general rows with a window of zeros against the
+/// band's unused zero slots.
+fn solve_pairs_kd3(data: &[f64], b: &mut [f64]) {
+    let n = b.len();
+    if n < 10 || n % 2 != 0 || data.len() != 4 * n {
+        return;
+    }
+    // L y = P b and z = D^-1 y, two rows (`l`, pair `m - 1 - k`) for pair `k` of `b`; `y`
+    // holds y_{i-3}, y_{i-2}, y_{i-1}.
+    let mut y = [0.0; 3];
+    for (bs, l) in b.rchunks_exact_mut(2).zip(data.chunks_exact(8)) {
+        let y0 = bs[0] - (l[0] * y[0] + l[1] * y[1] + l[2] * y[2]);
+        let y1 = bs[1] - (l[4] * y[1] + l[5] * y[2] + l[6] * y0);
+        y = [y[2], y0, y1];
+        bs[0] = y0 / l[3];
+        bs[1] = y1 / l[7];
+    }
+    // L^T P x = z: pair `k` of `b` holds the rows 2 (m-1-k) + 1 and + 0, taken in that
+    // order; row `i` takes z_{i-3}, the entry `2k + 2` (row + 1) or `2k + 5` (row + 0),
+    // neither written yet. `u` holds the partial x_i, x_{i-1}, x_{i-2}.
+    let mut u = [b[1], b[0], b[3]];
+    let mut backward = |r: &[f64], z: f64| -> f64 {
+        let x = u[0];
+        u = [u[1] - r[2] * x, u[2] - r[1] * x, z - r[0] * x];
+        x
+    };
+    let b = Cell::from_mut(b).as_slice_of_cells();
+    for ((out, (next, after)), r) in b
+        .chunks_exact(2)
+        .zip(b[2..].chunks_exact(2).zip(b[4..].chunks_exact(2)))
+        .zip(data.rchunks_exact(8))
+    {
+        out[1].set(backward(&r[4..], next[0].get()));
+        out[0].set(backward(&r[..4], after[1].get()));
+    }
+    // The last two pairs, the elimination's rows 3 .. 0: z_{i-3} lies before the start
+    // (zero, against an unused zero slot) except row 3's.
+    let (r, r0) = (&data[8..16], &data[..8]);
+    b[n - 3].set(backward(&r[4..], b[n - 2].get()));
+    b[n - 4].set(backward(&r[..4], 0.0));
+    b[n - 1].set(backward(&r0[4..], 0.0));
+    b[n - 2].set(backward(&r0[..4], 0.0));
+}
+
 /// The factorisation `A = L D L^T` of a [`BandedSym`]; solves are `O(n kd)` and allocate
 /// nothing.
 #[derive(Clone, Debug, PartialEq)]
@@ -332,6 +384,10 @@ impl BandedFactor {
             self.n,
             "BandedFactor::solve_in_place: right-hand side has the wrong length"
         );
+        if self.kd == 3 && self.uniform_group == 2 && self.n >= 10 {
+            solve_pairs_kd3(&self.data, b);
+            return;
+        }
         self.permute(b, true);
         if self.kd == 3 {
             solve_kernel_kd3(&self.data, b);
@@ -478,6 +534,41 @@ mod tests {
             sample(n, 3).mul_vec_into(&x, &mut r);
             for i in 0..n {
                 assert!((r[i] - b[i]).abs() < 1e-14, "n = {n}, row {i}");
+            }
+        }
+    }
+
+    /// The pair reversal folded into the sweeps gives the results of the two permutations
+    /// around the kernel, for odd and even pair counts around the size where it starts.
+    #[test]
+    fn pair_sweeps_equal_the_permuted_kernel() {
+        for n in (2..40).step_by(2) {
+            let mut a = sample(n, 3);
+            for i in 0..n {
+                for j in i.saturating_sub(3)..i {
+                    if i / 2 - j / 2 > 1 {
+                        a.set(i, j, 0.0);
+                    }
+                }
+            }
+            let f = a.factorize_reversed(&vec![2; n / 2]).unwrap();
+            let b: Vec<f64> = (0..n).map(|i| (i as f64 * 1.3).sin() - 0.2).collect();
+            let mut expected = b.clone();
+            f.permute(&mut expected, true);
+            solve_kernel_kd3(&f.data, &mut expected);
+            f.permute(&mut expected, false);
+            let mut x = b.clone();
+            f.solve_in_place(&mut x);
+            assert_eq!(x, expected, "n = {n}");
+            if n >= 10 {
+                let mut x = b.clone();
+                solve_pairs_kd3(&f.data, &mut x);
+                assert_eq!(x, expected, "n = {n}, the pair sweeps themselves");
+            }
+            let mut r = vec![0.0; n];
+            a.mul_vec_into(&x, &mut r);
+            for i in 0..n {
+                assert!((r[i] - b[i]).abs() < 1e-13, "n = {n}, row {i}");
             }
         }
     }

@@ -277,8 +277,10 @@ fn quadratic_form_kd3(data: &[f64], x: &[f64]) -> f64 {
     s += x[2] * (r2[3] * x[2] + 2.0 * (0.0 + r2[1] * x[0] + r2[2] * x[1]));
     let mut w = [x[0], x[1], x[2]];
     // Row i (`r`) adds its term x_i (A_ii x_i + 2 sum_j A_ij x_j) to `s`.
+    // (The general kernel's sum starts at 0.0; `0.0 + p` is `p` for every `p` but -0.0, so
+    // starting at the first product changes at most the sign of a zero total.)
     let mut row = |r: &[f64], xi: f64| {
-        let off = 0.0 + r[0] * w[0] + r[1] * w[1] + r[2] * w[2];
+        let off = r[0] * w[0] + r[1] * w[1] + r[2] * w[2];
         s += xi * (r[3] * xi + 2.0 * off);
         w = [w[1], w[2], xi];
     };

@@ -165,6 +165,11 @@ pub struct Integrator {
     q_hat: Vec<f64>,
     v_hat: Vec<f64>,
     r0: Vec<f64>,
+    /// The folded step's `kappa` not yet taken from `r0`: the beam accelerations without
+    /// the mechanisms are `r0 - kappa v^`, formed where `r0` is read
+    /// ([`Integrator::prepare`], [`Integrator::accept`]) instead of in a pass of their own
+    /// (docs/theory.md section 13.5); `None`: `r0` is complete.
+    r0_kappa: Option<f64>,
     /// The beam load `P` at the step's end (at `p_new_t` after a step).
     p_new: Vec<f64>,
     /// The time at which `p_new` holds `P` (`None` before the first evaluation): the next
@@ -341,6 +346,7 @@ impl Integrator {
             q_hat: vec![0.0; n],
             v_hat: vec![0.0; n],
             r0: vec![0.0; n],
+            r0_kappa: None,
             p_new: vec![0.0; n],
             p_new_t: None,
             p_old: vec![0.0; n],
@@ -661,10 +667,15 @@ impl Integrator {
         let n = self.r0.len();
         for (k, c) in self.couplings.iter().enumerate() {
             let p = &model.attachments[c.attachment].beam;
-            self.a0w[k] = if n > 0 {
-                p.value_along(c.axial, &self.r0)
-            } else {
-                0.0
+            self.a0w[k] = match self.r0_kappa {
+                _ if n == 0 => 0.0,
+                // `value_along` of `r0 - kappa v^`, entry by entry.
+                Some(kappa) => p
+                    .component(c.axial)
+                    .iter()
+                    .map(|&(j, w)| w * (self.r0[j] - kappa * self.v_hat[j]))
+                    .sum(),
+                None => p.value_along(c.axial, &self.r0),
             };
         }
         for i in 0..self.nz {
@@ -703,6 +714,7 @@ impl Integrator {
     ) -> Result<(), HybridError> {
         self.q_hat.copy_from_slice(&state.q);
         self.v_hat.copy_from_slice(&state.v);
+        self.r0_kappa = None;
         if let Some(beam) = &model.structure {
             Self::load_into(model, &self.base_load, state.t, &mut self.p_new);
             self.p_new_t = Some(state.t);
@@ -721,19 +733,31 @@ impl Integrator {
     }
 
     /// Writes the accepted solution into `state` (beam accelerations from
-    /// `a = a0 - K^-1 N phi_w`, mechanisms from the followers); the beam's positions and
-    /// velocities are [`Integrator::integrate_beam`]'s.
+    /// `a = a0 - K^-1 N phi_w`, `a0 = r0 - kappa v^` for a folded step, mechanisms from the
+    /// followers); the beam's positions and velocities are [`Integrator::integrate_beam`]'s.
     fn accept(&mut self, model: &HybridModel, state: &mut HybridState) {
         let n = state.q.len();
-        // The first column in the same pass as the copy of `r0` (the same operations).
+        // `a0` and the first column in the same pass as the copy of `r0` (the same
+        // operations as the passes one after the other).
         let mut cols = self.zcols.chunks_exact(n.max(1)).zip(&self.phi);
-        match cols.next() {
-            Some((col, phi)) if n > 0 => {
-                for ((a, r), z) in state.a.iter_mut().zip(&self.r0).zip(col) {
+        let a0 = state.a.iter_mut().zip(&self.r0);
+        match (cols.next(), self.r0_kappa) {
+            (Some((col, phi)), None) if n > 0 => {
+                for ((a, r), z) in a0.zip(col) {
                     *a = r - z * phi;
                 }
             }
-            _ => state.a.copy_from_slice(&self.r0),
+            (Some((col, phi)), Some(kappa)) if n > 0 => {
+                for (((a, r), z), vh) in a0.zip(col).zip(&self.v_hat) {
+                    *a = (r - kappa * vh) - z * phi;
+                }
+            }
+            (_, Some(kappa)) => {
+                for ((a, r), vh) in a0.zip(&self.v_hat) {
+                    *a = r - kappa * vh;
+                }
+            }
+            (_, None) => state.a.copy_from_slice(&self.r0),
         }
         for (col, phi) in cols {
             for (a, z) in state.a.iter_mut().zip(col) {
@@ -866,6 +890,7 @@ impl Integrator {
     ) -> Result<(), HybridError> {
         let (h, alpha, beta, gamma) = (self.h, self.alpha, self.beta, self.gamma);
         let t_new = state.t + h;
+        self.r0_kappa = None;
         if let Some((mu, kappa)) = self.fold {
             self.step_folded(model, state, mu, kappa);
         } else if let Some(beam) = &model.structure {
@@ -918,8 +943,9 @@ impl Integrator {
 
     /// The beam's part of a step with the Rayleigh damping folded into the factorised
     /// matrix (docs/theory.md section 13.5): the predictors, `q_mix = q^ + mu v^` in the
-    /// same pass, then `r0 = K^-1 (P_{n+1} - C q_mix) - kappa v^` — one banded product
-    /// instead of the two with `B` and `C`.
+    /// same pass, then `r0 = K^-1 (P_{n+1} - C q_mix)` — one banded product instead of the
+    /// two with `B` and `C` — whose `- kappa v^` is taken where `r0` is read
+    /// (`r0_kappa`).
     fn step_folded(&mut self, model: &HybridModel, state: &HybridState, mu: f64, kappa: f64) {
         let (h, beta, gamma) = (self.h, self.beta, self.gamma);
         let Some(beam) = &model.structure else {
@@ -944,9 +970,7 @@ impl Integrator {
         if let Some(f) = &self.factor {
             Structure::solve_in_place(f, &mut self.r0);
         }
-        for (r, vh) in self.r0.iter_mut().zip(&self.v_hat) {
-            *r -= kappa * vh;
-        }
+        self.r0_kappa = Some(kappa);
     }
 
     /// The rest of [`Integrator::step`] once `q^`, `v^`, the loads and `r0` are set: the
