@@ -60,7 +60,7 @@ pub(crate) fn quadratic(a: &DMatrix<f64>, x: &[f64]) -> f64 {
 
 /// A dense Cholesky factor `K = L L^T` of a symmetric positive definite matrix, with `L`'s
 /// columns contiguous below the diagonal and the diagonal's reciprocals, solved in place
-/// by [`DenseCholesky::solve_in_place`].
+/// by its `solve_in_place` (the reduced model's Newmark solve).
 #[derive(Clone, Debug)]
 pub struct DenseCholesky {
     /// `L`, column-major (entries above the diagonal zero).
