@@ -335,12 +335,7 @@ pub fn simulate(
         files.push(OutputFile {
             path: out.join("beam_displacement.svg"),
             bytes: plot_displacements_svg(
-                &format!(
-                    "Beam point displacements: {}",
-                    sc.description
-                        .as_deref()
-                        .unwrap_or(&sc.path.display().to_string())
-                ),
+                &format!("Beam point displacements: {}", sc.title()),
                 "displacement [mm]",
                 &lines,
             )
@@ -355,7 +350,7 @@ pub fn simulate(
             .structure
             .as_ref()
             .map_or_else(Vec::new, |st| crate::linear::node_translations(st, q));
-        let (_, svg) = crate::report::shape::deformed_shape(sc, drawing, *t, &translations)
+        let svg = crate::report::shape::deformed_shape(sc, drawing, *t, &translations)
             .map_err(ReportError::from)?;
         files.push(OutputFile {
             path: out.join("deformed_shape.svg"),
@@ -381,12 +376,7 @@ pub fn simulate(
         files.push(OutputFile {
             path: out.join("damping_vs_amplitude.svg"),
             bytes: plot_damping_vs_amplitude_svg(
-                &format!(
-                    "Damping ratio per cycle vs amplitude: {}",
-                    sc.description
-                        .as_deref()
-                        .unwrap_or(&sc.path.display().to_string())
-                ),
+                &format!("Damping ratio per cycle vs amplitude: {}", sc.title()),
                 &series,
             )
             .map_err(ReportError::from)?,
@@ -1027,12 +1017,7 @@ fn random_rms_plot(
     ));
     let refs: Vec<(&str, &[(f64, f64)])> =
         series.iter().map(|(l, p)| (l.as_str(), &p[..])).collect();
-    let title = format!(
-        "RMS against time under random excitation: {}",
-        sc.description
-            .as_deref()
-            .unwrap_or(&sc.path.display().to_string())
-    );
+    let title = format!("RMS against time under random excitation: {}", sc.title());
     let bytes =
         crate::report::plot::plot_xy_svg(&title, "t [s]", "RMS [m]", &refs, (false, false), true)
             .map_err(ReportError::from)?;
@@ -1089,12 +1074,7 @@ fn random_psd_plot(
     }
     let refs: Vec<(&str, &[(f64, f64)])> =
         series.iter().map(|(l, p)| (l.as_str(), &p[..])).collect();
-    let title = format!(
-        "Response PSD against the linear prediction: {}",
-        sc.description
-            .as_deref()
-            .unwrap_or(&sc.path.display().to_string())
-    );
+    let title = format!("Response PSD against the linear prediction: {}", sc.title());
     let bytes = crate::report::plot::plot_xy_svg(
         &title,
         "f [Hz]",

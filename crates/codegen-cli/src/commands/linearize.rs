@@ -117,7 +117,7 @@ fn write(out: &Path, report: &LinearReport, sc: &scenario::Scenario) -> Result<S
         scenario::Scenario::Mechanism(_) => None,
     };
     if let Some((sc, drawing)) = structure {
-        let (_, svg) = mode_shape(sc, drawing, report).map_err(ReportError::from)?;
+        let svg = mode_shape(sc, drawing, report).map_err(ReportError::from)?;
         files.push(OutputFile {
             path: out.join("mode_shape.svg"),
             bytes: svg,

@@ -328,13 +328,28 @@ pub fn shape_svg(title: &str, d: &ShapeDrawing) -> Result<Vec<u8>, PlotError> {
     })
 }
 
-/// The marked nodes of a scenario's structure: each attachment at a node, labelled
-/// `NAME (node N)`.
-pub fn attachment_marks(sc: &HybridScenario) -> Vec<(String, u64)> {
-    sc.attachments
+/// The SVG of `shapes` over `structure` under the title `heading: SCENARIO`, the scenario's
+/// attachment nodes marked (each `NAME (node N)`), each shape magnified by its own
+/// [`SHAPE_FRACTION`] scale.
+fn plot(
+    sc: &HybridScenario,
+    structure: &StructureDrawing,
+    shapes: &[Deformation],
+    heading: &str,
+) -> Result<Vec<u8>, PlotError> {
+    let marks: Vec<(String, u64)> = sc
+        .attachments
         .iter()
         .filter_map(|a| Some((format!("{} (node {})", a.name, a.node?), a.node?)))
-        .collect()
+        .collect();
+    let d = drawing(
+        &structure.nodes,
+        &structure.elements,
+        shapes,
+        &marks,
+        SHAPE_FRACTION,
+    );
+    shape_svg(&format!("{heading}: {}", sc.title()), &d)
 }
 
 /// The real part of a mode's `structure_shape` (the mode at the phase where its normalising
@@ -357,12 +372,12 @@ fn mode_deformation(label: String, m: &ModeReport) -> Deformation {
 /// `mode_shape.svg` of `damper linearize` on a structure with elements: the drawing of the
 /// first mode with the generators connected (or of the first mode, without mechanisms) and
 /// of the bare structure's first mode, the real parts of their `structure_shape`s, over the
-/// undeformed structure, the attachment nodes marked; and its [`ShapeDrawing`].
+/// undeformed structure, the attachment nodes marked.
 pub fn mode_shape(
     sc: &HybridScenario,
     structure: &StructureDrawing,
     report: &LinearReport,
-) -> Result<(ShapeDrawing, Vec<u8>), PlotError> {
+) -> Result<Vec<u8>, PlotError> {
     let coupled = if report.bare_structure.is_some() {
         "first mode with the generator(s) connected"
     } else {
@@ -381,21 +396,12 @@ pub fn mode_shape(
                 .map(|m| mode_deformation("bare structure's first mode".into(), m)),
         )
         .collect();
-    let d = drawing(
-        &structure.nodes,
-        &structure.elements,
+    plot(
+        sc,
+        structure,
         &shapes,
-        &attachment_marks(sc),
-        SHAPE_FRACTION,
-    );
-    let title = format!(
-        "First mode shapes (real parts, magnified): {}",
-        sc.description
-            .as_deref()
-            .unwrap_or(&sc.path.display().to_string())
-    );
-    let svg = shape_svg(&title, &d)?;
-    Ok((d, svg))
+        "First mode shapes (real parts, magnified)",
+    )
 }
 
 /// `deformed_shape.svg` of `damper simulate` on a structure with elements: the structure's
@@ -407,26 +413,17 @@ pub fn deformed_shape(
     structure: &StructureDrawing,
     t: f64,
     translations: &[(u64, [f64; 2])],
-) -> Result<(ShapeDrawing, Vec<u8>), PlotError> {
+) -> Result<Vec<u8>, PlotError> {
     let shape = Deformation {
         label: format!("deformed at t = {t:.6} s"),
         displacement: translations.iter().copied().collect(),
     };
-    let d = drawing(
-        &structure.nodes,
-        &structure.elements,
+    plot(
+        sc,
+        structure,
         &[shape],
-        &attachment_marks(sc),
-        SHAPE_FRACTION,
-    );
-    let title = format!(
-        "Deformed shape at the largest displacement of the first attachment (magnified): {}",
-        sc.description
-            .as_deref()
-            .unwrap_or(&sc.path.display().to_string())
-    );
-    let svg = shape_svg(&title, &d)?;
-    Ok((d, svg))
+        "Deformed shape at the largest displacement of the first attachment (magnified)",
+    )
 }
 
 #[cfg(test)]

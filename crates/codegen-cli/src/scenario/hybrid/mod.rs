@@ -335,6 +335,13 @@ pub struct HybridScenario {
 }
 
 impl HybridScenario {
+    /// What a plot's title names the scenario by: its description, else its file's path.
+    pub fn title(&self) -> String {
+        self.description
+            .clone()
+            .unwrap_or_else(|| self.path.display().to_string())
+    }
+
     /// Parses and checks hybrid scenario text; `path` names the file in messages and is the
     /// base of relative paths.
     pub fn from_str(text: &str, path: &Path) -> Result<HybridScenario, Diagnostics> {
