@@ -2,7 +2,7 @@
 //! coupled simulation needs from it every step: the banded matrices, the DOF map, loads at
 //! time `t` into a caller buffer, static solutions, modes and interpolation (35).
 
-use crate::banded::{BandedFactor, BandedSym};
+use crate::banded::{BandedFactor, BandedSym, PairedKd3};
 use crate::beam::{Beam, Damping};
 use crate::dofs::DofMap;
 use crate::element;
@@ -62,6 +62,12 @@ pub struct BeamModel {
     mass: BandedSym,
     damping: BandedSym,
     stiffness: BandedSym,
+    /// The stiffness two rows at a time for the step's product
+    /// ([`BeamModel::stiffness_mul_add_to`]); `None` below 8 DOFs.
+    stiffness_pairs: Option<PairedKd3>,
+    /// The damping two rows at a time for the dissipation's quadratic form
+    /// ([`BeamModel::damping_quadratic_form`]); `None` below 8 DOFs.
+    damping_pairs: Option<PairedKd3>,
     alpha: f64,
     beta: f64,
     loads: Vec<LoadPattern>,
@@ -150,6 +156,8 @@ impl BeamModel {
             dofs,
             damping: BandedSym::zeros(n, HALF_BANDWIDTH),
             mass,
+            stiffness_pairs: PairedKd3::new(&stiffness),
+            damping_pairs: None,
             stiffness,
             alpha: 0.0,
             beta: 0.0,
@@ -178,6 +186,7 @@ impl BeamModel {
         model.beta = beta;
         model.damping.scaled_add(alpha, &model.mass)?;
         model.damping.scaled_add(beta, &model.stiffness)?;
+        model.damping_pairs = PairedKd3::new(&model.damping);
         model.loads = model.load_patterns();
         Ok(model)
     }
@@ -293,6 +302,32 @@ impl BeamModel {
     /// Stiffness matrix `C^c`, eqs. (39), (43), (44).
     pub fn stiffness(&self) -> &BandedSym {
         &self.stiffness
+    }
+
+    /// `y = b + s C x` (the step's `P - C x`), bit-identical to
+    /// [`BandedSym::mul_add_to`] on [`BeamModel::stiffness`]: with 8 DOFs or more through
+    /// the rows two at a time ([`PairedKd3`]); no allocation.
+    ///
+    /// # Panics
+    /// If `x`, `b` or `y` does not have length [`BeamModel::dof_count`].
+    pub fn stiffness_mul_add_to(&self, s: f64, x: &[f64], b: &[f64], y: &mut [f64]) {
+        match &self.stiffness_pairs {
+            Some(p) => p.mul_add_to(s, x, b, y),
+            None => self.stiffness.mul_add_to(s, x, b, y),
+        }
+    }
+
+    /// `x^T B x` (the Rayleigh dissipation `v^T B v` of every step), bit-identical to
+    /// [`BandedSym::quadratic_form`] on [`BeamModel::damping`]: with 8 DOFs or more
+    /// through the rows two at a time ([`PairedKd3`]).
+    ///
+    /// # Panics
+    /// If `x` does not have length [`BeamModel::dof_count`].
+    pub fn damping_quadratic_form(&self, x: &[f64]) -> f64 {
+        match &self.damping_pairs {
+            Some(p) => p.quadratic_form(x),
+            None => self.damping.quadratic_form(x),
+        }
     }
 
     /// The Rayleigh coefficients `(alpha, beta)` in use (solved from the target ratios when

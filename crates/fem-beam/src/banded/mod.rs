@@ -5,6 +5,8 @@
 //! - [`storage`]: the band storage [`BandedSym`], element access and products;
 //! - [`ldlt`]: the factorisation `A = L D L^T` ([`BandedFactor`]), its solves, and the
 //!   Sturm count of negative pivots (same elimination kernel);
+//! - [`pairs`]: [`PairedKd3`], the half-bandwidth-3 band two rows at a time for the
+//!   step's product (SSE2 lanes, bit-identical to [`BandedSym::mul_add_to`]);
 //! - [`refine`]: the double-double residual `b - A x` and iteratively refined solves.
 //!
 //! Storage: the lower band, row by row. Row `i` holds `A[i, i-kd ..= i]` in
@@ -26,10 +28,12 @@
 //! `len = min(i, kd)`) is `row[kd - len .. kd]`.
 
 mod ldlt;
+mod pairs;
 mod refine;
 mod storage;
 
 pub use ldlt::BandedFactor;
+pub use pairs::PairedKd3;
 pub use storage::BandedSym;
 
 /// Index of `A[i, j]` (`j <= i`, `i - j <= kd`) in the band storage.

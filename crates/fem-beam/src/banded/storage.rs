@@ -246,7 +246,7 @@ impl BandedSym {
 
 /// `y += alpha A x`.
 #[inline(always)]
-fn mul_add_kernel(kd: usize, data: &[f64], alpha: f64, x: &[f64], y: &mut [f64]) {
+pub(super) fn mul_add_kernel(kd: usize, data: &[f64], alpha: f64, x: &[f64], y: &mut [f64]) {
     let w = kd + 1;
     for (i, row) in data.chunks_exact(w).enumerate() {
         let len = i.min(kd);

@@ -179,7 +179,7 @@ impl LinearStructure for BeamModel {
 
     #[inline]
     fn stiffness_mul_add_to(&self, s: f64, x: &[f64], b: &[f64], y: &mut [f64]) {
-        self.stiffness().mul_add_to(s, x, b, y);
+        BeamModel::stiffness_mul_add_to(self, s, x, b, y);
     }
 
     #[inline]
@@ -189,7 +189,7 @@ impl LinearStructure for BeamModel {
 
     #[inline]
     fn damping_quadratic_form(&self, x: &[f64]) -> f64 {
-        self.damping().quadratic_form(x)
+        BeamModel::damping_quadratic_form(self, x)
     }
 
     #[inline]
