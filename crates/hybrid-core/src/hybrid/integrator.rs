@@ -732,10 +732,50 @@ impl Integrator {
         Ok(())
     }
 
+    /// Whether [`Integrator::integrate_beam`] forms the beam accelerations itself, in its
+    /// pass (a folded step with one coupling column, the paper's damper): `a = (r0 - kappa
+    /// v^) - z phi_w`, the operations of [`Integrator::accept`]'s pass.
+    fn fused_accelerations(&self, n: usize) -> bool {
+        n > 0 && self.nb == 1 && self.r0_kappa.is_some()
+    }
+
     /// Writes the accepted solution into `state` (beam accelerations from
-    /// `a = a0 - K^-1 N phi_w`, `a0 = r0 - kappa v^` for a folded step, mechanisms from the
-    /// followers); the beam's positions and velocities are [`Integrator::integrate_beam`]'s.
+    /// `a = a0 - K^-1 N phi_w`, `a0 = r0 - kappa v^` for a folded step, unless
+    /// [`Integrator::integrate_beam`] forms them ([`Integrator::fused_accelerations`]);
+    /// mechanisms from the followers); the beam's positions and velocities are
+    /// [`Integrator::integrate_beam`]'s.
     fn accept(&mut self, model: &HybridModel, state: &mut HybridState) {
+        let n = state.q.len();
+        if !self.fused_accelerations(n) {
+            self.accept_beam(state);
+        }
+        for (m, z) in self.zmax.iter_mut().zip(&self.z) {
+            *m = m.max(z.abs());
+        }
+        for (f, ms) in self.followers.iter().zip(state.mechanisms.iter_mut()) {
+            copy_short(&mut ms.q, f.q.as_slice());
+            copy_short(&mut ms.qd, f.qd.as_slice());
+            copy_short(&mut ms.qdd, f.qdd.as_slice());
+            ms.condition = f.condition;
+            ms.sigma_min = f.sigma_min;
+            ms.residual = f.residual;
+        }
+        for (k, f) in model.forces.iter().enumerate() {
+            let i = self.currents[k];
+            state.currents[k] = i;
+            state.current_rates[k] = match f.generator() {
+                Some(g) if f.has_current_state() => {
+                    let w = state.mechanisms[f.mechanism].qd[f.joint];
+                    (g.ke * g.gear_ratio * w - g.resistance() * i) / g.inductance
+                }
+                _ => 0.0,
+            };
+        }
+    }
+
+    /// The beam accelerations `a = a0 - K^-1 N phi_w` (`a0 = r0 - kappa v^` for a folded
+    /// step) into `state.a`, in a pass of their own.
+    fn accept_beam(&self, state: &mut HybridState) {
         let n = state.q.len();
         // `a0` and the first column in the same pass as the copy of `r0` (the same
         // operations as the passes one after the other).
@@ -764,36 +804,23 @@ impl Integrator {
                 *a -= z * phi;
             }
         }
-        for (m, z) in self.zmax.iter_mut().zip(&self.z) {
-            *m = m.max(z.abs());
-        }
-        for (f, ms) in self.followers.iter().zip(state.mechanisms.iter_mut()) {
-            copy_short(&mut ms.q, f.q.as_slice());
-            copy_short(&mut ms.qd, f.qd.as_slice());
-            copy_short(&mut ms.qdd, f.qdd.as_slice());
-            ms.condition = f.condition;
-            ms.sigma_min = f.sigma_min;
-            ms.residual = f.residual;
-        }
-        for (k, f) in model.forces.iter().enumerate() {
-            let i = self.currents[k];
-            state.currents[k] = i;
-            state.current_rates[k] = match f.generator() {
-                Some(g) if f.has_current_state() => {
-                    let w = state.mechanisms[f.mechanism].qd[f.joint];
-                    (g.ke * g.gear_ratio * w - g.resistance() * i) / g.inductance
-                }
-                _ => 0.0,
-            };
-        }
     }
 
     /// The beam's Newmark update from the accepted accelerations, `q = q^ + beta h^2 a`,
     /// `v = v^ + gamma h a`, in one pass with what the energy account needs of it: the
     /// midpoint velocity `v_mid = (v_n + v_{n+1}) / 2` (into `v_mid`) and the power of the
     /// beam loads `sum (P_n + P_{n+1}) / 2 v_mid` (returned with whether the new positions
-    /// and velocities are finite).
+    /// and velocities are finite). With [`Integrator::fused_accelerations`] the same pass
+    /// forms the accelerations first, `a = (r0 - kappa v^) - z phi_w` into `state.a` (the
+    /// operations of [`Integrator::accept_beam`]: the same numbers).
     fn integrate_beam(&mut self, state: &mut HybridState) -> (bool, f64) {
+        let n = state.q.len();
+        if self.fused_accelerations(n) {
+            match self.integrate_beam_fused(state) {
+                Some(result) => return result,
+                None => self.accept_beam(state),
+            }
+        }
         let (cq, cv) = (self.beta * self.h * self.h, self.gamma * self.h);
         let mut finite = true;
         // One entry: q, v and v_mid updated, whether they are finite.
@@ -825,6 +852,57 @@ impl Integrator {
             work += 0.5 * (po + pn) * *m;
         }
         (finite, work)
+    }
+
+    /// [`Integrator::integrate_beam`] with the accelerations of a folded step with one
+    /// coupling column formed in its pass; `None` (nothing written) without that column.
+    fn integrate_beam_fused(&mut self, state: &mut HybridState) -> Option<(bool, f64)> {
+        let n = state.q.len();
+        let (cq, cv) = (self.beta * self.h * self.h, self.gamma * self.h);
+        let (Some(kappa), Some(&phi), Some(col)) =
+            (self.r0_kappa, self.phi.first(), self.zcols.get(..n))
+        else {
+            return None;
+        };
+        let mut finite = true;
+        // One entry: a, q, v and v_mid updated, whether q and v are finite.
+        let update = |q: &mut f64,
+                      v: &mut f64,
+                      a: &mut f64,
+                      m: &mut f64,
+                      r: f64,
+                      z: f64,
+                      qh: f64,
+                      vh: f64| {
+            let acc = (r - kappa * vh) - z * phi;
+            *a = acc;
+            let (q_new, v_new) = (qh + cq * acc, vh + cv * acc);
+            *q = q_new;
+            *m = 0.5 * (*v + v_new);
+            *v = v_new;
+            both_finite(q_new, v_new)
+        };
+        let newmark = state
+            .q
+            .iter_mut()
+            .zip(&mut state.v)
+            .zip(state.a.iter_mut().zip(&mut self.v_mid))
+            .zip(self.r0.iter().zip(col))
+            .zip(self.q_hat.iter().zip(&self.v_hat));
+        if !self.loaded {
+            for ((((q, v), (a, m)), (r, z)), (qh, vh)) in newmark {
+                finite &= update(q, v, a, m, *r, *z, *qh, *vh);
+            }
+            return Some((finite, 0.0));
+        }
+        let mut work = 0.0;
+        for (((((q, v), (a, m)), (r, z)), (qh, vh)), (po, pn)) in
+            newmark.zip(self.p_old.iter().zip(&self.p_new))
+        {
+            finite &= update(q, v, a, m, *r, *z, *qh, *vh);
+            work += 0.5 * (po + pn) * *m;
+        }
+        Some((finite, work))
     }
 
     /// The mechanism models' own force elements in the energy account (docs/theory.md section 8:
