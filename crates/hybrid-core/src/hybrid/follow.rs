@@ -93,6 +93,13 @@ pub(crate) struct Follower {
     pub atts: Vec<AttachRow>,
     /// Dependent coordinates (one per row).
     pub dep: Vec<usize>,
+    /// Whether `dep` is `0..rows`: `J_d` is then the leading `rows x rows` block of the
+    /// column-major `jfull`, copied as one slice.
+    dep_leading: bool,
+    /// Per coupled row, `(row, coupling)`: the transverse row of each attachment with its
+    /// coupling unknown, then its axial row for a pin on a point that moves along `x`
+    /// (attachment order). The rows that `E` of eq. (18) selects.
+    coupled: Vec<(usize, usize)>,
     /// Independent (free) coordinates.
     pub free: Vec<usize>,
     /// Offset of its free coordinates in the global free-coordinate list.
@@ -168,6 +175,7 @@ impl Follower {
         }
         let rows = row;
         let dep: Vec<usize> = (0..n).filter(|c| !free.contains(c)).collect();
+        let coupled = coupled_rows(&atts);
         let forces = (0..model.forces.len())
             .filter(|&f| model.forces[f].mechanism == mech)
             .collect();
@@ -179,6 +187,8 @@ impl Follower {
             loops,
             rows,
             atts,
+            dep_leading: leading(&dep, rows),
+            coupled,
             dep,
             free,
             free_offset,
@@ -224,6 +234,7 @@ impl Follower {
         self.dep.clear();
         let f = &self.free;
         self.dep.extend((0..self.n).filter(|c| !f.contains(c)));
+        self.dep_leading = leading(&self.dep, self.rows);
         self.solved = false;
     }
 
@@ -238,11 +249,8 @@ impl Follower {
         }
         let rhs = self.rhs.as_mut_slice();
         zero_short(rhs);
-        for a in &self.atts {
-            rhs[a.row] = w[a.coupling] - self.w_last[a.coupling];
-            if let (Some(r), Some(c)) = (a.axial_row, a.axial_coupling) {
-                rhs[r] = w[c] - self.w_last[c];
-            }
+        for &(r, c) in &self.coupled {
+            rhs[r] = w[c] - self.w_last[c];
         }
         let (q, rows) = (self.q.as_mut_slice(), self.rows);
         let jfull = self.jfull.as_slice();
@@ -293,14 +301,12 @@ impl Follower {
     /// Records a converged solve (for [`Follower::predict`]).
     fn mark_solved(&mut self, w: &[f64]) {
         self.solved = true;
-        for a in &self.atts {
-            self.w_last[a.coupling] = w[a.coupling];
-            if let Some(c) = a.axial_coupling {
-                self.w_last[c] = w[c];
-            }
+        for &(_, c) in &self.coupled {
+            self.w_last[c] = w[c];
         }
+        let q = self.q.as_slice();
         for &c in &self.free {
-            self.u_last[c] = self.q[c];
+            self.u_last[c] = q[c];
         }
     }
 
@@ -352,7 +358,7 @@ impl Follower {
 
     /// Copies `J_d = J[:, dep]` into the LU buffer and factorises it.
     fn factor_dependent(&mut self) -> bool {
-        dependent_columns(&self.jfull, &self.dep, &mut self.lu);
+        dependent_columns(&self.jfull, &self.dep, self.dep_leading, &mut self.lu);
         lu_in_place(&mut self.lu, &mut self.piv)
     }
 
@@ -434,7 +440,7 @@ impl Follower {
     }
 
     fn measure_condition(&mut self) {
-        dependent_columns(&self.jfull, &self.dep, &mut self.jd);
+        dependent_columns(&self.jfull, &self.dep, self.dep_leading, &mut self.jd);
         let (lo, hi) = singular_range(&self.jd, &mut self.svd);
         self.sigma_min = lo;
         self.condition = if lo > 0.0 { hi / lo } else { f64::INFINITY };
@@ -483,7 +489,8 @@ impl Follower {
             let jmax = amax(self.jfull.as_slice());
             let rows = self.rows;
             if !self.factor_dependent()
-                || (0..rows).any(|i| self.lu[(i, i)].abs() <= 1e-14 * jmax.max(1e-300))
+                || (self.lu.as_slice().iter().step_by(rows + 1))
+                    .any(|d| d.abs() <= 1e-14 * jmax.max(1e-300))
             {
                 self.measure_condition();
                 return Err(FollowError::Singular {
@@ -581,13 +588,15 @@ impl Follower {
         phi: &mut [f64],
     ) -> Result<(), FollowError> {
         let off = self.nb + self.free_offset;
+        let q = self.q.as_mut_slice();
         for (&c, x) in self.free.iter().zip(&pos[off..]) {
-            self.q[c] = *x;
+            q[c] = *x;
         }
         self.solve_positions(model, pos)?;
         // Velocities (18): J_d qd_d = E w' - J_f u'.
+        let qd = self.qd.as_mut_slice();
         for (&c, x) in self.free.iter().zip(&vel[off..]) {
-            self.qd[c] = *x;
+            qd[c] = *x;
         }
         self.constraint_rhs(vel);
         lu_solve(&self.lu, &self.piv, &mut self.rhs);
@@ -643,8 +652,9 @@ impl Follower {
         );
         model.add_base_load(self.mech, t, q, &mut self.ws);
         // Accelerations (19): J_d qdd_d = E w'' - J_f u'' - A.
+        let qdd = self.qdd.as_mut_slice();
         for (&c, x) in self.free.iter().zip(&acc[off..]) {
-            self.qdd[c] = *x;
+            qdd[c] = *x;
         }
         self.constraint_rhs(acc);
         for (r, b) in self.rhs.as_mut_slice().iter_mut().zip(self.bias.as_slice()) {
@@ -674,11 +684,8 @@ impl Follower {
         }
         lu_solve_transpose(&self.lu, &self.piv, &mut self.rhs);
         let mu = self.rhs.as_slice();
-        for a in &self.atts {
-            phi[a.coupling] = mu[a.row];
-            if let (Some(r), Some(c)) = (a.axial_row, a.axial_coupling) {
-                phi[c] = mu[r];
-            }
+        for &(r, c) in &self.coupled {
+            phi[c] = mu[r];
         }
         let (rows, jfull) = (self.rows, self.jfull.as_slice());
         for (&c, p) in self.free.iter().zip(&mut phi[off..]) {
@@ -729,14 +736,12 @@ impl Follower {
     }
 
     /// `rhs = E x_w - J_f x_u` for a position-level vector `x` in the global layout.
+    #[inline]
     fn constraint_rhs(&mut self, x: &[f64]) {
         let rhs = self.rhs.as_mut_slice();
         zero_short(rhs);
-        for a in &self.atts {
-            rhs[a.row] = x[a.coupling];
-            if let (Some(r), Some(c)) = (a.axial_row, a.axial_coupling) {
-                rhs[r] = x[c];
-            }
+        for &(r, c) in &self.coupled {
+            rhs[r] = x[c];
         }
         let (off, rows) = (self.nb + self.free_offset, self.rows);
         let jfull = self.jfull.as_slice();
@@ -764,14 +769,39 @@ fn amax(x: &[f64]) -> f64 {
 }
 
 /// `J_d = J[:, dep]` into `jd` (`rows x dep.len()`): whole columns of the column-major
-/// storage copied as slices.
-fn dependent_columns(j: &DMatrix<f64>, dep: &[usize], jd: &mut DMatrix<f64>) {
+/// storage copied as slices; one slice, the leading block, when `leading` (`dep` is
+/// `0..rows`, [`leading`]).
+#[inline]
+fn dependent_columns(j: &DMatrix<f64>, dep: &[usize], leading: bool, jd: &mut DMatrix<f64>) {
     let rows = j.nrows();
     if rows == 0 {
         return;
     }
     let j = j.as_slice();
+    if leading {
+        let jd = jd.as_mut_slice();
+        copy_short(jd, &j[..jd.len()]);
+        return;
+    }
     for (dst, &c) in jd.as_mut_slice().chunks_exact_mut(rows).zip(dep) {
         copy_short(dst, &j[c * rows..(c + 1) * rows]);
     }
+}
+
+/// Whether the dependent coordinates `dep` are `0..rows` (in order).
+fn leading(dep: &[usize], rows: usize) -> bool {
+    dep.len() == rows && dep.iter().enumerate().all(|(i, &c)| c == i)
+}
+
+/// The `(row, coupling)` pairs of [`Follower`]'s coupled rows, in attachment order: the
+/// transverse row, then the axial row when it has a coupling unknown.
+fn coupled_rows(atts: &[AttachRow]) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    for a in atts {
+        out.push((a.row, a.coupling));
+        if let (Some(r), Some(c)) = (a.axial_row, a.axial_coupling) {
+            out.push((r, c));
+        }
+    }
+    out
 }
