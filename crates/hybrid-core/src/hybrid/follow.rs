@@ -299,6 +299,7 @@ impl Follower {
     }
 
     /// Records a converged solve (for [`Follower::predict`]).
+    #[inline(always)]
     fn mark_solved(&mut self, w: &[f64]) {
         self.solved = true;
         for &(_, c) in &self.coupled {
@@ -357,6 +358,7 @@ impl Follower {
     }
 
     /// Copies `J_d = J[:, dep]` into the LU buffer and factorises it.
+    #[inline(always)]
     fn factor_dependent(&mut self) -> bool {
         dependent_columns(&self.jfull, &self.dep, self.dep_leading, &mut self.lu);
         lu_in_place(&mut self.lu, &mut self.piv)
@@ -600,10 +602,7 @@ impl Follower {
         }
         self.constraint_rhs(vel);
         lu_solve(&self.lu, &self.piv, &mut self.rhs);
-        let qd = self.qd.as_mut_slice();
-        for (&c, x) in self.dep.iter().zip(self.rhs.as_slice()) {
-            qd[c] = *x;
-        }
+        scatter(&self.dep, self.dep_leading, self.rhs.as_slice(), self.qd.as_mut_slice());
         // Dynamics and the constraint bias A = J' q' (16), (50).
         let m = &model.mechanisms[self.mech];
         let (cs, sn) = self.rot;
@@ -661,26 +660,32 @@ impl Follower {
             *r -= b;
         }
         lu_solve(&self.lu, &self.piv, &mut self.rhs);
-        let qdd = self.qdd.as_mut_slice();
-        for (&c, x) in self.dep.iter().zip(self.rhs.as_slice()) {
-            qdd[c] = *x;
-        }
+        scatter(&self.dep, self.dep_leading, self.rhs.as_slice(), self.qdd.as_mut_slice());
+        let qdd = self.qdd.as_slice();
         // g = M q'' + F + Q; phi = R^T g with R = [J_d^-1 E, e_f - J_d^-1 J_f]:
         // mu = J_d^-T g_d, phi_w = E^T mu, phi_u = g_f - J_f^T mu.
         // `M q''` column by column, as nalgebra's `gemv` sums it (the same results bit for
         // bit), then `+ F`, `+ Q`.
         let (n, g) = (self.n, self.g.as_mut_slice());
-        let mm = self.ws.m.as_slice();
-        for (i, gi) in g.iter_mut().enumerate() {
+        let (mm, f, qv) = (
+            self.ws.m.as_slice(),
+            self.ws.f.as_slice(),
+            self.ws.q.as_slice(),
+        );
+        for (i, ((gi, fi), qi)) in g.iter_mut().zip(f).zip(qv).enumerate() {
             let mut s = mm[i] * qdd[0];
-            for j in 1..n {
-                s += mm[j * n + i] * qdd[j];
+            for (col, x) in mm.chunks_exact(n).zip(qdd).skip(1) {
+                s += col[i] * x;
             }
-            *gi = (s + self.ws.f[i]) + self.ws.q[i];
+            *gi = (s + fi) + qi;
         }
         let rhs = self.rhs.as_mut_slice();
-        for (&c, r) in self.dep.iter().zip(rhs.iter_mut()) {
-            *r = g[c];
+        if self.dep_leading {
+            copy_short(rhs, &g[..rhs.len()]);
+        } else {
+            for (&c, r) in self.dep.iter().zip(rhs.iter_mut()) {
+                *r = g[c];
+            }
         }
         lu_solve_transpose(&self.lu, &self.piv, &mut self.rhs);
         let mu = self.rhs.as_slice();
@@ -736,7 +741,7 @@ impl Follower {
     }
 
     /// `rhs = E x_w - J_f x_u` for a position-level vector `x` in the global layout.
-    #[inline]
+    #[inline(always)]
     fn constraint_rhs(&mut self, x: &[f64]) {
         let rhs = self.rhs.as_mut_slice();
         zero_short(rhs);
@@ -771,7 +776,7 @@ fn amax(x: &[f64]) -> f64 {
 /// `J_d = J[:, dep]` into `jd` (`rows x dep.len()`): whole columns of the column-major
 /// storage copied as slices; one slice, the leading block, when `leading` (`dep` is
 /// `0..rows`, [`leading`]).
-#[inline]
+#[inline(always)]
 fn dependent_columns(j: &DMatrix<f64>, dep: &[usize], leading: bool, jd: &mut DMatrix<f64>) {
     let rows = j.nrows();
     if rows == 0 {
@@ -804,4 +809,17 @@ fn coupled_rows(atts: &[AttachRow]) -> Vec<(usize, usize)> {
         }
     }
     out
+}
+
+/// `dst[dep[k]] = src[k]`: a solve's dependent values into a coordinate vector (one copy
+/// of the leading entries when `leading`, [`leading`]).
+#[inline(always)]
+fn scatter(dep: &[usize], leading: bool, src: &[f64], dst: &mut [f64]) {
+    if leading {
+        copy_short(&mut dst[..src.len()], src);
+    } else {
+        for (&c, x) in dep.iter().zip(src) {
+            dst[c] = *x;
+        }
+    }
 }
