@@ -138,7 +138,7 @@ fn lu_general(a: &mut DMatrix<f64>, piv: &mut Vec<usize>) -> bool {
 /// factors bit for bit), without their index arithmetic and bounds checks. `piv` is empty
 /// on entry.
 #[inline(always)]
-fn lu_small(a: &mut [f64], piv: &mut Vec<usize>) -> bool {
+pub(crate) fn lu_small(a: &mut [f64], piv: &mut Vec<usize>) -> bool {
     let ok = |best: f64| best != 0.0 && best.is_finite();
     match a {
         [a0] => {
@@ -176,7 +176,17 @@ fn lu_small(a: &mut [f64], piv: &mut Vec<usize>) -> bool {
 /// 2 x 2 paths are a few operations, fewer than a call's own instructions.
 #[inline(always)]
 pub(crate) fn lu_solve(lu: &DMatrix<f64>, piv: &[usize], b: &mut DVector<f64>) {
-    match (lu.as_slice(), piv, b.as_mut_slice()) {
+    if !lu_solve_small(lu.as_slice(), piv, b.as_mut_slice()) {
+        lu_solve_sweeps(lu, piv, b);
+    }
+}
+
+/// The 1 x 1 and 2 x 2 paths of [`lu_solve`] on the column-major factors `lu` (1 or 4
+/// entries) and `b`: `false`, with nothing done, for any other size. On slices cut to a
+/// length known at compile time the size test folds away.
+#[inline(always)]
+pub(crate) fn lu_solve_small(lu: &[f64], piv: &[usize], b: &mut [f64]) -> bool {
+    match (lu, piv, b) {
         // The sweeps below for one unknown: `x = b / u`.
         (&[u], _, [x]) => *x /= u,
         // The general sweeps below written out for the 2 x 2 blocks of the damper's hot
@@ -189,8 +199,9 @@ pub(crate) fn lu_solve(lu: &DMatrix<f64>, piv: &[usize], b: &mut DVector<f64>) {
             *x1 /= a3;
             *x0 = (*x0 - a2 * *x1) / a0;
         }
-        _ => lu_solve_sweeps(lu, piv, b),
+        _ => return false,
     }
+    true
 }
 
 /// The forward and backward sweeps of [`lu_solve`] for any size.
@@ -265,7 +276,16 @@ pub(crate) fn cholesky_solve(l: &DMatrix<f64>, b: &mut DVector<f64>) {
 /// `A^T = U^T L^T P`). Inlined like [`lu_solve`].
 #[inline(always)]
 pub(crate) fn lu_solve_transpose(lu: &DMatrix<f64>, piv: &[usize], b: &mut DVector<f64>) {
-    if let (&[a0, a1, a2, a3], &[p0, _], [x0, x1]) = (lu.as_slice(), piv, b.as_mut_slice()) {
+    if !lu_solve_transpose_small(lu.as_slice(), piv, b.as_mut_slice()) {
+        lu_solve_transpose_sweeps(lu, piv, b);
+    }
+}
+
+/// The 2 x 2 path of [`lu_solve_transpose`] (`lu` of 4 entries, column-major): `false`,
+/// with nothing done, for any other size (see [`lu_solve_small`]).
+#[inline(always)]
+pub(crate) fn lu_solve_transpose_small(lu: &[f64], piv: &[usize], b: &mut [f64]) -> bool {
+    if let (&[a0, a1, a2, a3], &[p0, _], [x0, x1]) = (lu, piv, b) {
         // Written out for 2 x 2 (same operations, same order as the sweeps below).
         *x0 /= a0;
         *x1 = (*x1 - a2 * *x0) / a3;
@@ -273,9 +293,9 @@ pub(crate) fn lu_solve_transpose(lu: &DMatrix<f64>, piv: &[usize], b: &mut DVect
         if p0 != 0 {
             std::mem::swap(x0, x1);
         }
-        return;
+        return true;
     }
-    lu_solve_transpose_sweeps(lu, piv, b);
+    false
 }
 
 /// The sweeps of [`lu_solve_transpose`] for any size.
