@@ -1091,6 +1091,6 @@ mod tests {
                 dynamic.q.as_mut_slice().copy_from_slice(&q0);
             }
         }
-        assert!(errors >= 1 && errors < 20, "{errors} failed follows");
+        assert!((1..20).contains(&errors), "{errors} failed follows");
     }
 }
