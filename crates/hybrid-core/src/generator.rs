@@ -135,6 +135,7 @@ fn yes() -> bool {
 
 impl GeneratorSpec {
     /// Total circuit resistance `R_a + R_L`.
+    #[inline]
     pub fn resistance(&self) -> f64 {
         self.armature_resistance + self.load_resistance
     }
@@ -161,12 +162,14 @@ impl GeneratorSpec {
     }
 
     /// Rotor inertia seen at the joint, `n^2 J_r`.
+    #[inline]
     pub fn reflected_inertia(&self) -> f64 {
         self.gear_ratio.powi(2) * self.rotor_inertia
     }
 
     /// Whether the gear loses energy (efficiency below 1, or friction): without it the
     /// generator's equations and energy account are exactly those without a gearbox model.
+    #[inline]
     pub fn has_gear_loss(&self) -> bool {
         self.gear_efficiency != 1.0
             || self.gear_friction.coulomb != 0.0
@@ -229,6 +232,7 @@ impl GeneratorSpec {
     }
 
     /// Whether the current is a state of its own (inductance > 0 and connected).
+    #[inline]
     pub fn has_current_state(&self) -> bool {
         self.connected && self.inductance > 0.0
     }
@@ -239,6 +243,7 @@ impl GeneratorSpec {
     /// `+n k_t i + n tau_g(n q')` ([`GeneratorSpec::joint_term`]), to `Q^b` (eq. 13). With
     /// zero inductance, the quasi-static current and no gear loss this is the viscous damper
     /// `c_g q'`.
+    #[inline]
     pub fn add_to_equations(
         &self,
         joint: usize,
@@ -255,6 +260,7 @@ impl GeneratorSpec {
     }
 
     /// The current when the inductance is zero: `i = k_e n q' / (R_a + R_L)`.
+    #[inline]
     pub fn quasi_static_current(&self, joint_speed: f64) -> f64 {
         if self.connected {
             self.ke * self.gear_ratio * joint_speed / self.resistance()
@@ -264,6 +270,7 @@ impl GeneratorSpec {
     }
 
     /// The generator's contribution to `Q^b` of its joint, paper sign: `+n k_t i`.
+    #[inline]
     pub fn q_term(&self, current: f64) -> f64 {
         self.gear_ratio * self.kt * current
     }

@@ -17,7 +17,8 @@ use nalgebra::{DMatrix, DVector};
 
 use super::model::{AttachmentKind, HybridModel};
 use crate::partition::dense::{
-    copy_short, lu_in_place, lu_solve, lu_solve_transpose, singular_range, zero_short,
+    copy_short, lu_in_place, lu_small, lu_solve, lu_solve_small, lu_solve_transpose,
+    lu_solve_transpose_small, singular_range, zero_short,
 };
 
 /// One attachment as seen by its mechanism.
@@ -93,6 +94,13 @@ pub(crate) struct Follower {
     pub atts: Vec<AttachRow>,
     /// Dependent coordinates (one per row).
     pub dep: Vec<usize>,
+    /// Whether `dep` is `0..rows`: `J_d` is then the leading `rows x rows` block of the
+    /// column-major `jfull`, copied as one slice.
+    dep_leading: bool,
+    /// Per coupled row, `(row, coupling)`: the transverse row of each attachment with its
+    /// coupling unknown, then its axial row for a pin on a point that moves along `x`
+    /// (attachment order). The rows that `E` of eq. (18) selects.
+    coupled: Vec<(usize, usize)>,
     /// Independent (free) coordinates.
     pub free: Vec<usize>,
     /// Offset of its free coordinates in the global free-coordinate list.
@@ -168,6 +176,7 @@ impl Follower {
         }
         let rows = row;
         let dep: Vec<usize> = (0..n).filter(|c| !free.contains(c)).collect();
+        let coupled = coupled_rows(&atts);
         let forces = (0..model.forces.len())
             .filter(|&f| model.forces[f].mechanism == mech)
             .collect();
@@ -179,6 +188,8 @@ impl Follower {
             loops,
             rows,
             atts,
+            dep_leading: leading(&dep, rows),
+            coupled,
             dep,
             free,
             free_offset,
@@ -224,6 +235,7 @@ impl Follower {
         self.dep.clear();
         let f = &self.free;
         self.dep.extend((0..self.n).filter(|c| !f.contains(c)));
+        self.dep_leading = leading(&self.dep, self.rows);
         self.solved = false;
     }
 
@@ -232,19 +244,18 @@ impl Follower {
     /// `q_d += J_d^-1 (E dw - J_f du)` with the factors kept from that solve (one Newton step
     /// without an evaluation; the Newton iteration then starts at a residual of second order
     /// in the change).
-    fn predict(&mut self, w: &[f64]) {
+    #[inline(always)]
+    fn predict<R: Dim>(&mut self, r: R, w: &[f64]) {
         if !self.solved {
             return;
         }
-        let rhs = self.rhs.as_mut_slice();
+        let rows = r.get();
+        let rhs = &mut self.rhs.as_mut_slice()[..rows];
         zero_short(rhs);
-        for a in &self.atts {
-            rhs[a.row] = w[a.coupling] - self.w_last[a.coupling];
-            if let (Some(r), Some(c)) = (a.axial_row, a.axial_coupling) {
-                rhs[r] = w[c] - self.w_last[c];
-            }
+        for &(r, c) in &self.coupled {
+            rhs[r] = w[c] - self.w_last[c];
         }
-        let (q, rows) = (self.q.as_mut_slice(), self.rows);
+        let q = self.q.as_mut_slice();
         let jfull = self.jfull.as_slice();
         for &c in &self.free {
             let du = q[c] - self.u_last[c];
@@ -252,9 +263,27 @@ impl Follower {
                 *r -= j * du;
             }
         }
-        lu_solve(&self.lu, &self.piv, &mut self.rhs);
-        for (&c, d) in self.dep.iter().zip(self.rhs.as_slice()) {
-            q[c] += d;
+        self.solve_lu(r);
+        let rhs = &self.rhs.as_slice()[..rows];
+        let q = self.q.as_mut_slice();
+        if self.dep_leading {
+            for (qc, d) in q[..rows].iter_mut().zip(rhs) {
+                *qc += d;
+            }
+        } else {
+            for (&c, d) in self.dep.iter().zip(rhs) {
+                q[c] += d;
+            }
+        }
+    }
+
+    /// `rhs = J_d^-1 rhs` with the factors in `lu`, `piv` (`rows` rows).
+    #[inline(always)]
+    fn solve_lu<R: Dim>(&mut self, r: R) {
+        let rows = r.get();
+        let (lu, b) = (self.lu.as_slice(), self.rhs.as_mut_slice());
+        if rows > 2 || !lu_solve_small(&lu[..rows * rows], &self.piv, &mut b[..rows]) {
+            lu_solve(&self.lu, &self.piv, &mut self.rhs);
         }
     }
 
@@ -291,24 +320,30 @@ impl Follower {
     }
 
     /// Records a converged solve (for [`Follower::predict`]).
+    #[inline(always)]
     fn mark_solved(&mut self, w: &[f64]) {
         self.solved = true;
-        for a in &self.atts {
-            self.w_last[a.coupling] = w[a.coupling];
-            if let Some(c) = a.axial_coupling {
-                self.w_last[c] = w[c];
-            }
+        for &(_, c) in &self.coupled {
+            self.w_last[c] = w[c];
         }
+        let q = self.q.as_slice();
         for &c in &self.free {
-            self.u_last[c] = self.q[c];
+            self.u_last[c] = q[c];
         }
     }
 
     /// `h` and `J` at `self.q` for beam-point displacements `w` (global attachment order).
     pub fn eval_rows(&mut self, model: &HybridModel, w: &[f64]) {
+        self.eval_rows_sized(Dyn(self.rows), Dyn(self.n), model, w);
+    }
+
+    /// [`Follower::eval_rows`] for `r` rows and `n` coordinates ([`Dim`]).
+    #[inline(always)]
+    fn eval_rows_sized<R: Dim, N: Dim>(&mut self, r: R, n: N, model: &HybridModel, w: &[f64]) {
         let m = &model.mechanisms[self.mech];
-        let rows = self.rows;
-        let (h, jfull) = (self.h.as_mut_slice(), self.jfull.as_mut_slice());
+        let rows = r.get();
+        let h = &mut self.h.as_mut_slice()[..rows];
+        let jfull = &mut self.jfull.as_mut_slice()[..rows * n.get()];
         if self.loops > 0 {
             m.system.evaluate_positions(self.q.as_slice(), &mut self.ws);
             // The loop rows are the first `loops` of every column (column-major).
@@ -352,7 +387,25 @@ impl Follower {
 
     /// Copies `J_d = J[:, dep]` into the LU buffer and factorises it.
     fn factor_dependent(&mut self) -> bool {
-        dependent_columns(&self.jfull, &self.dep, &mut self.lu);
+        self.factor_sized(Dyn(self.rows))
+    }
+
+    /// [`Follower::factor_dependent`] for `r` rows ([`Dim`]): [`lu_small`] on the buffer
+    /// cut to `rows x rows` for up to two rows (what [`lu_in_place`] does for them).
+    #[inline(always)]
+    fn factor_sized<R: Dim>(&mut self, r: R) -> bool {
+        let rows = r.get();
+        dependent_columns(
+            self.jfull.as_slice(),
+            rows,
+            &self.dep,
+            self.dep_leading,
+            self.lu.as_mut_slice(),
+        );
+        if rows <= 2 {
+            self.piv.clear();
+            return lu_small(&mut self.lu.as_mut_slice()[..rows * rows], &mut self.piv);
+        }
         lu_in_place(&mut self.lu, &mut self.piv)
     }
 
@@ -434,7 +487,13 @@ impl Follower {
     }
 
     fn measure_condition(&mut self) {
-        dependent_columns(&self.jfull, &self.dep, &mut self.jd);
+        dependent_columns(
+            self.jfull.as_slice(),
+            self.rows,
+            &self.dep,
+            self.dep_leading,
+            self.jd.as_mut_slice(),
+        );
         let (lo, hi) = singular_range(&self.jd, &mut self.svd);
         self.sigma_min = lo;
         self.condition = if lo > 0.0 { hi / lo } else { f64::INFINITY };
@@ -443,9 +502,18 @@ impl Follower {
     /// Solves `h(q) = 0` for the dependent coordinates with the free ones at their values in
     /// `self.q`, from the dependent values in `self.q` (the guess selects the assembly
     /// branch). Step length limited to 0.3. On success `jfull` and the LU of `J_d` hold the
-    /// solution's values (to the last, below-tolerance Newton step).
-    pub fn solve_positions(&mut self, model: &HybridModel, w: &[f64]) -> Result<(), FollowError> {
-        if self.rows == 0 {
+    /// solution's values (to the last, below-tolerance Newton step). For `r` rows and `n`
+    /// coordinates ([`Dim`]).
+    #[inline(always)]
+    fn solve_positions<R: Dim, N: Dim>(
+        &mut self,
+        r: R,
+        n: N,
+        model: &HybridModel,
+        w: &[f64],
+    ) -> Result<(), FollowError> {
+        let rows = r.get();
+        if rows == 0 {
             self.residual = 0.0;
             self.condition = 1.0;
             self.sigma_min = 1.0;
@@ -467,12 +535,12 @@ impl Follower {
                 .iter()
                 .map(|x| x.abs())
                 .sum::<f64>();
-        self.predict(w);
+        self.predict(r, w);
         self.solved = false;
         let mut last = f64::INFINITY;
         for it in 0..60 {
-            self.eval_rows(model, w);
-            let rn = norm(self.h.as_slice());
+            self.eval_rows_sized(r, n, model, w);
+            let rn = norm(&self.h.as_slice()[..rows]);
             if !rn.is_finite() {
                 return Err(FollowError::NoAssembly {
                     residual: rn,
@@ -480,10 +548,10 @@ impl Follower {
                 });
             }
             last = rn;
-            let jmax = amax(self.jfull.as_slice());
-            let rows = self.rows;
-            if !self.factor_dependent()
-                || (0..rows).any(|i| self.lu[(i, i)].abs() <= 1e-14 * jmax.max(1e-300))
+            let jmax = amax(&self.jfull.as_slice()[..rows * n.get()]);
+            if !self.factor_sized(r)
+                || (self.lu.as_slice()[..rows * rows].iter().step_by(rows + 1))
+                    .any(|d| d.abs() <= 1e-14 * jmax.max(1e-300))
             {
                 self.measure_condition();
                 return Err(FollowError::Singular {
@@ -491,17 +559,27 @@ impl Follower {
                     sigma_min: self.sigma_min,
                 });
             }
-            copy_short(self.rhs.as_mut_slice(), self.h.as_slice());
-            lu_solve(&self.lu, &self.piv, &mut self.rhs);
-            let mut len = norm(self.rhs.as_slice());
+            copy_short(
+                &mut self.rhs.as_mut_slice()[..rows],
+                &self.h.as_slice()[..rows],
+            );
+            self.solve_lu(r);
+            let rhs = &self.rhs.as_slice()[..rows];
+            let mut len = norm(rhs);
             let mut step = 1.0;
             if len > 0.3 {
                 step = 0.3 / len;
                 len = 0.3;
             }
-            let q = self.q.as_mut_slice();
-            for (&c, d) in self.dep.iter().zip(self.rhs.as_slice()) {
-                q[c] -= step * d;
+            let q = &mut self.q.as_mut_slice()[..n.get()];
+            if self.dep_leading {
+                for (qc, d) in q[..rows].iter_mut().zip(rhs) {
+                    *qc -= step * d;
+                }
+            } else {
+                for (&c, d) in self.dep.iter().zip(rhs) {
+                    q[c] -= step * d;
+                }
             }
             if len <= 1e-13 * (1.0 + q.iter().map(|x| x.abs()).sum::<f64>()) {
                 if rn <= 1e-12 * scale {
@@ -580,27 +658,58 @@ impl Follower {
         currents: &mut [f64],
         phi: &mut [f64],
     ) -> Result<(), FollowError> {
+        // The double bar pinned to the beam (two rows, two coordinates) with its sizes known
+        // at compile time; the same code for any other size.
+        if (self.rows, self.n) == (2, 2) {
+            let (r, n) = (Fixed::<2>, Fixed::<2>);
+            return self.follow_sized(r, n, model, t, pos, vel, acc, rule, currents, phi);
+        }
+        let (r, n) = (Dyn(self.rows), Dyn(self.n));
+        self.follow_sized(r, n, model, t, pos, vel, acc, rule, currents, phi)
+    }
+
+    /// [`Follower::follow_trial`] for `r` rows and `n` coordinates ([`Dim`]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn follow_sized<R: Dim, N: Dim>(
+        &mut self,
+        r: R,
+        n: N,
+        model: &HybridModel,
+        t: f64,
+        pos: &[f64],
+        vel: &[f64],
+        acc: &[f64],
+        rule: CurrentRule<'_>,
+        currents: &mut [f64],
+        phi: &mut [f64],
+    ) -> Result<(), FollowError> {
+        let (rows, nq) = (r.get(), n.get());
         let off = self.nb + self.free_offset;
+        let q = &mut self.q.as_mut_slice()[..nq];
         for (&c, x) in self.free.iter().zip(&pos[off..]) {
-            self.q[c] = *x;
+            q[c] = *x;
         }
-        self.solve_positions(model, pos)?;
+        self.solve_positions(r, n, model, pos)?;
         // Velocities (18): J_d qd_d = E w' - J_f u'.
+        let qd = &mut self.qd.as_mut_slice()[..nq];
         for (&c, x) in self.free.iter().zip(&vel[off..]) {
-            self.qd[c] = *x;
-        }
-        self.constraint_rhs(vel);
-        lu_solve(&self.lu, &self.piv, &mut self.rhs);
-        let qd = self.qd.as_mut_slice();
-        for (&c, x) in self.dep.iter().zip(self.rhs.as_slice()) {
             qd[c] = *x;
         }
+        self.constraint_rhs(r, vel);
+        self.solve_lu(r);
+        scatter(
+            &self.dep,
+            self.dep_leading,
+            &self.rhs.as_slice()[..rows],
+            &mut self.qd.as_mut_slice()[..nq],
+        );
         // Dynamics and the constraint bias A = J' q' (16), (50).
         let m = &model.mechanisms[self.mech];
         let (cs, sn) = self.rot;
-        let bias = self.bias.as_mut_slice();
+        let bias = &mut self.bias.as_mut_slice()[..rows];
         zero_short(bias);
-        let (q, qd) = (self.q.as_slice(), self.qd.as_slice());
+        let (q, qd) = (&self.q.as_slice()[..nq], &self.qd.as_slice()[..nq]);
         for (i, a) in self.atts.iter().enumerate() {
             if i == 0 {
                 // M, F, Q, A and the first point from one (generated: fused) call.
@@ -643,44 +752,57 @@ impl Follower {
         );
         model.add_base_load(self.mech, t, q, &mut self.ws);
         // Accelerations (19): J_d qdd_d = E w'' - J_f u'' - A.
+        let qdd = &mut self.qdd.as_mut_slice()[..nq];
         for (&c, x) in self.free.iter().zip(&acc[off..]) {
-            self.qdd[c] = *x;
-        }
-        self.constraint_rhs(acc);
-        for (r, b) in self.rhs.as_mut_slice().iter_mut().zip(self.bias.as_slice()) {
-            *r -= b;
-        }
-        lu_solve(&self.lu, &self.piv, &mut self.rhs);
-        let qdd = self.qdd.as_mut_slice();
-        for (&c, x) in self.dep.iter().zip(self.rhs.as_slice()) {
             qdd[c] = *x;
         }
+        self.constraint_rhs(r, acc);
+        let rhs = &mut self.rhs.as_mut_slice()[..rows];
+        for (r, b) in rhs.iter_mut().zip(&self.bias.as_slice()[..rows]) {
+            *r -= b;
+        }
+        self.solve_lu(r);
+        scatter(
+            &self.dep,
+            self.dep_leading,
+            &self.rhs.as_slice()[..rows],
+            &mut self.qdd.as_mut_slice()[..nq],
+        );
+        let qdd = &self.qdd.as_slice()[..nq];
         // g = M q'' + F + Q; phi = R^T g with R = [J_d^-1 E, e_f - J_d^-1 J_f]:
         // mu = J_d^-T g_d, phi_w = E^T mu, phi_u = g_f - J_f^T mu.
         // `M q''` column by column, as nalgebra's `gemv` sums it (the same results bit for
         // bit), then `+ F`, `+ Q`.
-        let (n, g) = (self.n, self.g.as_mut_slice());
-        let mm = self.ws.m.as_slice();
-        for (i, gi) in g.iter_mut().enumerate() {
+        let g = &mut self.g.as_mut_slice()[..nq];
+        let (mm, f, qv) = (
+            &self.ws.m.as_slice()[..nq * nq],
+            &self.ws.f.as_slice()[..nq],
+            &self.ws.q.as_slice()[..nq],
+        );
+        for (i, ((gi, fi), qi)) in g.iter_mut().zip(f).zip(qv).enumerate() {
             let mut s = mm[i] * qdd[0];
-            for j in 1..n {
-                s += mm[j * n + i] * qdd[j];
+            for (col, x) in mm.chunks_exact(nq).zip(qdd).skip(1) {
+                s += col[i] * x;
             }
-            *gi = (s + self.ws.f[i]) + self.ws.q[i];
+            *gi = (s + fi) + qi;
         }
-        let rhs = self.rhs.as_mut_slice();
-        for (&c, r) in self.dep.iter().zip(rhs.iter_mut()) {
-            *r = g[c];
-        }
-        lu_solve_transpose(&self.lu, &self.piv, &mut self.rhs);
-        let mu = self.rhs.as_slice();
-        for a in &self.atts {
-            phi[a.coupling] = mu[a.row];
-            if let (Some(r), Some(c)) = (a.axial_row, a.axial_coupling) {
-                phi[c] = mu[r];
+        let rhs = &mut self.rhs.as_mut_slice()[..rows];
+        if self.dep_leading {
+            copy_short(rhs, &g[..rows]);
+        } else {
+            for (&c, r) in self.dep.iter().zip(rhs.iter_mut()) {
+                *r = g[c];
             }
         }
-        let (rows, jfull) = (self.rows, self.jfull.as_slice());
+        let (lu, b) = (self.lu.as_slice(), self.rhs.as_mut_slice());
+        if rows > 2 || !lu_solve_transpose_small(&lu[..rows * rows], &self.piv, &mut b[..rows]) {
+            lu_solve_transpose(&self.lu, &self.piv, &mut self.rhs);
+        }
+        let mu = &self.rhs.as_slice()[..rows];
+        for &(r, c) in &self.coupled {
+            phi[c] = mu[r];
+        }
+        let jfull = self.jfull.as_slice();
         for (&c, p) in self.free.iter().zip(&mut phi[off..]) {
             let mut s = g[c];
             for (j, m) in jfull[c * rows..(c + 1) * rows].iter().zip(mu) {
@@ -728,17 +850,17 @@ impl Follower {
         }
     }
 
-    /// `rhs = E x_w - J_f x_u` for a position-level vector `x` in the global layout.
-    fn constraint_rhs(&mut self, x: &[f64]) {
-        let rhs = self.rhs.as_mut_slice();
+    /// `rhs = E x_w - J_f x_u` for a position-level vector `x` in the global layout (`r`
+    /// rows, [`Dim`]).
+    #[inline(always)]
+    fn constraint_rhs<R: Dim>(&mut self, r: R, x: &[f64]) {
+        let rows = r.get();
+        let rhs = &mut self.rhs.as_mut_slice()[..rows];
         zero_short(rhs);
-        for a in &self.atts {
-            rhs[a.row] = x[a.coupling];
-            if let (Some(r), Some(c)) = (a.axial_row, a.axial_coupling) {
-                rhs[r] = x[c];
-            }
+        for &(r, c) in &self.coupled {
+            rhs[r] = x[c];
         }
-        let (off, rows) = (self.nb + self.free_offset, self.rows);
+        let off = self.nb + self.free_offset;
         let jfull = self.jfull.as_slice();
         for (&c, u) in self.free.iter().zip(&x[off..]) {
             for (r, j) in rhs.iter_mut().zip(&jfull[c * rows..(c + 1) * rows]) {
@@ -763,15 +885,212 @@ fn amax(x: &[f64]) -> f64 {
     x.iter().fold(0.0, |m: f64, v| m.max(v.abs()))
 }
 
-/// `J_d = J[:, dep]` into `jd` (`rows x dep.len()`): whole columns of the column-major
-/// storage copied as slices.
-fn dependent_columns(j: &DMatrix<f64>, dep: &[usize], jd: &mut DMatrix<f64>) {
-    let rows = j.nrows();
+/// `J_d = J[:, dep]` into `jd` (`rows x dep.len()`, column-major like the `rows`-row
+/// `j`): whole columns copied as slices; one slice, the leading block, when `leading`
+/// (`dep` is `0..rows`, [`leading`]).
+#[inline(always)]
+fn dependent_columns(j: &[f64], rows: usize, dep: &[usize], leading: bool, jd: &mut [f64]) {
     if rows == 0 {
         return;
     }
-    let j = j.as_slice();
-    for (dst, &c) in jd.as_mut_slice().chunks_exact_mut(rows).zip(dep) {
+    if leading {
+        copy_short(&mut jd[..rows * rows], &j[..rows * rows]);
+        return;
+    }
+    for (dst, &c) in jd.chunks_exact_mut(rows).zip(dep) {
         copy_short(dst, &j[c * rows..(c + 1) * rows]);
+    }
+}
+
+/// Whether the dependent coordinates `dep` are `0..rows` (in order).
+fn leading(dep: &[usize], rows: usize) -> bool {
+    dep.len() == rows && dep.iter().enumerate().all(|(i, &c)| c == i)
+}
+
+/// The `(row, coupling)` pairs of [`Follower`]'s coupled rows, in attachment order: the
+/// transverse row, then the axial row when it has a coupling unknown.
+fn coupled_rows(atts: &[AttachRow]) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    for a in atts {
+        out.push((a.row, a.coupling));
+        if let (Some(r), Some(c)) = (a.axial_row, a.axial_coupling) {
+            out.push((r, c));
+        }
+    }
+    out
+}
+
+/// `dst[dep[k]] = src[k]`: a solve's dependent values into a coordinate vector (one copy
+/// of the leading entries when `leading`, [`leading`]).
+#[inline(always)]
+fn scatter(dep: &[usize], leading: bool, src: &[f64], dst: &mut [f64]) {
+    if leading {
+        copy_short(&mut dst[..src.len()], src);
+    } else {
+        for (&c, x) in dep.iter().zip(src) {
+            dst[c] = *x;
+        }
+    }
+}
+
+/// A size of the follower's buffers (constraint rows, coordinates): known at compile time
+/// ([`Fixed`]) for the sizes of the step's hot path, so that the slices cut to it need no
+/// length checks and the loops over it unroll, or at run time ([`Dyn`]). The code using it
+/// is the same either way: so are its operations and results.
+trait Dim: Copy {
+    /// The size.
+    fn get(self) -> usize;
+}
+
+/// A size known at compile time.
+#[derive(Clone, Copy)]
+struct Fixed<const N: usize>;
+
+impl<const N: usize> Dim for Fixed<N> {
+    #[inline(always)]
+    fn get(self) -> usize {
+        N
+    }
+}
+
+/// A size known at run time.
+#[derive(Clone, Copy)]
+struct Dyn(usize);
+
+impl Dim for Dyn {
+    #[inline(always)]
+    fn get(self) -> usize {
+        self.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::generator::GeneratorSpec;
+    use crate::hybrid::{
+        Attachment, BeamPoint, ForceKind, JointForce, Mount, MountedMechanism, Placement,
+        place_two_bar,
+    };
+    use fem_beam::{Beam, BeamModel};
+    use mbs_symbolic::samples::SplitMix64;
+
+    /// The paper's damper (`scenarios/damper.toml`, 8 elements): the generated double bar
+    /// at 10 degrees pinned to the tip of the cantilever, the generator on its first joint
+    /// (with an inductance: the current's trapezoidal rule runs too).
+    fn damper() -> HybridModel {
+        let text = "[[segment]]\nlength = 1.0\nyoungs_modulus = 210e9\ndensity = 7850.0\n\
+                    width = 0.040\nheight = 0.008\nelements = 8\n[[support]]\nx = 0.0\n\
+                    kind = \"clamped\"\n";
+        let beam = BeamModel::new(&Beam::from_toml_str(text, "b.toml").unwrap()).unwrap();
+        let system = model_registry::find_by_name("double_bar").unwrap().system();
+        let tip = system.point_index("tip").unwrap();
+        let placed = place_two_bar(system.as_ref(), tip, Placement::HalfAngle(10.0)).unwrap();
+        let point = BeamPoint::on(&beam, 1.0).unwrap();
+        let mechanism = MountedMechanism {
+            name: "damper".into(),
+            system,
+            mount: Mount {
+                origin: [1.0 - placed.target[0], -placed.target[1]],
+                angle: 0.0,
+            },
+            max_condition: 1e4,
+            reach: Some(placed.reach),
+            initial_q: placed.guess.to_vec(),
+        };
+        let generator = GeneratorSpec {
+            kt: 0.0235,
+            ke: 0.0235,
+            armature_resistance: 1.5,
+            load_resistance: 3.5,
+            inductance: 1e-3,
+            gear_ratio: 5.0,
+            rotor_inertia: 1e-6,
+            connected: true,
+            gear_efficiency: 1.0,
+            gear_friction: Default::default(),
+        };
+        HybridModel::new(
+            Some(beam.into()),
+            vec![mechanism],
+            vec![Attachment {
+                name: "tip".into(),
+                mechanism: 0,
+                point: tip,
+                kind: AttachmentKind::Pin,
+                beam: point,
+            }],
+            vec![JointForce {
+                name: "generator".into(),
+                mechanism: 0,
+                joint: 0,
+                kind: ForceKind::Generator(generator),
+            }],
+            vec![],
+        )
+        .unwrap()
+    }
+
+    /// The follow on sizes known at compile time (what `follow_trial` runs for the double
+    /// bar) against the same code on run-time sizes: the same outputs bit for bit, along a
+    /// sequence of trial states (the prediction from the last solve included) and at a
+    /// beam displacement beyond the mechanism's reach (the same error).
+    #[test]
+    fn the_fixed_size_follow_equals_the_run_time_sized_one_bit_for_bit() {
+        let model = damper();
+        let mut fixed = Follower::new(&model, 0, vec![], 0);
+        assert_eq!((fixed.rows(), fixed.n, fixed.nb), (2, 2, 1));
+        let mut dynamic = fixed.clone();
+        let mut rng = SplitMix64::new(5);
+        let mut errors = 0;
+        for k in 0..200 {
+            // Mostly small displacements; every 50th far beyond the reach.
+            let w = if k % 50 == 49 {
+                0.5
+            } else {
+                2e-3 * rng.symmetric(1.0)
+            };
+            let (pos, vel, acc) = ([w], [rng.symmetric(0.3)], [rng.symmetric(30.0)]);
+            let (old, rate) = ([rng.symmetric(0.1)], [rng.symmetric(10.0)]);
+            let rule = CurrentRule {
+                h: 1e-4,
+                old: &old,
+                rate: &rate,
+            };
+            let t = 1e-4 * k as f64;
+            let (mut c1, mut c2) = ([f64::NAN], [f64::NAN]);
+            let (mut p1, mut p2) = ([f64::NAN], [f64::NAN]);
+            let (r, n) = (Fixed::<2>, Fixed::<2>);
+            let a = fixed.follow_sized(r, n, &model, t, &pos, &vel, &acc, rule, &mut c1, &mut p1);
+            let (r, n) = (Dyn(2), Dyn(2));
+            let b = dynamic.follow_sized(r, n, &model, t, &pos, &vel, &acc, rule, &mut c2, &mut p2);
+            assert_eq!(a, b, "step {k}");
+            errors += usize::from(a.is_err());
+            let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&c1), bits(&c2), "step {k}");
+            assert_eq!(bits(&p1), bits(&p2), "step {k}");
+            for (x, y) in [
+                (&fixed.q, &dynamic.q),
+                (&fixed.qd, &dynamic.qd),
+                (&fixed.qdd, &dynamic.qdd),
+                (&fixed.rhs, &dynamic.rhs),
+                (&fixed.h, &dynamic.h),
+            ] {
+                assert_eq!(bits(x.as_slice()), bits(y.as_slice()), "step {k}");
+            }
+            assert_eq!(bits(fixed.lu.as_slice()), bits(dynamic.lu.as_slice()));
+            assert_eq!(bits(fixed.jfull.as_slice()), bits(dynamic.jfull.as_slice()));
+            assert_eq!(
+                (fixed.piv.clone(), fixed.solved),
+                (dynamic.piv.clone(), dynamic.solved)
+            );
+            if a.is_err() {
+                // Back to a configuration both can follow from.
+                let q0 = model.mechanisms[0].initial_q.clone();
+                fixed.q.as_mut_slice().copy_from_slice(&q0);
+                dynamic.q.as_mut_slice().copy_from_slice(&q0);
+            }
+        }
+        assert!((1..20).contains(&errors), "{errors} failed follows");
     }
 }

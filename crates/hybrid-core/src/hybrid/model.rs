@@ -303,6 +303,7 @@ pub struct JointForce {
 
 impl JointForce {
     /// The generator, if this is one.
+    #[inline]
     pub fn generator(&self) -> Option<&GeneratorSpec> {
         match &self.kind {
             ForceKind::Generator(g) => Some(g),
@@ -311,6 +312,7 @@ impl JointForce {
     }
 
     /// Whether it carries a current state (a connected generator with inductance > 0).
+    #[inline]
     pub fn has_current_state(&self) -> bool {
         self.generator()
             .is_some_and(GeneratorSpec::has_current_state)
@@ -318,12 +320,14 @@ impl JointForce {
 
     /// The current through it at joint speed `qd` when it has no current state (0 for
     /// elements that are not generators).
+    #[inline]
     pub fn quasi_static_current(&self, qd: f64) -> f64 {
         self.generator().map_or(0.0, |g| g.quasi_static_current(qd))
     }
 
     /// Adds the element to `M^b` (rotor inertia) and `Q^b` at joint position `q`, speed `qd`,
     /// with generator current `current`.
+    #[inline]
     pub fn add_to_equations(
         &self,
         q: f64,

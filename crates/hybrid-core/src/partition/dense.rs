@@ -30,7 +30,8 @@ pub(crate) fn resize_v(v: &mut DVector<f64>, n: usize) {
 }
 
 /// `dst.copy_from_slice(src)` for the short vectors of the step's hot path (a mechanism's
-/// constraint rows, a column of `J_d`, its coordinates): up to three entries one by one,
+/// constraint rows, a column of `J_d`, a whole 2 x 2 `J_d`, its coordinates): up to four
+/// entries one by one,
 /// longer ones through the library copy. A copy of one or two numbers through libc's
 /// `memcpy` (what `copy_from_slice` of a length unknown at compile time becomes) costs
 /// several times the copy itself. The same values either way. Panics like
@@ -48,6 +49,12 @@ pub(crate) fn copy_short(dst: &mut [f64], src: &[f64]) {
             *d0 = *s0;
             *d1 = *s1;
             *d2 = *s2;
+        }
+        ([d0, d1, d2, d3], [s0, s1, s2, s3]) => {
+            *d0 = *s0;
+            *d1 = *s1;
+            *d2 = *s2;
+            *d3 = *s3;
         }
         (d, s) => d.copy_from_slice(s),
     }
@@ -81,12 +88,14 @@ pub(crate) fn norm1(a: &DMatrix<f64>) -> f64 {
 }
 
 /// LU factorisation with partial (row) pivoting in place: `P a = L U`, unit lower `L`
-/// below the diagonal, `U` on and above. Returns `false` on an exactly zero pivot.
+/// below the diagonal, `U` on and above. Returns `false` on an exactly zero pivot. Inlined:
+/// the 1 x 1 and 2 x 2 paths of the step's hot path cost fewer instructions than a call.
+#[inline(always)]
 pub(crate) fn lu_in_place(a: &mut DMatrix<f64>, piv: &mut Vec<usize>) -> bool {
     let n = a.nrows();
     piv.clear();
     if n <= 2 && a.ncols() == n {
-        return lu_small(n, a.as_mut_slice(), piv);
+        return lu_small(a.as_mut_slice(), piv);
     }
     lu_general(a, piv)
 }
@@ -124,63 +133,75 @@ fn lu_general(a: &mut DMatrix<f64>, piv: &mut Vec<usize>) -> bool {
 
 /// [`lu_in_place`] written out for the 1 x 1 and 2 x 2 blocks of the step's hot path
 /// (`J_d` of a double bar pinned to the beam, the scalar Jacobian of its quasi-Newton
-/// iteration) on the column-major storage `a`: the same comparisons and operations in the
-/// same order as the general loops (so the same factors bit for bit), without their index
-/// arithmetic and bounds checks. `piv` is empty on entry.
-fn lu_small(n: usize, a: &mut [f64], piv: &mut Vec<usize>) -> bool {
+/// iteration) on the column-major storage `a` of a square matrix (0, 1 or 4 entries): the
+/// same comparisons and operations in the same order as the general loops (so the same
+/// factors bit for bit), without their index arithmetic and bounds checks. `piv` is empty
+/// on entry.
+#[inline(always)]
+pub(crate) fn lu_small(a: &mut [f64], piv: &mut Vec<usize>) -> bool {
     let ok = |best: f64| best != 0.0 && best.is_finite();
-    if n == 0 {
-        return true;
+    match a {
+        [a0] => {
+            piv.push(0);
+            ok(a0.abs())
+        }
+        [a0, a1, a2, a3] => {
+            // Column 0: the pivot row, then the elimination of row 1.
+            let (mut p, mut best) = (0, a0.abs());
+            if a1.abs() > best {
+                best = a1.abs();
+                p = 1;
+            }
+            piv.push(p);
+            if !ok(best) {
+                return false;
+            }
+            if p != 0 {
+                std::mem::swap(a0, a1);
+                std::mem::swap(a2, a3);
+            }
+            let l = *a1 / *a0;
+            *a1 = l;
+            *a3 -= l * *a2;
+            // Column 1: its only candidate pivot.
+            piv.push(1);
+            ok(a3.abs())
+        }
+        // 0 x 0 (nothing to factor).
+        _ => true,
     }
-    if n == 1 {
-        piv.push(0);
-        return ok(a[0].abs());
-    }
-    // Column 0: the pivot row, then the elimination of row 1.
-    let (mut p, mut best) = (0, a[0].abs());
-    if a[1].abs() > best {
-        best = a[1].abs();
-        p = 1;
-    }
-    piv.push(p);
-    if !ok(best) {
-        return false;
-    }
-    if p != 0 {
-        a.swap(0, 1);
-        a.swap(2, 3);
-    }
-    let l = a[1] / a[0];
-    a[1] = l;
-    a[3] -= l * a[2];
-    // Column 1: its only candidate pivot.
-    piv.push(1);
-    ok(a[3].abs())
 }
 
 /// Solves `A x = b` in place with the factors of [`lu_in_place`]. Inlined: its 1 x 1 and
 /// 2 x 2 paths are a few operations, fewer than a call's own instructions.
-#[inline]
+#[inline(always)]
 pub(crate) fn lu_solve(lu: &DMatrix<f64>, piv: &[usize], b: &mut DVector<f64>) {
-    let n = lu.nrows();
-    if n == 1 {
-        // The sweeps below for one unknown: `x = b / u`.
-        b[0] /= lu[(0, 0)];
-        return;
+    if !lu_solve_small(lu.as_slice(), piv, b.as_mut_slice()) {
+        lu_solve_sweeps(lu, piv, b);
     }
-    if n == 2 {
+}
+
+/// The 1 x 1 and 2 x 2 paths of [`lu_solve`] on the column-major factors `lu` (1 or 4
+/// entries) and `b`: `false`, with nothing done, for any other size. On slices cut to a
+/// length known at compile time the size test folds away.
+#[inline(always)]
+pub(crate) fn lu_solve_small(lu: &[f64], piv: &[usize], b: &mut [f64]) -> bool {
+    match (lu, piv, b) {
+        // The sweeps below for one unknown: `x = b / u`.
+        (&[u], _, [x]) => *x /= u,
         // The general sweeps below written out for the 2 x 2 blocks of the damper's hot
         // path (the same operations in the same order: the same results bit for bit).
-        let (a, x) = (lu.as_slice(), b.as_mut_slice());
-        if piv[0] != 0 {
-            x.swap(0, 1);
+        (&[a0, a1, a2, a3], &[p0, _], [x0, x1]) => {
+            if p0 != 0 {
+                std::mem::swap(x0, x1);
+            }
+            *x1 -= a1 * *x0;
+            *x1 /= a3;
+            *x0 = (*x0 - a2 * *x1) / a0;
         }
-        x[1] -= a[1] * x[0];
-        x[1] /= a[3];
-        x[0] = (x[0] - a[2] * x[1]) / a[0];
-        return;
+        _ => return false,
     }
-    lu_solve_sweeps(lu, piv, b);
+    true
 }
 
 /// The forward and backward sweeps of [`lu_solve`] for any size.
@@ -253,21 +274,28 @@ pub(crate) fn cholesky_solve(l: &DMatrix<f64>, b: &mut DVector<f64>) {
 
 /// Solves `A^T x = b` in place with the factors of [`lu_in_place`] (`P A = L U`, so
 /// `A^T = U^T L^T P`). Inlined like [`lu_solve`].
-#[inline]
+#[inline(always)]
 pub(crate) fn lu_solve_transpose(lu: &DMatrix<f64>, piv: &[usize], b: &mut DVector<f64>) {
-    let n = lu.nrows();
-    if n == 2 {
-        // Written out for 2 x 2 (same operations, same order as the sweeps below).
-        let (a, x) = (lu.as_slice(), b.as_mut_slice());
-        x[0] /= a[0];
-        x[1] = (x[1] - a[2] * x[0]) / a[3];
-        x[0] -= a[1] * x[1];
-        if piv[0] != 0 {
-            x.swap(0, 1);
-        }
-        return;
+    if !lu_solve_transpose_small(lu.as_slice(), piv, b.as_mut_slice()) {
+        lu_solve_transpose_sweeps(lu, piv, b);
     }
-    lu_solve_transpose_sweeps(lu, piv, b);
+}
+
+/// The 2 x 2 path of [`lu_solve_transpose`] (`lu` of 4 entries, column-major): `false`,
+/// with nothing done, for any other size (see [`lu_solve_small`]).
+#[inline(always)]
+pub(crate) fn lu_solve_transpose_small(lu: &[f64], piv: &[usize], b: &mut [f64]) -> bool {
+    if let (&[a0, a1, a2, a3], &[p0, _], [x0, x1]) = (lu, piv, b) {
+        // Written out for 2 x 2 (same operations, same order as the sweeps below).
+        *x0 /= a0;
+        *x1 = (*x1 - a2 * *x0) / a3;
+        *x0 -= a1 * *x1;
+        if p0 != 0 {
+            std::mem::swap(x0, x1);
+        }
+        return true;
+    }
+    false
 }
 
 /// The sweeps of [`lu_solve_transpose`] for any size.

@@ -29,6 +29,7 @@ fn owned(names: &[&str]) -> Vec<String> {
 }
 
 /// Copies `R` rows of `C` into a column-major `R x C` buffer.
+#[inline(always)]
 fn copy_rows<const R: usize, const C: usize>(rows: &[[f64; C]; R], out: &mut [f64]) {
     let out = &mut out[..R * C];
     for (r, row) in rows.iter().enumerate() {
@@ -40,7 +41,8 @@ fn copy_rows<const R: usize, const C: usize>(rows: &[[f64; C]; R], out: &mut [f6
 
 /// `M`, `F`, `Q`, `h`, `A`, `J` of a generated evaluation into the workspace. Column-major
 /// copies through the raw slices (no per-entry bounds checks: this is on every step of the
-/// damper).
+/// damper). Inlined into its callers: a call costs about as much as the copies themselves.
+#[inline(always)]
 fn store_evaluation<const N: usize, const NC: usize>(e: &Evaluation<N, NC>, ws: &mut Workspace) {
     copy_rows(&e.mass, ws.m.as_mut_slice());
     ws.f.as_mut_slice().copy_from_slice(&e.f);
@@ -51,6 +53,7 @@ fn store_evaluation<const N: usize, const NC: usize>(e: &Evaluation<N, NC>, ws: 
 }
 
 /// A point's position, bias and Jacobian into the workspace.
+#[inline(always)]
 fn store_point<const N: usize>(pk: &PointKinematics<N>, ws: &mut Workspace) {
     ws.point_p.as_mut_slice().copy_from_slice(&pk.p);
     store_bias(&pk.a, ws.point_a.as_mut_slice());
