@@ -416,7 +416,7 @@ impl Integrator {
     }
 
     /// Allows (the default) or forbids accepting the third iterate of a step with one
-    /// unknown from the secant without evaluating it ([`Integrator::iterate`]); forbidden,
+    /// unknown from the secant without evaluating it (see the module documentation); forbidden,
     /// every accepted iterate is one evaluated, for checks against that.
     pub fn set_secant_acceptance(&mut self, on: bool) {
         self.secant_acceptance = on;
