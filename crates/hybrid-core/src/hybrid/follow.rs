@@ -868,6 +868,57 @@ impl Follower {
             }
         }
     }
+
+    /// The length of the record [`Follower::save_trial`] writes: `q`, `q'`, `q''`.
+    pub fn trial_len(&self) -> usize {
+        3 * self.n
+    }
+
+    /// Copies the trial state `q`, `q'`, `q''` of the last evaluation into `out`
+    /// ([`Follower::trial_len`] long), for [`Follower::extrapolate_trial`].
+    pub fn save_trial(&self, out: &mut [f64]) {
+        let n = self.n;
+        let (q, rest) = out.split_at_mut(n);
+        let (qd, qdd) = rest.split_at_mut(n);
+        copy_short(q, self.q.as_slice());
+        copy_short(qd, self.qd.as_slice());
+        copy_short(qdd, self.qdd.as_slice());
+    }
+
+    /// Moves the trial state along the secant through the saved one `prev` (the evaluation
+    /// at `z_p`, [`Follower::save_trial`]) and the last evaluation (at `z`) to
+    /// `z + ratio (z - z_p)`: `x += ratio (x - x_p)` for `q`, `q'`, `q''` of the dependent
+    /// coordinates, whose error is of second order in the move; the free coordinates are set
+    /// from `pos`, `vel`, `acc` (the layout of [`Follower::follow`]) exactly as an
+    /// evaluation there sets them. The position solve's factors (for the next step's
+    /// prediction) stay those of the last evaluation, consistent with its record.
+    pub fn extrapolate_trial(
+        &mut self,
+        prev: &[f64],
+        ratio: f64,
+        pos: &[f64],
+        vel: &[f64],
+        acc: &[f64],
+    ) {
+        let n = self.n;
+        let (pq, rest) = prev.split_at(n);
+        let (pqd, pqdd) = rest.split_at(n);
+        for (x, p) in [
+            (self.q.as_mut_slice(), pq),
+            (self.qd.as_mut_slice(), pqd),
+            (self.qdd.as_mut_slice(), pqdd),
+        ] {
+            for &c in &self.dep {
+                x[c] += ratio * (x[c] - p[c]);
+            }
+        }
+        let off = self.nb + self.free_offset;
+        for (j, &c) in self.free.iter().enumerate() {
+            self.q[c] = pos[off + j];
+            self.qd[c] = vel[off + j];
+            self.qdd[c] = acc[off + j];
+        }
+    }
 }
 
 /// The 2-norm of `x`, summed in order as nalgebra's `norm` sums a short vector (the same

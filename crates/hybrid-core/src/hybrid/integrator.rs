@@ -198,6 +198,21 @@ pub struct Integrator {
     jac_lu: DMatrix<f64>,
     jac_piv: Vec<usize>,
     jac_valid: bool,
+    /// One unknown (`nz = 1`): the Jacobian at the end of the step before, for the
+    /// extrapolation of the next step's Jacobian ([`Integrator::extrapolate_jacobian`]);
+    /// `None` when there is no such history (a finite-difference refresh since).
+    jac_prev: Option<f64>,
+    /// One unknown: the followers' trial states ([`Follower::save_trial`]), `phi` and the
+    /// currents at the first iterate of a step, for the secant step that accepts the third
+    /// iterate without evaluating it ([`Integrator::accept_secant`]).
+    trial_prev: Vec<f64>,
+    phi_prev: Vec<f64>,
+    currents_prev: Vec<f64>,
+    /// Whether [`Integrator::accept_secant`] may accept an iterate without evaluating it
+    /// ([`Integrator::set_secant_acceptance`]).
+    secant_acceptance: bool,
+    /// Residual evaluations so far ([`Integrator::evaluations`]).
+    evaluations: u64,
     currents: Vec<f64>,
     /// The beam load per unit support acceleration, `-(A r)` (empty without a base
     /// excitation or a beam; [`HybridModel::base_beam_load`]).
@@ -314,6 +329,11 @@ impl Integrator {
         }
         let nz = nb + offset;
         let nf = model.forces.len();
+        let trial_len = if nz == 1 {
+            followers.iter().map(|f| f.trial_len()).sum()
+        } else {
+            0
+        };
         let base_load = if model.has_base_excitation() {
             model.base_beam_load()
         } else {
@@ -369,6 +389,12 @@ impl Integrator {
             jac_lu: DMatrix::zeros(nz, nz),
             jac_piv: Vec::with_capacity(nz),
             jac_valid: false,
+            jac_prev: None,
+            trial_prev: vec![0.0; trial_len],
+            phi_prev: vec![0.0; if nz == 1 { nz } else { 0 }],
+            currents_prev: vec![0.0; if nz == 1 { nf } else { 0 }],
+            secant_acceptance: true,
+            evaluations: 0,
             currents: vec![0.0; nf],
             base: model.has_base_excitation(),
             base_load,
@@ -381,6 +407,19 @@ impl Integrator {
     /// The time step.
     pub fn step_size(&self) -> f64 {
         self.h
+    }
+
+    /// Evaluations of the reduced residual so far (each one follow of every mechanism; the
+    /// finite-difference Jacobians' included): the iteration's cost.
+    pub fn evaluations(&self) -> u64 {
+        self.evaluations
+    }
+
+    /// Allows (the default) or forbids accepting the third iterate of a step with one
+    /// unknown from the secant without evaluating it (see the module documentation); forbidden,
+    /// every accepted iterate is one evaluated, for checks against that.
+    pub fn set_secant_acceptance(&mut self, on: bool) {
+        self.secant_acceptance = on;
     }
 
     /// The beam load `P(t)`: the beam's own loads plus the beam excitations plus the
@@ -407,6 +446,7 @@ impl Integrator {
         z_is_new: bool,
         state: &HybridState,
     ) -> Result<(), HybridError> {
+        self.evaluations += 1;
         let (bh2, gh) = (self.beta * self.h * self.h, self.gamma * self.h);
         let z = if z_is_new { &self.z_new } else { &self.z };
         for (((p, v), (ph, vh)), zi) in self
@@ -466,6 +506,7 @@ impl Integrator {
         t: f64,
         state: &HybridState,
     ) -> Result<(), HybridError> {
+        self.jac_prev = None;
         for j in 0..self.nz {
             self.z_new.copy_from_slice(&self.z);
             // At least 1e-7 (m/s^2 or rad/s^2): a free coordinate starting at rest has
@@ -546,6 +587,11 @@ impl Integrator {
 
     /// The quasi-Newton iteration of [`Integrator::solve`] (trial evaluations without the
     /// condition check).
+    ///
+    /// With one unknown (`nz = 1`: the secant method) the step starts from the Jacobian
+    /// extrapolated from the last two steps' ([`Integrator::extrapolate_jacobian`]), and
+    /// after the first secant update the next iterate may be accepted without being
+    /// evaluated ([`Integrator::accept_secant`]).
     fn iterate(
         &mut self,
         model: &HybridModel,
@@ -558,6 +604,10 @@ impl Integrator {
             self.residual(model, t, false, state)?;
             return Ok(());
         }
+        let secant = nz == 1;
+        if secant {
+            self.extrapolate_jacobian();
+        }
         self.residual(model, t, false, state)?;
         if self.res.iter().all(|r| *r == 0.0) {
             return Ok(());
@@ -568,6 +618,9 @@ impl Integrator {
         let mut iterations = 0;
         // Whether the followers hold the evaluation at `z` (finite differences move them).
         let mut at_z = true;
+        // One unknown, after the step's first secant update: the relative change it made to
+        // the Jacobian and the iterate the secant started from (whose trial is recorded).
+        let mut secant_step: Option<(f64, f64)> = None;
         loop {
             if !self.jac_valid {
                 self.fd_jacobian(model, t, state)?;
@@ -590,6 +643,17 @@ impl Integrator {
                     self.residual(model, t, false, state)?;
                 }
                 return Ok(());
+            }
+            if let Some((change, z_prev)) = secant_step.take() {
+                if at_z && !refreshed && self.accept_secant(change, z_prev) {
+                    return Ok(());
+                }
+            }
+            // One unknown, the first step from a carried Jacobian: record the trial at `z`
+            // for [`Integrator::accept_secant`].
+            let record = secant && iterations == 1 && at_z && !refreshed;
+            if record {
+                self.record_trial();
             }
             for ((zn, z), d) in self.z_new.iter_mut().zip(&self.z).zip(self.dz.as_slice()) {
                 *zn = z + d;
@@ -620,10 +684,17 @@ impl Integrator {
                 || stalled;
             // Broyden's update J += ((dr - J dz) dz^T) / (dz^T dz) (the secant method in
             // one dimension); not from the last, converged step, whose residual change is
-            // round-off.
+            // round-off, nor (one unknown) from a step within 1e3 of the round-off level,
+            // whose residual change is mostly rounding: a secant from it could be wrong in
+            // the third digit, and the next step's extrapolated Jacobian with it.
             let dz = self.dz.as_slice();
             let dd: f64 = dz.iter().map(|x| x * x).sum();
-            if dd > 0.0 && !converged {
+            let tiny = secant
+                && dz
+                    .iter()
+                    .zip(self.scale.iter().zip(&self.z_new))
+                    .all(|(d, (s, z))| d.abs() <= 1e-10 * s.max(z.abs()));
+            if dd > 0.0 && !converged && !tiny {
                 // `jac` column-major: J_ij at `j nz + i`.
                 let jac = self.jac.as_mut_slice();
                 for (i, (jdz, (rn, r))) in self
@@ -643,6 +714,15 @@ impl Integrator {
                         *c += jdz * d;
                     }
                 }
+                if record {
+                    // The secant is meaningful only from a step well above the residual's
+                    // rounding (`tiny` above), here 1e-9 of the unknown's scale.
+                    let (z0, z1) = (self.z[0], self.z_new[0]);
+                    if (z1 - z0).abs() > 1e-9 * self.scale[0].max(z1.abs()) {
+                        let change = (self.jdz[0] * dz[0]).abs() / jac[0].abs();
+                        secant_step = Some((change, z0));
+                    }
+                }
                 self.factor_jacobian();
                 fresh = false;
             }
@@ -660,6 +740,95 @@ impl Integrator {
                 return Err(self.no_convergence(model, t, iterations));
             }
         }
+    }
+
+    /// One unknown: extrapolates the Jacobian carried from the last step linearly from the
+    /// last two steps' (`J + (J - J_prev)`; the Jacobian follows the slowly changing
+    /// mechanism, and the extrapolated one is typically 1e-7 of it off where the carried
+    /// one is 1e-4), unless that changes it by more than 10 % or leaves it singular; records
+    /// the carried one as the next step's `J_prev`. Without a valid Jacobian (a
+    /// finite-difference refresh follows) the history is dropped.
+    fn extrapolate_jacobian(&mut self) {
+        if !self.jac_valid {
+            self.jac_prev = None;
+            return;
+        }
+        let j1 = self.jac[(0, 0)];
+        if let Some(j0) = self.jac_prev {
+            let jp = j1 + (j1 - j0);
+            if (jp - j1).abs() <= 0.1 * j1.abs() {
+                self.jac[(0, 0)] = jp;
+                self.factor_jacobian();
+                if !self.jac_valid {
+                    self.jac[(0, 0)] = j1;
+                    self.factor_jacobian();
+                }
+            }
+        }
+        self.jac_prev = Some(j1);
+    }
+
+    /// Records the followers' trial states, `phi` and the currents of the evaluation at `z`
+    /// (one unknown), the first point of [`Integrator::accept_secant`]'s secant.
+    fn record_trial(&mut self) {
+        let mut rest = self.trial_prev.as_mut_slice();
+        for f in &self.followers {
+            let (out, tail) = rest.split_at_mut(f.trial_len());
+            f.save_trial(out);
+            rest = tail;
+        }
+        copy_short(&mut self.phi_prev, &self.phi);
+        self.currents_prev.copy_from_slice(&self.currents);
+    }
+
+    /// One unknown, after the secant update from the recorded iterate `z_prev` to `z`
+    /// changed the Jacobian by the relative amount `change`, with `dz` the secant step from
+    /// `z`: accepts `z + dz` without evaluating it when the correction an evaluation there
+    /// would give is below round-off level.
+    ///
+    /// That correction is `-(J_t - J) dz / J` with `J_t` the residual's slope between `z`
+    /// and `z + dz` and `J` the secant's: the residual at `z + dz` is `r + J_t dz` with
+    /// `r + J dz = 0`. The secant's error `|J_t - J| / |J|` comes from the residual's
+    /// curvature over `z_prev .. z + dz`, a small part of the change of the Jacobian over a
+    /// time step that `change` measures (the carried Jacobian's error: the extrapolation's
+    /// of the slowly changing mechanism), and is bounded by `change` with a factor
+    /// 10 to spare: the test is `10 change |dz|` below round-off ([`below_round_off`]),
+    /// the same bound that accepts an evaluated iterate.
+    ///
+    /// The followers' states, `phi` and the currents, then move along the secant through
+    /// the recorded evaluation at `z_prev` and the last one at `z` to `z + dz`
+    /// ([`Follower::extrapolate_trial`]): exact for the parts linear in `z`, and for the rest
+    /// off by the curvature over `dz_1 dz`, of the order of the residual's error there.
+    fn accept_secant(&mut self, change: f64, z_prev: f64) -> bool {
+        let (z1, dz) = (self.z[0], self.dz[0]);
+        let z2 = z1 + dz;
+        // Written so that a NaN bound declines.
+        let within = 10.0 * change * dz.abs() <= 1e-13 * self.scale[0].max(z2.abs());
+        if !self.secant_acceptance || !within {
+            return false;
+        }
+        let ratio = dz / (z1 - z_prev);
+        let (bh2, gh) = (self.beta * self.h * self.h, self.gamma * self.h);
+        self.z[0] = z2;
+        self.pos[0] = self.pos_hat[0] + bh2 * z2;
+        self.vel[0] = self.vel_hat[0] + gh * z2;
+        let mut prev = self.trial_prev.as_slice();
+        for f in self.followers.iter_mut() {
+            let (p, tail) = prev.split_at(f.trial_len());
+            f.extrapolate_trial(p, ratio, &self.pos, &self.vel, &self.z);
+            prev = tail;
+        }
+        for (x, p) in self
+            .phi
+            .iter_mut()
+            .zip(&self.phi_prev)
+            .chain(self.currents.iter_mut().zip(&self.currents_prev))
+        {
+            *x += ratio * (*x - p);
+        }
+        // After the swap `res_new` holds the residual at `z_prev`.
+        self.res[0] += ratio * (self.res[0] - self.res_new[0]);
+        true
     }
 
     /// Sets the per-unknown scales and the predictor of the attachment accelerations.

@@ -52,7 +52,10 @@
 //! a small nonlinear system in `z` (size `nb + nf`) solved by Broyden's quasi-Newton method
 //! (the secant method for the double bar) from the previous step's accelerations and
 //! Jacobian; the Jacobian is refreshed by finite differences at the start, after a
-//! re-partition, or when the iteration is slow. Each residual evaluates every mechanism once
+//! re-partition, or when the iteration is slow. With one unknown the Jacobian is
+//! extrapolated from the last two steps' and the third iterate is accepted from the secant,
+//! without evaluating it, when the correction it leaves is bounded below round-off (about
+//! two evaluations per step). Each residual evaluates every mechanism once
 //! (positions by Newton on `h = 0`, then M, F, Q, A): a step is one banded solve plus
 //! `O(n)` vector work, whatever the number of mechanisms, and allocates nothing. Inductive
 //! generator currents advance with the trapezoidal rule inside the residual.
