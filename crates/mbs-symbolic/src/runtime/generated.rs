@@ -218,6 +218,18 @@ where
         true
     }
 
+    fn point_position(&self, k: usize, q: &[f64], ws: &mut Workspace) -> bool {
+        // The position straight into the workspace; the Jacobian through a row-major array
+        // (the workspace's is column-major). No bias computed, `point_a` left unchanged.
+        let mut j = [[0.0; N]; 3];
+        let p: &mut [f64; 3] = ws.point_p.as_mut();
+        if !self.mech.point_position(k, &array::<N>(q), p, &mut j) {
+            return false;
+        }
+        copy_rows(&j, ws.point_j.as_mut_slice());
+        true
+    }
+
     fn evaluate_with_point(
         &self,
         k: usize,
