@@ -118,7 +118,9 @@ impl<T: Mechanism<N, NC>, const N: usize, const NC: usize> GeneratedSystem<T, N,
         ws: &mut Workspace,
     ) -> bool {
         let mut e = Evaluation::<N, NC>::default();
-        let mut points = [PointKinematics::<N>::default(); P];
+        // Built in place (an array repeat expression built one default and copied it).
+        let mut points: [PointKinematics<N>; P] =
+            core::array::from_fn(|_| PointKinematics::default());
         if !self
             .mech
             .evaluate_with_points(q, qd, t, &mut e, &mut points)
