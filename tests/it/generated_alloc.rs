@@ -31,6 +31,8 @@ fn exercise<const N: usize, const NC: usize>(m: &impl Mechanism<N, NC>) -> f64 {
         for k in 0..m.point_names().len() {
             m.point_kinematics(k, &q, &qd, &mut pk);
             acc += pk.p[0];
+            m.point_position(k, &q, &mut pk.p, &mut pk.j);
+            acc += pk.j[0][0];
         }
         acc += mm[0][0] + f[0] + qv[0];
     }
@@ -100,6 +102,8 @@ fn exercise_dyn(s: &dyn System) -> (f64, usize) {
         for k in 0..points {
             assert!(s.point_kinematics(k, &q, &qd, &mut ws));
             acc += ws.point_p[0] + ws.point_j[(0, 0)] + ws.point_a[0];
+            assert!(s.point_position(k, &q, &mut ws));
+            acc += ws.point_p[1] + ws.point_j[(1, 0)];
         }
     }
     (acc, allocations() - before)

@@ -188,6 +188,28 @@ fn compare<const N: usize, const NC: usize>(
         let mut pk = PointKinematics::<N>::default();
         assert!(!generated.point_kinematics(pts.len(), &q, &qd, &mut pk));
 
+        // The position-only point methods: bit for bit the `p` and `J` of the full point
+        // kinematics (the same nodes, the bias left out), at any `q'`.
+        for k in 0..pts.len() {
+            let mut want = PointKinematics::<N>::default();
+            assert!(generated.point_kinematics(k, &q, &qd, &mut want));
+            let (mut p, mut jp) = ([f64::NAN; 3], [[f64::NAN; N]; 3]);
+            assert!(generated.point_position(k, &q, &mut p, &mut jp));
+            let got = PointKinematics::<N> {
+                p,
+                j: jp,
+                a: want.a,
+            };
+            assert_eq!(
+                point_bits(&got),
+                point_bits(&want),
+                "{rel}: point_position vs point_kinematics, point {k}"
+            );
+        }
+        let (mut p, mut jp) = ([f64::NAN; 3], [[f64::NAN; N]; 3]);
+        assert!(!generated.point_position(pts.len(), &q, &mut p, &mut jp));
+        assert!(p.iter().chain(jp.iter().flatten()).all(|x| x.is_nan()));
+
         // The fused entry point with every named point: bit for bit the same as `evaluate`
         // and the separate point methods (one plan of the shared intermediates for all).
         let mut fused = Evaluation::<N, NC>::default();
@@ -497,7 +519,40 @@ fn quantities(s: &dyn System, q: &[f64], qd: &[f64], t: f64) -> Vec<(String, Vec
         out.push((format!("point {name} p"), ws.point_p.as_slice().to_vec()));
         out.push((format!("point {name} J"), ws.point_j.as_slice().to_vec()));
         out.push((format!("point {name} A"), ws.point_a.as_slice().to_vec()));
+        // `point_position`: bit for bit the same `p` and `J` on the same backend, compared
+        // across backends like the rest.
+        let mut wp = s.workspace();
+        wp.point_p.fill(f64::NAN);
+        wp.point_j.fill(f64::NAN);
+        assert!(s.point_position(k, q, &mut wp), "point {name} (position)");
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(
+            bits(wp.point_p.as_slice()),
+            bits(ws.point_p.as_slice()),
+            "point {name}: point_position p vs point_kinematics"
+        );
+        assert_eq!(
+            bits(wp.point_j.as_slice()),
+            bits(ws.point_j.as_slice()),
+            "point {name}: point_position J vs point_kinematics"
+        );
+        out.push((
+            format!("point {name} p (position)"),
+            wp.point_p.as_slice().to_vec(),
+        ));
+        out.push((
+            format!("point {name} J (position)"),
+            wp.point_j.as_slice().to_vec(),
+        ));
     }
+    let mut wp = s.workspace();
+    let before = (wp.point_p, wp.point_j.clone());
+    assert!(!s.point_position(s.point_names().len(), q, &mut wp));
+    assert_eq!(
+        (wp.point_p, wp.point_j.clone()),
+        before,
+        "no such point (position)"
+    );
     let before = ws.point_p;
     assert!(!s.point_kinematics(s.point_names().len(), q, qd, &mut ws));
     assert_eq!(ws.point_p, before, "no such point: workspace unchanged");

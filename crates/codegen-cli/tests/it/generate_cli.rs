@@ -137,6 +137,7 @@ fn stats_prints_one_row_per_function_and_the_sums() {
             "gravity_load_jacobian",
             "evaluate",
             "point_tip",
+            "position_tip",
             "evaluate_with_points",
             "hoisted_values"
         ]

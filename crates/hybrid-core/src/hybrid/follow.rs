@@ -118,7 +118,6 @@ pub(crate) struct Follower {
     rhs: DVector<f64>,
     svd: DMatrix<f64>,
     jd: DMatrix<f64>,
-    zero: DVector<f64>,
     /// Coordinates (last evaluation).
     pub q: DVector<f64>,
     /// Velocities.
@@ -204,7 +203,6 @@ impl Follower {
             rhs: DVector::zeros(rows),
             svd: DMatrix::zeros(rows, rows),
             jd: DMatrix::zeros(rows, rows),
-            zero: DVector::zeros(n),
             q,
             qd: DVector::zeros(n),
             qdd: DVector::zeros(n),
@@ -358,12 +356,9 @@ impl Follower {
         }
         let (cs, sn) = self.rot;
         for a in &self.atts {
-            m.system.point_kinematics(
-                a.point,
-                self.q.as_slice(),
-                self.zero.as_slice(),
-                &mut self.ws,
-            );
+            // Position and Jacobian only (no bias: eval_rows needs none).
+            m.system
+                .point_position(a.point, self.q.as_slice(), &mut self.ws);
             let p = m
                 .mount
                 .to_beam_with(self.rot, [self.ws.point_p[0], self.ws.point_p[1]]);

@@ -183,8 +183,9 @@ impl Items<'_> {
     }
 
     /// `impl runtime::Mechanism<N, NC>`: forwards to the inherent methods; `point_fns` are the
-    /// point methods by point index.
-    pub fn mechanism_impl(&self, point_fns: &[Ident]) -> TokenStream {
+    /// point methods by point index, `position_fns` their position-and-Jacobian-only
+    /// counterparts.
+    pub fn mechanism_impl(&self, point_fns: &[Ident], position_fns: &[Ident]) -> TokenStream {
         let (nl, ncl) = (
             Literal::usize_unsuffixed(self.n),
             Literal::usize_unsuffixed(self.nc),
@@ -205,6 +206,11 @@ impl Items<'_> {
         for (k, fname) in point_fns.iter().enumerate() {
             let kl = Literal::usize_unsuffixed(k);
             point_arms.extend(quote! { #kl => self.#fname(q, qd, out), });
+        }
+        let mut position_arms = TokenStream::new();
+        for (k, fname) in position_fns.iter().enumerate() {
+            let kl = Literal::usize_unsuffixed(k);
+            position_arms.extend(quote! { #kl => self.#fname(q, p, j), });
         }
         let (sname, rt) = (self.sname, self.rt);
         let has_elements = !self.model.forces.is_empty();
@@ -244,6 +250,11 @@ impl Items<'_> {
                 fn gravity_load_jacobian(&self, q: &[f64; #nl], g: &mut [[f64; 3]; #nl]) { #sname::gravity_load_jacobian(self, q, g) }
                 fn point_kinematics(&self, k: usize, q: &[f64; #nl], qd: &[f64; #nl], out: &mut #rt::PointKinematics<#nl>) -> bool {
                     match k { #point_arms _ => return false, }
+                    #[allow(unreachable_code)]
+                    true
+                }
+                fn point_position(&self, k: usize, q: &[f64; #nl], p: &mut [f64; 3], j: &mut [[f64; #nl]; 3]) -> bool {
+                    match k { #position_arms _ => return false, }
                     #[allow(unreachable_code)]
                     true
                 }

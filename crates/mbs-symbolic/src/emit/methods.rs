@@ -1,7 +1,8 @@
 //! The evaluation methods of the generated struct, one function per emitted method: `M^b`,
 //! `F^b`, `Q^b` (eqs. 11–13), `h`, `J`, `A` (eqs. 14–16), `V`, the elements' power `[D, P]`,
 //! all of them at once
-//! (`evaluate`), the kinematics of each named point (eqs. 49–50), everything including the
+//! (`evaluate`), the kinematics of each named point (eqs. 49–50) and its position and
+//! Jacobian alone (eq. 49, `position_<name>`), everything including the
 //! points at once (`evaluate_with_points`), and the cache of parameter-only subexpressions
 //! (`hoisted_values`). Each records the operation count of its outputs per call (hoisted
 //! subexpressions excluded).
@@ -397,6 +398,27 @@ impl<'a> Methods<'a> {
             #[doc = #doc]
             pub fn #fname(&self, #q: &[f64; #nl], #qd: &[f64; #nl], out: &mut #rt::PointKinematics<#nl>) {
                 let #rt::PointKinematics { p, j, a } = out;
+                #body
+            }
+        }
+    }
+
+    /// `position_<name>`: position and Jacobian of one named point (eq. 49), without the
+    /// bias: the same nodes as in `point_<name>`, so bit-identical to its `p` and `j`.
+    pub fn position(&mut self, pt: &PointExprs, fname: &Ident) -> TokenStream {
+        let mut outs = vec_outputs(&pt.p, "p");
+        outs.extend(matrix_outputs(&pt.j, "j"));
+        let (body, inputs) = self.body(&format!("position_{}", pt.name), &outs);
+        let q = arg(&inputs, "q");
+        let doc = format!(
+            " Position and Jacobian of point `{}` (eq. 49), without the bias:",
+            pt.name
+        );
+        let nl = self.nl();
+        quote! {
+            #[doc = #doc]
+            #[doc = " bit-identical to the `p` and `j` of its `point_*` method."]
+            pub fn #fname(&self, #q: &[f64; #nl], p: &mut [f64; 3], j: &mut [[f64; #nl]; 3]) {
                 #body
             }
         }

@@ -9,7 +9,8 @@
 //! `x12 = ...`); a node used once is inlined into its user, zero terms were never built.
 //! Subexpressions of the run-time parameters alone are computed once per parameter change
 //! into a private cache (`hoist.rs`). `evaluate_with_points` computes everything, the named
-//! points included, in one body. Only `core` float arithmetic is used: no allocation, no
+//! points included, in one body; `position_<name>` a point's position and Jacobian alone
+//! (no `q'`, no bias). Only `core` float arithmetic is used: no allocation, no
 //! panics (all indices are constants into fixed-size arrays), no `unsafe`.
 //!
 //! The small skeleton (struct, impls, signatures) is built with `quote`, parsed as a
@@ -144,6 +145,7 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
 
     let param_idents = names::param_idents(model)?;
     let point_fns = names::point_fns(model)?;
+    let position_fns = names::position_fns(&point_fns);
     let struct_name = names::struct_name(model, opts)?;
     let sname = Ident::new(&struct_name, Span::call_site());
     let rt: syn::Path = syn::parse_str(&opts.runtime_path).map_err(|e| EmitError::Parse {
@@ -224,6 +226,9 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
     for (pt, fname) in pts.iter().zip(&point_fns) {
         methods.extend(m.point(pt, fname));
     }
+    for (pt, fname) in pts.iter().zip(&position_fns) {
+        methods.extend(m.position(pt, fname));
+    }
     methods.extend(m.evaluate_with_points(&sym, &cons, &pts));
     if !hoisting.frontier.is_empty() {
         methods.extend(m.hoisted_values(&hoisting.frontier));
@@ -254,7 +259,7 @@ pub fn generate(model: &Model, opts: &EmitOptions) -> Result<Generated, EmitErro
     let mut tokens = items.struct_item();
     tokens.extend(items.default_impl());
     tokens.extend(items.inherent_impl(&names, methods));
-    tokens.extend(items.mechanism_impl(&point_fns));
+    tokens.extend(items.mechanism_impl(&point_fns, &position_fns));
 
     let file: syn::File = syn::parse2(tokens.clone()).map_err(|e| EmitError::Parse {
         message: e.to_string(),

@@ -108,6 +108,19 @@ pub(super) fn point_fns(model: &Model) -> Result<Vec<Ident>, EmitError> {
     Ok(fns)
 }
 
+/// The method name `position_<name>` (position and Jacobian only) of every named point, by
+/// point index: `point_<name>` with the other prefix, so unique when those are.
+pub(super) fn position_fns(point_fns: &[Ident]) -> Vec<Ident> {
+    point_fns
+        .iter()
+        .map(|f| {
+            let name = f.to_string();
+            let rest = name.strip_prefix("point_").unwrap_or(&name);
+            Ident::new(&format!("position_{rest}"), Span::call_site())
+        })
+        .collect()
+}
+
 /// The name of the cache field of hoisted subexpressions: `hoisted`, with `_` appended
 /// until it differs from every parameter field.
 pub(super) fn cache_field(param_idents: &[Ident]) -> Ident {

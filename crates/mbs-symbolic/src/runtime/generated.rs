@@ -118,7 +118,9 @@ impl<T: Mechanism<N, NC>, const N: usize, const NC: usize> GeneratedSystem<T, N,
         ws: &mut Workspace,
     ) -> bool {
         let mut e = Evaluation::<N, NC>::default();
-        let mut points = [PointKinematics::<N>::default(); P];
+        // Built in place (an array repeat expression built one default and copied it).
+        let mut points: [PointKinematics<N>; P] =
+            core::array::from_fn(|_| PointKinematics::default());
         if !self
             .mech
             .evaluate_with_points(q, qd, t, &mut e, &mut points)
@@ -215,6 +217,18 @@ where
             return false;
         }
         store_point(&pk, ws);
+        true
+    }
+
+    fn point_position(&self, k: usize, q: &[f64], ws: &mut Workspace) -> bool {
+        // The position straight into the workspace; the Jacobian through a row-major array
+        // (the workspace's is column-major). No bias computed, `point_a` left unchanged.
+        let mut j = [[0.0; N]; 3];
+        let p: &mut [f64; 3] = ws.point_p.as_mut();
+        if !self.mech.point_position(k, &array::<N>(q), p, &mut j) {
+            return false;
+        }
+        copy_rows(&j, ws.point_j.as_mut_slice());
         true
     }
 

@@ -155,4 +155,26 @@ pub trait Mechanism<const N: usize, const NC: usize> {
         qd: &[f64; N],
         out: &mut PointKinematics<N>,
     ) -> bool;
+
+    /// Position `p` and Jacobian `j = dp/dq` of point `k` (eq. 49) without the bias: the
+    /// `p` and `j` of [`Mechanism::point_kinematics`] (which do not depend on `q'`);
+    /// `false` when there is no such point (the outputs are then left unchanged). The
+    /// default calls [`Mechanism::point_kinematics`] with `q' = 0`; generated code
+    /// overrides it with a body computing only `p` and `j` (bit-identical, the bias's
+    /// operations left out).
+    fn point_position(
+        &self,
+        k: usize,
+        q: &[f64; N],
+        p: &mut [f64; 3],
+        j: &mut [[f64; N]; 3],
+    ) -> bool {
+        let mut pk = PointKinematics::<N>::default();
+        if !self.point_kinematics(k, q, &[0.0; N], &mut pk) {
+            return false;
+        }
+        *p = pk.p;
+        *j = pk.j;
+        true
+    }
 }

@@ -249,6 +249,21 @@ pub trait System: Send + Sync {
     /// (workspace unchanged) when there is no such point.
     fn point_kinematics(&self, k: usize, q: &[f64], qd: &[f64], ws: &mut Workspace) -> bool;
 
+    /// Position and Jacobian of point `k` (eq. 49) into [`Workspace::point_p`] and
+    /// [`Workspace::point_j`]: the values [`System::point_kinematics`] writes there (they do
+    /// not depend on `q'`); `false` (workspace unchanged) when there is no such point.
+    /// [`Workspace::point_a`] is not part of the result: the default calls
+    /// [`System::point_kinematics`] with `q' = 0` (writing the bias at rest), the generated
+    /// backend computes `p` and `J` alone and leaves it unchanged.
+    fn point_position(&self, k: usize, q: &[f64], ws: &mut Workspace) -> bool {
+        /// `q' = 0` for up to this many coordinates without allocating.
+        const ZEROS: [f64; 64] = [0.0; 64];
+        match ZEROS.get(..q.len()) {
+            Some(zero) => self.point_kinematics(k, q, zero, ws),
+            None => self.point_kinematics(k, q, &vec![0.0; q.len()], ws),
+        }
+    }
+
     /// [`System::evaluate`] and [`System::point_kinematics`] of point `k` at the same state,
     /// in one call: generated code computes them in one fused body sharing the trigonometric
     /// leaves (bit-identical to the separate calls). `false` (and only `M`, `F`, `Q`, `h`,
@@ -343,6 +358,9 @@ macro_rules! forward_system {
                 ws: &mut Workspace,
             ) -> bool {
                 (**self).point_kinematics(k, q, qd, ws)
+            }
+            fn point_position(&self, k: usize, q: &[f64], ws: &mut Workspace) -> bool {
+                (**self).point_position(k, q, ws)
             }
             fn clone_box(&self) -> Box<dyn System> {
                 (**self).clone_box()
