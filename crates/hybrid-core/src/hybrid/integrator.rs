@@ -219,6 +219,9 @@ pub struct Integrator {
     base_load: Vec<f64>,
     /// Whether the model has a base excitation.
     base: bool,
+    /// Whether any mechanism model has force elements of its own
+    /// ([`Integrator::account_model_elements`]; without, their account stays zero).
+    model_elements: bool,
     /// Whether the beam load `P(t)` can be non-zero (the structure's own loads, beam
     /// excitations, a base excitation's inertial load); without, `p_old` and `p_new` stay
     /// zero and are not evaluated.
@@ -397,6 +400,10 @@ impl Integrator {
             evaluations: 0,
             currents: vec![0.0; nf],
             base: model.has_base_excitation(),
+            model_elements: model
+                .mechanisms
+                .iter()
+                .any(|m| m.system.has_force_elements()),
             base_load,
             loaded,
             checked_condition: state.mechanisms.iter().map(|m| m.condition).collect(),
@@ -525,6 +532,18 @@ impl Integrator {
     }
 
     fn factor_jacobian(&mut self) {
+        // One unknown, once factorised before (`jac_piv` is `[0]`): [`lu_in_place`]'s 1 x 1
+        // case (the pivot is the entry, valid when non-zero and finite) without clearing
+        // and refilling the pivots.
+        if let ([lu], &[j], [0]) = (
+            self.jac_lu.as_mut_slice(),
+            self.jac.as_slice(),
+            self.jac_piv.as_slice(),
+        ) {
+            *lu = j;
+            self.jac_valid = j.abs() != 0.0 && j.abs().is_finite();
+            return;
+        }
         copy_short(self.jac_lu.as_mut_slice(), self.jac.as_slice());
         self.jac_valid = lu_in_place(&mut self.jac_lu, &mut self.jac_piv);
     }
@@ -858,9 +877,11 @@ impl Integrator {
         let (h, beta, gamma) = (self.h, self.beta, self.gamma);
         for (k, c) in self.couplings.iter().enumerate() {
             let p = &model.attachments[c.attachment].beam;
-            self.pos_hat[k] = p.value_along(c.axial, &self.q_hat);
-            self.vel_hat[k] = p.value_along(c.axial, &self.v_hat);
-            self.z[k] = p.value_along(c.axial, &state.a);
+            let (pos, vel, acc) =
+                values_along(p.component(c.axial), &self.q_hat, &self.v_hat, &state.a);
+            self.pos_hat[k] = pos;
+            self.vel_hat[k] = vel;
+            self.z[k] = acc;
         }
         let mut i = self.nb;
         for (f, ms) in self.followers.iter().zip(&state.mechanisms) {
@@ -1257,7 +1278,14 @@ impl Integrator {
                 }
             }
         }
-        Self::account_model_elements(&mut self.followers, model, state, h);
+        // Without force elements in any model only the account's sizes are set (once).
+        let nm = self.followers.len();
+        if self.model_elements
+            || state.account.dissipated_model.len() != nm
+            || state.account.model_input_work.len() != nm
+        {
+            Self::account_model_elements(&mut self.followers, model, state, h);
+        }
         if self.base {
             Self::account_base_mechanisms(&mut self.followers, model, state, t_new, h);
         }
@@ -1416,6 +1444,20 @@ fn below_round_off(dz: &[f64], scale: &[f64], z: &[f64]) -> bool {
         .all(|(d, (s, z))| d.abs() <= 1e-13 * s.max(z.abs()))
 }
 
+/// [`super::model::BeamPoint::value_along`] of the component `weights` for three vectors
+/// in one pass over the weights: each sum the same operations in the same order as its own
+/// `value_along` (the library's float sum: from `-0.0`, term by term).
+#[inline(always)]
+fn values_along(weights: &[(usize, f64)], x: &[f64], y: &[f64], z: &[f64]) -> (f64, f64, f64) {
+    let (mut sx, mut sy, mut sz) = (-0.0, -0.0, -0.0);
+    for &(k, w) in weights {
+        sx += w * x[k];
+        sy += w * y[k];
+        sz += w * z[k];
+    }
+    (sx, sy, sz)
+}
+
 fn norm(x: &[f64]) -> f64 {
     x.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
@@ -1431,7 +1473,29 @@ fn both_finite(x: f64, y: f64) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::both_finite;
+    use super::{both_finite, values_along};
+
+    #[test]
+    fn values_along_equals_three_sums_bit_for_bit() {
+        // Signed zeros included: a sum of negative zeros stays -0.0 only from -0.0.
+        let x = [0.0, -0.0, 1.5, -2.25e-3, 7.0e8, 0.0];
+        let y = [-0.0, 0.0, -0.0, 0.0, -0.0, 0.0];
+        let z = [3.0e-12, -1.0, 0.1, 0.2, 0.3, -0.0];
+        let cases: [&[(usize, f64)]; 5] = [
+            &[],
+            &[(1, 0.5)],
+            &[(0, -1.0), (1, 2.0)],
+            &[(2, 0.37), (3, -1.1), (4, 1e-9), (5, -0.0)],
+            &[(5, -2.0), (0, 0.7), (2, 0.1), (4, -0.3), (1, 1.0)],
+        ];
+        for w in cases {
+            let sum = |v: &[f64]| w.iter().map(|&(k, c)| c * v[k]).sum::<f64>();
+            let (a, b, c) = values_along(w, &x, &y, &z);
+            let got = [a.to_bits(), b.to_bits(), c.to_bits()];
+            let want = [sum(&x).to_bits(), sum(&y).to_bits(), sum(&z).to_bits()];
+            assert_eq!(got, want, "{w:?}");
+        }
+    }
 
     #[test]
     fn both_finite_is_is_finite_of_both() {
