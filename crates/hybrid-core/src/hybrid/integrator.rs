@@ -626,18 +626,34 @@ impl Integrator {
         t: f64,
         state: &HybridState,
     ) -> Result<(), HybridError> {
-        let nz = self.nz;
-        if nz == 0 {
-            // Beam alone (or mechanisms without free coordinates and attachments).
-            self.residual(model, t, false, state)?;
-            return Ok(());
+        match self.nz {
+            0 => {
+                // Beam alone (or mechanisms without free coordinates and attachments).
+                self.residual(model, t, false, state)?;
+                Ok(())
+            }
+            1 => self.iterate_sized::<1>(model, t, state),
+            _ => self.iterate_sized::<0>(model, t, state),
         }
+    }
+
+    /// [`Integrator::iterate`] for `nz > 0` unknowns, `NZ` of them when `NZ > 0` (known at
+    /// compile time: the vectors' loops of one unknown, the paper's damper, then compile to
+    /// scalar operations), else `self.nz`. The same operations either way.
+    #[inline(always)]
+    fn iterate_sized<const NZ: usize>(
+        &mut self,
+        model: &HybridModel,
+        t: f64,
+        state: &HybridState,
+    ) -> Result<(), HybridError> {
+        let nz = if NZ > 0 { NZ } else { self.nz };
         let secant = nz == 1;
         if secant {
             self.extrapolate_jacobian();
         }
         self.residual(model, t, false, state)?;
-        if self.res.iter().all(|r| *r == 0.0) {
+        if self.res[..nz].iter().all(|r| *r == 0.0) {
             return Ok(());
         }
         let mut refreshed = false;
@@ -660,13 +676,18 @@ impl Integrator {
                 }
             }
             iterations += 1;
-            for (d, r) in self.dz.as_mut_slice().iter_mut().zip(&self.res) {
+            for (d, r) in self.dz.as_mut_slice()[..nz].iter_mut().zip(&self.res[..nz]) {
                 *d = -r;
             }
-            lu_solve(&self.jac_lu, &self.jac_piv, &mut self.dz);
+            if NZ == 1 {
+                // [`lu_solve`]'s 1 x 1 case: `x = b / u`.
+                self.dz.as_mut_slice()[0] /= self.jac_lu.as_slice()[0];
+            } else {
+                lu_solve(&self.jac_lu, &self.jac_piv, &mut self.dz);
+            }
             // Converged when the next quasi-Newton correction is below round-off level:
             // `z` is then the solution to that accuracy and the followers already hold it.
-            if below_round_off(self.dz.as_slice(), &self.scale, &self.z) {
+            if below_round_off(&self.dz.as_slice()[..nz], &self.scale[..nz], &self.z[..nz]) {
                 if !at_z {
                     self.residual(model, t, false, state)?;
                 }
@@ -683,7 +704,11 @@ impl Integrator {
             if record {
                 self.record_trial();
             }
-            for ((zn, z), d) in self.z_new.iter_mut().zip(&self.z).zip(self.dz.as_slice()) {
+            for ((zn, z), d) in self.z_new[..nz]
+                .iter_mut()
+                .zip(&self.z[..nz])
+                .zip(&self.dz.as_slice()[..nz])
+            {
                 *zn = z + d;
             }
             if let Err(e) = self.residual(model, t, true, state) {
@@ -702,33 +727,34 @@ impl Integrator {
             // the residual, while small, has reached the residual's round-off floor (the
             // residual is nearly linear in z): converged, even when a free coordinate's
             // acceleration is near zero and the relative step test cannot be met.
+            let dz = &self.dz.as_slice()[..nz];
+            let (scale, z_new) = (&self.scale[..nz], &self.z_new[..nz]);
             let stalled = fresh
-                && norm(&self.res_new) >= norm(&self.res)
-                && (0..nz).all(|i| {
-                    self.dz[i].abs() <= 1e-6 * self.scale[i].max(1.0).max(self.z_new[i].abs())
-                });
-            let converged = below_round_off(self.dz.as_slice(), &self.scale, &self.z_new)
-                || self.res_new.iter().all(|r| *r == 0.0)
+                && norm(&self.res_new[..nz]) >= norm(&self.res[..nz])
+                && dz
+                    .iter()
+                    .zip(scale.iter().zip(z_new))
+                    .all(|(d, (s, z))| d.abs() <= 1e-6 * s.max(1.0).max(z.abs()));
+            let converged = below_round_off(dz, scale, z_new)
+                || self.res_new[..nz].iter().all(|r| *r == 0.0)
                 || stalled;
             // Broyden's update J += ((dr - J dz) dz^T) / (dz^T dz) (the secant method in
             // one dimension); not from the last, converged step, whose residual change is
             // round-off, nor (one unknown) from a step within 1e3 of the round-off level,
             // whose residual change is mostly rounding: a secant from it could be wrong in
             // the third digit, and the next step's extrapolated Jacobian with it.
-            let dz = self.dz.as_slice();
             let dd: f64 = dz.iter().map(|x| x * x).sum();
             let tiny = secant
                 && dz
                     .iter()
-                    .zip(self.scale.iter().zip(&self.z_new))
+                    .zip(scale.iter().zip(z_new))
                     .all(|(d, (s, z))| d.abs() <= 1e-10 * s.max(z.abs()));
             if dd > 0.0 && !converged && !tiny {
                 // `jac` column-major: J_ij at `j nz + i`.
-                let jac = self.jac.as_mut_slice();
-                for (i, (jdz, (rn, r))) in self
-                    .jdz
+                let jac = &mut self.jac.as_mut_slice()[..nz * nz];
+                for (i, (jdz, (rn, r))) in self.jdz[..nz]
                     .iter_mut()
-                    .zip(self.res_new.iter().zip(&self.res))
+                    .zip(self.res_new[..nz].iter().zip(&self.res[..nz]))
                     .enumerate()
                 {
                     let mut jd = 0.0;
@@ -738,7 +764,7 @@ impl Integrator {
                     *jdz = (rn - r - jd) / dd;
                 }
                 for (col, d) in jac.chunks_exact_mut(nz).zip(dz) {
-                    for (c, jdz) in col.iter_mut().zip(&self.jdz) {
+                    for (c, jdz) in col.iter_mut().zip(&self.jdz[..nz]) {
                         *c += jdz * d;
                     }
                 }
@@ -875,9 +901,14 @@ impl Integrator {
                 None => p.value_along(c.axial, &self.r0),
             };
         }
-        for i in 0..self.nz {
-            let base = if i < self.nb { self.a0w[i].abs() } else { 0.0 };
-            self.scale[i] = 1e-9 + self.z[i].abs() + base + 1e-2 * self.zmax[i];
+        for (i, (s, (z, m))) in self
+            .scale
+            .iter_mut()
+            .zip(self.z.iter().zip(&self.zmax))
+            .enumerate()
+        {
+            let base = self.a0w.get(i).map_or(0.0, |a| a.abs());
+            *s = 1e-9 + z.abs() + base + 1e-2 * m;
         }
     }
 
@@ -1265,9 +1296,15 @@ impl Integrator {
         // Energy account, part 1 (needs the old state): per force element and excitation,
         // trapezoidal power.
         let acc = &mut state.account;
-        acc.gearbox_loss.resize(model.forces.len(), 0.0);
-        acc.mechanical_input.resize(model.forces.len(), 0.0);
-        acc.conversion.resize(model.forces.len(), 0.0);
+        let nf = model.forces.len();
+        if acc.gearbox_loss.len() != nf
+            || acc.mechanical_input.len() != nf
+            || acc.conversion.len() != nf
+        {
+            acc.gearbox_loss.resize(nf, 0.0);
+            acc.mechanical_input.resize(nf, 0.0);
+            acc.conversion.resize(nf, 0.0);
+        }
         for (k, f) in model.forces.iter().enumerate() {
             let (w_old, i_old) = (state.mechanisms[f.mechanism].qd[f.joint], state.currents[k]);
             let (w_new, i_new) = (self.followers[f.mechanism].qd[f.joint], self.currents[k]);
