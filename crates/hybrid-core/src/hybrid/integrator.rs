@@ -453,15 +453,33 @@ impl Integrator {
         z_is_new: bool,
         state: &HybridState,
     ) -> Result<(), HybridError> {
+        if self.nz == 1 {
+            self.residual_sized::<1>(model, t, z_is_new, state)
+        } else {
+            self.residual_sized::<0>(model, t, z_is_new, state)
+        }
+    }
+
+    /// [`Integrator::residual`] with the vectors cut to `NZ` entries when `NZ > 0` (a
+    /// size known at compile time, as in [`Integrator::iterate_sized`]), else to `self.nz`.
+    /// The same operations either way.
+    #[inline(always)]
+    fn residual_sized<const NZ: usize>(
+        &mut self,
+        model: &HybridModel,
+        t: f64,
+        z_is_new: bool,
+        state: &HybridState,
+    ) -> Result<(), HybridError> {
+        let nz = if NZ > 0 { NZ } else { self.nz };
         self.evaluations += 1;
         let (bh2, gh) = (self.beta * self.h * self.h, self.gamma * self.h);
         let z = if z_is_new { &self.z_new } else { &self.z };
-        for (((p, v), (ph, vh)), zi) in self
-            .pos
+        for (((p, v), (ph, vh)), zi) in self.pos[..nz]
             .iter_mut()
-            .zip(&mut self.vel)
-            .zip(self.pos_hat.iter().zip(&self.vel_hat))
-            .zip(z)
+            .zip(&mut self.vel[..nz])
+            .zip(self.pos_hat[..nz].iter().zip(&self.vel_hat[..nz]))
+            .zip(&z[..nz])
         {
             *p = ph + bh2 * zi;
             *v = vh + gh * zi;
@@ -493,14 +511,15 @@ impl Integrator {
         // r_w = z_w - a0_w + S phi_w (S column-major), r_u = phi_u.
         let nb = self.nb;
         let s = self.s.as_slice();
+        let (res, z, phi) = (&mut res[..nz], &z[..nz], &self.phi[..nz]);
         for (i, ((r, zi), a)) in res.iter_mut().zip(z).zip(&self.a0w).enumerate() {
             let mut x = zi - a;
-            for (k, p) in self.phi[..nb].iter().enumerate() {
+            for (k, p) in phi[..nb].iter().enumerate() {
                 x += s[k * nb + i] * p;
             }
             *r = x;
         }
-        for (r, p) in res[nb..].iter_mut().zip(&self.phi[nb..]) {
+        for (r, p) in res[nb..].iter_mut().zip(&phi[nb..]) {
             *r = *p;
         }
         Ok(())
