@@ -18,7 +18,7 @@ use nalgebra::{DMatrix, DVector};
 use super::model::{AttachmentKind, HybridModel};
 use crate::partition::dense::{
     copy_short, lu_in_place, lu_small, lu_solve, lu_solve_small, lu_solve_transpose,
-    lu_solve_transpose_small, singular_range, zero_short,
+    lu_solve_transpose_small, singular_range, singular_range_2, zero_short,
 };
 
 /// One attachment as seen by its mechanism.
@@ -482,6 +482,14 @@ impl Follower {
     }
 
     fn measure_condition(&mut self) {
+        // A 2 x 2 `J_d` (the double bar) read from `J` directly, without the copy into `jd`.
+        if let (2, &[d0, d1]) = (self.rows, self.dep.as_slice()) {
+            let j = self.jfull.as_slice();
+            let (lo, hi) = singular_range_2([j[2 * d0], j[2 * d0 + 1], j[2 * d1], j[2 * d1 + 1]]);
+            self.sigma_min = lo;
+            self.condition = if lo > 0.0 { hi / lo } else { f64::INFINITY };
+            return;
+        }
         dependent_columns(
             self.jfull.as_slice(),
             self.rows,

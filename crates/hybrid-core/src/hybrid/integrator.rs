@@ -219,6 +219,9 @@ pub struct Integrator {
     base_load: Vec<f64>,
     /// Whether the model has a base excitation.
     base: bool,
+    /// Whether any mechanism model has force elements of its own
+    /// ([`Integrator::account_model_elements`]; without, their account stays zero).
+    model_elements: bool,
     /// Whether the beam load `P(t)` can be non-zero (the structure's own loads, beam
     /// excitations, a base excitation's inertial load); without, `p_old` and `p_new` stay
     /// zero and are not evaluated.
@@ -397,6 +400,10 @@ impl Integrator {
             evaluations: 0,
             currents: vec![0.0; nf],
             base: model.has_base_excitation(),
+            model_elements: model
+                .mechanisms
+                .iter()
+                .any(|m| m.system.has_force_elements()),
             base_load,
             loaded,
             checked_condition: state.mechanisms.iter().map(|m| m.condition).collect(),
@@ -446,15 +453,33 @@ impl Integrator {
         z_is_new: bool,
         state: &HybridState,
     ) -> Result<(), HybridError> {
+        if self.nz == 1 {
+            self.residual_sized::<1>(model, t, z_is_new, state)
+        } else {
+            self.residual_sized::<0>(model, t, z_is_new, state)
+        }
+    }
+
+    /// [`Integrator::residual`] with the vectors cut to `NZ` entries when `NZ > 0` (a
+    /// size known at compile time, as in [`Integrator::iterate_sized`]), else to `self.nz`.
+    /// The same operations either way.
+    #[inline(always)]
+    fn residual_sized<const NZ: usize>(
+        &mut self,
+        model: &HybridModel,
+        t: f64,
+        z_is_new: bool,
+        state: &HybridState,
+    ) -> Result<(), HybridError> {
+        let nz = if NZ > 0 { NZ } else { self.nz };
         self.evaluations += 1;
         let (bh2, gh) = (self.beta * self.h * self.h, self.gamma * self.h);
         let z = if z_is_new { &self.z_new } else { &self.z };
-        for (((p, v), (ph, vh)), zi) in self
-            .pos
+        for (((p, v), (ph, vh)), zi) in self.pos[..nz]
             .iter_mut()
-            .zip(&mut self.vel)
-            .zip(self.pos_hat.iter().zip(&self.vel_hat))
-            .zip(z)
+            .zip(&mut self.vel[..nz])
+            .zip(self.pos_hat[..nz].iter().zip(&self.vel_hat[..nz]))
+            .zip(&z[..nz])
         {
             *p = ph + bh2 * zi;
             *v = vh + gh * zi;
@@ -486,14 +511,15 @@ impl Integrator {
         // r_w = z_w - a0_w + S phi_w (S column-major), r_u = phi_u.
         let nb = self.nb;
         let s = self.s.as_slice();
+        let (res, z, phi) = (&mut res[..nz], &z[..nz], &self.phi[..nz]);
         for (i, ((r, zi), a)) in res.iter_mut().zip(z).zip(&self.a0w).enumerate() {
             let mut x = zi - a;
-            for (k, p) in self.phi[..nb].iter().enumerate() {
+            for (k, p) in phi[..nb].iter().enumerate() {
                 x += s[k * nb + i] * p;
             }
             *r = x;
         }
-        for (r, p) in res[nb..].iter_mut().zip(&self.phi[nb..]) {
+        for (r, p) in res[nb..].iter_mut().zip(&phi[nb..]) {
             *r = *p;
         }
         Ok(())
@@ -524,7 +550,28 @@ impl Integrator {
         Ok(())
     }
 
+    /// Factorises `jac` into `jac_lu` / `jac_piv`, setting `jac_valid`. Inlined for the
+    /// one-unknown case, a copy and a test where a call cost 40 instructions.
+    #[inline(always)]
     fn factor_jacobian(&mut self) {
+        // One unknown, once factorised before (`jac_piv` is `[0]`): [`lu_in_place`]'s 1 x 1
+        // case (the pivot is the entry, valid when non-zero and finite) without clearing
+        // and refilling the pivots.
+        if let ([lu], &[j], [0]) = (
+            self.jac_lu.as_mut_slice(),
+            self.jac.as_slice(),
+            self.jac_piv.as_slice(),
+        ) {
+            *lu = j;
+            self.jac_valid = j.abs() != 0.0 && j.abs().is_finite();
+            return;
+        }
+        self.factor_jacobian_general();
+    }
+
+    /// [`Integrator::factor_jacobian`] for any size (and the first 1 x 1 factorisation).
+    #[inline(never)]
+    fn factor_jacobian_general(&mut self) {
         copy_short(self.jac_lu.as_mut_slice(), self.jac.as_slice());
         self.jac_valid = lu_in_place(&mut self.jac_lu, &mut self.jac_piv);
     }
@@ -598,18 +645,34 @@ impl Integrator {
         t: f64,
         state: &HybridState,
     ) -> Result<(), HybridError> {
-        let nz = self.nz;
-        if nz == 0 {
-            // Beam alone (or mechanisms without free coordinates and attachments).
-            self.residual(model, t, false, state)?;
-            return Ok(());
+        match self.nz {
+            0 => {
+                // Beam alone (or mechanisms without free coordinates and attachments).
+                self.residual(model, t, false, state)?;
+                Ok(())
+            }
+            1 => self.iterate_sized::<1>(model, t, state),
+            _ => self.iterate_sized::<0>(model, t, state),
         }
+    }
+
+    /// [`Integrator::iterate`] for `nz > 0` unknowns, `NZ` of them when `NZ > 0` (known at
+    /// compile time: the vectors' loops of one unknown, the paper's damper, then compile to
+    /// scalar operations), else `self.nz`. The same operations either way.
+    #[inline(always)]
+    fn iterate_sized<const NZ: usize>(
+        &mut self,
+        model: &HybridModel,
+        t: f64,
+        state: &HybridState,
+    ) -> Result<(), HybridError> {
+        let nz = if NZ > 0 { NZ } else { self.nz };
         let secant = nz == 1;
         if secant {
             self.extrapolate_jacobian();
         }
         self.residual(model, t, false, state)?;
-        if self.res.iter().all(|r| *r == 0.0) {
+        if self.res[..nz].iter().all(|r| *r == 0.0) {
             return Ok(());
         }
         let mut refreshed = false;
@@ -632,13 +695,18 @@ impl Integrator {
                 }
             }
             iterations += 1;
-            for (d, r) in self.dz.as_mut_slice().iter_mut().zip(&self.res) {
+            for (d, r) in self.dz.as_mut_slice()[..nz].iter_mut().zip(&self.res[..nz]) {
                 *d = -r;
             }
-            lu_solve(&self.jac_lu, &self.jac_piv, &mut self.dz);
+            if NZ == 1 {
+                // [`lu_solve`]'s 1 x 1 case: `x = b / u`.
+                self.dz.as_mut_slice()[0] /= self.jac_lu.as_slice()[0];
+            } else {
+                lu_solve(&self.jac_lu, &self.jac_piv, &mut self.dz);
+            }
             // Converged when the next quasi-Newton correction is below round-off level:
             // `z` is then the solution to that accuracy and the followers already hold it.
-            if below_round_off(self.dz.as_slice(), &self.scale, &self.z) {
+            if below_round_off(&self.dz.as_slice()[..nz], &self.scale[..nz], &self.z[..nz]) {
                 if !at_z {
                     self.residual(model, t, false, state)?;
                 }
@@ -655,7 +723,11 @@ impl Integrator {
             if record {
                 self.record_trial();
             }
-            for ((zn, z), d) in self.z_new.iter_mut().zip(&self.z).zip(self.dz.as_slice()) {
+            for ((zn, z), d) in self.z_new[..nz]
+                .iter_mut()
+                .zip(&self.z[..nz])
+                .zip(&self.dz.as_slice()[..nz])
+            {
                 *zn = z + d;
             }
             if let Err(e) = self.residual(model, t, true, state) {
@@ -674,33 +746,34 @@ impl Integrator {
             // the residual, while small, has reached the residual's round-off floor (the
             // residual is nearly linear in z): converged, even when a free coordinate's
             // acceleration is near zero and the relative step test cannot be met.
+            let dz = &self.dz.as_slice()[..nz];
+            let (scale, z_new) = (&self.scale[..nz], &self.z_new[..nz]);
             let stalled = fresh
-                && norm(&self.res_new) >= norm(&self.res)
-                && (0..nz).all(|i| {
-                    self.dz[i].abs() <= 1e-6 * self.scale[i].max(1.0).max(self.z_new[i].abs())
-                });
-            let converged = below_round_off(self.dz.as_slice(), &self.scale, &self.z_new)
-                || self.res_new.iter().all(|r| *r == 0.0)
+                && norm(&self.res_new[..nz]) >= norm(&self.res[..nz])
+                && dz
+                    .iter()
+                    .zip(scale.iter().zip(z_new))
+                    .all(|(d, (s, z))| d.abs() <= 1e-6 * s.max(1.0).max(z.abs()));
+            let converged = below_round_off(dz, scale, z_new)
+                || self.res_new[..nz].iter().all(|r| *r == 0.0)
                 || stalled;
             // Broyden's update J += ((dr - J dz) dz^T) / (dz^T dz) (the secant method in
             // one dimension); not from the last, converged step, whose residual change is
             // round-off, nor (one unknown) from a step within 1e3 of the round-off level,
             // whose residual change is mostly rounding: a secant from it could be wrong in
             // the third digit, and the next step's extrapolated Jacobian with it.
-            let dz = self.dz.as_slice();
             let dd: f64 = dz.iter().map(|x| x * x).sum();
             let tiny = secant
                 && dz
                     .iter()
-                    .zip(self.scale.iter().zip(&self.z_new))
+                    .zip(scale.iter().zip(z_new))
                     .all(|(d, (s, z))| d.abs() <= 1e-10 * s.max(z.abs()));
             if dd > 0.0 && !converged && !tiny {
                 // `jac` column-major: J_ij at `j nz + i`.
-                let jac = self.jac.as_mut_slice();
-                for (i, (jdz, (rn, r))) in self
-                    .jdz
+                let jac = &mut self.jac.as_mut_slice()[..nz * nz];
+                for (i, (jdz, (rn, r))) in self.jdz[..nz]
                     .iter_mut()
-                    .zip(self.res_new.iter().zip(&self.res))
+                    .zip(self.res_new[..nz].iter().zip(&self.res[..nz]))
                     .enumerate()
                 {
                     let mut jd = 0.0;
@@ -710,7 +783,7 @@ impl Integrator {
                     *jdz = (rn - r - jd) / dd;
                 }
                 for (col, d) in jac.chunks_exact_mut(nz).zip(dz) {
-                    for (c, jdz) in col.iter_mut().zip(&self.jdz) {
+                    for (c, jdz) in col.iter_mut().zip(&self.jdz[..nz]) {
                         *c += jdz * d;
                     }
                 }
@@ -778,7 +851,7 @@ impl Integrator {
             rest = tail;
         }
         copy_short(&mut self.phi_prev, &self.phi);
-        self.currents_prev.copy_from_slice(&self.currents);
+        copy_short(&mut self.currents_prev, &self.currents);
     }
 
     /// One unknown, after the secant update from the recorded iterate `z_prev` to `z`
@@ -847,9 +920,14 @@ impl Integrator {
                 None => p.value_along(c.axial, &self.r0),
             };
         }
-        for i in 0..self.nz {
-            let base = if i < self.nb { self.a0w[i].abs() } else { 0.0 };
-            self.scale[i] = 1e-9 + self.z[i].abs() + base + 1e-2 * self.zmax[i];
+        for (i, (s, (z, m))) in self
+            .scale
+            .iter_mut()
+            .zip(self.z.iter().zip(&self.zmax))
+            .enumerate()
+        {
+            let base = self.a0w.get(i).map_or(0.0, |a| a.abs());
+            *s = 1e-9 + z.abs() + base + 1e-2 * m;
         }
     }
 
@@ -858,9 +936,11 @@ impl Integrator {
         let (h, beta, gamma) = (self.h, self.beta, self.gamma);
         for (k, c) in self.couplings.iter().enumerate() {
             let p = &model.attachments[c.attachment].beam;
-            self.pos_hat[k] = p.value_along(c.axial, &self.q_hat);
-            self.vel_hat[k] = p.value_along(c.axial, &self.v_hat);
-            self.z[k] = p.value_along(c.axial, &state.a);
+            let (pos, vel, acc) =
+                values_along(p.component(c.axial), &self.q_hat, &self.v_hat, &state.a);
+            self.pos_hat[k] = pos;
+            self.vel_hat[k] = vel;
+            self.z[k] = acc;
         }
         let mut i = self.nb;
         for (f, ms) in self.followers.iter().zip(&state.mechanisms) {
@@ -1235,9 +1315,15 @@ impl Integrator {
         // Energy account, part 1 (needs the old state): per force element and excitation,
         // trapezoidal power.
         let acc = &mut state.account;
-        acc.gearbox_loss.resize(model.forces.len(), 0.0);
-        acc.mechanical_input.resize(model.forces.len(), 0.0);
-        acc.conversion.resize(model.forces.len(), 0.0);
+        let nf = model.forces.len();
+        if acc.gearbox_loss.len() != nf
+            || acc.mechanical_input.len() != nf
+            || acc.conversion.len() != nf
+        {
+            acc.gearbox_loss.resize(nf, 0.0);
+            acc.mechanical_input.resize(nf, 0.0);
+            acc.conversion.resize(nf, 0.0);
+        }
         for (k, f) in model.forces.iter().enumerate() {
             let (w_old, i_old) = (state.mechanisms[f.mechanism].qd[f.joint], state.currents[k]);
             let (w_new, i_new) = (self.followers[f.mechanism].qd[f.joint], self.currents[k]);
@@ -1257,7 +1343,14 @@ impl Integrator {
                 }
             }
         }
-        Self::account_model_elements(&mut self.followers, model, state, h);
+        // Without force elements in any model only the account's sizes are set (once).
+        let nm = self.followers.len();
+        if self.model_elements
+            || state.account.dissipated_model.len() != nm
+            || state.account.model_input_work.len() != nm
+        {
+            Self::account_model_elements(&mut self.followers, model, state, h);
+        }
         if self.base {
             Self::account_base_mechanisms(&mut self.followers, model, state, t_new, h);
         }
@@ -1416,6 +1509,20 @@ fn below_round_off(dz: &[f64], scale: &[f64], z: &[f64]) -> bool {
         .all(|(d, (s, z))| d.abs() <= 1e-13 * s.max(z.abs()))
 }
 
+/// [`super::model::BeamPoint::value_along`] of the component `weights` for three vectors
+/// in one pass over the weights: each sum the same operations in the same order as its own
+/// `value_along` (the library's float sum: from `-0.0`, term by term).
+#[inline(always)]
+fn values_along(weights: &[(usize, f64)], x: &[f64], y: &[f64], z: &[f64]) -> (f64, f64, f64) {
+    let (mut sx, mut sy, mut sz) = (-0.0, -0.0, -0.0);
+    for &(k, w) in weights {
+        sx += w * x[k];
+        sy += w * y[k];
+        sz += w * z[k];
+    }
+    (sx, sy, sz)
+}
+
 fn norm(x: &[f64]) -> f64 {
     x.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
@@ -1431,7 +1538,29 @@ fn both_finite(x: f64, y: f64) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::both_finite;
+    use super::{both_finite, values_along};
+
+    #[test]
+    fn values_along_equals_three_sums_bit_for_bit() {
+        // Signed zeros included: a sum of negative zeros stays -0.0 only from -0.0.
+        let x = [0.0, -0.0, 1.5, -2.25e-3, 7.0e8, 0.0];
+        let y = [-0.0, 0.0, -0.0, 0.0, -0.0, 0.0];
+        let z = [3.0e-12, -1.0, 0.1, 0.2, 0.3, -0.0];
+        let cases: [&[(usize, f64)]; 5] = [
+            &[],
+            &[(1, 0.5)],
+            &[(0, -1.0), (1, 2.0)],
+            &[(2, 0.37), (3, -1.1), (4, 1e-9), (5, -0.0)],
+            &[(5, -2.0), (0, 0.7), (2, 0.1), (4, -0.3), (1, 1.0)],
+        ];
+        for w in cases {
+            let sum = |v: &[f64]| w.iter().map(|&(k, c)| c * v[k]).sum::<f64>();
+            let (a, b, c) = values_along(w, &x, &y, &z);
+            let got = [a.to_bits(), b.to_bits(), c.to_bits()];
+            let want = [sum(&x).to_bits(), sum(&y).to_bits(), sum(&z).to_bits()];
+            assert_eq!(got, want, "{w:?}");
+        }
+    }
 
     #[test]
     fn both_finite_is_is_finite_of_both() {

@@ -322,6 +322,21 @@ fn lu_solve_transpose_sweeps(lu: &DMatrix<f64>, piv: &[usize], b: &mut DVector<f
     }
 }
 
+/// [`singular_range`] of a 2 x 2 matrix given column-major (`[a00, a10, a01, a11]`), in
+/// closed form: `s_max^2 + s_min^2 = |a|_F^2`, `s_max s_min = |det a|`. The one place these
+/// operations are written: [`singular_range`]'s 2 x 2 case and the follower's condition
+/// measurement of a 2 x 2 `J_d` (no copy into a matrix buffer) give the same numbers.
+#[inline(always)]
+pub(crate) fn singular_range_2(a: [f64; 4]) -> (f64, f64) {
+    let [a00, a10, a01, a11] = a;
+    let fro2 = a.iter().map(|x| x * x).sum::<f64>();
+    let d = (a00 * a11 - a01 * a10).abs();
+    let disc = (fro2 * fro2 - 4.0 * d * d).max(0.0).sqrt();
+    let smax = ((fro2 + disc) / 2.0).sqrt();
+    let smin = if smax > 0.0 { d / smax } else { 0.0 };
+    (smin, smax)
+}
+
 /// Extreme singular values `(smallest, largest)` of the square matrix `a`, from the
 /// eigenvalues of `a^T a` by cyclic Jacobi rotations in the caller's buffer `w` (no
 /// allocation once `w` has the shape; closed forms for sizes 1 and 2).
@@ -331,13 +346,8 @@ pub(crate) fn singular_range(a: &DMatrix<f64>, w: &mut DMatrix<f64>) -> (f64, f6
         0 => return (0.0, 0.0),
         1 => return (a[(0, 0)].abs(), a[(0, 0)].abs()),
         2 => {
-            let fro2 = a.iter().map(|x| x * x).sum::<f64>();
-            let d = (a[(0, 0)] * a[(1, 1)] - a[(0, 1)] * a[(1, 0)]).abs();
-            // s_max^2 + s_min^2 = |a|_F^2, s_max s_min = |det a|.
-            let disc = (fro2 * fro2 - 4.0 * d * d).max(0.0).sqrt();
-            let smax = ((fro2 + disc) / 2.0).sqrt();
-            let smin = if smax > 0.0 { d / smax } else { 0.0 };
-            return (smin, smax);
+            let s = a.as_slice();
+            return singular_range_2([s[0], s[1], s[2], s[3]]);
         }
         _ => {}
     }
@@ -486,5 +496,43 @@ mod tests {
         let s2 = a2.clone().svd(false, false).singular_values;
         let (lo, hi) = singular_range(&a2, &mut w);
         assert!((lo - s2.min()).abs() < 1e-14 && (hi - s2.max()).abs() < 1e-14);
+    }
+
+    #[test]
+    fn the_two_by_two_singular_range_equals_the_matrix_form_bit_for_bit() {
+        // The 2 x 2 case as written on the matrix before `singular_range_2`.
+        let reference = |a: &DMatrix<f64>| {
+            let fro2 = a.iter().map(|x| x * x).sum::<f64>();
+            let d = (a[(0, 0)] * a[(1, 1)] - a[(0, 1)] * a[(1, 0)]).abs();
+            let disc = (fro2 * fro2 - 4.0 * d * d).max(0.0).sqrt();
+            let smax = ((fro2 + disc) / 2.0).sqrt();
+            let smin = if smax > 0.0 { d / smax } else { 0.0 };
+            (smin, smax)
+        };
+        let cases: [[f64; 4]; 6] = [
+            [1.0, 2.0, -0.5, 0.3],
+            [0.0, 0.0, 0.0, 0.0],
+            [-0.0, 0.0, -0.0, 0.0],
+            [1e-300, 3.0, -2e150, 0.7],
+            [0.31, -1.7e-3, 2.9, 1.3e2],
+            [1.0, 2.0, 2.0, 4.0],
+        ];
+        let mut w = DMatrix::zeros(0, 0);
+        for c in cases {
+            let a = DMatrix::from_column_slice(2, 2, &c);
+            let (lo, hi) = singular_range_2(c);
+            let (rlo, rhi) = reference(&a);
+            assert_eq!(
+                (lo.to_bits(), hi.to_bits()),
+                (rlo.to_bits(), rhi.to_bits()),
+                "{c:?}"
+            );
+            let (mlo, mhi) = singular_range(&a, &mut w);
+            assert_eq!(
+                (mlo.to_bits(), mhi.to_bits()),
+                (rlo.to_bits(), rhi.to_bits()),
+                "{c:?}"
+            );
+        }
     }
 }
