@@ -906,20 +906,25 @@ impl Follower {
         let n = self.n;
         let (pq, rest) = prev.split_at(n);
         let (pqd, pqdd) = rest.split_at(n);
+        // Every coordinate in one indexless pass: the dependent ones are the secant move,
+        // the free ones (the complement) are overwritten below, so the numbers are those
+        // of the move over `dep` alone.
         for (x, p) in [
             (self.q.as_mut_slice(), pq),
             (self.qd.as_mut_slice(), pqd),
             (self.qdd.as_mut_slice(), pqdd),
         ] {
-            for &c in &self.dep {
-                x[c] += ratio * (x[c] - p[c]);
+            for (x, p) in x.iter_mut().zip(p) {
+                *x += ratio * (*x - p);
             }
         }
         let off = self.nb + self.free_offset;
-        for (j, &c) in self.free.iter().enumerate() {
-            self.q[c] = pos[off + j];
-            self.qd[c] = vel[off + j];
-            self.qdd[c] = acc[off + j];
+        let m = self.free.len();
+        let (pos, vel, acc) = (&pos[off..off + m], &vel[off..off + m], &acc[off..off + m]);
+        for (((&c, &p), &v), &a) in self.free.iter().zip(pos).zip(vel).zip(acc) {
+            self.q[c] = p;
+            self.qd[c] = v;
+            self.qdd[c] = a;
         }
     }
 }
