@@ -52,10 +52,12 @@
 //! a small nonlinear system in `z` (size `nb + nf`) solved by Broyden's quasi-Newton method
 //! (the secant method for the double bar) from the previous step's accelerations and
 //! Jacobian; the Jacobian is refreshed by finite differences at the start, after a
-//! re-partition, or when the iteration is slow. With one unknown the Jacobian is
-//! extrapolated from the last two steps' and the third iterate is accepted from the secant,
-//! without evaluating it, when the correction it leaves is bounded below round-off (about
-//! two evaluations per step). Each residual evaluates every mechanism once
+//! re-partition, or when the iteration is slow. With one unknown the iteration starts from
+//! the unknown extrapolated from the last steps' values (the polynomial, up to the fourth
+//! order, or the alternation-following prediction that erred least on the last step), the
+//! Jacobian is extrapolated from the last two steps' and the third iterate is accepted from
+//! the secant, without evaluating it, when the correction it leaves is bounded below
+//! round-off (two evaluations per step on nearly every step). Each residual evaluates every mechanism once
 //! (positions by Newton on `h = 0`, then M, F, Q, A): a step is one banded solve plus
 //! `O(n)` vector work, whatever the number of mechanisms, and allocates nothing. Inductive
 //! generator currents advance with the trapezoidal rule inside the residual.
