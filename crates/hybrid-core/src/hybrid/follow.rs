@@ -107,6 +107,8 @@ pub(crate) struct Follower {
     pub free_offset: usize,
     /// Its force elements (indices into the model's forces).
     forces: Vec<usize>,
+    /// Which excitations of the model act on it ([`Excited`]).
+    excited: Excited,
     /// The constants of [`Follower::follow_pin2`] when this is a two-coordinate
     /// mechanism without loops pinned to one structure point (the double bar), `None`
     /// otherwise ([`Pin2::of`]).
@@ -202,6 +204,10 @@ impl Follower {
             free,
             free_offset,
             forces,
+            excited: Excited {
+                joint: model.has_joint_excitation(mech),
+                base: model.has_base_excitation(),
+            },
             pin2,
             origin_abs,
             rot: model.mechanisms[mech].mount.rotation(),
@@ -817,29 +823,16 @@ impl Follower {
         let (ax, ay) = (self.ws.point_a[0], self.ws.point_a[1]);
         let bias = fixed2(&mut self.bias);
         *bias = [p.along[0] * ax + p.along[1] * ay, cs * ax - sn * ay];
-        for &f in &self.forces {
-            let force = &model.forces[f];
-            let w = qd[force.joint];
-            currents[f] = if force.has_current_state() {
-                let g = force.generator().expect("a current state is a generator's");
-                let (l, r) = (g.inductance, g.resistance());
-                let h = rule.h;
-                (rule.old[f] + 0.5 * h * rule.rate[f] + 0.5 * h * g.ke * g.gear_ratio * w / l)
-                    / (1.0 + 0.5 * h * r / l)
-            } else {
-                force.quasi_static_current(w)
-            };
-        }
-        model.add_joint_forces(
+        add_loads(
+            model,
             self.mech,
-            t,
-            &q[..],
-            &qd[..],
+            &self.forces,
+            self.excited,
+            (t, &q[..], &qd[..]),
+            rule,
             currents,
-            &mut self.ws.m,
-            &mut self.ws.q,
+            &mut self.ws,
         );
-        model.add_base_load(self.mech, t, &q[..], &mut self.ws);
         // Accelerations (19): J_d qdd = E w'' - A.
         *rhs = [acc[c] - bias[0], ca.map_or(0.0, |k| acc[k]) - bias[1]];
         solve2(lu, &self.piv, rhs);
@@ -924,29 +917,16 @@ impl Follower {
             m.system.evaluate(q, qd, t, &mut self.ws);
         }
         copy_short(&mut bias[..self.loops], &self.ws.a.as_slice()[..self.loops]);
-        for &f in &self.forces {
-            let force = &model.forces[f];
-            let w = qd[force.joint];
-            currents[f] = if force.has_current_state() {
-                let g = force.generator().expect("a current state is a generator's");
-                let (l, r) = (g.inductance, g.resistance());
-                let h = rule.h;
-                (rule.old[f] + 0.5 * h * rule.rate[f] + 0.5 * h * g.ke * g.gear_ratio * w / l)
-                    / (1.0 + 0.5 * h * r / l)
-            } else {
-                force.quasi_static_current(w)
-            };
-        }
-        model.add_joint_forces(
+        add_loads(
+            model,
             self.mech,
-            t,
-            q,
-            qd,
+            &self.forces,
+            self.excited,
+            (t, q, qd),
+            rule,
             currents,
-            &mut self.ws.m,
-            &mut self.ws.q,
+            &mut self.ws,
         );
-        model.add_base_load(self.mech, t, q, &mut self.ws);
         // Accelerations (19): J_d qdd_d = E w'' - J_f u'' - A.
         let qdd = &mut self.qdd.as_mut_slice()[..nq];
         for (&c, x) in self.free.iter().zip(&acc[off..]) {
@@ -1220,6 +1200,60 @@ impl Pin2 {
     }
 }
 
+/// Which excitations of the model act on a follower's mechanism: whether
+/// [`HybridModel::add_joint_excitations`] and [`HybridModel::add_base_load`] can change
+/// its equations (both add nothing without such excitations).
+#[derive(Clone, Copy, Debug)]
+struct Excited {
+    /// An excitation on one of its joints.
+    joint: bool,
+    /// A base excitation (the supports' motion).
+    base: bool,
+}
+
+/// The currents of mechanism `mech`'s force elements `forces` (all of its, ascending) at
+/// `(t, q, q')` into `currents`, their terms and the excitations' added to `M^b`, `Q^b`
+/// in `ws`: [`HybridModel::add_joint_forces`] and [`HybridModel::add_base_load`], the
+/// same terms in the same order, over the mechanism's own force elements (not a filter
+/// over the model's), each with the current just computed (the quasi-static one is the
+/// value `add_joint_forces` recomputes), and the excitation passes skipped when the model
+/// has none of their kind ([`Excited`]).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn add_loads(
+    model: &HybridModel,
+    mech: usize,
+    forces: &[usize],
+    excited: Excited,
+    (t, q, qd): (f64, &[f64], &[f64]),
+    rule: CurrentRule<'_>,
+    currents: &mut [f64],
+    ws: &mut Workspace,
+) {
+    for &f in forces {
+        let force = &model.forces[f];
+        let j = force.joint;
+        let w = qd[j];
+        let current = if force.has_current_state() {
+            let g = force.generator().expect("a current state is a generator's");
+            let (l, r) = (g.inductance, g.resistance());
+            let h = rule.h;
+            (rule.old[f] + 0.5 * h * rule.rate[f] + 0.5 * h * g.ke * g.gear_ratio * w / l)
+                / (1.0 + 0.5 * h * r / l)
+        } else {
+            force.quasi_static_current(w)
+        };
+        currents[f] = current;
+        force.add_to_equations(q[j], w, current, &mut ws.m, &mut ws.q);
+    }
+    if excited.joint {
+        model.add_joint_excitations(mech, t, &mut ws.q);
+    }
+    if excited.base {
+        model.add_base_load(mech, t, q, ws);
+    }
+}
+
 /// The first two entries of `v` as an array (the pinned double bar's rows, coordinates).
 #[inline(always)]
 fn fixed2(v: &mut DVector<f64>) -> &mut [f64; 2] {
@@ -1309,10 +1343,10 @@ mod tests {
     use super::*;
     use crate::generator::GeneratorSpec;
     use crate::hybrid::{
-        Attachment, BeamPoint, ForceKind, JointForce, Mount, MountedMechanism, Placement,
-        place_two_bar,
+        Attachment, BeamPoint, Excitation, ExcitationTarget, ForceKind, JointForce, Mount,
+        MountedMechanism, Placement, place_two_bar,
     };
-    use fem_beam::{Beam, BeamModel};
+    use fem_beam::{Beam, BeamModel, TimeFunction};
     use mbs_symbolic::samples::SplitMix64;
 
     /// The paper's damper (`scenarios/damper.toml`, 8 elements): the generated double bar
@@ -1449,5 +1483,107 @@ mod tests {
             }
         }
         assert!((1..20).contains(&errors), "{errors} failed follows");
+    }
+
+    /// [`add_loads`] against what it replaces in the follow (the currents computed per force
+    /// element, then [`HybridModel::add_joint_forces`] and [`HybridModel::add_base_load`]):
+    /// the same currents, `M^b`, `Q^b` and `G` bit for bit, with a generator with and
+    /// without a current state, without excitations and with a joint and a base one.
+    #[test]
+    fn the_follower_loads_equal_add_joint_forces_and_add_base_load_bit_for_bit() {
+        let mut rng = SplitMix64::new(9);
+        for (inductance, excited) in [(1e-3, false), (0.0, false), (1e-3, true), (0.0, true)] {
+            let mut model = damper();
+            if let ForceKind::Generator(g) = &mut model.forces[0].kind {
+                g.inductance = inductance;
+            }
+            if excited {
+                let time = TimeFunction::Table {
+                    points: vec![[0.0, 0.3], [1.0, -2.0]],
+                };
+                for (name, target) in [
+                    (
+                        "drive",
+                        ExcitationTarget::Joint {
+                            mechanism: 0,
+                            joint: 1,
+                        },
+                    ),
+                    ("shaker", ExcitationTarget::BASE_Y),
+                ] {
+                    model.excitations.push(Excitation {
+                        name: name.into(),
+                        target,
+                        amplitude: 1.7,
+                        time: time.clone(),
+                    });
+                }
+            }
+            let follower = Follower::new(&model, 0, vec![], 0);
+            assert_eq!(
+                (follower.excited.joint, follower.excited.base),
+                (excited, excited)
+            );
+            let sys = &model.mechanisms[0].system;
+            for _ in 0..20 {
+                let q = [rng.symmetric(3.0), rng.symmetric(3.0)];
+                let qd = [rng.symmetric(20.0), rng.symmetric(20.0)];
+                let t = rng.symmetric(1.0).abs();
+                let (old, rate) = ([rng.symmetric(0.1)], [rng.symmetric(10.0)]);
+                let rule = CurrentRule {
+                    h: 1e-4,
+                    old: &old,
+                    rate: &rate,
+                };
+                let mut ws = sys.workspace();
+                sys.evaluate(&q, &qd, t, &mut ws);
+                let mut reference = ws.clone();
+                let (mut c1, mut c2) = ([f64::NAN], [f64::NAN]);
+                // The replaced code.
+                for &f in &follower.forces {
+                    let force = &model.forces[f];
+                    let w = qd[force.joint];
+                    c1[f] = if force.has_current_state() {
+                        let g = force.generator().unwrap();
+                        let (l, r) = (g.inductance, g.resistance());
+                        let h = rule.h;
+                        (rule.old[f]
+                            + 0.5 * h * rule.rate[f]
+                            + 0.5 * h * g.ke * g.gear_ratio * w / l)
+                            / (1.0 + 0.5 * h * r / l)
+                    } else {
+                        force.quasi_static_current(w)
+                    };
+                }
+                model.add_joint_forces(0, t, &q, &qd, &c1, &mut reference.m, &mut reference.q);
+                model.add_base_load(0, t, &q, &mut reference);
+                add_loads(
+                    &model,
+                    0,
+                    &follower.forces,
+                    follower.excited,
+                    (t, &q, &qd),
+                    rule,
+                    &mut c2,
+                    &mut ws,
+                );
+                let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&c1), bits(&c2));
+                assert_eq!(bits(reference.m.as_slice()), bits(ws.m.as_slice()));
+                assert_eq!(bits(reference.q.as_slice()), bits(ws.q.as_slice()));
+                assert_eq!(
+                    bits(reference.gravity_jacobian.as_slice()),
+                    bits(ws.gravity_jacobian.as_slice())
+                );
+                if excited {
+                    assert_ne!(bits(reference.q.as_slice()), {
+                        let mut bare = sys.workspace();
+                        sys.evaluate(&q, &qd, t, &mut bare);
+                        model.add_joint_forces(0, t, &q, &qd, &c1, &mut bare.m, &mut bare.q);
+                        bits(bare.q.as_slice())
+                    });
+                }
+            }
+        }
     }
 }
