@@ -581,7 +581,7 @@ impl Follower {
             );
             self.solve_lu(r);
             let rhs = &self.rhs.as_slice()[..rows];
-            let mut len = norm(&rhs[..]);
+            let mut len = norm(rhs);
             let mut step = 1.0;
             if len > 0.3 {
                 step = 0.3 / len;
