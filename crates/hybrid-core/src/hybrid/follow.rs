@@ -107,6 +107,15 @@ pub(crate) struct Follower {
     pub free_offset: usize,
     /// Its force elements (indices into the model's forces).
     forces: Vec<usize>,
+    /// Which excitations of the model act on it ([`Excited`]).
+    excited: Excited,
+    /// The constants of [`Follower::follow_pin2`] when this is a two-coordinate
+    /// mechanism without loops pinned to one structure point (the double bar), `None`
+    /// otherwise ([`Pin2::of`]).
+    pin2: Option<Pin2>,
+    /// `|origin_x| + |origin_y|` of its mount, summed as the position solve's `scale` sums
+    /// it.
+    origin_abs: f64,
     /// `(cos, sin)` of its mount's angle ([`super::model::Mount::rotation`]), evaluated once.
     rot: (f64, f64),
     ws: Workspace,
@@ -180,6 +189,8 @@ impl Follower {
             .filter(|&f| model.forces[f].mechanism == mech)
             .collect();
         let q = DVector::from_column_slice(&model.mechanisms[mech].initial_q);
+        let origin_abs = origin_abs(&model.mechanisms[mech].mount.origin);
+        let pin2 = Pin2::of(n, loops, &atts, &free, origin_abs);
         Follower {
             mech,
             n,
@@ -193,6 +204,12 @@ impl Follower {
             free,
             free_offset,
             forces,
+            excited: Excited {
+                joint: model.has_joint_excitation(mech),
+                base: model.has_base_excitation(),
+            },
+            pin2,
+            origin_abs,
             rot: model.mechanisms[mech].mount.rotation(),
             ws: sys.workspace(),
             jfull: DMatrix::zeros(rows, n),
@@ -234,6 +251,7 @@ impl Follower {
         let f = &self.free;
         self.dep.extend((0..self.n).filter(|c| !f.contains(c)));
         self.dep_leading = leading(&self.dep, self.rows);
+        self.pin2 = Pin2::of(self.n, self.loops, &self.atts, &self.free, self.origin_abs);
         self.solved = false;
     }
 
@@ -532,12 +550,7 @@ impl Follower {
                         + a.axial_coupling.map_or(0.0, |c| a.y.abs() + w[c].abs())
                 })
                 .sum::<f64>()
-            + model.mechanisms[self.mech]
-                .mount
-                .origin
-                .iter()
-                .map(|x| x.abs())
-                .sum::<f64>();
+            + self.origin_abs;
         self.predict(r, w);
         self.solved = false;
         let mut last = f64::INFINITY;
@@ -661,14 +674,187 @@ impl Follower {
         currents: &mut [f64],
         phi: &mut [f64],
     ) -> Result<(), FollowError> {
-        // The double bar pinned to the beam (two rows, two coordinates) with its sizes known
-        // at compile time; the same code for any other size.
+        // The double bar pinned to the beam: straight-line code on its fixed sizes.
+        if let Some(p) = self.pin2 {
+            return self.follow_pin2(p, model, t, pos, vel, acc, rule, currents, phi);
+        }
+        // Any other two rows and two coordinates with the sizes known at compile time; the
+        // same code for any other size.
         if (self.rows, self.n) == (2, 2) {
             let (r, n) = (Fixed::<2>, Fixed::<2>);
             return self.follow_sized(r, n, model, t, pos, vel, acc, rule, currents, phi);
         }
         let (r, n) = (Dyn(self.rows), Dyn(self.n));
         self.follow_sized(r, n, model, t, pos, vel, acc, rule, currents, phi)
+    }
+
+    /// [`Follower::follow_sized`] for the double bar pinned to one structure point
+    /// ([`Pin2`]): the same operations in the same order, so the same results and the same
+    /// buffer contents bit for bit (tested against it), written out on the two rows and
+    /// two coordinates: no loops over the attachment, coupled-row and free-coordinate
+    /// lists, no scatter of the solves, the buffers cut to fixed-size arrays once per call.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn follow_pin2(
+        &mut self,
+        p: Pin2,
+        model: &HybridModel,
+        t: f64,
+        pos: &[f64],
+        vel: &[f64],
+        acc: &[f64],
+        rule: CurrentRule<'_>,
+        currents: &mut [f64],
+        phi: &mut [f64],
+    ) -> Result<(), FollowError> {
+        let (c, ca) = (p.coupling, p.axial_coupling);
+        let w = pos[c];
+        // The axial row's coupling value (`None` for a point that does not move along `x`).
+        let wa = ca.map(|k| pos[k]);
+        let m = &model.mechanisms[self.mech];
+        let (cs, sn) = self.rot;
+        let q = fixed2(&mut self.q);
+        let qd = fixed2(&mut self.qd);
+        let qdd = fixed2(&mut self.qdd);
+        let h = fixed2(&mut self.h);
+        let rhs = fixed2(&mut self.rhs);
+        let jfull = fixed4(self.jfull.as_mut_slice());
+        let lu = fixed4(self.lu.as_mut_slice());
+        // Position solve (solve_positions): the scale of its residual test, the prediction
+        // from the last solve, Newton on `h = 0`.
+        let scale = (1.0 + ((p.x.abs() + w.abs()) + wa.map_or(0.0, |v| p.y.abs() + v.abs())))
+            + p.origin_abs;
+        if self.solved {
+            let dwa = ca.map_or(0.0, |k| pos[k] - self.w_last[k]);
+            *rhs = [w - self.w_last[c], dwa];
+            solve2(lu, &self.piv, rhs);
+            q[0] += rhs[0];
+            q[1] += rhs[1];
+        }
+        self.solved = false;
+        let mut last = f64::INFINITY;
+        let mut converged = false;
+        for it in 0..60 {
+            // h and J (eval_rows): the point's position and Jacobian.
+            m.system.point_position(p.point, &q[..], &mut self.ws);
+            let pp = m
+                .mount
+                .to_beam_with(self.rot, [self.ws.point_p[0], self.ws.point_p[1]]);
+            let (d, e) = (p.direction, p.along);
+            h[0] = (d[0] * pp[0] + d[1] * pp[1]) - p.offset - w;
+            let pj = &self.ws.point_j.as_slice()[..6];
+            for (col, pj) in jfull.chunks_exact_mut(2).zip(pj.chunks_exact(3)) {
+                let (jx, jy) = (pj[0], pj[1]);
+                col[0] = e[0] * jx + e[1] * jy;
+                col[1] = cs * jx - sn * jy;
+            }
+            h[1] = pp[0] - p.x - wa.map_or(0.0, |v| v);
+            let rn = norm(&h[..]);
+            if !rn.is_finite() {
+                return Err(FollowError::NoAssembly {
+                    residual: rn,
+                    iterations: it,
+                });
+            }
+            last = rn;
+            let jmax = amax(&jfull[..]);
+            *lu = *jfull;
+            self.piv.clear();
+            if !lu_small(&mut lu[..], &mut self.piv)
+                || [lu[0], lu[3]]
+                    .iter()
+                    .any(|d| d.abs() <= 1e-14 * jmax.max(1e-300))
+            {
+                self.measure_condition();
+                return Err(FollowError::Singular {
+                    condition: f64::INFINITY,
+                    sigma_min: self.sigma_min,
+                });
+            }
+            *rhs = *h;
+            solve2(lu, &self.piv, rhs);
+            let mut len = norm(rhs);
+            let mut step = 1.0;
+            if len > 0.3 {
+                step = 0.3 / len;
+                len = 0.3;
+            }
+            q[0] -= step * rhs[0];
+            q[1] -= step * rhs[1];
+            if len <= 1e-13 * (1.0 + q.iter().map(|x| x.abs()).sum::<f64>()) {
+                if rn <= 1e-12 * scale {
+                    self.residual = rn;
+                    // mark_solved.
+                    self.solved = true;
+                    self.w_last[c] = w;
+                    if let Some(k) = ca {
+                        self.w_last[k] = pos[k];
+                    }
+                    converged = true;
+                    break;
+                }
+                return Err(FollowError::NoAssembly {
+                    residual: rn,
+                    iterations: it + 1,
+                });
+            }
+        }
+        if !converged {
+            if last <= 1e-12 * scale {
+                // As in solve_positions: reached to rounding, the steps do not settle.
+                self.measure_condition();
+                return Err(FollowError::Singular {
+                    condition: self.condition,
+                    sigma_min: self.sigma_min,
+                });
+            }
+            return Err(FollowError::NoAssembly {
+                residual: last,
+                iterations: 60,
+            });
+        }
+        // Velocities (18): J_d qd = E w'.
+        *rhs = [vel[c], ca.map_or(0.0, |k| vel[k])];
+        solve2(lu, &self.piv, rhs);
+        *qd = *rhs;
+        // Dynamics and the constraint bias A = J' q' (16), (50).
+        m.system
+            .evaluate_with_point(p.point, &q[..], &qd[..], t, &mut self.ws);
+        let (ax, ay) = (self.ws.point_a[0], self.ws.point_a[1]);
+        let bias = fixed2(&mut self.bias);
+        *bias = [p.along[0] * ax + p.along[1] * ay, cs * ax - sn * ay];
+        add_loads(
+            model,
+            self.mech,
+            &self.forces,
+            self.excited,
+            (t, &q[..], &qd[..]),
+            rule,
+            currents,
+            &mut self.ws,
+        );
+        // Accelerations (19): J_d qdd = E w'' - A.
+        *rhs = [acc[c] - bias[0], ca.map_or(0.0, |k| acc[k]) - bias[1]];
+        solve2(lu, &self.piv, rhs);
+        *qdd = *rhs;
+        // g = M q'' + F + Q (the sums of follow_sized); mu = J_d^-T g, phi_w = E^T mu.
+        let g = fixed2(&mut self.g);
+        let (mm, f, qv) = (
+            &self.ws.m.as_slice()[..4],
+            &self.ws.f.as_slice()[..2],
+            &self.ws.q.as_slice()[..2],
+        );
+        for i in 0..2 {
+            g[i] = (mm[i] * qdd[0] + mm[2 + i] * qdd[1] + f[i]) + qv[i];
+        }
+        *rhs = *g;
+        let done = lu_solve_transpose_small(&lu[..], &self.piv, &mut rhs[..]);
+        assert!(done, "two pivots after a successful 2 x 2 factorisation");
+        phi[c] = rhs[0];
+        if let Some(k) = ca {
+            phi[k] = rhs[1];
+        }
+        Ok(())
     }
 
     /// [`Follower::follow_trial`] for `r` rows and `n` coordinates ([`Dim`]).
@@ -731,29 +917,16 @@ impl Follower {
             m.system.evaluate(q, qd, t, &mut self.ws);
         }
         copy_short(&mut bias[..self.loops], &self.ws.a.as_slice()[..self.loops]);
-        for &f in &self.forces {
-            let force = &model.forces[f];
-            let w = qd[force.joint];
-            currents[f] = if force.has_current_state() {
-                let g = force.generator().expect("a current state is a generator's");
-                let (l, r) = (g.inductance, g.resistance());
-                let h = rule.h;
-                (rule.old[f] + 0.5 * h * rule.rate[f] + 0.5 * h * g.ke * g.gear_ratio * w / l)
-                    / (1.0 + 0.5 * h * r / l)
-            } else {
-                force.quasi_static_current(w)
-            };
-        }
-        model.add_joint_forces(
+        add_loads(
+            model,
             self.mech,
-            t,
-            q,
-            qd,
+            &self.forces,
+            self.excited,
+            (t, q, qd),
+            rule,
             currents,
-            &mut self.ws.m,
-            &mut self.ws.q,
+            &mut self.ws,
         );
-        model.add_base_load(self.mech, t, q, &mut self.ws);
         // Accelerations (19): J_d qdd_d = E w'' - J_f u'' - A.
         let qdd = &mut self.qdd.as_mut_slice()[..nq];
         for (&c, x) in self.free.iter().zip(&acc[off..]) {
@@ -961,6 +1134,148 @@ fn dependent_columns(j: &[f64], rows: usize, dep: &[usize], leading: bool, jd: &
     }
 }
 
+/// `|o_x| + |o_y|` summed in order as an iterator's `sum` sums it (the same value bit
+/// for bit as the position solve's former in-place sum).
+fn origin_abs(origin: &[f64; 2]) -> f64 {
+    origin.iter().map(|x| x.abs()).sum::<f64>()
+}
+
+/// The constants of [`Follower::follow_pin2`]: a mechanism of two coordinates without
+/// loop rows pinned to one structure point (the double bar on the beam), whose two rows
+/// are the pin's transverse row 0 and axial row 1, both coordinates dependent (`dep` is
+/// `0..2`, no free coordinate).
+#[derive(Clone, Copy, Debug)]
+struct Pin2 {
+    /// Mechanism point index.
+    point: usize,
+    /// Coupling unknown of the transverse row.
+    coupling: usize,
+    /// Coupling unknown of the axial row, for a point that moves along `x`.
+    axial_coupling: Option<usize>,
+    /// [`AttachRow::direction`].
+    direction: [f64; 2],
+    /// [`AttachRow::along`].
+    along: [f64; 2],
+    /// [`AttachRow::offset`].
+    offset: f64,
+    /// [`AttachRow::x`].
+    x: f64,
+    /// [`AttachRow::y`].
+    y: f64,
+    /// [`Follower::origin_abs`].
+    origin_abs: f64,
+}
+
+impl Pin2 {
+    /// The constants when the follower (`n` coordinates, `loops` loop rows, attachments
+    /// `atts`, free coordinates `free`) is of that kind.
+    fn of(
+        n: usize,
+        loops: usize,
+        atts: &[AttachRow],
+        free: &[usize],
+        origin_abs: f64,
+    ) -> Option<Pin2> {
+        match atts {
+            [a] if n == 2
+                && loops == 0
+                && free.is_empty()
+                && a.row == 0
+                && a.axial_row == Some(1) =>
+            {
+                Some(Pin2 {
+                    point: a.point,
+                    coupling: a.coupling,
+                    axial_coupling: a.axial_coupling,
+                    direction: a.direction,
+                    along: a.along,
+                    offset: a.offset,
+                    x: a.x,
+                    y: a.y,
+                    origin_abs,
+                })
+            }
+            _ => None,
+        }
+    }
+}
+
+/// Which excitations of the model act on a follower's mechanism: whether
+/// [`HybridModel::add_joint_excitations`] and [`HybridModel::add_base_load`] can change
+/// its equations (both add nothing without such excitations).
+#[derive(Clone, Copy, Debug)]
+struct Excited {
+    /// An excitation on one of its joints.
+    joint: bool,
+    /// A base excitation (the supports' motion).
+    base: bool,
+}
+
+/// The currents of mechanism `mech`'s force elements `forces` (all of its, ascending) at
+/// `(t, q, q')` into `currents`, their terms and the excitations' added to `M^b`, `Q^b`
+/// in `ws`: [`HybridModel::add_joint_forces`] and [`HybridModel::add_base_load`], the
+/// same terms in the same order, over the mechanism's own force elements (not a filter
+/// over the model's), each with the current just computed (the quasi-static one is the
+/// value `add_joint_forces` recomputes), and the excitation passes skipped when the model
+/// has none of their kind ([`Excited`]).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn add_loads(
+    model: &HybridModel,
+    mech: usize,
+    forces: &[usize],
+    excited: Excited,
+    (t, q, qd): (f64, &[f64], &[f64]),
+    rule: CurrentRule<'_>,
+    currents: &mut [f64],
+    ws: &mut Workspace,
+) {
+    for &f in forces {
+        let force = &model.forces[f];
+        let j = force.joint;
+        let w = qd[j];
+        let current = if force.has_current_state() {
+            let g = force.generator().expect("a current state is a generator's");
+            let (l, r) = (g.inductance, g.resistance());
+            let h = rule.h;
+            (rule.old[f] + 0.5 * h * rule.rate[f] + 0.5 * h * g.ke * g.gear_ratio * w / l)
+                / (1.0 + 0.5 * h * r / l)
+        } else {
+            force.quasi_static_current(w)
+        };
+        currents[f] = current;
+        force.add_to_equations(q[j], w, current, &mut ws.m, &mut ws.q);
+    }
+    if excited.joint {
+        model.add_joint_excitations(mech, t, &mut ws.q);
+    }
+    if excited.base {
+        model.add_base_load(mech, t, q, ws);
+    }
+}
+
+/// The first two entries of `v` as an array (the pinned double bar's rows, coordinates).
+#[inline(always)]
+fn fixed2(v: &mut DVector<f64>) -> &mut [f64; 2] {
+    (&mut v.as_mut_slice()[..2])
+        .try_into()
+        .expect("a slice of two")
+}
+
+/// The first four entries of `v` as an array (a 2 x 2 matrix, column-major).
+#[inline(always)]
+fn fixed4(v: &mut [f64]) -> &mut [f64; 4] {
+    (&mut v[..4]).try_into().expect("a slice of four")
+}
+
+/// `b = A^-1 b` with the 2 x 2 factors `lu`, `piv` of a successful [`lu_small`] (two
+/// pivots): [`lu_solve_small`]'s 2 x 2 path.
+#[inline(always)]
+fn solve2(lu: &[f64; 4], piv: &[usize], b: &mut [f64; 2]) {
+    let done = lu_solve_small(&lu[..], piv, &mut b[..]);
+    assert!(done, "two pivots after a successful 2 x 2 factorisation");
+}
+
 /// Whether the dependent coordinates `dep` are `0..rows` (in order).
 fn leading(dep: &[usize], rows: usize) -> bool {
     dep.len() == rows && dep.iter().enumerate().all(|(i, &c)| c == i)
@@ -1028,10 +1343,10 @@ mod tests {
     use super::*;
     use crate::generator::GeneratorSpec;
     use crate::hybrid::{
-        Attachment, BeamPoint, ForceKind, JointForce, Mount, MountedMechanism, Placement,
-        place_two_bar,
+        Attachment, BeamPoint, Excitation, ExcitationTarget, ForceKind, JointForce, Mount,
+        MountedMechanism, Placement, place_two_bar,
     };
-    use fem_beam::{Beam, BeamModel};
+    use fem_beam::{Beam, BeamModel, TimeFunction};
     use mbs_symbolic::samples::SplitMix64;
 
     /// The paper's damper (`scenarios/damper.toml`, 8 elements): the generated double bar
@@ -1090,16 +1405,20 @@ mod tests {
         .unwrap()
     }
 
-    /// The follow on sizes known at compile time (what `follow_trial` runs for the double
-    /// bar) against the same code on run-time sizes: the same outputs bit for bit, along a
-    /// sequence of trial states (the prediction from the last solve included) and at a
-    /// beam displacement beyond the mechanism's reach (the same error).
+    /// The follow on sizes known at compile time and the straight-line follow of the
+    /// pinned double bar (what `follow_trial` runs for it, [`Follower::follow_pin2`])
+    /// against the same code on run-time sizes: the same outputs and buffers bit for bit,
+    /// along a sequence of trial states (the prediction from the last solve included) and
+    /// at a beam displacement beyond the mechanism's reach (the same error).
     #[test]
     fn the_fixed_size_follow_equals_the_run_time_sized_one_bit_for_bit() {
         let model = damper();
         let mut fixed = Follower::new(&model, 0, vec![], 0);
         assert_eq!((fixed.rows(), fixed.n, fixed.nb), (2, 2, 1));
         let mut dynamic = fixed.clone();
+        // The straight-line path for the pinned double bar (what follow_trial runs).
+        let mut pinned = fixed.clone();
+        assert!(pinned.pin2.is_some());
         let mut rng = SplitMix64::new(5);
         let mut errors = 0;
         for k in 0..200 {
@@ -1117,39 +1436,154 @@ mod tests {
                 rate: &rate,
             };
             let t = 1e-4 * k as f64;
-            let (mut c1, mut c2) = ([f64::NAN], [f64::NAN]);
-            let (mut p1, mut p2) = ([f64::NAN], [f64::NAN]);
+            let (mut c1, mut c2, mut c3) = ([f64::NAN], [f64::NAN], [f64::NAN]);
+            let (mut p1, mut p2, mut p3) = ([f64::NAN], [f64::NAN], [f64::NAN]);
             let (r, n) = (Fixed::<2>, Fixed::<2>);
             let a = fixed.follow_sized(r, n, &model, t, &pos, &vel, &acc, rule, &mut c1, &mut p1);
             let (r, n) = (Dyn(2), Dyn(2));
             let b = dynamic.follow_sized(r, n, &model, t, &pos, &vel, &acc, rule, &mut c2, &mut p2);
+            let c = pinned.follow_trial(&model, t, &pos, &vel, &acc, rule, &mut c3, &mut p3);
             assert_eq!(a, b, "step {k}");
+            assert_eq!(a, c, "step {k}");
             errors += usize::from(a.is_err());
             let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
-            assert_eq!(bits(&c1), bits(&c2), "step {k}");
-            assert_eq!(bits(&p1), bits(&p2), "step {k}");
-            for (x, y) in [
-                (&fixed.q, &dynamic.q),
-                (&fixed.qd, &dynamic.qd),
-                (&fixed.qdd, &dynamic.qdd),
-                (&fixed.rhs, &dynamic.rhs),
-                (&fixed.h, &dynamic.h),
-            ] {
-                assert_eq!(bits(x.as_slice()), bits(y.as_slice()), "step {k}");
+            for other in [&dynamic, &pinned] {
+                for (x, y) in [
+                    (&fixed.q, &other.q),
+                    (&fixed.qd, &other.qd),
+                    (&fixed.qdd, &other.qdd),
+                    (&fixed.rhs, &other.rhs),
+                    (&fixed.h, &other.h),
+                    (&fixed.bias, &other.bias),
+                    (&fixed.g, &other.g),
+                ] {
+                    assert_eq!(bits(x.as_slice()), bits(y.as_slice()), "step {k}");
+                }
+                assert_eq!(bits(fixed.lu.as_slice()), bits(other.lu.as_slice()));
+                assert_eq!(bits(fixed.jfull.as_slice()), bits(other.jfull.as_slice()));
+                assert_eq!(bits(&fixed.w_last), bits(&other.w_last));
+                assert_eq!(
+                    (fixed.piv.clone(), fixed.solved, fixed.residual.to_bits()),
+                    (other.piv.clone(), other.solved, other.residual.to_bits())
+                );
+                assert_eq!(
+                    (fixed.condition.to_bits(), fixed.sigma_min.to_bits()),
+                    (other.condition.to_bits(), other.sigma_min.to_bits())
+                );
             }
-            assert_eq!(bits(fixed.lu.as_slice()), bits(dynamic.lu.as_slice()));
-            assert_eq!(bits(fixed.jfull.as_slice()), bits(dynamic.jfull.as_slice()));
-            assert_eq!(
-                (fixed.piv.clone(), fixed.solved),
-                (dynamic.piv.clone(), dynamic.solved)
-            );
+            for (x, y) in [(&c1, &c2), (&c1, &c3), (&p1, &p2), (&p1, &p3)] {
+                assert_eq!(bits(x), bits(y), "step {k}");
+            }
             if a.is_err() {
-                // Back to a configuration both can follow from.
+                // Back to a configuration all three can follow from.
                 let q0 = model.mechanisms[0].initial_q.clone();
-                fixed.q.as_mut_slice().copy_from_slice(&q0);
-                dynamic.q.as_mut_slice().copy_from_slice(&q0);
+                for f in [&mut fixed, &mut dynamic, &mut pinned] {
+                    f.q.as_mut_slice().copy_from_slice(&q0);
+                }
             }
         }
         assert!((1..20).contains(&errors), "{errors} failed follows");
+    }
+
+    /// [`add_loads`] against what it replaces in the follow (the currents computed per force
+    /// element, then [`HybridModel::add_joint_forces`] and [`HybridModel::add_base_load`]):
+    /// the same currents, `M^b`, `Q^b` and `G` bit for bit, with a generator with and
+    /// without a current state, without excitations and with a joint and a base one.
+    #[test]
+    fn the_follower_loads_equal_add_joint_forces_and_add_base_load_bit_for_bit() {
+        let mut rng = SplitMix64::new(9);
+        for (inductance, excited) in [(1e-3, false), (0.0, false), (1e-3, true), (0.0, true)] {
+            let mut model = damper();
+            if let ForceKind::Generator(g) = &mut model.forces[0].kind {
+                g.inductance = inductance;
+            }
+            if excited {
+                let time = TimeFunction::Table {
+                    points: vec![[0.0, 0.3], [1.0, -2.0]],
+                };
+                for (name, target) in [
+                    (
+                        "drive",
+                        ExcitationTarget::Joint {
+                            mechanism: 0,
+                            joint: 1,
+                        },
+                    ),
+                    ("shaker", ExcitationTarget::BASE_Y),
+                ] {
+                    model.excitations.push(Excitation {
+                        name: name.into(),
+                        target,
+                        amplitude: 1.7,
+                        time: time.clone(),
+                    });
+                }
+            }
+            let follower = Follower::new(&model, 0, vec![], 0);
+            assert_eq!(
+                (follower.excited.joint, follower.excited.base),
+                (excited, excited)
+            );
+            let sys = &model.mechanisms[0].system;
+            for _ in 0..20 {
+                let q = [rng.symmetric(3.0), rng.symmetric(3.0)];
+                let qd = [rng.symmetric(20.0), rng.symmetric(20.0)];
+                let t = rng.symmetric(1.0).abs();
+                let (old, rate) = ([rng.symmetric(0.1)], [rng.symmetric(10.0)]);
+                let rule = CurrentRule {
+                    h: 1e-4,
+                    old: &old,
+                    rate: &rate,
+                };
+                let mut ws = sys.workspace();
+                sys.evaluate(&q, &qd, t, &mut ws);
+                let mut reference = ws.clone();
+                let (mut c1, mut c2) = ([f64::NAN], [f64::NAN]);
+                // The replaced code.
+                for &f in &follower.forces {
+                    let force = &model.forces[f];
+                    let w = qd[force.joint];
+                    c1[f] = if force.has_current_state() {
+                        let g = force.generator().unwrap();
+                        let (l, r) = (g.inductance, g.resistance());
+                        let h = rule.h;
+                        (rule.old[f]
+                            + 0.5 * h * rule.rate[f]
+                            + 0.5 * h * g.ke * g.gear_ratio * w / l)
+                            / (1.0 + 0.5 * h * r / l)
+                    } else {
+                        force.quasi_static_current(w)
+                    };
+                }
+                model.add_joint_forces(0, t, &q, &qd, &c1, &mut reference.m, &mut reference.q);
+                model.add_base_load(0, t, &q, &mut reference);
+                add_loads(
+                    &model,
+                    0,
+                    &follower.forces,
+                    follower.excited,
+                    (t, &q, &qd),
+                    rule,
+                    &mut c2,
+                    &mut ws,
+                );
+                let bits = |x: &[f64]| x.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(&c1), bits(&c2));
+                assert_eq!(bits(reference.m.as_slice()), bits(ws.m.as_slice()));
+                assert_eq!(bits(reference.q.as_slice()), bits(ws.q.as_slice()));
+                assert_eq!(
+                    bits(reference.gravity_jacobian.as_slice()),
+                    bits(ws.gravity_jacobian.as_slice())
+                );
+                if excited {
+                    assert_ne!(bits(reference.q.as_slice()), {
+                        let mut bare = sys.workspace();
+                        sys.evaluate(&q, &qd, t, &mut bare);
+                        model.add_joint_forces(0, t, &q, &qd, &c1, &mut bare.m, &mut bare.q);
+                        bits(bare.q.as_slice())
+                    });
+                }
+            }
+        }
     }
 }

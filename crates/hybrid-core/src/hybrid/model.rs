@@ -914,7 +914,10 @@ impl HybridModel {
     /// Adds the force elements and joint excitations of mechanism `mech` to `M^b` and `Q^b`
     /// at `(q, q', t)`, with generator currents `currents` (one per force element; used for
     /// those with a current state, the others take their quasi-static current). The one
-    /// place joint forces enter the equations, shared by every formulation.
+    /// place joint forces enter the equations, shared by every formulation (the follower's
+    /// trial evaluations add the same terms in the same order through the same
+    /// [`JointForce::add_to_equations`] and [`HybridModel::add_joint_excitations`], over
+    /// the mechanism's own force elements).
     pub fn add_joint_forces(
         &self,
         mech: usize,
@@ -937,6 +940,12 @@ impl HybridModel {
             };
             f.add_to_equations(q[j], qd[j], current, m, qv);
         }
+        self.add_joint_excitations(mech, t, qv);
+    }
+
+    /// The joint excitations of mechanism `mech` at time `t` subtracted from its `Q^b`
+    /// (`qv`): the last part of [`HybridModel::add_joint_forces`].
+    pub fn add_joint_excitations(&self, mech: usize, t: f64, qv: &mut DVector<f64>) {
         for e in &self.excitations {
             if let ExcitationTarget::Joint { mechanism, joint } = e.target
                 && mechanism == mech
@@ -944,6 +953,14 @@ impl HybridModel {
                 qv[joint] -= e.value(t);
             }
         }
+    }
+
+    /// Whether an excitation acts on a joint of mechanism `mech`
+    /// ([`HybridModel::add_joint_excitations`] changes nothing without one).
+    pub fn has_joint_excitation(&self, mech: usize) -> bool {
+        self.excitations.iter().any(
+            |e| matches!(e.target, ExcitationTarget::Joint { mechanism, .. } if mechanism == mech),
+        )
     }
 
     /// The unit of an excitation's amplitude at `target`: `N` for a beam force, the force
