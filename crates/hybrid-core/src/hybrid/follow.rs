@@ -522,7 +522,7 @@ impl Follower {
 
     /// Solves `h(q) = 0` for the dependent coordinates with the free ones at their values in
     /// `self.q`, from the dependent values in `self.q` (the guess selects the assembly
-    /// branch). Step length limited to 0.3. On success `jfull` and the LU of `J_d` hold the
+    /// branch). Step length limited to [`POSITION_STEP_LIMIT`]. On success `jfull` and the LU of `J_d` hold the
     /// solution's values (to the last, below-tolerance Newton step). For `r` rows and `n`
     /// coordinates ([`Dim`]).
     #[inline(always)]
@@ -554,7 +554,7 @@ impl Follower {
         self.predict(r, w);
         self.solved = false;
         let mut last = f64::INFINITY;
-        for it in 0..60 {
+        for it in 0..POSITION_ITERATIONS {
             self.eval_rows_sized(r, n, model, w);
             let rn = norm(&self.h.as_slice()[..rows]);
             if !rn.is_finite() {
@@ -567,7 +567,7 @@ impl Follower {
             let jmax = amax(&self.jfull.as_slice()[..rows * n.get()]);
             if !self.factor_sized(r)
                 || (self.lu.as_slice()[..rows * rows].iter().step_by(rows + 1))
-                    .any(|d| d.abs() <= 1e-14 * jmax.max(1e-300))
+                    .any(|d| d.abs() <= POSITION_PIVOT_TOL * jmax.max(1e-300))
             {
                 self.measure_condition();
                 return Err(FollowError::Singular {
@@ -581,12 +581,7 @@ impl Follower {
             );
             self.solve_lu(r);
             let rhs = &self.rhs.as_slice()[..rows];
-            let mut len = norm(rhs);
-            let mut step = 1.0;
-            if len > 0.3 {
-                step = 0.3 / len;
-                len = 0.3;
-            }
+            let (step, len) = limited_step(norm(rhs));
             let q = &mut self.q.as_mut_slice()[..n.get()];
             if self.dep_leading {
                 for (qc, d) in q[..rows].iter_mut().zip(rhs) {
@@ -597,8 +592,8 @@ impl Follower {
                     q[c] -= step * d;
                 }
             }
-            if len <= 1e-13 * (1.0 + q.iter().map(|x| x.abs()).sum::<f64>()) {
-                if rn <= 1e-12 * scale {
+            if settled(len, q) {
+                if rn <= POSITION_RESIDUAL_TOL * scale {
                     self.residual = rn;
                     self.mark_solved(w);
                     return Ok(());
@@ -609,7 +604,7 @@ impl Follower {
                 });
             }
         }
-        if last <= 1e-12 * scale {
+        if last <= POSITION_RESIDUAL_TOL * scale {
             // Reached to rounding, but the Newton steps do not settle: J_d is too
             // ill-conditioned to pin the coordinates down — the toggle, not the reach.
             self.measure_condition();
@@ -620,7 +615,7 @@ impl Follower {
         }
         Err(FollowError::NoAssembly {
             residual: last,
-            iterations: 60,
+            iterations: POSITION_ITERATIONS,
         })
     }
 
@@ -734,7 +729,7 @@ impl Follower {
         self.solved = false;
         let mut last = f64::INFINITY;
         let mut converged = false;
-        for it in 0..60 {
+        for it in 0..POSITION_ITERATIONS {
             // h and J (eval_rows): the point's position and Jacobian.
             m.system.point_position(p.point, &q[..], &mut self.ws);
             let pp = m
@@ -763,7 +758,7 @@ impl Follower {
             if !lu_small(&mut lu[..], &mut self.piv)
                 || [lu[0], lu[3]]
                     .iter()
-                    .any(|d| d.abs() <= 1e-14 * jmax.max(1e-300))
+                    .any(|d| d.abs() <= POSITION_PIVOT_TOL * jmax.max(1e-300))
             {
                 self.measure_condition();
                 return Err(FollowError::Singular {
@@ -773,16 +768,11 @@ impl Follower {
             }
             *rhs = *h;
             solve2(lu, &self.piv, rhs);
-            let mut len = norm(rhs);
-            let mut step = 1.0;
-            if len > 0.3 {
-                step = 0.3 / len;
-                len = 0.3;
-            }
+            let (step, len) = limited_step(norm(&rhs[..]));
             q[0] -= step * rhs[0];
             q[1] -= step * rhs[1];
-            if len <= 1e-13 * (1.0 + q.iter().map(|x| x.abs()).sum::<f64>()) {
-                if rn <= 1e-12 * scale {
+            if settled(len, &q[..]) {
+                if rn <= POSITION_RESIDUAL_TOL * scale {
                     self.residual = rn;
                     // mark_solved.
                     self.solved = true;
@@ -800,7 +790,7 @@ impl Follower {
             }
         }
         if !converged {
-            if last <= 1e-12 * scale {
+            if last <= POSITION_RESIDUAL_TOL * scale {
                 // As in solve_positions: reached to rounding, the steps do not settle.
                 self.measure_condition();
                 return Err(FollowError::Singular {
@@ -810,7 +800,7 @@ impl Follower {
             }
             return Err(FollowError::NoAssembly {
                 residual: last,
-                iterations: 60,
+                iterations: POSITION_ITERATIONS,
             });
         }
         // Velocities (18): J_d qd = E w'.
@@ -1100,6 +1090,35 @@ impl Follower {
             self.qdd[c] = a;
         }
     }
+}
+
+/// The position solve's Newton iteration ([`Follower::solve_positions`] and its copy for
+/// the pinned double bar, [`Follower::follow_pin2`]): at most this many iterations.
+const POSITION_ITERATIONS: usize = 60;
+/// The longest Newton step of the position solve (radians or lengths, as the coordinates).
+const POSITION_STEP_LIMIT: f64 = 0.3;
+/// A Newton step below this times `1 + sum |q|` has settled the coordinates.
+const POSITION_STEP_TOL: f64 = 1e-13;
+/// A settled solve assembles when `|h|` is below this times the positions' scale.
+const POSITION_RESIDUAL_TOL: f64 = 1e-12;
+/// A pivot of `J_d` below this times its largest entry is singular.
+const POSITION_PIVOT_TOL: f64 = 1e-14;
+
+/// The Newton step factor and length for a correction of length `len`: the step limited
+/// to [`POSITION_STEP_LIMIT`].
+#[inline(always)]
+fn limited_step(len: f64) -> (f64, f64) {
+    if len > POSITION_STEP_LIMIT {
+        (POSITION_STEP_LIMIT / len, POSITION_STEP_LIMIT)
+    } else {
+        (1.0, len)
+    }
+}
+
+/// Whether a Newton step of length `len` from the coordinates `q` has settled them.
+#[inline(always)]
+fn settled(len: f64, q: &[f64]) -> bool {
+    len <= POSITION_STEP_TOL * (1.0 + q.iter().map(|x| x.abs()).sum::<f64>())
 }
 
 /// The 2-norm of `x`, summed in order as nalgebra's `norm` sums a short vector (the same

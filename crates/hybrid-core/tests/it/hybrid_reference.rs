@@ -888,69 +888,14 @@ fn identical_runs_are_bit_identical() {
 /// [`extrapolated_start_matches_the_state_start`]).
 #[test]
 fn secant_acceptance_matches_evaluated_iterates() {
-    let d = PaperDamper::default();
-    let (hm, q0) = d.hybrid();
-    let n = q0.len();
-    let start = hybrid_core::hybrid::initial_state(&hm, q0, vec![0.0; n]).unwrap();
-    let steps = 3000;
-    let mut runs = vec![];
-    for on in [true, false] {
-        let mut state = start.clone();
-        let mut integ =
-            hybrid_core::hybrid::Integrator::new(&hm, Method::Newmark, 1e-4, &state).unwrap();
-        integ.set_secant_acceptance(on);
-        integ.set_extrapolated_start(false);
-        let before = integ.evaluations();
-        let mut history: Vec<Vec<f64>> = vec![];
-        for _ in 0..steps {
-            integ.step(&hm, &mut state).unwrap();
-            let m = &state.mechanisms[0];
-            let acc = &state.account;
-            history.push(
-                [
-                    &state.q,
-                    &state.v,
-                    &state.a,
-                    &m.q,
-                    &m.qd,
-                    &m.qdd,
-                    &state.currents,
-                ]
-                .into_iter()
-                .flatten()
-                .chain(&acc.dissipated)
-                .copied()
-                .chain([acc.dissipated_structure])
-                .collect(),
-            );
-        }
-        let per_step = (integ.evaluations() - before) as f64 / steps as f64;
-        runs.push((history, per_step));
-    }
-    let ((on, on_evals), (off, off_evals)) = (&runs[0], &runs[1]);
-    // Each quantity against the amplitude of its group (beam q, v, a; the mechanism's q,
-    // q', q''; currents; dissipations), as compare-trajectories measures a column against
-    // its signal: a beam DOF near the clamp is measured against the beam's motion.
-    let (nm, nf) = (start.mechanisms[0].q.len(), start.currents.len());
-    let mut from = 0;
-    for (group, len) in [n, n, n, nm, nm, nm, nf, nf, 1].into_iter().enumerate() {
-        let range = from..from + len;
-        from += len;
-        let amplitude = off
-            .iter()
-            .flat_map(|h| &h[range.clone()])
-            .fold(0.0, |m: f64, x| m.max(x.abs()));
-        let worst = on
-            .iter()
-            .zip(off)
-            .flat_map(|(a, b)| a[range.clone()].iter().zip(&b[range.clone()]))
-            .fold(0.0, |m: f64, (a, b)| m.max((a - b).abs()));
-        assert!(
-            worst <= 1e-9 * amplitude,
-            "group {group}: {worst:e} of amplitude {amplitude:e}"
-        );
-    }
-    assert_eq!(from, on[0].len());
+    let runs = [true, false].map(|on| {
+        paper_damper_rows(3000, |integ| {
+            integ.set_secant_acceptance(on);
+            integ.set_extrapolated_start(false);
+        })
+    });
+    let [(on, on_evals), (off, off_evals)] = &runs;
+    assert_paper_damper_rows_agree(on, off, 1e-9);
     assert!(
         *on_evals <= 2.6 && *off_evals >= 2.9,
         "evaluations per step {on_evals} (secant acceptance) and {off_evals} (without)"
@@ -967,73 +912,94 @@ fn secant_acceptance_matches_evaluated_iterates() {
 /// group's amplitude at worst).
 #[test]
 fn extrapolated_start_matches_the_state_start() {
-    let d = PaperDamper::default();
-    let (hm, q0) = d.hybrid();
-    let n = q0.len();
-    let start = hybrid_core::hybrid::initial_state(&hm, q0, vec![0.0; n]).unwrap();
-    let steps = 3000;
-    let mut runs = vec![];
-    for on in [true, false] {
-        let mut state = start.clone();
-        let mut integ =
-            hybrid_core::hybrid::Integrator::new(&hm, Method::Newmark, 1e-4, &state).unwrap();
-        integ.set_extrapolated_start(on);
-        let before = integ.evaluations();
-        let mut history: Vec<Vec<f64>> = vec![];
-        for _ in 0..steps {
-            integ.step(&hm, &mut state).unwrap();
-            let m = &state.mechanisms[0];
-            let acc = &state.account;
-            history.push(
-                [
-                    &state.q,
-                    &state.v,
-                    &state.a,
-                    &m.q,
-                    &m.qd,
-                    &m.qdd,
-                    &state.currents,
-                ]
-                .into_iter()
-                .flatten()
-                .chain(&acc.dissipated)
-                .copied()
-                .chain([acc.dissipated_structure])
-                .collect(),
-            );
-        }
-        let per_step = (integ.evaluations() - before) as f64 / steps as f64;
-        runs.push((history, per_step));
-    }
-    let ((on, on_evals), (off, off_evals)) = (&runs[0], &runs[1]);
-    let (nm, nf) = (start.mechanisms[0].q.len(), start.currents.len());
-    let mut from = 0;
-    let mut worst_ratio = 0.0f64;
-    for (group, len) in [n, n, n, nm, nm, nm, nf, nf, 1].into_iter().enumerate() {
-        let range = from..from + len;
-        from += len;
-        let amplitude = off
-            .iter()
-            .flat_map(|h| &h[range.clone()])
-            .fold(0.0, |m: f64, x| m.max(x.abs()));
-        let worst = on
-            .iter()
-            .zip(off)
-            .flat_map(|(a, b)| a[range.clone()].iter().zip(&b[range.clone()]))
-            .fold(0.0, |m: f64, (a, b)| m.max((a - b).abs()));
-        assert!(
-            worst <= 1e-9 * amplitude,
-            "group {group}: {worst:e} of amplitude {amplitude:e}"
-        );
-        worst_ratio = worst_ratio.max(worst / amplitude);
-    }
-    assert_eq!(from, on[0].len());
+    let runs =
+        [true, false].map(|on| paper_damper_rows(3000, |integ| integ.set_extrapolated_start(on)));
+    let [(on, on_evals), (off, off_evals)] = &runs;
+    let worst_ratio = assert_paper_damper_rows_agree(on, off, 1e-9);
     // Not the same iterates: the test compares two different iterations.
     assert!(worst_ratio > 0.0);
     assert!(
         *on_evals <= 2.05 && *off_evals >= 2.3,
         "evaluations per step {on_evals} (extrapolated start) and {off_evals} (without)"
     );
+}
+
+/// The paper's damper from its initial state over `steps` Newmark steps of 1e-4 s, with
+/// the integrator set by `configure`: per step the beam's q, v, a, the mechanism's q, q',
+/// q'', the currents, the force elements' and the beam's dissipations in one row, and the
+/// residual evaluations per step.
+fn paper_damper_rows(
+    steps: usize,
+    configure: impl Fn(&mut hybrid_core::hybrid::Integrator),
+) -> (Vec<Vec<f64>>, f64) {
+    let d = PaperDamper::default();
+    let (hm, q0) = d.hybrid();
+    let n = q0.len();
+    let mut state = hybrid_core::hybrid::initial_state(&hm, q0, vec![0.0; n]).unwrap();
+    let mut integ =
+        hybrid_core::hybrid::Integrator::new(&hm, Method::Newmark, 1e-4, &state).unwrap();
+    configure(&mut integ);
+    let before = integ.evaluations();
+    let mut history: Vec<Vec<f64>> = vec![];
+    for _ in 0..steps {
+        integ.step(&hm, &mut state).unwrap();
+        let m = &state.mechanisms[0];
+        let acc = &state.account;
+        history.push(
+            [
+                &state.q,
+                &state.v,
+                &state.a,
+                &m.q,
+                &m.qd,
+                &m.qdd,
+                &state.currents,
+            ]
+            .into_iter()
+            .flatten()
+            .chain(&acc.dissipated)
+            .copied()
+            .chain([acc.dissipated_structure])
+            .collect(),
+        );
+    }
+    let per_step = (integ.evaluations() - before) as f64 / steps as f64;
+    (history, per_step)
+}
+
+/// Asserts that the rows of [`paper_damper_rows`] `a` and `b` agree within `tol` of each
+/// group's amplitude in `b` (beam q, v, a; the mechanism's q, q', q''; currents;
+/// dissipations), as compare-trajectories measures a column against its signal: a beam DOF
+/// near the clamp is measured against the beam's motion. Returns the worst difference over
+/// its group's amplitude.
+fn assert_paper_damper_rows_agree(a: &[Vec<f64>], b: &[Vec<f64>], tol: f64) -> f64 {
+    let d = PaperDamper::default();
+    let (hm, q0) = d.hybrid();
+    let n = q0.len();
+    let start = hybrid_core::hybrid::initial_state(&hm, q0, vec![0.0; n]).unwrap();
+    let (nm, nf) = (start.mechanisms[0].q.len(), start.currents.len());
+    let mut from = 0;
+    let mut worst_ratio = 0.0f64;
+    for (group, len) in [n, n, n, nm, nm, nm, nf, nf, 1].into_iter().enumerate() {
+        let range = from..from + len;
+        from += len;
+        let amplitude = b
+            .iter()
+            .flat_map(|h| &h[range.clone()])
+            .fold(0.0, |m: f64, x| m.max(x.abs()));
+        let worst = a
+            .iter()
+            .zip(b)
+            .flat_map(|(x, y)| x[range.clone()].iter().zip(&y[range.clone()]))
+            .fold(0.0, |m: f64, (x, y)| m.max((x - y).abs()));
+        assert!(
+            worst <= tol * amplitude,
+            "group {group}: {worst:e} of amplitude {amplitude:e}"
+        );
+        worst_ratio = worst_ratio.max(worst / amplitude);
+    }
+    assert_eq!(from, a[0].len());
+    worst_ratio
 }
 
 /// Step by step, the state the secant acceptance moves along the secant is the state of
