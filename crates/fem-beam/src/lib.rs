@@ -105,7 +105,7 @@ pub mod random;
 mod source;
 mod spec;
 
-pub use banded::{BandedFactor, BandedSym, PairedKd3};
+pub use banded::{BandedFactor, BandedSym, NewmarkPredictor, PairedKd3};
 pub use beam::{
     Beam, Damping, DistributedLoad, Element, MAX_ELEMENTS, NodalLoad, PHYSICAL_RANGES, Segment,
     physical_range_problems,

@@ -2,7 +2,7 @@
 //! coupled simulation needs from it every step: the banded matrices, the DOF map, loads at
 //! time `t` into a caller buffer, static solutions, modes and interpolation (35).
 
-use crate::banded::{BandedFactor, BandedSym, PairedKd3};
+use crate::banded::{BandedFactor, BandedSym, NewmarkPredictor, PairedKd3};
 use crate::beam::{Beam, Damping};
 use crate::dofs::DofMap;
 use crate::element;
@@ -314,6 +314,31 @@ impl BeamModel {
         match &self.stiffness_pairs {
             Some(p) => p.mul_add_to(s, x, b, y),
             None => self.stiffness.mul_add_to(s, x, b, y),
+        }
+    }
+
+    /// The folded step's predictor and product: `p.predict(old, out)` (`old = [q, v, a]`,
+    /// `out = [q^, v^, x]`) then `y = b - C x`, bit-identical to
+    /// [`NewmarkPredictor::predict`] then [`BeamModel::stiffness_mul_add_to`] with `s = -1`:
+    /// with 8 DOFs or more in one pass ([`PairedKd3::predict_mul_sub`]); no allocation.
+    ///
+    /// # Panics
+    /// If a vector does not have length [`BeamModel::dof_count`].
+    pub fn predict_stiffness_mul_sub(
+        &self,
+        p: &NewmarkPredictor,
+        old: [&[f64]; 3],
+        out: [&mut [f64]; 3],
+        b: &[f64],
+        y: &mut [f64],
+    ) {
+        match &self.stiffness_pairs {
+            Some(pairs) => pairs.predict_mul_sub(p, old, out, b, y),
+            None => {
+                let [q_hat, v_hat, x] = out;
+                p.predict(old, [q_hat, v_hat, &mut *x]);
+                self.stiffness.mul_add_to(-1.0, x, b, y);
+            }
         }
     }
 

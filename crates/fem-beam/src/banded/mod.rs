@@ -6,7 +6,8 @@
 //! - [`ldlt`]: the factorisation `A = L D L^T` ([`BandedFactor`]), its solves, and the
 //!   Sturm count of negative pivots (same elimination kernel);
 //! - [`pairs`]: [`PairedKd3`], the half-bandwidth-3 band two rows at a time for the
-//!   step's product (SSE2 lanes, bit-identical to [`BandedSym::mul_add_to`]);
+//!   step's product (SSE2 lanes, bit-identical to [`BandedSym::mul_add_to`]), with the
+//!   Newmark predictor ([`NewmarkPredictor`]) formed in the same pass;
 //! - [`refine`]: the double-double residual `b - A x` and iteratively refined solves.
 //!
 //! Storage: the lower band, row by row. Row `i` holds `A[i, i-kd ..= i]` in
@@ -33,7 +34,7 @@ mod refine;
 mod storage;
 
 pub use ldlt::BandedFactor;
-pub use pairs::PairedKd3;
+pub use pairs::{NewmarkPredictor, PairedKd3};
 pub use storage::BandedSym;
 
 /// Index of `A[i, j]` (`j <= i`, `i - j <= kd`) in the band storage.

@@ -37,6 +37,46 @@ pub struct PairedKd3 {
     coef: Vec<[f64; 2]>,
 }
 
+/// The Newmark predictor of a step with the Rayleigh damping folded into the factorised
+/// matrix (docs/theory.md section 13.5): from the last step's `q, v, a`,
+/// `q^ = q + h v + ca a`, `v^ = v + cv a` and the mixed vector `x = q^ + mu v^` whose
+/// product with the stiffness the step needs (`ca = h^2 (1/2 - beta)`,
+/// `cv = h (1 - gamma)`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NewmarkPredictor {
+    /// The step `h`.
+    pub h: f64,
+    /// `h^2 (1/2 - beta)`.
+    pub ca: f64,
+    /// `h (1 - gamma)`.
+    pub cv: f64,
+    /// The factor `mu` of `v^` in `x`.
+    pub mu: f64,
+}
+
+impl NewmarkPredictor {
+    /// One entry: `(q^, v^, x)` from `(q, v, a)`, in this order of operations.
+    #[inline(always)]
+    pub fn entry(&self, q: f64, v: f64, a: f64) -> (f64, f64, f64) {
+        let qh = q + self.h * v + self.ca * a;
+        let vh = v + self.cv * a;
+        (qh, vh, qh + self.mu * vh)
+    }
+
+    /// Every entry: `old = [q, v, a]` into `out = [q^, v^, x]` (the shortest length).
+    pub fn predict(&self, old: [&[f64]; 3], out: [&mut [f64]; 3]) {
+        let [q, v, a] = old;
+        let [q_hat, v_hat, x] = out;
+        for ((qh, vh), (((q, v), a), m)) in q_hat
+            .iter_mut()
+            .zip(v_hat.iter_mut())
+            .zip(q.iter().zip(v).zip(a).zip(x.iter_mut()))
+        {
+            (*qh, *vh, *m) = self.entry(*q, *v, *a);
+        }
+    }
+}
+
 impl PairedKd3 {
     /// The paired form of `a`; `None` unless `a` has half-bandwidth 3 and at least 8 rows.
     pub fn new(a: &BandedSym) -> Option<PairedKd3> {
@@ -94,6 +134,62 @@ impl PairedKd3 {
         }
         #[cfg(not(target_arch = "x86_64"))]
         self.band.mul_add_to(alpha, x, b, y);
+    }
+
+    /// The Newmark predictor and the step's product in one pass: `p.predict(old, out)`
+    /// (`out = [q^, v^, x]`, see [`NewmarkPredictor::predict`]) and then
+    /// `y = b - A x` ([`PairedKd3::mul_add_to`] with `alpha = -1`), bit-identical to the
+    /// two calls one after the other. Each pair of rows forms the two entries of `x` it is
+    /// the first to need (two SSE2 lanes, each lane the operations of
+    /// [`NewmarkPredictor::entry`]) and keeps the seven entries it reads in registers
+    /// instead of reading them back; no allocation.
+    ///
+    /// # Panics
+    /// If a vector does not have length [`BandedSym::size`].
+    pub fn predict_mul_sub(
+        &self,
+        p: &NewmarkPredictor,
+        old: [&[f64]; 3],
+        out: [&mut [f64]; 3],
+        b: &[f64],
+        y: &mut [f64],
+    ) {
+        let n = self.band.n;
+        assert!(
+            old.iter().all(|s| s.len() == n)
+                && out.iter().all(|s| s.len() == n)
+                && b.len() == n
+                && y.len() == n,
+            "PairedKd3::predict_mul_sub: a vector has the wrong length"
+        );
+        let [q, v, a] = old;
+        let [q_hat, v_hat, x] = out;
+        #[cfg(target_arch = "x86_64")]
+        {
+            let done = sse2::predict_pairs(
+                &self.coef,
+                p,
+                [q, v, a],
+                [&mut *q_hat, &mut *v_hat, &mut *x],
+                b,
+                y,
+            );
+            if done > 0 {
+                // The entries past the last pair's (none or one), then the rows the pairs
+                // leave out.
+                p.predict(
+                    [&q[done..], &v[done..], &a[done..]],
+                    [&mut q_hat[done..], &mut v_hat[done..], &mut x[done..]],
+                );
+                let tail = 3 + 2 * (self.coef.len() / PER_PAIR);
+                for i in (0..3).chain(tail..n) {
+                    y[i] = self.row(-1.0, x, b, i);
+                }
+                return;
+            }
+        }
+        p.predict([q, v, a], [q_hat, v_hat, &mut *x]);
+        self.mul_add_to(-1.0, x, b, y);
     }
 
     /// `x^T A x`, bit-identical to [`BandedSym::quadratic_form`]: the rows' terms
@@ -162,11 +258,18 @@ impl PairedKd3 {
 #[allow(unsafe_code)]
 mod sse2 {
     use std::arch::x86_64::{
-        __m128d, _mm_add_pd, _mm_cvtsd_f64, _mm_mul_pd, _mm_set_pd, _mm_set1_pd, _mm_sub_pd,
-        _mm_unpackhi_pd,
+        __m128d, _mm_add_pd, _mm_cvtsd_f64, _mm_mul_pd, _mm_set_pd, _mm_set1_pd, _mm_shuffle_pd,
+        _mm_sub_pd, _mm_unpackhi_pd,
     };
 
-    use super::PER_PAIR;
+    use super::{NewmarkPredictor, PER_PAIR};
+
+    /// `[lo[1], hi[0]]`: the two entries between two adjacent even-start pairs.
+    #[inline(always)]
+    fn middle(lo: __m128d, hi: __m128d) -> __m128d {
+        // SAFETY: SSE2 is in the x86-64 baseline.
+        unsafe { _mm_shuffle_pd::<0b01>(lo, hi) }
+    }
 
     #[inline(always)]
     fn add(a: __m128d, b: __m128d) -> __m128d {
@@ -258,6 +361,102 @@ mod sse2 {
         }
     }
 
+    /// [`pairs`] with `alpha = -1` on `x = p`'s mixed predictor, formed here: the entries
+    /// `0 .. 6` before the first pair, entries `i + 3, i + 4` for the pair of rows `i, i + 1`
+    /// (`[q^, v^, x]` into `out`, each lane the operations of
+    /// [`NewmarkPredictor::entry`]). The pair's seven `x` registers are those of the last
+    /// pair moved by one (the even-start ones `[x_{2k}, x_{2k+1}]`, ...) or the middle of
+    /// two even-start ones (the odd-start ones), not read back from memory. Returns the
+    /// number of leading entries predicted (0, nothing written, when `n < 8` or the lengths
+    /// differ).
+    #[inline(always)]
+    pub(super) fn predict_pairs(
+        coef: &[[f64; 2]],
+        p: &NewmarkPredictor,
+        old: [&[f64]; 3],
+        out: [&mut [f64]; 3],
+        b: &[f64],
+        y: &mut [f64],
+    ) -> usize {
+        let [q, v, a] = old;
+        let [q_hat, v_hat, x] = out;
+        let n = q.len();
+        if n < 8
+            || [
+                v.len(),
+                a.len(),
+                q_hat.len(),
+                v_hat.len(),
+                x.len(),
+                b.len(),
+                y.len(),
+            ]
+            .iter()
+            .any(|&len| len != n)
+        {
+            return 0;
+        }
+        // SAFETY: SSE2 is in the x86-64 baseline.
+        let (h, ca, cv, mu) = unsafe {
+            (
+                _mm_set1_pd(p.h),
+                _mm_set1_pd(p.ca),
+                _mm_set1_pd(p.cv),
+                _mm_set1_pd(p.mu),
+            )
+        };
+        let c = [h, ca, cv, mu];
+        let predict = |((((q, v), a), qh), (vh, xs))| entries(c, q, v, a, [qh, vh, xs]);
+        let mut chunks = q
+            .chunks_exact(2)
+            .zip(v.chunks_exact(2))
+            .zip(a.chunks_exact(2))
+            .zip(q_hat.chunks_exact_mut(2))
+            .zip(v_hat.chunks_exact_mut(2).zip(x.chunks_exact_mut(2)));
+        let (Some(c0), Some(c1), Some(c2)) = (chunks.next(), chunks.next(), chunks.next()) else {
+            return 0;
+        };
+        // Pair k (rows 2k + 3, 2k + 4): `e0, e1, e2` = x from entries 2k, 2k + 2, 2k + 4;
+        // `om2, o0` from 2k + 1, 2k + 3.
+        let (mut e0, mut e1, mut e2) = (predict(c0), predict(c1), predict(c2));
+        let (mut om2, mut o0) = (middle(e0, e1), middle(e1, e2));
+        let mut done = 6;
+        let vectors = b[3..].chunks_exact(2).zip(y[3..].chunks_exact_mut(2));
+        for ((c, next), (bs, ys)) in coef.chunks_exact(PER_PAIR).zip(chunks).zip(vectors) {
+            let e3 = predict(next);
+            let o2 = middle(e2, e3);
+            let mut acc = mul(lanes_in(c[0]), o0);
+            acc = add(acc, mul(lanes_in(c[1]), e0));
+            acc = add(acc, mul(lanes_in(c[2]), om2));
+            acc = add(acc, mul(lanes_in(c[3]), e1));
+            let mut w = sub(load(bs), acc);
+            w = sub(w, mul(lanes_in(c[4]), e2));
+            w = sub(w, mul(lanes_in(c[5]), o2));
+            w = sub(w, mul(lanes_in(c[6]), e3));
+            store(w, ys);
+            (e0, e1, e2) = (e1, e2, e3);
+            (om2, o0) = (o0, o2);
+            done += 2;
+        }
+        done
+    }
+
+    /// Two entries of the predictor (`c = [h, ca, cv, mu]` in both lanes): `q^, v^, x`
+    /// stored into `out`, `x` returned.
+    #[inline(always)]
+    fn entries(c: [__m128d; 4], q: &[f64], v: &[f64], a: &[f64], out: [&mut [f64]; 3]) -> __m128d {
+        let [h, ca, cv, mu] = c;
+        let (qv, vv, av) = (load(q), load(v), load(a));
+        let qhat = add(add(qv, mul(h, vv)), mul(ca, av));
+        let vhat = add(vv, mul(cv, av));
+        let xv = add(qhat, mul(mu, vhat));
+        let [qh, vh, xs] = out;
+        store(qhat, qh);
+        store(vhat, vh);
+        store(xv, xs);
+        xv
+    }
+
     /// `s` plus the terms `x_i (A_ii x_i + 2 (A_{i,i-3} x_{i-3} + A_{i,i-2} x_{i-2} +
     /// A_{i,i-1} x_{i-1}))` of rows `3 .. 3 + 2 m`, each pair's two terms in the two lanes,
     /// added to `s` in row order.
@@ -308,6 +507,41 @@ mod tests {
                 let mut general = b.clone();
                 super::super::storage::mul_add_kernel(3, &a.data, alpha, &x, &mut general);
                 assert_eq!(got, general, "n = {n}, alpha = {alpha}");
+            }
+            // The predictor fused into the product: the separate predictor pass then the
+            // product, bit for bit (q^, v^, x and y).
+            let pred = NewmarkPredictor {
+                h: 1e-4,
+                ca: 0.25e-8 * 0.9,
+                cv: 0.5e-4 * 1.1,
+                mu: 3.7e-3,
+            };
+            let old: Vec<Vec<f64>> = (0..3)
+                .map(|k| {
+                    (0..n)
+                        .map(|i| ((i + 7 * k) as f64 * 0.37).sin() * (1.0 + k as f64))
+                        .collect()
+                })
+                .collect();
+            let mut want = vec![vec![f64::NAN; n]; 4];
+            let [wq, wv, wx, wy] = &mut want[..] else {
+                unreachable!()
+            };
+            pred.predict([&old[0], &old[1], &old[2]], [wq, wv, &mut *wx]);
+            p.mul_add_to(-1.0, wx, &b, wy);
+            let mut got = vec![vec![f64::NAN; n]; 4];
+            let [gq, gv, gx, gy] = &mut got[..] else {
+                unreachable!()
+            };
+            p.predict_mul_sub(&pred, [&old[0], &old[1], &old[2]], [gq, gv, gx], &b, gy);
+            assert_eq!(got, want, "n = {n}: fused predictor");
+            for i in 0..n {
+                let (qh, vh, xm) = pred.entry(old[0][i], old[1][i], old[2][i]);
+                assert_eq!(
+                    [got[0][i], got[1][i], got[2][i]],
+                    [qh, vh, xm],
+                    "n = {n}, {i}"
+                );
             }
             assert_eq!(p.quadratic_form(&x), a.quadratic_form(&x), "n = {n}");
             let mut general = 0.0;

@@ -3,6 +3,7 @@
 //! [`crate::hybrid`]). A step costs one banded solve, `O(n)` vector work and a few
 //! mechanism evaluations, and allocates nothing.
 
+use fem_beam::NewmarkPredictor;
 use nalgebra::{DMatrix, DVector};
 
 use super::error::HybridError;
@@ -1369,31 +1370,31 @@ impl Integrator {
     }
 
     /// The beam's part of a step with the Rayleigh damping folded into the factorised
-    /// matrix (docs/theory.md section 13.5): the predictors, `q_mix = q^ + mu v^` in the
-    /// same pass, then `r0 = K^-1 (P_{n+1} - C q_mix)` — one banded product instead of the
-    /// two with `B` and `C` — whose `- kappa v^` is taken where `r0` is read
-    /// (`r0_kappa`).
+    /// matrix (docs/theory.md section 13.5): the predictors, `q_mix = q^ + mu v^`, and
+    /// `P_{n+1} - C q_mix` in one pass ([`LinearStructure::predict_stiffness_mul_sub`]; the
+    /// loads are functions of t alone, advanced first), then
+    /// `r0 = K^-1 (P_{n+1} - C q_mix)` — one banded product instead of the two with `B`
+    /// and `C` — whose `- kappa v^` is taken where `r0` is read (`r0_kappa`).
     fn step_folded(&mut self, model: &HybridModel, state: &HybridState, mu: f64, kappa: f64) {
         let (h, beta, gamma) = (self.h, self.beta, self.gamma);
         let Some(beam) = &model.structure else {
             return;
         };
         let t_new = state.t + h;
-        let (ca, cv) = (h * h * (0.5 - beta), h * (1.0 - gamma));
-        for ((qh, vh), (((q, v), a), m)) in self.q_hat.iter_mut().zip(&mut self.v_hat).zip(
-            state
-                .q
-                .iter()
-                .zip(&state.v)
-                .zip(&state.a)
-                .zip(&mut self.q_mix),
-        ) {
-            *qh = q + h * v + ca * a;
-            *vh = v + cv * a;
-            *m = *qh + mu * *vh;
-        }
+        let predictor = NewmarkPredictor {
+            h,
+            ca: h * h * (0.5 - beta),
+            cv: h * (1.0 - gamma),
+            mu,
+        };
         self.advance_loads(model, state.t, t_new);
-        beam.stiffness_mul_add_to(-1.0, &self.q_mix, &self.p_new, &mut self.r0);
+        beam.predict_stiffness_mul_sub(
+            &predictor,
+            [&state.q, &state.v, &state.a],
+            [&mut self.q_hat, &mut self.v_hat, &mut self.q_mix],
+            &self.p_new,
+            &mut self.r0,
+        );
         if let Some(f) = &self.factor {
             Structure::solve_in_place(f, &mut self.r0);
         }

@@ -31,7 +31,7 @@
 //! The step calls these methods through generic code monomorphised for each structure, not
 //! through a virtual call, so the interface costs the beam's step nothing.
 
-use fem_beam::{BandedFactor, BandedSym, BeamError, BeamModel, Dof, LinalgError};
+use fem_beam::{BandedFactor, BandedSym, BeamError, BeamModel, Dof, LinalgError, NewmarkPredictor};
 use fem_structure::{ImportedStructure, Reduced, SparseFactor, tables::NodeDof};
 use nalgebra::DVector;
 
@@ -93,6 +93,23 @@ pub trait LinearStructure {
     fn stiffness_mul_add_to(&self, s: f64, x: &[f64], b: &[f64], y: &mut [f64]) {
         y.copy_from_slice(b);
         self.stiffness_mul_add(s, x, y);
+    }
+
+    /// The predictor of a step with the damping folded into the factorised matrix and its
+    /// product: [`NewmarkPredictor::predict`] (`old = [q, v, a]` into
+    /// `out = [q^, v^, x]`), then `y = b - C x`: by default the two one after the other
+    /// (the beam: in one pass, bit-identical).
+    fn predict_stiffness_mul_sub(
+        &self,
+        p: &NewmarkPredictor,
+        old: [&[f64]; 3],
+        out: [&mut [f64]; 3],
+        b: &[f64],
+        y: &mut [f64],
+    ) {
+        let [q_hat, v_hat, x] = out;
+        p.predict(old, [q_hat, v_hat, &mut *x]);
+        self.stiffness_mul_add_to(-1.0, x, b, y);
     }
 
     /// `x^T A x`.
@@ -180,6 +197,18 @@ impl LinearStructure for BeamModel {
     #[inline]
     fn stiffness_mul_add_to(&self, s: f64, x: &[f64], b: &[f64], y: &mut [f64]) {
         BeamModel::stiffness_mul_add_to(self, s, x, b, y);
+    }
+
+    #[inline]
+    fn predict_stiffness_mul_sub(
+        &self,
+        p: &NewmarkPredictor,
+        old: [&[f64]; 3],
+        out: [&mut [f64]; 3],
+        b: &[f64],
+        y: &mut [f64],
+    ) {
+        BeamModel::predict_stiffness_mul_sub(self, p, old, out, b, y);
     }
 
     #[inline]
@@ -351,6 +380,18 @@ impl LinearStructure for Structure {
     #[inline]
     fn stiffness_mul_add_to(&self, k: f64, x: &[f64], b: &[f64], y: &mut [f64]) {
         each!(self, s => s.stiffness_mul_add_to(k, x, b, y))
+    }
+
+    #[inline]
+    fn predict_stiffness_mul_sub(
+        &self,
+        p: &NewmarkPredictor,
+        old: [&[f64]; 3],
+        out: [&mut [f64]; 3],
+        b: &[f64],
+        y: &mut [f64],
+    ) {
+        each!(self, s => s.predict_stiffness_mul_sub(p, old, out, b, y))
     }
 
     #[inline]
