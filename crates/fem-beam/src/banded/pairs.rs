@@ -405,8 +405,8 @@ mod sse2 {
                 _mm_set1_pd(p.mu),
             )
         };
-        let c = [h, ca, cv, mu];
-        let predict = |((((q, v), a), qh), (vh, xs))| entries(c, q, v, a, [qh, vh, xs]);
+        let k = [h, ca, cv, mu];
+        let predict = |((((q, v), a), qh), (vh, xs))| entries(k, q, v, a, [qh, vh, xs]);
         let mut chunks = q
             .chunks_exact(2)
             .zip(v.chunks_exact(2))
@@ -420,25 +420,59 @@ mod sse2 {
         // `om2, o0` from 2k + 1, 2k + 3.
         let (mut e0, mut e1, mut e2) = (predict(c0), predict(c1), predict(c2));
         let (mut om2, mut o0) = (middle(e0, e1), middle(e1, e2));
-        let mut done = 6;
         let vectors = b[3..].chunks_exact(2).zip(y[3..].chunks_exact_mut(2));
-        for ((c, next), (bs, ys)) in coef.chunks_exact(PER_PAIR).zip(chunks).zip(vectors) {
-            let e3 = predict(next);
-            let o2 = middle(e2, e3);
-            let mut acc = mul(lanes_in(c[0]), o0);
-            acc = add(acc, mul(lanes_in(c[1]), e0));
-            acc = add(acc, mul(lanes_in(c[2]), om2));
-            acc = add(acc, mul(lanes_in(c[3]), e1));
-            let mut w = sub(load(bs), acc);
-            w = sub(w, mul(lanes_in(c[4]), e2));
-            w = sub(w, mul(lanes_in(c[5]), o2));
-            w = sub(w, mul(lanes_in(c[6]), e3));
-            store(w, ys);
-            (e0, e1, e2) = (e1, e2, e3);
-            (om2, o0) = (o0, o2);
-            done += 2;
+        let mut pairs = coef.chunks_exact(PER_PAIR).zip(chunks).zip(vectors);
+        let done = 6 + 2 * pairs.len();
+        // Six pairs per round, the registers renamed instead of moved (the even-start ones
+        // repeat every three pairs, the odd-start ones every two); the round ends at the
+        // last pair.
+        for _ in 0..pairs.len().div_ceil(6) {
+            let Some(p) = pairs.next() else { break };
+            let (e3, o2) = pair(k, p, [e0, om2, e1, o0, e2]);
+            let Some(p) = pairs.next() else { break };
+            let (e4, o3) = pair(k, p, [e1, o0, e2, o2, e3]);
+            let Some(p) = pairs.next() else { break };
+            let (e5, o4) = pair(k, p, [e2, o2, e3, o3, e4]);
+            let Some(p) = pairs.next() else { break };
+            let (e6, o5) = pair(k, p, [e3, o3, e4, o4, e5]);
+            let Some(p) = pairs.next() else { break };
+            let (e7, o6) = pair(k, p, [e4, o4, e5, o5, e6]);
+            let Some(p) = pairs.next() else { break };
+            let (e8, o7) = pair(k, p, [e5, o5, e6, o6, e7]);
+            (e0, e1, e2, om2, o0) = (e6, e7, e8, o6, o7);
         }
         done
+    }
+
+    /// The chunks of two entries of `[q, v, a]` and `[q^, (v^, x)]`.
+    type Chunk<'a> = (
+        (((&'a [f64], &'a [f64]), &'a [f64]), &'a mut [f64]),
+        (&'a mut [f64], &'a mut [f64]),
+    );
+
+    /// One pair of rows `i, i + 1` of [`predict_pairs`] (`k = [h, ca, cv, mu]`): its
+    /// `x_{i+3}, x_{i+4}` predicted from `next`, its rows of `b - A x` stored; from the
+    /// registers `[x_{i-3}, x_{i-2}, x_{i-1}, x_i, x_{i+1}]` (even, odd, even, odd, even
+    /// start), the two new ones `(x_{i+3} (even), x_{i+2} (odd))` returned.
+    #[inline(always)]
+    fn pair(
+        k: [__m128d; 4],
+        ((c, next), (bs, ys)): ((&[[f64; 2]], Chunk<'_>), (&[f64], &mut [f64])),
+        [xm3, xm2, xm1, x0, x1]: [__m128d; 5],
+    ) -> (__m128d, __m128d) {
+        let ((((q, v), a), qh), (vh, xs)) = next;
+        let x3 = entries(k, q, v, a, [qh, vh, xs]);
+        let x2 = middle(x1, x3);
+        let mut acc = mul(lanes_in(c[0]), x0);
+        acc = add(acc, mul(lanes_in(c[1]), xm3));
+        acc = add(acc, mul(lanes_in(c[2]), xm2));
+        acc = add(acc, mul(lanes_in(c[3]), xm1));
+        let mut w = sub(load(bs), acc);
+        w = sub(w, mul(lanes_in(c[4]), x1));
+        w = sub(w, mul(lanes_in(c[5]), x2));
+        w = sub(w, mul(lanes_in(c[6]), x3));
+        store(w, ys);
+        (x3, x2)
     }
 
     /// Two entries of the predictor (`c = [h, ca, cv, mu]` in both lanes): `q^, v^, x`
