@@ -491,6 +491,24 @@ mod sse2 {
         xv
     }
 
+    /// One pair's two terms `x_i (A_ii x_i + 2 (A_{i,i-3} x_{i-3} + A_{i,i-2} x_{i-2} +
+    /// A_{i,i-1} x_{i-1}))` from the registers `[x_{i-3}, x_{i-2}, x_{i-1}, x_i]`.
+    #[inline(always)]
+    fn form_pair(two: __m128d, c: &[[f64; 2]], [xm3, xm2, xm1, x0]: [__m128d; 4]) -> __m128d {
+        let mut off = mul(lanes_in(c[1]), xm3);
+        off = add(off, mul(lanes_in(c[2]), xm2));
+        off = add(off, mul(lanes_in(c[3]), xm1));
+        mul(x0, add(mul(lanes_in(c[0]), x0), mul(two, off)))
+    }
+
+    /// `s + t[0] + t[1]`, left to right.
+    #[inline(always)]
+    fn add_lanes(s: f64, t: __m128d) -> f64 {
+        // SAFETY: SSE2 is in the x86-64 baseline.
+        let (lo, hi) = unsafe { (_mm_cvtsd_f64(t), _mm_cvtsd_f64(_mm_unpackhi_pd(t, t))) };
+        s + lo + hi
+    }
+
     /// `s` plus the terms `x_i (A_ii x_i + 2 (A_{i,i-3} x_{i-3} + A_{i,i-2} x_{i-2} +
     /// A_{i,i-1} x_{i-1}))` of rows `3 .. 3 + 2 m`, each pair's two terms in the two lanes,
     /// added to `s` in row order.
@@ -501,18 +519,26 @@ mod sse2 {
         }
         // SAFETY: SSE2 is in the x86-64 baseline.
         let two = unsafe { _mm_set1_pd(2.0) };
-        let even = x.chunks_exact(2).zip(x[2..].chunks_exact(2));
-        let odd = x[1..].chunks_exact(2).zip(x[3..].chunks_exact(2));
-        for ((c, (xm3, xm1)), (xm2, x0)) in coef.chunks_exact(PER_PAIR).zip(even).zip(odd) {
-            let x0 = load(x0);
-            let mut off = mul(lanes_in(c[1]), load(xm3));
-            off = add(off, mul(lanes_in(c[2]), load(xm2)));
-            off = add(off, mul(lanes_in(c[3]), load(xm1)));
-            let t = mul(x0, add(mul(lanes_in(c[0]), x0), mul(two, off)));
-            // SAFETY: SSE2 is in the x86-64 baseline.
-            let (lo, hi) = unsafe { (_mm_cvtsd_f64(t), _mm_cvtsd_f64(_mm_unpackhi_pd(t, t))) };
-            s += lo;
-            s += hi;
+        // Pair k (rows 2k + 3, 2k + 4) reads x from entries 2k, 2k + 1, 2k + 2, 2k + 3: the
+        // even-start registers 2k, 2k + 2 and the new 2k + 4, the odd-start ones between
+        // them; three pairs per round, the registers renamed instead of moved.
+        let mut pairs = coef.chunks_exact(PER_PAIR).zip(x[4..].chunks_exact(2));
+        let (mut e0, mut e1) = (load(&x[..2]), load(&x[2..4]));
+        let mut om2 = middle(e0, e1);
+        for _ in 0..pairs.len().div_ceil(3) {
+            let Some((c, e)) = pairs.next() else { break };
+            let e2 = load(e);
+            let o0 = middle(e1, e2);
+            s = add_lanes(s, form_pair(two, c, [e0, om2, e1, o0]));
+            let Some((c, e)) = pairs.next() else { break };
+            let e3 = load(e);
+            let o1 = middle(e2, e3);
+            s = add_lanes(s, form_pair(two, c, [e1, o0, e2, o1]));
+            let Some((c, e)) = pairs.next() else { break };
+            let e4 = load(e);
+            let o2 = middle(e3, e4);
+            s = add_lanes(s, form_pair(two, c, [e2, o1, e3, o2]));
+            (e0, e1, om2) = (e3, e4, o2);
         }
         s
     }
