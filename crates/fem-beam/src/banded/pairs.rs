@@ -450,6 +450,9 @@ mod sse2 {
         (&'a mut [f64], &'a mut [f64]),
     );
 
+    /// One pair's coefficients, its predictor chunks and its entries of `b` and `y`.
+    type Pair<'a> = ((&'a [[f64; 2]], Chunk<'a>), (&'a [f64], &'a mut [f64]));
+
     /// One pair of rows `i, i + 1` of [`predict_pairs`] (`k = [h, ca, cv, mu]`): its
     /// `x_{i+3}, x_{i+4}` predicted from `next`, its rows of `b - A x` stored; from the
     /// registers `[x_{i-3}, x_{i-2}, x_{i-1}, x_i, x_{i+1}]` (even, odd, even, odd, even
@@ -457,7 +460,7 @@ mod sse2 {
     #[inline(always)]
     fn pair(
         k: [__m128d; 4],
-        ((c, next), (bs, ys)): ((&[[f64; 2]], Chunk<'_>), (&[f64], &mut [f64])),
+        ((c, next), (bs, ys)): Pair<'_>,
         [xm3, xm2, xm1, x0, x1]: [__m128d; 5],
     ) -> (__m128d, __m128d) {
         let ((((q, v), a), qh), (vh, xs)) = next;
