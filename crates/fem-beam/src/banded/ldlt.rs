@@ -302,13 +302,17 @@ fn solve_pairs_kd3(data: &[f64], b: &mut [f64]) {
     }
     // L y = P b and z = D^-1 y, two rows (`l`, pair `m - 1 - k`) for pair `k` of `b`; `y`
     // holds y_{i-3}, y_{i-2}, y_{i-1}.
-    let mut y = [0.0; 3];
-    for (bs, l) in b.rchunks_exact_mut(2).zip(data.chunks_exact(8)) {
-        let y0 = bs[0] - (l[0] * y[0] + l[1] * y[1] + l[2] * y[2]);
-        let y1 = bs[1] - (l[4] * y[1] + l[5] * y[2] + l[6] * y0);
-        y = [y[2], y0, y1];
-        bs[0] = y0 / l[3];
-        bs[1] = y1 / l[7];
+    // Three pairs per round, the window's values renamed instead of moved.
+    let mut rows = b.rchunks_exact_mut(2).zip(data.chunks_exact(8));
+    let (mut y0, mut y1, mut y2) = (0.0, 0.0, 0.0);
+    for _ in 0..rows.len().div_ceil(3) {
+        let Some((bs, l)) = rows.next() else { break };
+        let (y3, y4) = forward_pair(bs, l, [y0, y1, y2]);
+        let Some((bs, l)) = rows.next() else { break };
+        let (y5, y6) = forward_pair(bs, l, [y2, y3, y4]);
+        let Some((bs, l)) = rows.next() else { break };
+        let (y7, y8) = forward_pair(bs, l, [y4, y5, y6]);
+        (y0, y1, y2) = (y6, y7, y8);
     }
     // L^T P x = z: pair `k` of `b` holds the rows 2 (m-1-k) + 1 and + 0, taken in that
     // order; row `i` takes z_{i-3}, the entry `2k + 2` (row + 1) or `2k + 5` (row + 0),
@@ -335,6 +339,17 @@ fn solve_pairs_kd3(data: &[f64], b: &mut [f64]) {
     b[n - 4].set(backward(&r[..4], 0.0));
     b[n - 1].set(backward(&r0[4..], 0.0));
     b[n - 2].set(backward(&r0[..4], 0.0));
+}
+
+/// One pair of [`solve_pairs_kd3`]'s forward sweep: rows `l` (two of the factor) on the
+/// pair `bs` of `b`, with `y_{i-3}, y_{i-2}, y_{i-1}`; `z` into `bs`, the new `y` returned.
+#[inline(always)]
+fn forward_pair(bs: &mut [f64], l: &[f64], [ym3, ym2, ym1]: [f64; 3]) -> (f64, f64) {
+    let y0 = bs[0] - (l[0] * ym3 + l[1] * ym2 + l[2] * ym1);
+    let y1 = bs[1] - (l[4] * ym2 + l[5] * ym1 + l[6] * y0);
+    bs[0] = y0 / l[3];
+    bs[1] = y1 / l[7];
+    (y0, y1)
 }
 
 /// The factorisation `A = L D L^T` of a [`BandedSym`]; solves are `O(n kd)` and allocate
