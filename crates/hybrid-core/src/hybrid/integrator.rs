@@ -1427,20 +1427,23 @@ impl Integrator {
         for (k, f) in model.forces.iter().enumerate() {
             let (w_old, i_old) = (state.mechanisms[f.mechanism].qd[f.joint], state.currents[k]);
             let (w_new, i_new) = (self.followers[f.mechanism].qd[f.joint], self.currents[k]);
-            let old = f.dissipated_power(w_old, i_old);
-            let new = f.dissipated_power(w_new, i_new);
-            acc.dissipated[k] += 0.5 * h * (old + new);
-            if let Some(g) = f.generator() {
-                acc.mechanical_input[k] +=
-                    0.5 * h * (g.mechanical_power(w_old, i_old) + g.mechanical_power(w_new, i_new));
-                if g.kt != g.ke {
-                    let p = |w: f64, i: f64| (g.kt - g.ke) * g.gear_ratio * i * w;
-                    acc.conversion[k] += 0.5 * h * (p(w_old, i_old) + p(w_new, i_new));
-                }
-                if g.has_gear_loss() {
-                    acc.gearbox_loss[k] +=
-                        0.5 * h * (g.gear_loss_power(w_old) + g.gear_loss_power(w_new));
-                }
+            let Some(g) = f.generator() else {
+                let old = f.dissipated_power(w_old, i_old);
+                let new = f.dissipated_power(w_new, i_new);
+                acc.dissipated[k] += 0.5 * h * (old + new);
+                continue;
+            };
+            // The generator's powers at both ends (`dissipated_power`, `mechanical_power`,
+            // `gear_loss_power`: the same numbers, the gear-loss test made once).
+            let (loss, [old, new]) = g.step_powers([(w_old, i_old), (w_new, i_new)]);
+            acc.dissipated[k] += 0.5 * h * (old.dissipated + new.dissipated);
+            acc.mechanical_input[k] += 0.5 * h * (old.mechanical + new.mechanical);
+            if g.kt != g.ke {
+                let p = |w: f64, i: f64| (g.kt - g.ke) * g.gear_ratio * i * w;
+                acc.conversion[k] += 0.5 * h * (p(w_old, i_old) + p(w_new, i_new));
+            }
+            if loss {
+                acc.gearbox_loss[k] += 0.5 * h * (old.gear_loss + new.gear_loss);
             }
         }
         // Without force elements in any model only the account's sizes are set (once).
