@@ -180,11 +180,15 @@ impl GeneratorSpec {
 
     /// Whether the gear loses energy (efficiency below 1, or friction): without it the
     /// generator's equations and energy account are exactly those without a gearbox model.
+    ///
+    /// `efficiency != 1.0 || coulomb != 0.0 || viscous != 0.0` tested on the bits (it is
+    /// on every evaluation of the equations): only `1.0` has `1.0`'s bits (a NaN has
+    /// others), and `x != 0.0` is "a bit other than the sign set" (a NaN has some).
     #[inline]
     pub fn has_gear_loss(&self) -> bool {
-        self.gear_efficiency != 1.0
-            || self.gear_friction.coulomb != 0.0
-            || self.gear_friction.viscous != 0.0
+        let f = &self.gear_friction;
+        self.gear_efficiency.to_bits() != 1.0f64.to_bits()
+            || (f.coulomb.to_bits() | f.viscous.to_bits()) << 1 != 0
     }
 
     /// The viscous equivalent of the gear's efficiency on the motor side,
@@ -828,6 +832,49 @@ mod tests {
                         assert!(same(p.mechanical, g.mechanical_power(w, i)), "{w} {i}");
                         assert!(same(p.gear_loss, g.gear_loss_power(w)), "{w} {i}");
                     }
+                }
+            }
+        }
+    }
+
+    /// `has_gear_loss` on the bits is the three float comparisons, for every combination
+    /// of efficiencies and friction parts around the special values.
+    #[test]
+    fn has_gear_loss_is_the_three_comparisons() {
+        let tiny = f64::from_bits(1);
+        let specials = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            1.0 + f64::EPSILON,
+            1.0 - f64::EPSILON / 2.0,
+            tiny,
+            -tiny,
+            0.8,
+            f64::MAX,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            -f64::NAN,
+        ];
+        for &e in &specials {
+            for &c in &specials {
+                for &v in &specials {
+                    let g = GeneratorSpec {
+                        gear_efficiency: e,
+                        gear_friction: GearFriction {
+                            coulomb: c,
+                            viscous: v,
+                            smoothing_speed: 1.0,
+                        },
+                        ..paper()
+                    };
+                    assert_eq!(
+                        g.has_gear_loss(),
+                        e != 1.0 || c != 0.0 || v != 0.0,
+                        "{e} {c} {v}"
+                    );
                 }
             }
         }
