@@ -957,6 +957,7 @@ impl Integrator {
 
     /// Sets the per-unknown scales (after [`Integrator::predict_mechanisms`], which sets
     /// the predictor of the attachment accelerations they take).
+    #[inline(always)]
     fn prepare(&mut self) {
         for (i, (s, (z, m))) in self
             .scale
@@ -1102,6 +1103,7 @@ impl Integrator {
     /// [`Integrator::integrate_beam`] forms them ([`Integrator::fused_accelerations`]);
     /// mechanisms from the followers); the beam's positions and velocities are
     /// [`Integrator::integrate_beam`]'s.
+    #[inline(always)]
     fn accept(&mut self, model: &HybridModel, state: &mut HybridState) {
         let n = state.q.len();
         if !self.fused_accelerations(n) {
