@@ -569,6 +569,7 @@ pub fn evaluate<'a>(
     let mut deformed =
         (drawn && na > 0).then(|| (-1.0, 0.0, Vec::with_capacity(model.structure_dofs())));
     let bar = progress_bar(progress);
+    let shown = !bar.is_hidden();
     let outcome = run_observed(
         model,
         &mut integrator,
@@ -666,7 +667,12 @@ pub fn evaluate<'a>(
                 None => Ok(()),
             }
         },
-        &mut |f| bar.set_position((f * 1000.0) as u64),
+        // A hidden bar (`--quiet`, no terminal) is not updated at all.
+        &mut |f| {
+            if shown {
+                bar.set_position((f * 1000.0) as u64);
+            }
+        },
     );
     bar.finish_and_clear();
     let outcome = match outcome {

@@ -133,6 +133,17 @@ fn yes() -> bool {
     true
 }
 
+/// A generator's powers at one end of a step ([`GeneratorSpec::step_powers`]), W.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EndPowers {
+    /// Dissipated: the circuit's `(R_a + R_L) i^2` plus the gear's loss.
+    pub dissipated: f64,
+    /// Taken from the joint: `(n k_t i + n tau_g(n q')) q'`.
+    pub mechanical: f64,
+    /// The gear's loss `tau_g(n q') n q'` (0 without one).
+    pub gear_loss: f64,
+}
+
 impl GeneratorSpec {
     /// Total circuit resistance `R_a + R_L`.
     #[inline]
@@ -169,11 +180,15 @@ impl GeneratorSpec {
 
     /// Whether the gear loses energy (efficiency below 1, or friction): without it the
     /// generator's equations and energy account are exactly those without a gearbox model.
+    ///
+    /// `efficiency != 1.0 || coulomb != 0.0 || viscous != 0.0` tested on the bits (it is
+    /// on every evaluation of the equations): only `1.0` has `1.0`'s bits (a NaN has
+    /// others), and `x != 0.0` is "a bit other than the sign set" (a NaN has some).
     #[inline]
     pub fn has_gear_loss(&self) -> bool {
-        self.gear_efficiency != 1.0
-            || self.gear_friction.coulomb != 0.0
-            || self.gear_friction.viscous != 0.0
+        let f = &self.gear_friction;
+        self.gear_efficiency.to_bits() != 1.0f64.to_bits()
+            || (f.coulomb.to_bits() | f.viscous.to_bits()) << 1 != 0
     }
 
     /// The viscous equivalent of the gear's efficiency on the motor side,
@@ -229,6 +244,41 @@ impl GeneratorSpec {
     /// mechanical input of the energy split (module documentation).
     pub fn mechanical_power(&self, joint_speed: f64, current: f64) -> f64 {
         self.joint_term(joint_speed, current) * joint_speed
+    }
+
+    /// The energy account's powers at the two ends of a step, `ends` = `[(q', i)]` of the
+    /// old and the new state: per end the circuit's dissipation with the gear's
+    /// (`JointForce::dissipated_power` of a generator), the mechanical input
+    /// ([`GeneratorSpec::mechanical_power`]) and the gear's loss
+    /// ([`GeneratorSpec::gear_loss_power`]), the same numbers bit for bit, with
+    /// [`GeneratorSpec::has_gear_loss`] (returned) and the resistance read once for both
+    /// ends instead of once per power and end, and the gear's torque once per end (for
+    /// the joint's torque, the dissipation and the gear's own account).
+    #[inline]
+    pub fn step_powers(&self, ends: [(f64, f64); 2]) -> (bool, [EndPowers; 2]) {
+        let loss = self.has_gear_loss();
+        let r = self.resistance();
+        let n = self.gear_ratio;
+        let powers = ends.map(|(w, i)| {
+            let circuit = r * i * i;
+            let mut torque = self.q_term(i);
+            let (dissipated, gear_loss) = if loss {
+                // One gear torque at the motor speed `n q'` for both (a pure function of it).
+                let m = n * w;
+                let tau = self.gear_torque(m);
+                torque += n * tau;
+                let gear = tau * m;
+                (circuit + gear, gear)
+            } else {
+                (circuit, 0.0)
+            };
+            EndPowers {
+                dissipated,
+                mechanical: torque * w,
+                gear_loss,
+            }
+        });
+        (loss, powers)
     }
 
     /// Whether the current is a state of its own (inductance > 0 and connected).
@@ -724,6 +774,110 @@ mod tests {
             .damping_coefficient(),
             0.0
         );
+    }
+
+    /// `step_powers` gives the numbers of `dissipated_power` (through a `JointForce`),
+    /// `mechanical_power` and `gear_loss_power` bit for bit, with and without gear loss,
+    /// connected or not, at speeds and currents of both signs, zeros, a NaN and infinities.
+    #[test]
+    fn step_powers_are_the_separate_powers_bit_for_bit() {
+        use crate::hybrid::{ForceKind, JointForce};
+        let lossy = GeneratorSpec {
+            gear_efficiency: 0.8,
+            gear_friction: GearFriction {
+                coulomb: 5e-4,
+                viscous: 2e-6,
+                smoothing_speed: 0.5,
+            },
+            inductance: 1e-3,
+            ..paper()
+        };
+        let friction_only = GeneratorSpec {
+            gear_friction: GearFriction {
+                coulomb: 0.0,
+                viscous: 3e-6,
+                smoothing_speed: 1.0,
+            },
+            ..paper()
+        };
+        let open = GeneratorSpec {
+            connected: false,
+            ..lossy.clone()
+        };
+        let values = [
+            0.0,
+            -0.0,
+            1.7,
+            -3.25,
+            1e-9,
+            -2.5e3,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        for g in [paper(), lossy, friction_only, open] {
+            let force = JointForce {
+                name: "g".into(),
+                mechanism: 0,
+                joint: 0,
+                kind: ForceKind::Generator(g.clone()),
+            };
+            for (&w0, &i0) in values.iter().zip(values.iter().rev()) {
+                for (&w1, &i1) in values.iter().zip(values.iter().cycle().skip(3)) {
+                    let (loss, [old, new]) = g.step_powers([(w0, i0), (w1, i1)]);
+                    assert_eq!(loss, g.has_gear_loss());
+                    for (p, (w, i)) in [(old, (w0, i0)), (new, (w1, i1))] {
+                        let same = |a: f64, b: f64| a.to_bits() == b.to_bits();
+                        assert!(same(p.dissipated, force.dissipated_power(w, i)), "{w} {i}");
+                        assert!(same(p.mechanical, g.mechanical_power(w, i)), "{w} {i}");
+                        assert!(same(p.gear_loss, g.gear_loss_power(w)), "{w} {i}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// `has_gear_loss` on the bits is the three float comparisons, for every combination
+    /// of efficiencies and friction parts around the special values.
+    #[test]
+    fn has_gear_loss_is_the_three_comparisons() {
+        let tiny = f64::from_bits(1);
+        let specials = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            1.0 + f64::EPSILON,
+            1.0 - f64::EPSILON / 2.0,
+            tiny,
+            -tiny,
+            0.8,
+            f64::MAX,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            -f64::NAN,
+        ];
+        for &e in &specials {
+            for &c in &specials {
+                for &v in &specials {
+                    let g = GeneratorSpec {
+                        gear_efficiency: e,
+                        gear_friction: GearFriction {
+                            coulomb: c,
+                            viscous: v,
+                            smoothing_speed: 1.0,
+                        },
+                        ..paper()
+                    };
+                    assert_eq!(
+                        g.has_gear_loss(),
+                        e != 1.0 || c != 0.0 || v != 0.0,
+                        "{e} {c} {v}"
+                    );
+                }
+            }
+        }
     }
 
     fn paper() -> GeneratorSpec {

@@ -499,6 +499,7 @@ impl Follower {
         (0.5 * ke, sys.potential_energy(q, &mut self.ws))
     }
 
+    #[inline(always)]
     fn measure_condition(&mut self) {
         // A 2 x 2 `J_d` (the double bar) read from `J` directly, without the copy into `jd`.
         if let (2, &[d0, d1]) = (self.rows, self.dep.as_slice()) {

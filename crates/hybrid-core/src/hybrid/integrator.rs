@@ -956,22 +956,10 @@ impl Integrator {
         true
     }
 
-    /// Sets the per-unknown scales and the predictor of the attachment accelerations.
-    fn prepare(&mut self, model: &HybridModel) {
-        let n = self.r0.len();
-        for (k, c) in self.couplings.iter().enumerate() {
-            let p = &model.attachments[c.attachment].beam;
-            self.a0w[k] = match self.r0_kappa {
-                _ if n == 0 => 0.0,
-                // `value_along` of `r0 - kappa v^`, entry by entry.
-                Some(kappa) => p
-                    .component(c.axial)
-                    .iter()
-                    .map(|&(j, w)| w * (self.r0[j] - kappa * self.v_hat[j]))
-                    .sum(),
-                None => p.value_along(c.axial, &self.r0),
-            };
-        }
+    /// Sets the per-unknown scales (after [`Integrator::predict_mechanisms`], which sets
+    /// the predictor of the attachment accelerations they take).
+    #[inline(always)]
+    fn prepare(&mut self) {
         for (i, (s, (z, m))) in self
             .scale
             .iter_mut()
@@ -983,17 +971,39 @@ impl Integrator {
         }
     }
 
-    /// Loads the predictors of the free coordinates and the warm start `z` from `state`
-    /// (one unknown: extrapolated from the last steps, [`Integrator::extrapolate_start`]).
+    /// Loads the predictors of the attachments and the free coordinates, the attachments'
+    /// accelerations predicted from `r0` (`a0w`, the value along the attachment of `r0` or,
+    /// for a folded step, of `r0 - kappa v^`; 0 without a beam) and the warm start `z`
+    /// from `state` (one unknown: extrapolated from the last steps,
+    /// [`Integrator::extrapolate_start`]).
     fn predict_mechanisms(&mut self, model: &HybridModel, state: &HybridState) {
         let (h, beta, gamma) = (self.h, self.beta, self.gamma);
+        let n = self.r0.len();
         for (k, c) in self.couplings.iter().enumerate() {
             let p = &model.attachments[c.attachment].beam;
-            let (pos, vel, acc) =
-                values_along(p.component(c.axial), &self.q_hat, &self.v_hat, &state.a);
+            let weights = p.component(c.axial);
+            let (pos, vel, acc, a0) = match self.r0_kappa {
+                // The four sums in one pass over the weights.
+                Some(kappa) if n > 0 => values_along_folded(
+                    weights,
+                    [&self.q_hat, &self.v_hat, &state.a, &self.r0],
+                    kappa,
+                ),
+                // Not folded (here with a beam), or no beam.
+                _ => {
+                    let (pos, vel, acc) = values_along(weights, &self.q_hat, &self.v_hat, &state.a);
+                    let a0 = if n > 0 {
+                        p.value_along(c.axial, &self.r0)
+                    } else {
+                        0.0
+                    };
+                    (pos, vel, acc, a0)
+                }
+            };
             self.pos_hat[k] = pos;
             self.vel_hat[k] = vel;
             self.z[k] = acc;
+            self.a0w[k] = a0;
         }
         let mut i = self.nb;
         for (f, ms) in self.followers.iter().zip(&state.mechanisms) {
@@ -1076,7 +1086,7 @@ impl Integrator {
             }
         }
         self.predict_mechanisms(model, state);
-        self.prepare(model);
+        self.prepare();
         self.solve(model, state.t, state)?;
         self.accept(model, state);
         Ok(())
@@ -1094,6 +1104,7 @@ impl Integrator {
     /// [`Integrator::integrate_beam`] forms them ([`Integrator::fused_accelerations`]);
     /// mechanisms from the followers); the beam's positions and velocities are
     /// [`Integrator::integrate_beam`]'s.
+    #[inline(always)]
     fn accept(&mut self, model: &HybridModel, state: &mut HybridState) {
         let n = state.q.len();
         if !self.fused_accelerations(n) {
@@ -1411,7 +1422,7 @@ impl Integrator {
         let h = self.h;
         let t_new = state.t + h;
         self.predict_mechanisms(model, state);
-        self.prepare(model);
+        self.prepare();
         self.solve(model, t_new, state)?;
         // Energy account, part 1 (needs the old state): per force element and excitation,
         // trapezoidal power.
@@ -1428,20 +1439,23 @@ impl Integrator {
         for (k, f) in model.forces.iter().enumerate() {
             let (w_old, i_old) = (state.mechanisms[f.mechanism].qd[f.joint], state.currents[k]);
             let (w_new, i_new) = (self.followers[f.mechanism].qd[f.joint], self.currents[k]);
-            let old = f.dissipated_power(w_old, i_old);
-            let new = f.dissipated_power(w_new, i_new);
-            acc.dissipated[k] += 0.5 * h * (old + new);
-            if let Some(g) = f.generator() {
-                acc.mechanical_input[k] +=
-                    0.5 * h * (g.mechanical_power(w_old, i_old) + g.mechanical_power(w_new, i_new));
-                if g.kt != g.ke {
-                    let p = |w: f64, i: f64| (g.kt - g.ke) * g.gear_ratio * i * w;
-                    acc.conversion[k] += 0.5 * h * (p(w_old, i_old) + p(w_new, i_new));
-                }
-                if g.has_gear_loss() {
-                    acc.gearbox_loss[k] +=
-                        0.5 * h * (g.gear_loss_power(w_old) + g.gear_loss_power(w_new));
-                }
+            let Some(g) = f.generator() else {
+                let old = f.dissipated_power(w_old, i_old);
+                let new = f.dissipated_power(w_new, i_new);
+                acc.dissipated[k] += 0.5 * h * (old + new);
+                continue;
+            };
+            // The generator's powers at both ends (`dissipated_power`, `mechanical_power`,
+            // `gear_loss_power`: the same numbers, the gear-loss test made once).
+            let (loss, [old, new]) = g.step_powers([(w_old, i_old), (w_new, i_new)]);
+            acc.dissipated[k] += 0.5 * h * (old.dissipated + new.dissipated);
+            acc.mechanical_input[k] += 0.5 * h * (old.mechanical + new.mechanical);
+            if g.kt != g.ke {
+                let p = |w: f64, i: f64| (g.kt - g.ke) * g.gear_ratio * i * w;
+                acc.conversion[k] += 0.5 * h * (p(w_old, i_old) + p(w_new, i_new));
+            }
+            if loss {
+                acc.gearbox_loss[k] += 0.5 * h * (old.gear_loss + new.gear_loss);
             }
         }
         // Without force elements in any model only the account's sizes are set (once).
@@ -1666,6 +1680,25 @@ fn values_along(weights: &[(usize, f64)], x: &[f64], y: &[f64], z: &[f64]) -> (f
     (sx, sy, sz)
 }
 
+/// [`values_along`] of `x = [q^, v^, a, r0]` for a folded step: the sums along the weights
+/// of `q^`, `v^`, `a` and `r0 - kappa v^` (the last `value_along` of `r0 - kappa v^` entry
+/// by entry) in one pass, each the same operations in the same order as its own sum.
+#[inline(always)]
+fn values_along_folded(
+    weights: &[(usize, f64)],
+    [q, v, a, r]: [&[f64]; 4],
+    kappa: f64,
+) -> (f64, f64, f64, f64) {
+    let (mut sq, mut sv, mut sa, mut sr) = (-0.0, -0.0, -0.0, -0.0);
+    for &(k, w) in weights {
+        sq += w * q[k];
+        sv += w * v[k];
+        sa += w * a[k];
+        sr += w * (r[k] - kappa * v[k]);
+    }
+    (sq, sv, sa, sr)
+}
+
 fn norm(x: &[f64]) -> f64 {
     x.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
@@ -1681,7 +1714,7 @@ fn both_finite(x: f64, y: f64) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::{both_finite, start_choice, start_predictions, values_along};
+    use super::{both_finite, start_choice, start_predictions, values_along, values_along_folded};
 
     #[test]
     fn start_predictions_are_exact_for_their_sequences() {
@@ -1745,6 +1778,16 @@ mod tests {
             let got = [a.to_bits(), b.to_bits(), c.to_bits()];
             let want = [sum(&x).to_bits(), sum(&y).to_bits(), sum(&z).to_bits()];
             assert_eq!(got, want, "{w:?}");
+            // The folded step's four sums: the three and prepare's former sum of
+            // `r0 - kappa v^` (here x, y, z, r0 = y reversed).
+            let r: Vec<f64> = y.iter().rev().map(|v| v * 3.0 - 1e-3).collect();
+            for kappa in [0.0, -0.0, 0.25, -7.5e3] {
+                let (q, v, a, s) = values_along_folded(w, [&x, &y, &z, &r], kappa);
+                let folded: f64 = w.iter().map(|&(j, c)| c * (r[j] - kappa * y[j])).sum();
+                let got = [q, v, a, s].map(f64::to_bits);
+                assert_eq!(got[..3], want, "{w:?}");
+                assert_eq!(got[3], folded.to_bits(), "{w:?} {kappa}");
+            }
         }
     }
 

@@ -175,14 +175,21 @@ pub fn run_observed<E>(
     each_step(&state);
     output(&state, &stored, integrator, &mut worst, &mut scale)?;
     let report = (steps / 200).max(1);
+    // Steps to the next row and the next progress report: counted down (the rows at the
+    // multiples of `every`, the reports at those of `report`, without a division a step).
+    let (mut to_row, mut to_report) = (every, report);
     for k in 1..=steps {
         integrator.step(model, &mut state)?;
         each_step(&state);
-        if k % every == 0 || k == steps {
+        to_row -= 1;
+        if to_row == 0 || k == steps {
+            to_row = every;
             integrator.stored_into(model, &state, &mut stored);
             output(&state, &stored, integrator, &mut worst, &mut scale)?;
         }
-        if k % report == 0 {
+        to_report -= 1;
+        if to_report == 0 {
+            to_report = report;
             progress(k as f64 / steps as f64);
         }
     }
