@@ -347,7 +347,7 @@ impl Integrator {
         let mut offset = 0;
         for (i, ms) in state.mechanisms.iter().enumerate() {
             let mut f = Follower::new(model, i, ms.free.clone(), offset);
-            f.q.copy_from_slice(&ms.q);
+            f.set_q(&ms.q);
             f.qd.copy_from_slice(&ms.qd);
             f.qdd.copy_from_slice(&ms.qdd);
             offset += ms.free.len();
@@ -1114,7 +1114,7 @@ impl Integrator {
             *m = m.max(z.abs());
         }
         for (f, ms) in self.followers.iter().zip(state.mechanisms.iter_mut()) {
-            copy_short(&mut ms.q, f.q.as_slice());
+            copy_short(&mut ms.q, f.q().as_slice());
             copy_short(&mut ms.qd, f.qd.as_slice());
             copy_short(&mut ms.qdd, f.qdd.as_slice());
             ms.condition = f.condition;

@@ -446,7 +446,7 @@ impl Linearization {
         let mut nf = 0;
         for (i, ms) in start.mechanisms.iter().enumerate() {
             let mut f = Follower::new(model, i, ms.free.clone(), nf);
-            f.q.as_mut_slice().copy_from_slice(&ms.q);
+            f.set_q(&ms.q);
             nf += ms.free.len();
             followers.push(f);
         }
@@ -464,7 +464,7 @@ impl Linearization {
         let mut z = vec![0.0; n + nf];
         for f in &mech.followers {
             for (k, &c) in f.free.iter().enumerate() {
-                z[n + f.free_offset + k] = f.q[c];
+                z[n + f.free_offset + k] = f.q()[c];
             }
         }
         let mut s = vec![0.0; ns];
@@ -556,7 +556,7 @@ impl Linearization {
             let t = tangents[i];
             let ws = &mut mech.tangents_ws[i];
             let dof = m.system.dof();
-            let q: Vec<f64> = f.q.iter().copied().collect();
+            let q: Vec<f64> = f.q().iter().copied().collect();
             let zero = vec![0.0; dof];
             let lambda: Vec<f64> = f.multipliers().collect();
             f.refresh_condition();
