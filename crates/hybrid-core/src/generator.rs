@@ -776,14 +776,11 @@ mod tests {
         );
     }
 
-    /// `step_powers` gives the numbers of `dissipated_power` (through a `JointForce`),
-    /// `mechanical_power` and `gear_loss_power` bit for bit, with and without gear loss,
-    /// connected or not, at speeds and currents of both signs, zeros, a NaN and infinities.
-    #[test]
-    fn step_powers_are_the_separate_powers_bit_for_bit() {
-        use crate::hybrid::{ForceKind, JointForce};
-        let lossy = GeneratorSpec {
-            gear_efficiency: 0.8,
+    /// The paper's generator behind a lossy gear of efficiency `eta` (Coulomb and viscous
+    /// friction) with an inductance.
+    fn lossy_gear(eta: f64) -> GeneratorSpec {
+        GeneratorSpec {
+            gear_efficiency: eta,
             gear_friction: GearFriction {
                 coulomb: 5e-4,
                 viscous: 2e-6,
@@ -791,7 +788,16 @@ mod tests {
             },
             inductance: 1e-3,
             ..paper()
-        };
+        }
+    }
+
+    /// `step_powers` gives the numbers of `dissipated_power` (through a `JointForce`),
+    /// `mechanical_power` and `gear_loss_power` bit for bit, with and without gear loss,
+    /// connected or not, at speeds and currents of both signs, zeros, a NaN and infinities.
+    #[test]
+    fn step_powers_are_the_separate_powers_bit_for_bit() {
+        use crate::hybrid::{ForceKind, JointForce};
+        let lossy = lossy_gear(0.8);
         let friction_only = GeneratorSpec {
             gear_friction: GearFriction {
                 coulomb: 0.0,
@@ -913,16 +919,7 @@ mod tests {
                 "{q} vs {expected}"
             );
         }
-        let g = GeneratorSpec {
-            gear_efficiency: eta,
-            gear_friction: GearFriction {
-                coulomb: 5e-4,
-                viscous: 2e-6,
-                smoothing_speed: 0.5,
-            },
-            inductance: 1e-3,
-            ..paper()
-        };
+        let g = lossy_gear(eta);
         assert!(g.has_gear_loss() && !paper().has_gear_loss());
         for k in -200..=200 {
             let w = k as f64 * 0.05;

@@ -774,10 +774,7 @@ impl Follower {
             let moved = self.drift + (0.0 + norm(&rhs[..]));
             if settled(moved, &q[..]) {
                 // mark_solved, then the prediction's distance.
-                self.w_last[c] = w;
-                if let Some(k) = ca {
-                    self.w_last[k] = pos[k];
-                }
+                record_pin(&mut self.w_last, c, ca, pos);
                 self.drift = moved;
                 converged = true;
             }
@@ -836,10 +833,7 @@ impl Follower {
                     self.residual = rn;
                     // mark_solved, then the last step's length.
                     self.solved = true;
-                    self.w_last[c] = w;
-                    if let Some(k) = ca {
-                        self.w_last[k] = pos[k];
-                    }
+                    record_pin(&mut self.w_last, c, ca, pos);
                     self.drift = len;
                     converged = true;
                     break;
@@ -1175,6 +1169,16 @@ fn limited_step(len: f64) -> (f64, f64) {
         (POSITION_STEP_LIMIT / len, POSITION_STEP_LIMIT)
     } else {
         (1.0, len)
+    }
+}
+
+/// The pinned double bar's part of [`Follower::mark_solved`]: the pin's displacements
+/// `pos[c]` (and `pos[ca]` along the beam's axis, when it couples) as the last solve's.
+#[inline(always)]
+fn record_pin(w_last: &mut [f64], c: usize, ca: Option<usize>, pos: &[f64]) {
+    w_last[c] = pos[c];
+    if let Some(k) = ca {
+        w_last[k] = pos[k];
     }
 }
 
