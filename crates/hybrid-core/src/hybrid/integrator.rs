@@ -1183,36 +1183,19 @@ impl Integrator {
             }
         }
         let (cq, cv) = (self.beta * self.h * self.h, self.gamma * self.h);
-        let mut finite = true;
-        // One entry: q, v and v_mid updated, whether they are finite.
-        let update = |q: &mut f64, v: &mut f64, qh: f64, vh: f64, a: f64, m: &mut f64| {
-            let (q_new, v_new) = (qh + cq * a, vh + cv * a);
-            *q = q_new;
-            *m = 0.5 * (*v + v_new);
-            *v = v_new;
-            both_finite(q_new, v_new)
-        };
-        let newmark = state
-            .q
-            .iter_mut()
-            .zip(&mut state.v)
-            .zip(self.q_hat.iter().zip(&self.v_hat))
-            .zip(state.a.iter().zip(&mut self.v_mid));
-        if !self.loaded {
-            // P = 0: the power of the loads is zero (each term is a signed zero).
-            for (((q, v), (qh, vh)), (a, m)) in newmark {
-                finite &= update(q, v, *qh, *vh, *a, m);
-            }
-            return (finite, 0.0);
-        }
-        let mut work = 0.0;
-        for ((((q, v), (qh, vh)), (a, m)), (po, pn)) in
-            newmark.zip(self.p_old.iter().zip(&self.p_new))
-        {
-            finite &= update(q, v, *qh, *vh, *a, m);
-            work += 0.5 * (po + pn) * *m;
-        }
-        (finite, work)
+        let loads = self
+            .loaded
+            .then_some((self.p_old.as_slice(), self.p_new.as_slice()));
+        newmark_update(
+            [cq, cv],
+            &mut state.q,
+            &mut state.v,
+            &mut self.v_mid,
+            &self.q_hat,
+            &self.v_hat,
+            &state.a,
+            loads,
+        )
     }
 
     /// [`Integrator::integrate_beam`] with the accelerations of a folded step with one
@@ -1701,8 +1684,8 @@ fn newmark_fused(
     v_hat: &[f64],
     loads: Option<(&[f64], &[f64])>,
 ) -> (bool, f64) {
-    let mut finite = true;
-    // One entry: a, q, v and v_mid updated, whether q and v are finite.
+    let mut bad = 0u64;
+    // One entry: a, q, v and v_mid updated, the bits of its finiteness test.
     let update =
         |q: &mut f64, v: &mut f64, a: &mut f64, m: &mut f64, r: f64, z: f64, qh: f64, vh: f64| {
             let acc = (r - kappa * vh) - z * phi;
@@ -1711,7 +1694,7 @@ fn newmark_fused(
             *q = q_new;
             *m = 0.5 * (*v + v_new);
             *v = v_new;
-            both_finite(q_new, v_new)
+            finite_bits(q_new, v_new)
         };
     let newmark = q
         .iter_mut()
@@ -1721,30 +1704,74 @@ fn newmark_fused(
         .zip(q_hat.iter().zip(v_hat));
     let Some((p_old, p_new)) = loads else {
         for ((((q, v), (a, m)), (r, z)), (qh, vh)) in newmark {
-            finite &= update(q, v, a, m, *r, *z, *qh, *vh);
+            bad |= update(q, v, a, m, *r, *z, *qh, *vh);
         }
-        return (finite, 0.0);
+        return (bad == 0, 0.0);
     };
     let mut work = 0.0;
     for (((((q, v), (a, m)), (r, z)), (qh, vh)), (po, pn)) in newmark.zip(p_old.iter().zip(p_new)) {
-        finite &= update(q, v, a, m, *r, *z, *qh, *vh);
+        bad |= update(q, v, a, m, *r, *z, *qh, *vh);
         work += 0.5 * (po + pn) * *m;
     }
-    (finite, work)
+    (bad == 0, work)
 }
 
-/// `x.is_finite() && y.is_finite()` in three operations that vectorise: `x - x` is 0 for a
-/// finite `x` and NaN for an infinite or NaN one (instead of the absolute value and two
-/// comparisons of each `is_finite`).
+/// The pass of [`Integrator::integrate_beam`] from accelerations already formed:
+/// `q = q^ + cq a`, `v = v^ + cv a`, `v_mid = (v_old + v) / 2` (`c = [cq, cv]`), with
+/// whether every new `q` and `v` is finite and, with `loads = (P_n, P_{n+1})`, the power
+/// `sum (P_n + P_{n+1}) / 2 v_mid` (without loads 0: each term would be a signed zero). Not
+/// inlined, like [`newmark_fused`] (and for the same reason).
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn newmark_update(
+    [cq, cv]: [f64; 2],
+    q: &mut [f64],
+    v: &mut [f64],
+    v_mid: &mut [f64],
+    q_hat: &[f64],
+    v_hat: &[f64],
+    a: &[f64],
+    loads: Option<(&[f64], &[f64])>,
+) -> (bool, f64) {
+    let mut bad = 0u64;
+    // One entry: q, v and v_mid updated, the bits of its finiteness test.
+    let update = |q: &mut f64, v: &mut f64, qh: f64, vh: f64, a: f64, m: &mut f64| {
+        let (q_new, v_new) = (qh + cq * a, vh + cv * a);
+        *q = q_new;
+        *m = 0.5 * (*v + v_new);
+        *v = v_new;
+        finite_bits(q_new, v_new)
+    };
+    let newmark = q
+        .iter_mut()
+        .zip(v)
+        .zip(q_hat.iter().zip(v_hat))
+        .zip(a.iter().zip(v_mid));
+    let Some((p_old, p_new)) = loads else {
+        for (((q, v), (qh, vh)), (a, m)) in newmark {
+            bad |= update(q, v, *qh, *vh, *a, m);
+        }
+        return (bad == 0, 0.0);
+    };
+    let mut work = 0.0;
+    for ((((q, v), (qh, vh)), (a, m)), (po, pn)) in newmark.zip(p_old.iter().zip(p_new)) {
+        bad |= update(q, v, *qh, *vh, *a, m);
+        work += 0.5 * (po + pn) * *m;
+    }
+    (bad == 0, work)
+}
+
+/// The bits of `(x - x) + (y - y)`: 0 (`+0.0`) when `x` and `y` are finite, a NaN's
+/// (never 0) otherwise; their bitwise or over entries is 0 exactly when all are finite.
 #[inline(always)]
 #[allow(clippy::eq_op)] // `x - x` is the test itself, not a slip
-fn both_finite(x: f64, y: f64) -> bool {
-    (x - x) + (y - y) == 0.0
+fn finite_bits(x: f64, y: f64) -> u64 {
+    ((x - x) + (y - y)).to_bits()
 }
 
 #[cfg(test)]
 mod tests {
-    use super::{both_finite, start_choice, start_predictions, values_along, values_along_folded};
+    use super::{finite_bits, start_choice, start_predictions, values_along, values_along_folded};
 
     #[test]
     fn start_predictions_are_exact_for_their_sequences() {
@@ -1822,7 +1849,7 @@ mod tests {
     }
 
     #[test]
-    fn both_finite_is_is_finite_of_both() {
+    fn finite_bits_are_zero_exactly_when_both_are_finite() {
         let values = [
             0.0,
             -0.0,
@@ -1837,7 +1864,14 @@ mod tests {
         ];
         for x in values {
             for y in values {
-                assert_eq!(both_finite(x, y), x.is_finite() && y.is_finite(), "{x} {y}");
+                let both = x.is_finite() && y.is_finite();
+                assert_eq!(finite_bits(x, y) == 0, both, "{x} {y}");
+                // An or over entries: 0 exactly when every pair is finite.
+                assert_eq!(
+                    finite_bits(x, y) | finite_bits(1.0, -2.5) == 0,
+                    both,
+                    "{x} {y}"
+                );
             }
         }
     }
