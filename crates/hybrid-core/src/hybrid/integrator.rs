@@ -1174,10 +1174,14 @@ impl Integrator {
     /// and velocities are finite). With [`Integrator::fused_accelerations`] the same pass
     /// forms the accelerations first, `a = (r0 - kappa v^) - z phi_w` into `state.a` (the
     /// operations of [`Integrator::accept_beam`]: the same numbers).
-    fn integrate_beam(&mut self, state: &mut HybridState) -> (bool, f64) {
+    fn integrate_beam(
+        &mut self,
+        model: &HybridModel,
+        state: &mut HybridState,
+    ) -> (Option<bool>, f64) {
         let n = state.q.len();
         if self.fused_accelerations(n) {
-            match self.integrate_beam_fused(state) {
+            match self.integrate_beam_fused(model, state) {
                 Some(result) => return result,
                 None => self.accept_beam(state),
             }
@@ -1186,7 +1190,7 @@ impl Integrator {
         let loads = self
             .loaded
             .then_some((self.p_old.as_slice(), self.p_new.as_slice()));
-        newmark_update(
+        let (finite, work) = newmark_update(
             [cq, cv],
             &mut state.q,
             &mut state.v,
@@ -1195,12 +1199,26 @@ impl Integrator {
             &self.v_hat,
             &state.a,
             loads,
-        )
+        );
+        (Some(finite), work)
     }
 
     /// [`Integrator::integrate_beam`] with the accelerations of a folded step with one
     /// coupling column formed in its pass; `None` (nothing written) without that column.
-    fn integrate_beam_fused(&mut self, state: &mut HybridState) -> Option<(bool, f64)> {
+    ///
+    /// The finiteness of the new `q` and `v` is left to the step's dissipation form
+    /// (`None`) for the beam when `beta h^2 <= gamma h`: every row's term of the beam's
+    /// banded form `v_mid^T B v_mid` is `x_i (B_ii x_i + 2 sum_j B_ij x_j)`, infinite or NaN
+    /// when `x_i` is, and a sum holding an infinite or NaN term never returns to a finite
+    /// value; `v_mid = (v_old + v) / 2` with `v_old` finite is finite exactly when `v` is;
+    /// and a finite `v = v^ + gamma h a` has a finite `a`, whose `q = q^ + beta h^2 a` is
+    /// then finite (`beta h^2 a` no larger than `gamma h a`) short of a sum of magnitudes
+    /// near `f64::MAX`. Otherwise each entry is tested in the pass.
+    fn integrate_beam_fused(
+        &mut self,
+        model: &HybridModel,
+        state: &mut HybridState,
+    ) -> Option<(Option<bool>, f64)> {
         let n = state.q.len();
         let (cq, cv) = (self.beta * self.h * self.h, self.gamma * self.h);
         let (Some(kappa), Some(&phi), Some(col)) =
@@ -1211,18 +1229,17 @@ impl Integrator {
         let loads = self
             .loaded
             .then_some((self.p_old.as_slice(), self.p_new.as_slice()));
-        Some(newmark_fused(
-            [cq, cv, kappa, phi],
-            &mut state.q,
-            &mut state.v,
-            &mut state.a,
-            &mut self.v_mid,
-            &self.r0,
-            col,
-            &self.q_hat,
-            &self.v_hat,
-            loads,
-        ))
+        let by_form = cq <= cv && matches!(model.structure, Some(Structure::Beam(_)));
+        let c = [cq, cv, kappa, phi];
+        let (q, v, a, m) = (&mut state.q, &mut state.v, &mut state.a, &mut self.v_mid);
+        let (r, qh, vh) = (&self.r0, &self.q_hat, &self.v_hat);
+        Some(if by_form {
+            let (_, work) = newmark_fused::<false>(c, q, v, a, m, r, col, qh, vh, loads);
+            (None, work)
+        } else {
+            let (finite, work) = newmark_fused::<true>(c, q, v, a, m, r, col, qh, vh, loads);
+            (Some(finite), work)
+        })
     }
 
     /// The mechanism models' own force elements in the energy account (docs/theory.md section 8:
@@ -1437,8 +1454,14 @@ impl Integrator {
             }
         }
         self.accept(model, state);
-        let (beam_finite, work) = self.integrate_beam(state);
-        let finite = beam_finite
+        let (beam_finite, work) = self.integrate_beam(model, state);
+        // The Rayleigh dissipation form of the midpoint velocities (energy account, part
+        // 2), which also decides the beam's finiteness when the update left it to it.
+        let form = model
+            .structure
+            .as_ref()
+            .map_or(0.0, |beam| beam.damping_quadratic_form(&self.v_mid));
+        let finite = beam_finite.unwrap_or(form.is_finite())
             && state
                 .mechanisms
                 .iter()
@@ -1449,9 +1472,9 @@ impl Integrator {
         }
         // Energy account, part 2: midpoint velocity for the Rayleigh dissipation and the
         // beam loads (exact for the linear part under the average-acceleration rule).
-        if let Some(beam) = &model.structure {
+        if model.structure.is_some() {
             let acc = &mut state.account;
-            acc.dissipated_structure += h * beam.damping_quadratic_form(&self.v_mid);
+            acc.dissipated_structure += h * form;
             let mut excited = 0.0;
             let base_v: f64 = self
                 .base_load
@@ -1664,15 +1687,16 @@ fn norm(x: &[f64]) -> f64 {
 
 /// The pass of [`Integrator::integrate_beam_fused`]: per entry `a = (r - kappa v^) - z phi`,
 /// `q = q^ + cq a`, `v = v^ + cv a`, `v_mid = (v_old + v) / 2` (`c = [cq, cv, kappa, phi]`),
-/// with whether every new `q` and `v` is finite and, with `loads = (P_n, P_{n+1})`, the
-/// power `sum (P_n + P_{n+1}) / 2 v_mid`. A function of its slices, not inlined: its `&mut`
+/// with whether every new `q` and `v` is finite (`TEST`; without, `true`: the caller tests
+/// otherwise) and, with `loads = (P_n, P_{n+1})`, the power `sum (P_n + P_{n+1}) / 2 v_mid`.
+/// A function of its slices, not inlined: its `&mut`
 /// slices are arguments, which the compiler knows to overlap nothing, so the loop is
 /// vectorised without the run-time overlap tests of the eight slices that it emitted when
 /// the pass was inlined into the step from the integrator's and the state's vectors (about
 /// 240 instructions every step, measured with callgrind).
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
-fn newmark_fused(
+fn newmark_fused<const TEST: bool>(
     [cq, cv, kappa, phi]: [f64; 4],
     q: &mut [f64],
     v: &mut [f64],
@@ -1694,7 +1718,7 @@ fn newmark_fused(
             *q = q_new;
             *m = 0.5 * (*v + v_new);
             *v = v_new;
-            finite_bits(q_new, v_new)
+            if TEST { finite_bits(q_new, v_new) } else { 0 }
         };
     let newmark = q
         .iter_mut()

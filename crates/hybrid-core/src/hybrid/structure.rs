@@ -688,6 +688,46 @@ ratios = [{ mode = 1, ratio = 0.01 }, { mode = 2, ratio = 0.02 }]
         BeamModel::new(&Beam::from_toml_str(text, "c.toml").unwrap()).unwrap()
     }
 
+    /// The beam's dissipation form is infinite or NaN whenever one entry of the vector is
+    /// (the integrator leaves the finiteness of a folded step's update to it): each entry
+    /// in turn set to +inf, -inf and NaN among finite ones, on beams with the paired
+    /// kernel and without (fewer than 8 DOFs), an even and an odd DOF count, with Rayleigh
+    /// damping and without any (`B = 0`).
+    #[test]
+    fn the_beam_dissipation_form_is_non_finite_with_any_non_finite_entry() {
+        let spec = |elements: usize, kind: &str, damping: &str| {
+            format!(
+                "[[segment]]\nlength = 1.0\nyoungs_modulus = 210e9\ndensity = 7850.0\n\
+                 width = 0.04\nheight = 0.008\nelements = {elements}\n[[support]]\nx = 0.0\n\
+                 kind = \"{kind}\"\n{damping}"
+            )
+        };
+        let mut sizes = vec![];
+        for elements in [2, 3, 6, 9] {
+            for kind in ["clamped", "pinned"] {
+                for damping in ["[damping]\nalpha = 0.3\nbeta = 2e-5\n", ""] {
+                    let text = spec(elements, kind, damping);
+                    let b = BeamModel::new(&Beam::from_toml_str(&text, "c.toml").unwrap()).unwrap();
+                    let n = LinearStructure::dof_count(&b);
+                    sizes.push(n);
+                    let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin() * 1e-2).collect();
+                    assert!(b.damping_quadratic_form(&x).is_finite());
+                    for i in 0..n {
+                        for bad in [f64::INFINITY, f64::NEG_INFINITY, f64::NAN] {
+                            let mut y = x.clone();
+                            y[i] = bad;
+                            let form = LinearStructure::damping_quadratic_form(&b, &y);
+                            assert!(!form.is_finite(), "n = {n}, entry {i} = {bad}: {form}");
+                        }
+                    }
+                }
+            }
+        }
+        // Both kernels, both parities.
+        assert!(sizes.iter().any(|&n| n < 8) && sizes.iter().any(|&n| n >= 8));
+        assert!(sizes.iter().any(|&n| n % 2 == 1) && sizes.iter().any(|&n| n % 2 == 0));
+    }
+
     /// The Newmark solve against a dense solve of `A + c_B B + c_C C` assembled from the
     /// products (an independent formulation), to round-off scaled by the condition.
     #[test]
