@@ -18,7 +18,8 @@ use nalgebra::{DMatrix, DVector};
 use super::model::{AttachmentKind, HybridModel};
 use crate::partition::dense::{
     copy_short, lu_in_place, lu_small, lu_solve, lu_solve_small, lu_solve_transpose,
-    lu_solve_transpose_small, singular_range, singular_range_2, zero_short,
+    lu_solve_transpose_small, singular_range, singular_range_2, solve_2x2, solve_transpose_2x2,
+    zero_short,
 };
 
 /// One attachment as seen by its mechanism.
@@ -765,10 +766,12 @@ impl Follower {
         let scale = (1.0 + ((p.x.abs() + w.abs()) + wa.map_or(0.0, |v| p.y.abs() + v.abs())))
             + p.origin_abs;
         let mut converged = false;
+        // The pivot row of the factors' first column (`piv = [p0, 1]` after a solve).
+        let mut p0 = self.piv.first().copied().unwrap_or(0);
         if self.solved {
             let dwa = ca.map_or(0.0, |k| pos[k] - self.w_last[k]);
             *rhs = [w - self.w_last[c], dwa];
-            solve2(lu, &self.piv, rhs);
+            solve_2x2(lu, p0, rhs);
             q[0] += rhs[0];
             q[1] += rhs[1];
             let moved = self.drift + (0.0 + norm(&rhs[..]));
@@ -823,8 +826,9 @@ impl Follower {
                     sigma_min: self.sigma_min,
                 });
             }
+            p0 = self.piv[0];
             *rhs = *h;
-            solve2(lu, &self.piv, rhs);
+            solve_2x2(lu, p0, rhs);
             let (step, len) = limited_step(norm(&rhs[..]));
             q[0] -= step * rhs[0];
             q[1] -= step * rhs[1];
@@ -860,7 +864,7 @@ impl Follower {
         }
         // Velocities (18): J_d qd = E w'.
         *rhs = [vel[c], ca.map_or(0.0, |k| vel[k])];
-        solve2(lu, &self.piv, rhs);
+        solve_2x2(lu, p0, rhs);
         *qd = *rhs;
         // Dynamics and the constraint bias A = J' q' (16), (50).
         m.system
@@ -880,7 +884,7 @@ impl Follower {
         );
         // Accelerations (19): J_d qdd = E w'' - A.
         *rhs = [acc[c] - bias[0], ca.map_or(0.0, |k| acc[k]) - bias[1]];
-        solve2(lu, &self.piv, rhs);
+        solve_2x2(lu, p0, rhs);
         *qdd = *rhs;
         // g = M q'' + F + Q (the sums of follow_sized); mu = J_d^-T g, phi_w = E^T mu.
         let g = fixed2(&mut self.g);
@@ -893,8 +897,7 @@ impl Follower {
             g[i] = (mm[i] * qdd[0] + mm[2 + i] * qdd[1] + f[i]) + qv[i];
         }
         *rhs = *g;
-        let done = lu_solve_transpose_small(&lu[..], &self.piv, &mut rhs[..]);
-        assert!(done, "two pivots after a successful 2 x 2 factorisation");
+        solve_transpose_2x2(lu, p0, rhs);
         phi[c] = rhs[0];
         if let Some(k) = ca {
             phi[k] = rhs[1];
@@ -1352,14 +1355,6 @@ fn fixed2(v: &mut DVector<f64>) -> &mut [f64; 2] {
 #[inline(always)]
 fn fixed4(v: &mut [f64]) -> &mut [f64; 4] {
     (&mut v[..4]).try_into().expect("a slice of four")
-}
-
-/// `b = A^-1 b` with the 2 x 2 factors `lu`, `piv` of a successful [`lu_small`] (two
-/// pivots): [`lu_solve_small`]'s 2 x 2 path.
-#[inline(always)]
-fn solve2(lu: &[f64; 4], piv: &[usize], b: &mut [f64; 2]) {
-    let done = lu_solve_small(&lu[..], piv, &mut b[..]);
-    assert!(done, "two pivots after a successful 2 x 2 factorisation");
 }
 
 /// Whether the dependent coordinates `dep` are `0..rows` (in order).

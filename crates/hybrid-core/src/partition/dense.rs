@@ -192,16 +192,40 @@ pub(crate) fn lu_solve_small(lu: &[f64], piv: &[usize], b: &mut [f64]) -> bool {
         // The general sweeps below written out for the 2 x 2 blocks of the damper's hot
         // path (the same operations in the same order: the same results bit for bit).
         (&[a0, a1, a2, a3], &[p0, _], [x0, x1]) => {
-            if p0 != 0 {
-                std::mem::swap(x0, x1);
-            }
-            *x1 -= a1 * *x0;
-            *x1 /= a3;
-            *x0 = (*x0 - a2 * *x1) / a0;
+            let mut x = [*x0, *x1];
+            solve_2x2(&[a0, a1, a2, a3], p0, &mut x);
+            [*x0, *x1] = x;
         }
         _ => return false,
     }
     true
+}
+
+/// [`lu_solve_small`]'s 2 x 2 path on arrays: `b = A^-1 b` with the column-major factors
+/// `lu` of [`lu_small`] and the pivot row `p0` of its first column (the second is 1).
+#[inline(always)]
+pub(crate) fn solve_2x2(lu: &[f64; 4], p0: usize, b: &mut [f64; 2]) {
+    let [a0, a1, a2, a3] = *lu;
+    let [x0, x1] = b;
+    if p0 != 0 {
+        std::mem::swap(x0, x1);
+    }
+    *x1 -= a1 * *x0;
+    *x1 /= a3;
+    *x0 = (*x0 - a2 * *x1) / a0;
+}
+
+/// [`lu_solve_transpose_small`]'s 2 x 2 path on arrays: `b = A^-T b` (see [`solve_2x2`]).
+#[inline(always)]
+pub(crate) fn solve_transpose_2x2(lu: &[f64; 4], p0: usize, b: &mut [f64; 2]) {
+    let [a0, a1, a2, a3] = *lu;
+    let [x0, x1] = b;
+    *x0 /= a0;
+    *x1 = (*x1 - a2 * *x0) / a3;
+    *x0 -= a1 * *x1;
+    if p0 != 0 {
+        std::mem::swap(x0, x1);
+    }
 }
 
 /// The forward and backward sweeps of [`lu_solve`] for any size.
@@ -287,12 +311,9 @@ pub(crate) fn lu_solve_transpose(lu: &DMatrix<f64>, piv: &[usize], b: &mut DVect
 pub(crate) fn lu_solve_transpose_small(lu: &[f64], piv: &[usize], b: &mut [f64]) -> bool {
     if let (&[a0, a1, a2, a3], &[p0, _], [x0, x1]) = (lu, piv, b) {
         // Written out for 2 x 2 (same operations, same order as the sweeps below).
-        *x0 /= a0;
-        *x1 = (*x1 - a2 * *x0) / a3;
-        *x0 -= a1 * *x1;
-        if p0 != 0 {
-            std::mem::swap(x0, x1);
-        }
+        let mut x = [*x0, *x1];
+        solve_transpose_2x2(&[a0, a1, a2, a3], p0, &mut x);
+        [*x0, *x1] = x;
         return true;
     }
     false
