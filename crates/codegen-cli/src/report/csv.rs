@@ -238,28 +238,29 @@ fn push_scientific(plain: &str, exponent: &str, out: &mut String) {
         Some(body) => ("-", body),
         None => ("", plain),
     };
-    // `d.ddd` into a buffer: at most 17 significant digits and the point.
-    let mut text = [0u8; 24];
-    let mut n = 0;
-    for &c in body.as_bytes() {
-        if c != b'.' && (n > 0 || c != b'0') && n < text.len() {
-            text[n] = c;
-            n += 1;
-            if n == 1 {
-                text[1] = b'.';
-                n = 2;
-            }
-        }
+    // The digits `a` then `b` (before and after the point), the zeros at either end off.
+    let (mut a, mut b) = body.split_once('.').unwrap_or((body, ""));
+    b = b.trim_end_matches('0');
+    if b.is_empty() {
+        a = a.trim_end_matches('0');
     }
-    while n > 2 && text[n - 1] == b'0' {
-        n -= 1;
+    a = a.trim_start_matches('0');
+    if a.is_empty() {
+        b = b.trim_start_matches('0');
     }
-    // `d.` alone: `d`.
-    if n == 2 {
-        n = 1;
-    }
+    // The first digit, then the others after a point.
+    let (first, a, b) = match (a.get(..1), b.get(..1)) {
+        (Some(d), _) => (d, &a[1..], b),
+        (None, Some(d)) => (d, "", &b[1..]),
+        (None, None) => ("0", "", ""),
+    };
     out.push_str(sign);
-    out.push_str(std::str::from_utf8(&text[..n]).unwrap_or_default());
+    out.push_str(first);
+    if !a.is_empty() || !b.is_empty() {
+        out.push('.');
+        out.push_str(a);
+        out.push_str(b);
+    }
     out.push_str(exponent);
 }
 
