@@ -42,7 +42,8 @@ use std::path::Path;
 
 use hybrid_core::decay::DecayTracker;
 use hybrid_core::hybrid::{
-    BeamPoint, HybridModel, Integrator, Linearization, RunError, RunOptions, run_observed,
+    BeamPoint, HybridModel, HybridState, Integrator, Linearization, RunError, RunOptions, Stored,
+    run_observed,
 };
 use indicatif::ProgressBar;
 
@@ -570,23 +571,9 @@ pub fn evaluate<'a>(
         (drawn && na > 0).then(|| (-1.0, 0.0, Vec::with_capacity(model.structure_dofs())));
     let bar = progress_bar(progress);
     let shown = !bar.is_hidden();
-    let outcome = run_observed(
-        model,
-        &mut integrator,
-        built.state.clone(),
-        RunOptions {
-            t_end: sc.integrator.t_end,
-            every: sc.every,
-        },
-        &mut |state| {
-            if let Some((from, w)) = &mut welch {
-                if state.t >= *from {
-                    random_signals_into(model, &random_points, state, &mut signals);
-                    w.push(&signals);
-                }
-            }
-        },
-        &mut |state, stored, integrator| {
+    // What is done at the output rows.
+    let mut sink =
+        |state: &HybridState, stored: &Stored, integrator: &mut Integrator| -> Result<(), Halt> {
             let e0 = *e0.get_or_insert(stored.total());
             amplifications(model, state, integrator, &mut amplification);
             if let Some((f, free)) = &filter {
@@ -666,14 +653,43 @@ pub fn evaluate<'a>(
                     .map_err(Halt::Csv),
                 None => Ok(()),
             }
-        },
-        // A hidden bar (`--quiet`, no terminal) is not updated at all.
-        &mut |f| {
-            if shown {
-                bar.set_position((f * 1000.0) as u64);
-            }
-        },
-    );
+        };
+    // A hidden bar (`--quiet`, no terminal) is not updated at all.
+    let mut report = |f: f64| {
+        if shown {
+            bar.set_position((f * 1000.0) as u64);
+        }
+    };
+    let options = RunOptions {
+        t_end: sc.integrator.t_end,
+        every: sc.every,
+    };
+    // Every step observed only for the spectra (random excitation, a stationary part long
+    // enough): otherwise no observer, not even a test a step.
+    let outcome = match &mut welch {
+        Some((from, w)) => run_observed(
+            model,
+            &mut integrator,
+            built.state.clone(),
+            options,
+            &mut |state| {
+                if state.t >= *from {
+                    random_signals_into(model, &random_points, state, &mut signals);
+                    w.push(&signals);
+                }
+            },
+            &mut sink,
+            &mut report,
+        ),
+        None => hybrid_core::hybrid::run(
+            model,
+            &mut integrator,
+            built.state.clone(),
+            options,
+            &mut sink,
+            &mut report,
+        ),
+    };
     bar.finish_and_clear();
     let outcome = match outcome {
         Ok(o) => o,

@@ -15,7 +15,7 @@ use std::io::Write;
 
 use toml_edit::Value;
 
-use super::csv::cell;
+use super::csv::write_cell;
 use crate::scenario::overrides::value_text;
 
 /// A time history's destination: a header once, then one row of numbers at a time.
@@ -26,49 +26,74 @@ pub trait RowSink {
     fn rows(&self) -> u64;
 }
 
-/// CSV rows written through the `csv` crate into `W` (numbers in shortest round-trip form,
-/// an empty cell when not finite).
+/// CSV rows written into `W`: the header and rows of text through the `csv` crate (its
+/// quoting), rows of numbers (shortest round-trip form, an empty cell when not finite) as
+/// the `csv` crate would write them, each line made in one reused buffer.
 pub struct CsvRows<W: Write> {
-    w: csv::Writer<W>,
-    record: Vec<String>,
+    out: W,
+    /// The line of a row of numbers, the buffer reused by every row.
+    line: String,
     columns: usize,
     rows: u64,
 }
 
+/// One record as the `csv` crate writes it (default settings: `,`, `"` quotes doubled,
+/// `\n`; a field quoted when it holds one of these or `\r`, a record of one empty field as
+/// `""`).
+fn record<T: AsRef<[u8]>>(fields: &[T]) -> Result<Vec<u8>, csv::Error> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record(fields)?;
+    w.into_inner().map_err(|e| e.into_error().into())
+}
+
 impl<W: Write> CsvRows<W> {
     /// A CSV with this header, written into `inner`.
-    pub fn new(inner: W, header: &[String]) -> Result<CsvRows<W>, csv::Error> {
-        let mut w = csv::Writer::from_writer(inner);
-        w.write_record(header)?;
+    pub fn new(mut inner: W, header: &[String]) -> Result<CsvRows<W>, csv::Error> {
+        inner.write_all(&record(header)?)?;
         Ok(CsvRows {
-            w,
-            record: Vec::with_capacity(header.len()),
+            out: inner,
+            line: String::with_capacity(32 * header.len()),
             columns: header.len(),
             rows: 0,
         })
     }
 
     /// Appends one row of cells already formatted (one per header column: a table of
-    /// results with its own number format, flags and messages).
+    /// results with its own number format, flags and messages), quoted by the `csv` crate.
     pub fn write_text_row(&mut self, cells: &[String]) -> Result<(), csv::Error> {
         assert_eq!(cells.len(), self.columns, "CsvRows: one cell per column");
         self.rows += 1;
-        self.w.write_record(cells)
+        self.out.write_all(&record(cells)?)?;
+        Ok(())
     }
 
     /// The writer, flushed.
-    pub fn into_inner(self) -> Result<W, csv::Error> {
-        self.w.into_inner().map_err(|e| e.into_error().into())
+    pub fn into_inner(mut self) -> Result<W, csv::Error> {
+        self.out.flush()?;
+        Ok(self.out)
     }
 }
 
 impl<W: Write> RowSink for CsvRows<W> {
+    /// The line as the `csv` crate writes the record of the cells' texts: a number's text
+    /// (digits, `.`, `-`, `e`) never needs quotes, and an empty line (a row of one empty
+    /// cell) is written `""` (the test `rows_are_the_records_of_their_cells`).
     fn write_row(&mut self, cells: &[f64]) -> Result<(), csv::Error> {
         assert_eq!(cells.len(), self.columns, "CsvRows: one cell per column");
-        self.record.clear();
-        self.record.extend(cells.iter().map(|&x| cell(Some(x))));
+        self.line.clear();
+        for (i, &x) in cells.iter().enumerate() {
+            if i > 0 {
+                self.line.push(',');
+            }
+            write_cell(x, &mut self.line);
+        }
+        if self.line.is_empty() {
+            self.line.push_str("\"\"");
+        }
+        self.line.push('\n');
         self.rows += 1;
-        self.w.write_record(&self.record)
+        self.out.write_all(self.line.as_bytes())?;
+        Ok(())
     }
 
     fn rows(&self) -> u64 {
@@ -262,6 +287,7 @@ pub fn split_header(header: &str) -> (&str, Option<&str>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::report::csv::cell;
 
     #[test]
     fn rows_are_written_under_the_header_with_empty_cells_for_non_finite_numbers() {
@@ -272,6 +298,54 @@ mod tests {
         assert_eq!(rows.rows(), 2);
         let text = String::from_utf8(rows.into_inner().unwrap()).unwrap();
         assert_eq!(text, "t [s],w [m]\n0,1e-5\n0.5,\n");
+    }
+
+    /// The rows as the `csv` crate writes a record of [`cell`] strings (the form before the
+    /// reused buffer), byte for byte: one column and several, empty cells (a row of one
+    /// empty cell is `""`), every form of number.
+    #[test]
+    fn rows_are_the_records_of_their_cells() {
+        let rows: [&[f64]; 6] = [
+            &[0.0, -0.0, 1.0, -2.5],
+            &[f64::NAN, 1e-5, 1e15, 123.456],
+            &[f64::INFINITY, f64::NAN, f64::NEG_INFINITY, f64::NAN],
+            &[
+                6.505213034913027e-19,
+                0.0010000000000000002,
+                35.10989052568544,
+                1e300,
+            ],
+            &[f64::MIN_POSITIVE, f64::MAX, -1e-4, 9.999999999999999e14],
+            &[0.1 + 0.2, 1.0 / 3.0, 2e-4, -7e22],
+        ];
+        for columns in [1, 4] {
+            let header: Vec<String> = (0..columns).map(|c| format!("c{c} [m]")).collect();
+            let mut fast = CsvRows::new(Vec::new(), &header).unwrap();
+            let mut reference = csv::Writer::from_writer(Vec::new());
+            reference.write_record(&header).unwrap();
+            for r in rows {
+                for chunk in r.chunks(columns) {
+                    fast.write_row(chunk).unwrap();
+                    let texts: Vec<String> = chunk.iter().map(|&x| cell(Some(x))).collect();
+                    reference.write_record(&texts).unwrap();
+                }
+            }
+            let fast = fast.into_inner().unwrap();
+            let reference = reference.into_inner().unwrap();
+            assert_eq!(
+                String::from_utf8(fast).unwrap(),
+                String::from_utf8(reference).unwrap()
+            );
+        }
+        let mut none = CsvRows::new(Vec::new(), &[]).unwrap();
+        none.write_row(&[]).unwrap();
+        assert_eq!(
+            none.into_inner().unwrap(),
+            record(&[] as &[&[u8]]).unwrap().repeat(2)
+        );
+        let mut one = CsvRows::new(Vec::new(), &["w [m]".to_string()]).unwrap();
+        one.write_row(&[f64::NAN]).unwrap();
+        assert_eq!(one.into_inner().unwrap(), b"w [m]\n\"\"\n");
     }
 
     #[test]

@@ -192,7 +192,7 @@ pub struct FinalState {
 /// would print as `null`) is an error naming the field, e.g. `energy.max_relative_drift`.
 pub fn json_bytes<T: Serialize>(value: &T) -> Result<Vec<u8>, serde_json::Error> {
     let tree = serde_json::to_value(value)?;
-    if let Some(path) = first_null(&tree, String::new()) {
+    if let Some(path) = first_null(&tree) {
         return Err(serde::ser::Error::custom(format!(
             "summary field `{path}` is not a finite number"
         )));
@@ -202,27 +202,61 @@ pub fn json_bytes<T: Serialize>(value: &T) -> Result<Vec<u8>, serde_json::Error>
     Ok(v)
 }
 
-/// The path of the first `null` in a JSON tree (`a.b[2]`).
-fn first_null(v: &serde_json::Value, path: String) -> Option<String> {
+/// One step of a path into a JSON tree: an array's index or an object's key.
+enum Step<'a> {
+    Index(usize),
+    Key(&'a str),
+}
+
+/// The path of the first `null` in a JSON tree (`a.b[2]`, keys cut to 80 characters):
+/// searched first, without a string made on the way, the path written only when there is
+/// one.
+fn first_null(v: &serde_json::Value) -> Option<String> {
+    let mut steps = vec![];
+    if !find_null(v, &mut steps) {
+        return None;
+    }
+    let mut path = String::new();
+    // From the root: `steps` holds them from the `null` up.
+    for step in steps.iter().rev() {
+        match step {
+            Step::Index(i) => {
+                path.push('[');
+                path.push_str(&i.to_string());
+                path.push(']');
+            }
+            Step::Key(k) => {
+                if !path.is_empty() {
+                    path.push('.');
+                }
+                path.push_str(&diagnostic::truncate(k, 80));
+            }
+        }
+    }
+    Some(path)
+}
+
+/// Whether there is a `null` in `v`; if so, `steps` ends with the steps from it up to `v`
+/// (the first `null` in document order).
+fn find_null<'a>(v: &'a serde_json::Value, steps: &mut Vec<Step<'a>>) -> bool {
     use serde_json::Value;
     match v {
-        Value::Null => Some(path),
-        Value::Array(items) => items
-            .iter()
-            .enumerate()
-            .find_map(|(i, x)| first_null(x, format!("{path}[{i}]"))),
-        Value::Object(map) => map.iter().find_map(|(k, x)| {
-            let key = diagnostic::truncate(k, 80);
-            first_null(
-                x,
-                if path.is_empty() {
-                    key
-                } else {
-                    format!("{path}.{key}")
-                },
-            )
+        Value::Null => true,
+        Value::Array(items) => items.iter().enumerate().any(|(i, x)| {
+            let found = find_null(x, steps);
+            if found {
+                steps.push(Step::Index(i));
+            }
+            found
         }),
-        _ => None,
+        Value::Object(map) => map.iter().any(|(k, x)| {
+            let found = find_null(x, steps);
+            if found {
+                steps.push(Step::Key(k));
+            }
+            found
+        }),
+        _ => false,
     }
 }
 
@@ -239,6 +273,57 @@ mod tests {
         #[serde(skip_serializing_if = "Option::is_none")]
         absent: Option<f64>,
         max_relative_drift: f64,
+    }
+
+    /// The path as it was made before: a string for every element on the way.
+    fn first_null_by_strings(v: &serde_json::Value, path: String) -> Option<String> {
+        use serde_json::Value;
+        match v {
+            Value::Null => Some(path),
+            Value::Array(items) => items
+                .iter()
+                .enumerate()
+                .find_map(|(i, x)| first_null_by_strings(x, format!("{path}[{i}]"))),
+            Value::Object(map) => map.iter().find_map(|(k, x)| {
+                let key = diagnostic::truncate(k, 80);
+                first_null_by_strings(
+                    x,
+                    if path.is_empty() {
+                        key
+                    } else {
+                        format!("{path}.{key}")
+                    },
+                )
+            }),
+            _ => None,
+        }
+    }
+
+    #[test]
+    fn the_first_null_is_named_as_before() {
+        let long = "k".repeat(100);
+        let trees = [
+            serde_json::json!(null),
+            serde_json::json!(1.5),
+            serde_json::json!({"a": 1, "b": [1, 2, {"c": "x"}]}),
+            serde_json::json!({"a": 1, "b": [1, 2, {"c": null}], "d": null}),
+            serde_json::json!([[0, [null]], null]),
+            serde_json::json!([{"": {"": null}}]),
+            serde_json::json!({"": [{"x": [3, null]}]}),
+            serde_json::json!({"z": {"y": [true, false, "s", {}, []]}, "a": {"b": null}}),
+            serde_json::json!({ (long.clone()): { (long.clone()): [null] } }),
+        ];
+        for t in &trees {
+            assert_eq!(
+                first_null(t),
+                first_null_by_strings(t, String::new()),
+                "{t}"
+            );
+        }
+        assert_eq!(first_null(&trees[3]).as_deref(), Some("b[2].c"));
+        assert_eq!(first_null(&trees[4]).as_deref(), Some("[0][1][0]"));
+        assert_eq!(first_null(&trees[5]).as_deref(), Some("[0].."));
+        assert_eq!(first_null(&trees[2]), None);
     }
 
     #[test]

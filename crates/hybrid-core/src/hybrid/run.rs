@@ -120,6 +120,7 @@ pub fn run<E>(
     sink: &mut dyn FnMut(&HybridState, &Stored, &mut Integrator) -> Result<(), E>,
     progress: &mut dyn FnMut(f64),
 ) -> Result<RunOutcome, RunError<E>> {
+    // No observer: the empty closure's calls vanish from the loop.
     run_observed(
         model,
         integrator,
@@ -134,16 +135,25 @@ pub fn run<E>(
 /// [`run`] with an observer of every step: `each_step` sees the state at the start and after
 /// every step (before the sink at an output step), at the integrator's own rate — what a
 /// figure sampled at every step needs (a spectrum up to the step's Nyquist frequency), at
-/// the cost of the observer alone (no stored energies are computed for it).
-pub fn run_observed<E>(
+/// the cost of the observer alone (no stored energies are computed for it). The observer is
+/// a type parameter, so that a closure is inlined into the loop (a `&mut dyn FnMut` works
+/// too, at the cost of a call a step).
+///
+/// The steps between two events (a row, a progress report, the end) are taken in an inner
+/// loop that tests nothing but its count: the events come at the same steps as with a test
+/// after every step.
+pub fn run_observed<E, F>(
     model: &HybridModel,
     integrator: &mut Integrator,
     mut state: HybridState,
     options: RunOptions,
-    each_step: &mut dyn FnMut(&HybridState),
+    each_step: &mut F,
     sink: &mut dyn FnMut(&HybridState, &Stored, &mut Integrator) -> Result<(), E>,
     progress: &mut dyn FnMut(f64),
-) -> Result<RunOutcome, RunError<E>> {
+) -> Result<RunOutcome, RunError<E>>
+where
+    F: FnMut(&HybridState) + ?Sized,
+{
     let start = Instant::now();
     let every = options.every.max(1) as u64;
     let dt = integrator.step_size();
@@ -175,19 +185,24 @@ pub fn run_observed<E>(
     each_step(&state);
     output(&state, &stored, integrator, &mut worst, &mut scale)?;
     let report = (steps / 200).max(1);
-    // Steps to the next row and the next progress report: counted down (the rows at the
-    // multiples of `every`, the reports at those of `report`, without a division a step).
-    let (mut to_row, mut to_report) = (every, report);
-    for k in 1..=steps {
-        integrator.step(model, &mut state)?;
-        each_step(&state);
-        to_row -= 1;
+    // Steps taken, steps to the next row and to the next progress report: the rows at the
+    // multiples of `every` and at the end, the reports at the multiples of `report`.
+    let (mut k, mut to_row, mut to_report) = (0, every, report);
+    while k < steps {
+        // At least one step (each count is at least 1), so the loop ends after `steps`.
+        let n = to_row.min(to_report).min(steps - k);
+        for _ in 0..n {
+            integrator.step(model, &mut state)?;
+            each_step(&state);
+        }
+        k += n;
+        to_row -= n;
+        to_report -= n;
         if to_row == 0 || k == steps {
             to_row = every;
             integrator.stored_into(model, &state, &mut stored);
             output(&state, &stored, integrator, &mut worst, &mut scale)?;
         }
-        to_report -= 1;
         if to_report == 0 {
             to_report = report;
             progress(k as f64 / steps as f64);
@@ -262,6 +277,7 @@ ratios = [{ mode = 1, ratio = 0.01 }, { mode = 2, ratio = 0.01 }]
         let state = initial_state(&model, vec![0.0; n], vec![0.0; n]).unwrap();
         let mut integrator = Integrator::new(&model, Method::Newmark, 1e-4, &state).unwrap();
         let mut times = vec![];
+        let mut reports = vec![];
         let out = run::<()>(
             &model,
             &mut integrator,
@@ -275,11 +291,18 @@ ratios = [{ mode = 1, ratio = 0.01 }, { mode = 2, ratio = 0.01 }]
                 times.push(s.t);
                 Ok(())
             },
-            &mut |_| {},
+            &mut |f| reports.push(f),
         )
         .unwrap();
         // 1005 steps: rows at 0, 100, ..., 1000 and the last step.
         assert_eq!(out.figures.steps, 1005);
+        // Progress at every 5th step (1005 / 200) and at the end.
+        let expected: Vec<f64> = (1..=1005u32)
+            .filter(|k| k % 5 == 0)
+            .map(|k| f64::from(k) / 1005.0)
+            .chain([1.0])
+            .collect();
+        assert_eq!(reports, expected);
         assert_eq!(times.len(), 12);
         assert_eq!(out.figures.outputs, 12);
         assert!((times[1] - 0.01).abs() < 1e-12 && (times[11] - 0.1005).abs() < 1e-12);
@@ -303,7 +326,7 @@ ratios = [{ mode = 1, ratio = 0.01 }, { mode = 2, ratio = 0.01 }]
         };
         let mut integrator = Integrator::new(&model, Method::Newmark, 1e-4, &state).unwrap();
         let mut seen = vec![];
-        let observed = run_observed::<()>(
+        let observed = run_observed::<(), _>(
             &model,
             &mut integrator,
             state.clone(),
@@ -317,14 +340,29 @@ ratios = [{ mode = 1, ratio = 0.01 }, { mode = 2, ratio = 0.01 }]
         let plain = run::<()>(
             &model,
             &mut integrator,
-            state,
+            state.clone(),
             options,
             &mut |_, _, _| Ok(()),
             &mut |_| {},
         )
         .unwrap();
-        // 105 steps and the start.
+        // 105 steps and the start; as a `dyn` observer too.
         assert_eq!(seen.len(), 106);
+        let mut count = 0;
+        let observer: &mut dyn FnMut(&HybridState) = &mut |_| count += 1;
+        let mut integrator = Integrator::new(&model, Method::Newmark, 1e-4, &state).unwrap();
+        let dynamic = run_observed::<(), _>(
+            &model,
+            &mut integrator,
+            state.clone(),
+            options,
+            observer,
+            &mut |_, _, _| Ok(()),
+            &mut |_| {},
+        )
+        .unwrap();
+        assert_eq!(count, 106);
+        assert_eq!(dynamic.state, observed.state);
         for (k, (t, _)) in seen.iter().enumerate() {
             assert!((t - k as f64 * 1e-4).abs() < 1e-15, "{k}: {t}");
         }
