@@ -485,7 +485,9 @@ impl Integrator {
     }
 
     /// Evaluates the reduced residual at `z` (into `res`); the followers hold the trial
-    /// state. `rule` advances inductive currents.
+    /// state. `rule` advances inductive currents. Inlined into the iteration: a call's
+    /// prologue, epilogue and argument moves cost about 25 instructions an evaluation.
+    #[inline(always)]
     fn residual(
         &mut self,
         model: &HybridModel,
