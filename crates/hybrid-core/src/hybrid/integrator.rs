@@ -978,6 +978,7 @@ impl Integrator {
     /// for a folded step, of `r0 - kappa v^`; 0 without a beam) and the warm start `z`
     /// from `state` (one unknown: extrapolated from the last steps,
     /// [`Integrator::extrapolate_start`]).
+    #[inline(always)]
     fn predict_mechanisms(&mut self, model: &HybridModel, state: &HybridState) {
         let (h, beta, gamma) = (self.h, self.beta, self.gamma);
         let n = self.r0.len();
