@@ -551,23 +551,34 @@ mod sse2 {
         // Pair k (rows 2k + 3, 2k + 4) reads x from entries 2k, 2k + 1, 2k + 2, 2k + 3: the
         // even-start registers 2k, 2k + 2 and the new 2k + 4, the odd-start ones between
         // them; three pairs per round, the registers renamed instead of moved.
-        let mut pairs = coef.chunks_exact(PER_PAIR).zip(x[4..].chunks_exact(2));
+        // Whole rounds on exact chunks (no test per pair), then the one or two left.
+        let full = coef.len() / PER_PAIR / 3;
+        let (c3, c_rest) = coef.split_at(3 * PER_PAIR * full);
+        let (x3, x_rest) = x[4..].split_at(6 * full);
         let (mut e0, mut e1) = (load(&x[..2]), load(&x[2..4]));
         let mut om2 = middle(e0, e1);
-        for _ in 0..pairs.len().div_ceil(3) {
-            let Some((c, e)) = pairs.next() else { break };
+        for (c, e) in c3.chunks_exact(3 * PER_PAIR).zip(x3.chunks_exact(6)) {
+            let (c0, c1, c2) = (
+                &c[..PER_PAIR],
+                &c[PER_PAIR..2 * PER_PAIR],
+                &c[2 * PER_PAIR..],
+            );
+            let e2 = load(&e[..2]);
+            let o0 = middle(e1, e2);
+            s = add_lanes(s, form_pair(two, c0, [e0, om2, e1, o0]));
+            let e3 = load(&e[2..4]);
+            let o1 = middle(e2, e3);
+            s = add_lanes(s, form_pair(two, c1, [e1, o0, e2, o1]));
+            let e4 = load(&e[4..]);
+            let o2 = middle(e3, e4);
+            s = add_lanes(s, form_pair(two, c2, [e2, o1, e3, o2]));
+            (e0, e1, om2) = (e3, e4, o2);
+        }
+        for (c, e) in c_rest.chunks_exact(PER_PAIR).zip(x_rest.chunks_exact(2)) {
             let e2 = load(e);
             let o0 = middle(e1, e2);
             s = add_lanes(s, form_pair(two, c, [e0, om2, e1, o0]));
-            let Some((c, e)) = pairs.next() else { break };
-            let e3 = load(e);
-            let o1 = middle(e2, e3);
-            s = add_lanes(s, form_pair(two, c, [e1, o0, e2, o1]));
-            let Some((c, e)) = pairs.next() else { break };
-            let e4 = load(e);
-            let o2 = middle(e3, e4);
-            s = add_lanes(s, form_pair(two, c, [e2, o1, e3, o2]));
-            (e0, e1, om2) = (e3, e4, o2);
+            (e0, e1, om2) = (e1, e2, o0);
         }
         s
     }
