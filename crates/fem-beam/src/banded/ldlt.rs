@@ -303,16 +303,22 @@ fn solve_pairs_kd3(data: &[f64], b: &mut [f64]) {
     // L y = P b and z = D^-1 y, two rows (`l`, pair `m - 1 - k`) for pair `k` of `b`; `y`
     // holds y_{i-3}, y_{i-2}, y_{i-1}.
     // Three pairs per round, the window's values renamed instead of moved.
-    let mut rows = b.rchunks_exact_mut(2).zip(data.chunks_exact(8));
+    // Whole rounds on exact chunks (no end test per pair), then the one or two pairs left.
+    let full = n / 6;
+    let (b_rest, b3) = b.split_at_mut(n - 6 * full);
+    let (d3, d_rest) = data.split_at(24 * full);
     let (mut y0, mut y1, mut y2) = (0.0, 0.0, 0.0);
-    for _ in 0..rows.len().div_ceil(3) {
-        let Some((bs, l)) = rows.next() else { break };
-        let (y3, y4) = forward_pair(bs, l, [y0, y1, y2]);
-        let Some((bs, l)) = rows.next() else { break };
-        let (y5, y6) = forward_pair(bs, l, [y2, y3, y4]);
-        let Some((bs, l)) = rows.next() else { break };
-        let (y7, y8) = forward_pair(bs, l, [y4, y5, y6]);
+    for (bs, l) in b3.rchunks_exact_mut(6).zip(d3.chunks_exact(24)) {
+        let (lo, hi) = bs.split_at_mut(4);
+        let (first, second) = lo.split_at_mut(2);
+        let (y3, y4) = forward_pair(hi, &l[..8], [y0, y1, y2]);
+        let (y5, y6) = forward_pair(second, &l[8..16], [y2, y3, y4]);
+        let (y7, y8) = forward_pair(first, &l[16..], [y4, y5, y6]);
         (y0, y1, y2) = (y6, y7, y8);
+    }
+    for (bs, l) in b_rest.rchunks_exact_mut(2).zip(d_rest.chunks_exact(8)) {
+        let (y3, y4) = forward_pair(bs, l, [y0, y1, y2]);
+        (y0, y1, y2) = (y2, y3, y4);
     }
     // L^T P x = z: pair `k` of `b` holds the rows 2 (m-1-k) + 1 and + 0, taken in that
     // order; row `i` takes z_{i-3}, the entry `2k + 2` (row + 1) or `2k + 5` (row + 0),
