@@ -432,42 +432,114 @@ mod sse2 {
             )
         };
         let k = [h, ca, cv, mu];
-        let predict = |((((q, v), a), qh), (vh, xs))| entries(k, q, v, a, [qh, vh, xs]);
-        let mut chunks = q
-            .chunks_exact(2)
-            .zip(v.chunks_exact(2))
-            .zip(a.chunks_exact(2))
-            .zip(q_hat.chunks_exact_mut(2))
-            .zip(v_hat.chunks_exact_mut(2).zip(x.chunks_exact_mut(2)));
-        let (Some(c0), Some(c1), Some(c2)) = (chunks.next(), chunks.next(), chunks.next()) else {
-            return 0;
-        };
         // Pair k (rows 2k + 3, 2k + 4): `e0, e1, e2` = x from entries 2k, 2k + 2, 2k + 4;
         // `om2, o0` from 2k + 1, 2k + 3.
-        let (mut e0, mut e1, mut e2) = (predict(c0), predict(c1), predict(c2));
+        let mut first = [0.0; 3].map(|_| None);
+        for (j, e) in first.iter_mut().enumerate() {
+            let Some(c) = chunk_at([q, v, a], [&mut *q_hat, &mut *v_hat, &mut *x], 2 * j) else {
+                return 0;
+            };
+            let ((((q, v), a), qh), (vh, xs)) = c;
+            *e = Some(entries(k, q, v, a, [qh, vh, xs]));
+        }
+        let [Some(mut e0), Some(mut e1), Some(mut e2)] = first else {
+            return 0;
+        };
         let (mut om2, mut o0) = (middle(e0, e1), middle(e1, e2));
-        let vectors = b[3..].chunks_exact(2).zip(y[3..].chunks_exact_mut(2));
-        let mut pairs = coef.chunks_exact(PER_PAIR).zip(chunks).zip(vectors);
-        let done = 6 + 2 * pairs.len();
-        // Six pairs per round, the registers renamed instead of moved (the even-start ones
-        // repeat every three pairs, the odd-start ones every two); the round ends at the
-        // last pair.
-        for _ in 0..pairs.len().div_ceil(6) {
-            let Some(p) = pairs.next() else { break };
-            let (e3, o2) = pair(k, p, [e0, om2, e1, o0, e2]);
-            let Some(p) = pairs.next() else { break };
-            let (e4, o3) = pair(k, p, [e1, o0, e2, o2, e3]);
-            let Some(p) = pairs.next() else { break };
-            let (e5, o4) = pair(k, p, [e2, o2, e3, o3, e4]);
-            let Some(p) = pairs.next() else { break };
-            let (e6, o5) = pair(k, p, [e3, o3, e4, o4, e5]);
-            let Some(p) = pairs.next() else { break };
-            let (e7, o6) = pair(k, p, [e4, o4, e5, o5, e6]);
-            let Some(p) = pairs.next() else { break };
-            let (e8, o7) = pair(k, p, [e5, o5, e6, o6, e7]);
+        let m = (coef.len() / PER_PAIR).min((n - 6) / 2);
+        let done = 6 + 2 * m;
+        // Six pairs per round on exact chunks of 12 entries (no end test per pair), the
+        // registers renamed instead of moved (the even-start ones repeat every three pairs,
+        // the odd-start ones every two); then the pairs left one by one.
+        let full = m / 6;
+        let end = 12 * full;
+        let rounds = coef[..PER_PAIR * 6 * full]
+            .chunks_exact(6 * PER_PAIR)
+            .zip(
+                q[6..6 + end]
+                    .chunks_exact(12)
+                    .zip(v[6..6 + end].chunks_exact(12))
+                    .zip(a[6..6 + end].chunks_exact(12))
+                    .zip(q_hat[6..6 + end].chunks_exact_mut(12))
+                    .zip(
+                        v_hat[6..6 + end]
+                            .chunks_exact_mut(12)
+                            .zip(x[6..6 + end].chunks_exact_mut(12)),
+                    ),
+            )
+            .zip(
+                b[3..3 + end]
+                    .chunks_exact(12)
+                    .zip(y[3..3 + end].chunks_exact_mut(12)),
+            );
+        for ((c, ((((q, v), a), qh), (vh, xs))), (bs, ys)) in rounds {
+            // Pair `j` of the round: its coefficients and its two entries of each vector.
+            macro_rules! p {
+                ($j:expr) => {{
+                    let r = 2 * $j..2 * $j + 2;
+                    (
+                        (
+                            &c[PER_PAIR * $j..PER_PAIR * ($j + 1)],
+                            (
+                                (
+                                    ((&q[r.clone()], &v[r.clone()]), &a[r.clone()]),
+                                    &mut qh[r.clone()],
+                                ),
+                                (&mut vh[r.clone()], &mut xs[r.clone()]),
+                            ),
+                        ),
+                        (&bs[r.clone()], &mut ys[r]),
+                    )
+                }};
+            }
+            let (e3, o2) = pair(k, p!(0), [e0, om2, e1, o0, e2]);
+            let (e4, o3) = pair(k, p!(1), [e1, o0, e2, o2, e3]);
+            let (e5, o4) = pair(k, p!(2), [e2, o2, e3, o3, e4]);
+            let (e6, o5) = pair(k, p!(3), [e3, o3, e4, o4, e5]);
+            let (e7, o6) = pair(k, p!(4), [e4, o4, e5, o5, e6]);
+            let (e8, o7) = pair(k, p!(5), [e5, o5, e6, o6, e7]);
             (e0, e1, e2, om2, o0) = (e6, e7, e8, o6, o7);
         }
+        let chunks = q[6 + end..]
+            .chunks_exact(2)
+            .zip(v[6 + end..].chunks_exact(2))
+            .zip(a[6 + end..].chunks_exact(2))
+            .zip(q_hat[6 + end..].chunks_exact_mut(2))
+            .zip(
+                v_hat[6 + end..]
+                    .chunks_exact_mut(2)
+                    .zip(x[6 + end..].chunks_exact_mut(2)),
+            );
+        let vectors = b[3 + end..]
+            .chunks_exact(2)
+            .zip(y[3 + end..].chunks_exact_mut(2));
+        let rest = coef[PER_PAIR * 6 * full..PER_PAIR * m]
+            .chunks_exact(PER_PAIR)
+            .zip(chunks)
+            .zip(vectors);
+        for p in rest {
+            let (e3, o2) = pair(k, p, [e0, om2, e1, o0, e2]);
+            (e0, e1, e2, om2, o0) = (e1, e2, e3, o0, o2);
+        }
         done
+    }
+
+    /// The chunk of two entries from `i` of `[q, v, a]` and `[q^, v^, x]` (`None` past
+    /// the end).
+    #[inline(always)]
+    fn chunk_at<'a>(
+        [q, v, a]: [&'a [f64]; 3],
+        [qh, vh, xs]: [&'a mut [f64]; 3],
+        i: usize,
+    ) -> Option<Chunk<'a>> {
+        let r = i..i + 2;
+        Some((
+            (
+                ((q.get(r.clone())?, v.get(r.clone())?), a.get(r.clone())?),
+                qh.get_mut(r.clone())?,
+            ),
+            (vh.get_mut(r.clone())?, xs.get_mut(r)?),
+        ))
     }
 
     /// The chunks of two entries of `[q, v, a]` and `[q^, (v^, x)]`.
