@@ -336,11 +336,10 @@ impl ModalFilter {
         tangents: &[&mbs_symbolic::runtime::TangentSystem],
         point: &crate::hybrid::BeamPoint,
     ) -> Result<(ModalFilter, Vec<Vec<usize>>), FirstModeError> {
-        use crate::hybrid::{EigenMethod, EquilibriumOptions, Linearization, modes};
+        use crate::hybrid::{EquilibriumOptions, Linearization};
         let lin = Linearization::new(model, tangents, EquilibriumOptions::default())?;
-        let found = modes(&lin, 1, EigenMethod::Auto)?;
-        let first = found.first().ok_or(FirstModeError::NoMode)?;
-        let filter = ModalFilter::of_mode(&lin, first, point)?;
+        let first = crate::hybrid::first_mode(&lin)?.ok_or(FirstModeError::NoMode)?;
+        let filter = ModalFilter::of_mode(&lin, &first, point)?;
         Ok((filter, lin.equilibrium.free))
     }
 

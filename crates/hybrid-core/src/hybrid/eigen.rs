@@ -144,7 +144,20 @@ impl Work {
     }
 }
 
-impl Operator<'_> {
+impl<'a> Operator<'a> {
+    /// The operator at the pencil nearest zero ([`Pencil::near_zero`]).
+    fn new(lin: &'a Linearization) -> Result<Operator<'a>, LinearError> {
+        let pencil = Pencil::near_zero(lin)?;
+        let omega = low_frequency(lin, &pencil);
+        Ok(Operator {
+            lin,
+            pencil,
+            d: lin.dim(),
+            omega,
+            work: std::cell::RefCell::new(Work::new(lin)),
+        })
+    }
+
     fn sigma(&self) -> f64 {
         self.pencil.sigma().re
     }
@@ -204,29 +217,40 @@ impl Operator<'_> {
 /// The first `k` modes of `lin` (nearest zero: lowest `|lambda|`), one per conjugate pair,
 /// in increasing `|lambda|`.
 pub fn modes(lin: &Linearization, k: usize, method: EigenMethod) -> Result<Vec<Mode>, LinearError> {
-    let d = lin.dim();
-    let pencil = Pencil::near_zero(lin)?;
-    let omega = low_frequency(lin, &pencil);
-    let op = Operator {
-        lin,
-        pencil,
-        d,
-        omega,
-        work: std::cell::RefCell::new(Work::new(lin)),
+    let op = Operator::new(lin)?;
+    let dense = match method {
+        EigenMethod::Auto => op.states() <= 600,
+        EigenMethod::Dense => true,
+        EigenMethod::ShiftInvert => false,
     };
+    nearest_zero(&op, k, dense)
+}
+
+/// The first mode of `lin` (nearest zero), `None` when the system has no state. Arnoldi's
+/// method when the shift is zero (no rigid-body mode): the eigenvalue nearest zero is then
+/// the operator's dominant one, which a Krylov space of a few tens of solves resolves
+/// (`O(n)` each), where the dense operator costs a solve per state and a Schur form of
+/// `O(n^3)`; when a rigid-body mode moved the shift, the eigenvalue nearest the shift need
+/// not be the one nearest zero, and every eigenvalue is computed ([`EigenMethod::Dense`]
+/// up to 600 states, as [`EigenMethod::Auto`]). The same mode as
+/// `modes(lin, 1, EigenMethod::Auto)` (both refined by inverse iteration).
+pub fn first_mode(lin: &Linearization) -> Result<Option<Mode>, LinearError> {
+    let op = Operator::new(lin)?;
+    let dense = op.sigma() != 0.0 && op.states() <= 600;
+    Ok(nearest_zero(&op, 1, dense)?.into_iter().next())
+}
+
+/// The `k` modes nearest zero from the eigenvalues of the shift-inverted operator, all of
+/// them (`dense`) or Arnoldi's converged ones.
+fn nearest_zero(op: &Operator<'_>, k: usize, dense: bool) -> Result<Vec<Mode>, LinearError> {
     let n = op.states();
     if n == 0 || k == 0 {
         return Ok(vec![]);
     }
-    let dense = match method {
-        EigenMethod::Auto => n <= 600,
-        EigenMethod::Dense => true,
-        EigenMethod::ShiftInvert => false,
-    };
     let thetas = if dense {
-        dense_thetas(&op)?
+        dense_thetas(op)?
     } else {
-        arnoldi_thetas(&op, k)?
+        arnoldi_thetas(op, k)?
     };
     let sigma = op.sigma();
     let mut lambdas: Vec<C64> = thetas
@@ -243,7 +267,7 @@ pub fn modes(lin: &Linearization, k: usize, method: EigenMethod) -> Result<Vec<M
     lambdas.truncate(k);
     lambdas
         .into_iter()
-        .map(|l| refine(lin, l))
+        .map(|l| refine(op.lin, l))
         .collect::<Result<Vec<_>, _>>()
 }
 

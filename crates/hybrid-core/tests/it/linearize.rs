@@ -9,7 +9,7 @@ use fem_beam::TimeFunction;
 use hybrid_core::hybrid::reference;
 use hybrid_core::hybrid::{
     BeamPoint, EigenMethod, EquilibriumOptions, Excitation, ExcitationTarget, ForceKind,
-    HybridModel, JointForce, Linearization, Matrix, ModeKind, modes,
+    HybridModel, JointForce, Linearization, Matrix, ModeKind, first_mode, modes,
 };
 use mbs_symbolic::samples::SplitMix64;
 use nalgebra::{Complex, DMatrix, DVector};
@@ -171,6 +171,55 @@ fn dense_and_shift_invert_modes_agree_on_a_100_element_damper() {
         assert_eq!(a.kind, b.kind);
         assert!((la - lb).norm() <= 1e-9 * la.norm());
         assert!(a.residual < 1e-12 && b.residual < 1e-12);
+    }
+}
+
+/// `first_mode` (Arnoldi's method at the zero shift) finds the dense solver's first mode:
+/// the same eigenvalue to 1e-12 relative (the damped damper near its toggle is the
+/// worst-conditioned, 1.6e-13), both refined to a backward error at rounding.
+#[test]
+fn first_mode_is_the_dense_solvers_first_mode() {
+    let bare = |elements, supports: &[(f64, &str)]| {
+        let bm = beam(elements, supports, Some(0.002));
+        HybridModel::new(Some(bm.into()), vec![], vec![], vec![], vec![]).unwrap()
+    };
+    let cases = [
+        (
+            "paper damper, 20 elements",
+            paper_damper(20, true, true, 0.0).0,
+        ),
+        (
+            "paper damper, 20 elements, L = 2 mH",
+            paper_damper(20, true, true, 2e-3).0,
+        ),
+        (
+            "paper damper at 3 degrees, 60 elements",
+            paper_damper_at(60, true, true, 2e-3, 3.0).0,
+        ),
+        (
+            "paper damper, generator open",
+            paper_damper(20, true, false, 0.0).0,
+        ),
+        (
+            "pinned-pinned beam",
+            bare(13, &[(0.0, "pinned"), (1.0, "pinned")]),
+        ),
+    ];
+    for (name, model) in cases {
+        let lin = linearize(&model, &[]);
+        let dense = modes(&lin, 1, EigenMethod::Dense).unwrap();
+        let first = first_mode(&lin).unwrap().expect("a mode");
+        let (ld, lf) = (dense[0].lambda(), first.lambda());
+        println!(
+            "{name}: {:?} {ld} vs {lf}: {:e}, residuals {:e} {:e}",
+            first.kind,
+            (ld - lf).norm() / ld.norm().max(f64::MIN_POSITIVE),
+            dense[0].residual,
+            first.residual
+        );
+        assert_eq!(first.kind, dense[0].kind, "{name}");
+        assert!((ld - lf).norm() <= 1e-12 * ld.norm(), "{name}");
+        assert!(first.residual < 1e-12, "{name}: {:e}", first.residual);
     }
 }
 
