@@ -177,13 +177,14 @@ pub(crate) fn write_number(x: f64, out: &mut String) {
             // Żmij's plain form ([1e-5, 1e16)), without its `.0` after an integer.
             out.push_str(s.strip_suffix(".0").unwrap_or(s));
         } else if !(1e-5..1e16).contains(&a) {
-            // Żmij's scientific form, `d.ddde-N` / `d.ddde+N`, without the `+`, as `{:e}`.
-            match s.bytes().position(|c| c == b'+') {
-                Some(plus) => {
-                    out.push_str(&s[..plus]);
-                    out.push_str(&s[plus + 1..]);
+            // Żmij's scientific form, `d.ddde-N` / `d.ddde+N`, without the `+`, as `{:e}`
+            // (the `e` found from the end: at most five bytes).
+            match s.bytes().rposition(|c| c == b'e') {
+                Some(e) if s.as_bytes().get(e + 1) == Some(&b'+') => {
+                    out.push_str(&s[..=e]);
+                    out.push_str(&s[e + 2..]);
                 }
-                None => out.push_str(s),
+                _ => out.push_str(s),
             }
         } else {
             // [1e-5, 1e-4) and [1e15, 1e16): plain for Żmij (`0.0000123`,

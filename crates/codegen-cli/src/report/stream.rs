@@ -13,17 +13,100 @@
 //! - a **non-regular file** (device, fifo, `/dev/stdout`) is opened for writing only and
 //!   written directly as the rows come, never read and never renamed over.
 //!
-//! Writes are buffered (64 KiB).
+//! Writes are buffered (64 KiB). A staged stream's bytes are written back to the disk while
+//! the run goes: every [`WRITE_BACK`] bytes that reached the file, a helper thread (started
+//! with the first of them) syncs its data, so that the commit's final sync waits for the
+//! last few hundred kilobytes and the file's metadata only, not for the whole history
+//! (overlapped with the run on another core; the rows' CPU work is not delayed).
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::mpsc;
+use std::thread::JoinHandle;
 
 use super::writer::{Target, WriteError, create_dirs, target, tmp_of};
 use crate::interrupt::Leftovers;
 
 /// Buffer of a stream (bytes).
 const BUFFER: usize = 64 * 1024;
+
+/// Bytes of a staged stream's file between two background write-backs (see the module
+/// documentation).
+pub(crate) const WRITE_BACK: u64 = 256 * 1024;
+
+/// The background write-back of a staged stream: a thread syncing the file's data when
+/// asked (requests made while it syncs are merged into one).
+#[derive(Debug)]
+struct WriteBack {
+    /// Bytes of the file at which the next write-back is asked for.
+    next: u64,
+    /// The thread and its request channel, once started (`None` before the first request,
+    /// and for good when it could not be started: the commit's sync then does it all).
+    worker: Option<(mpsc::SyncSender<()>, JoinHandle<std::io::Result<()>>)>,
+    /// Whether starting it failed (no second attempt).
+    unavailable: bool,
+}
+
+impl WriteBack {
+    fn new() -> WriteBack {
+        WriteBack {
+            next: WRITE_BACK,
+            worker: None,
+            unavailable: false,
+        }
+    }
+
+    /// Asks for a sync of `file`'s data when `in_file` bytes reached it and the last request
+    /// was [`WRITE_BACK`] bytes ago.
+    fn note(&mut self, in_file: u64, file: &File) {
+        if in_file < self.next || self.unavailable {
+            return;
+        }
+        self.next = in_file + WRITE_BACK;
+        if self.worker.is_none() {
+            let Ok(clone) = file.try_clone() else {
+                self.unavailable = true;
+                return;
+            };
+            let (tx, rx) = mpsc::sync_channel::<()>(1);
+            let spawned = std::thread::Builder::new()
+                .name("write-back".into())
+                .spawn(move || {
+                    // Ends when the stream is finished (the sender dropped), after the
+                    // request in flight.
+                    while rx.recv().is_ok() {
+                        clone.sync_data()?;
+                    }
+                    Ok(())
+                });
+            match spawned {
+                Ok(handle) => self.worker = Some((tx, handle)),
+                Err(_) => {
+                    self.unavailable = true;
+                    return;
+                }
+            }
+        }
+        if let Some((tx, _)) = &self.worker {
+            // Full: a request is waiting already, which will sync these bytes too.
+            let _ = tx.try_send(());
+        }
+    }
+
+    /// Waits for the write-back in flight; its error, if one failed.
+    fn finish(&mut self) -> std::io::Result<()> {
+        match self.worker.take() {
+            Some((tx, handle)) => {
+                drop(tx);
+                handle
+                    .join()
+                    .unwrap_or_else(|_| Err(std::io::Error::other("the write-back thread failed")))
+            }
+            None => Ok(()),
+        }
+    }
+}
 
 /// Where the bytes of a stream go.
 #[derive(Debug)]
@@ -41,6 +124,10 @@ pub struct StreamFile {
     path: PathBuf,
     dest: Dest,
     out: Option<BufWriter<File>>,
+    /// Bytes accepted by [`Write::write`] (in the file or in the buffer).
+    written: u64,
+    /// The background write-back of a staged stream (`None` for a direct one).
+    write_back: Option<WriteBack>,
 }
 
 impl StreamFile {
@@ -62,6 +149,8 @@ impl StreamFile {
                     path: path.to_path_buf(),
                     dest: Dest::Direct,
                     out: Some(BufWriter::with_capacity(BUFFER, file)),
+                    written: 0,
+                    write_back: None,
                 })
             }
             Target::Replace(p) => {
@@ -77,6 +166,8 @@ impl StreamFile {
                         path: path.to_path_buf(),
                         dest: Dest::Staged { tmp, final_path: p },
                         out: Some(BufWriter::with_capacity(BUFFER, file)),
+                        written: 0,
+                        write_back: Some(WriteBack::new()),
                     }),
                     Err(e) => {
                         Leftovers::abandon(&tmp);
@@ -92,17 +183,23 @@ impl StreamFile {
         &self.path
     }
 
-    /// Flushes and syncs; the stream is then ready to be renamed by the commit.
+    /// Flushes, waits for the write-back in flight and syncs; the stream is then ready to be
+    /// renamed by the commit.
     pub(super) fn finish(mut self) -> Result<Finished, WriteError> {
         let out = self.out.take().expect("a stream is finished once");
-        let res = out
-            .into_inner()
-            .map_err(|e| e.into_error())
-            .and_then(|file| match self.dest {
+        let flushed = out.into_inner().map_err(|e| e.into_error());
+        let written_back = match &mut self.write_back {
+            Some(w) => w.finish(),
+            None => Ok(()),
+        };
+        let res = flushed.and_then(|file| {
+            written_back?;
+            match self.dest {
                 // Devices and fifos cannot be synced (EINVAL); flushed is written.
                 Dest::Direct => Ok(()),
                 Dest::Staged { .. } => file.sync_all(),
-            });
+            }
+        });
         if let Err(error) = res {
             return Err(WriteError {
                 what: "write",
@@ -118,7 +215,14 @@ impl StreamFile {
 impl Write for StreamFile {
     fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
         match &mut self.out {
-            Some(out) => out.write(buf),
+            Some(out) => {
+                let n = out.write(buf)?;
+                self.written += n as u64;
+                if let Some(w) = &mut self.write_back {
+                    w.note(self.written - out.buffer().len() as u64, out.get_ref());
+                }
+                Ok(n)
+            }
             None => Err(std::io::Error::other("stream already finished")),
         }
     }
@@ -199,6 +303,38 @@ mod tests {
         assert_eq!(std::fs::read(&csv).unwrap(), b"t\n0\n");
         assert_eq!(std::fs::read(d.join("sub/s.json")).unwrap(), b"{}");
         assert!(!tmp_of(&csv).exists());
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    /// A stream of several write-back spans: the helper thread syncs while rows are still
+    /// written, the commit waits for it, and the file holds every byte in order; a dropped
+    /// one leaves nothing.
+    #[test]
+    fn a_stream_written_back_while_it_grows_commits_every_byte() {
+        let d = dir("write-back");
+        let csv = d.join("big.csv");
+        let mut s = StreamFile::create(&csv).unwrap();
+        let mut expected = Vec::new();
+        let mut row = 0u64;
+        while (expected.len() as u64) < 3 * WRITE_BACK + 12_345 {
+            let line = format!("{row},{}\n", row * row);
+            s.write_all(line.as_bytes()).unwrap();
+            expected.extend_from_slice(line.as_bytes());
+            row += 1;
+        }
+        let w = s.write_back.as_ref().unwrap();
+        assert!(w.worker.is_some() && !w.unavailable, "{w:?}");
+        super::super::writer::commit(vec![s], &[]).unwrap();
+        assert_eq!(std::fs::read(&csv).unwrap(), expected);
+        assert!(!tmp_of(&csv).exists());
+
+        let dropped = d.join("dropped/big.csv");
+        let mut s = StreamFile::create(&dropped).unwrap();
+        for _ in 0..3 * WRITE_BACK / 1024 {
+            s.write_all(&[b'x'; 1024]).unwrap();
+        }
+        drop(s);
+        assert!(!d.join("dropped").exists());
         let _ = std::fs::remove_dir_all(&d);
     }
 
