@@ -54,6 +54,7 @@ use crate::report::hybrid::{
     AttachmentReport, Columns, ComparisonReport, EnergySplit, ExcitationReport, GeneratorReport,
     HybridEnergy, HybridSummary, MechanismReport, PointReport, RepartitionReport, amplifications,
 };
+use crate::report::pipe::PipedRows;
 use crate::report::plot::{plot_damping_vs_amplitude_svg, plot_displacements_svg, tick_label};
 use crate::report::rows::{ColumnRows, CsvRows, RowSink};
 use crate::report::steady_power::SteadyPowerTracker;
@@ -285,7 +286,8 @@ pub fn simulate(
         &mut |c, header| {
             let path = path_of(c);
             let stream = StreamFile::create(&path).map_err(ReportError::from)?;
-            Ok(CsvRows::new(stream, header).map_err(|e| csv_error(&path, e))?)
+            let csv = CsvRows::new(stream, header).map_err(|e| csv_error(&path, e))?;
+            Ok(PipedRows::new(csv, header.len()))
         },
         // The only CSV error of `evaluate` is its row sink's: this file (a full disk).
         &|c, e| match e {
@@ -307,7 +309,11 @@ pub fn simulate(
     let streams = sinks
         .into_iter()
         .zip(paths)
-        .map(|(csv, path)| csv.into_inner().map_err(|e| csv_error(&path, e)))
+        .map(|(rows, path)| {
+            rows.into_inner()
+                .and_then(CsvRows::into_inner)
+                .map_err(|e| csv_error(&path, e))
+        })
         .collect::<Result<Vec<_>, _>>()?;
     let summary = &run.summary;
     if let Some(w) = summary.random.as_ref().and_then(|r| r.warning.as_ref()) {

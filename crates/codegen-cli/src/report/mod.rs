@@ -12,6 +12,7 @@ pub mod map;
 pub mod mechanism;
 pub mod op_counts;
 pub mod optimize;
+pub mod pipe;
 pub mod plot;
 pub mod random_psd;
 pub mod random_run;
