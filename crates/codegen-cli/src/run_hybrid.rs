@@ -303,18 +303,9 @@ pub fn simulate(
         }
     });
     damping_series.insert(0, ("as described", cycles(&run.summary.decay)));
-    let paths = std::iter::once(None)
-        .chain(compared.iter().map(|c| Some(*c)))
-        .map(path_of);
-    let streams = sinks
-        .into_iter()
-        .zip(paths)
-        .map(|(rows, path)| {
-            rows.into_inner()
-                .and_then(CsvRows::into_inner)
-                .map_err(|e| csv_error(&path, e))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
+    // The rows' threads write their last rows while the summary and the plots are made.
+    let mut sinks = sinks;
+    sinks.iter_mut().for_each(PipedRows::close);
     let summary = &run.summary;
     if let Some(w) = summary.random.as_ref().and_then(|r| r.warning.as_ref()) {
         eprintln!("{file}: warning: {w}");
@@ -389,6 +380,18 @@ pub fn simulate(
             .map_err(ReportError::from)?,
         });
     }
+    let paths = std::iter::once(None)
+        .chain(compared.iter().map(|c| Some(*c)))
+        .map(path_of);
+    let streams = sinks
+        .into_iter()
+        .zip(paths)
+        .map(|(rows, path)| {
+            rows.into_inner()
+                .and_then(CsvRows::into_inner)
+                .map_err(|e| csv_error(&path, e))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     commit(streams, &files).map_err(ReportError::from)?;
     let pct = |d: &Option<hybrid_core::decay::DecayEstimate>| match d
         .as_ref()

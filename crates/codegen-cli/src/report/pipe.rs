@@ -37,6 +37,8 @@ pub struct PipedRows<S: RowSink + Send + 'static> {
     spare: Receiver<Vec<f64>>,
     /// The thread: the sink, or the sink's first error.
     worker: Option<JoinHandle<Result<S, csv::Error>>>,
+    /// The error met by [`PipedRows::close`], for [`PipedRows::into_inner`].
+    failed: Option<csv::Error>,
 }
 
 impl<S: RowSink + Send + 'static> PipedRows<S> {
@@ -55,6 +57,7 @@ impl<S: RowSink + Send + 'static> PipedRows<S> {
                     to_sink: None,
                     spare,
                     worker: None,
+                    failed: None,
                 }
             }
         }
@@ -101,6 +104,7 @@ impl<S: RowSink + Send + 'static> PipedRows<S> {
             to_sink: Some(to_sink),
             spare,
             worker: Some(worker),
+            failed: None,
         })
     }
 
@@ -143,10 +147,22 @@ impl<S: RowSink + Send + 'static> PipedRows<S> {
         }
     }
 
+    /// Sends the last rows and lets the thread finish them (while the caller does other
+    /// work): no row may follow. An error is kept for [`PipedRows::into_inner`].
+    pub fn close(&mut self) {
+        if let Err(e) = self.send() {
+            self.failed = Some(e);
+        }
+        self.to_sink = None;
+    }
+
     /// The sink, every row written into it.
     pub fn into_inner(mut self) -> Result<S, csv::Error> {
         if let Some(sink) = self.direct.take() {
             return Ok(sink);
+        }
+        if let Some(e) = self.failed.take() {
+            return Err(e);
         }
         self.send()?;
         self.join()
@@ -225,6 +241,9 @@ mod tests {
                     piped.write_row(&row(r, columns)).unwrap();
                 }
                 assert_eq!(piped.rows(), n as u64);
+                if n % 2 == 1 {
+                    piped.close();
+                }
                 let piped = piped.into_inner().unwrap();
                 assert_eq!(piped.rows(), n as u64);
                 assert_eq!(
@@ -253,7 +272,7 @@ mod tests {
                 self.0
             }
         }
-        for n in [400, 5_000] {
+        for (n, close) in [(400, false), (400, true), (5_000, false)] {
             let mut piped = PipedRows::new(Failing(0), 2);
             let mut first = None;
             for r in 0..n {
@@ -264,7 +283,12 @@ mod tests {
             }
             let e = match first {
                 Some(e) => e,
-                None => piped.into_inner().err().expect("an error").to_string(),
+                None => {
+                    if close {
+                        piped.close();
+                    }
+                    piped.into_inner().err().expect("an error").to_string()
+                }
             };
             assert!(e.contains("disk full"), "{n} rows: {e}");
         }
