@@ -14,7 +14,7 @@
 //!   written directly as the rows come, never read and never renamed over.
 //!
 //! Writes are buffered (64 KiB). A staged stream's bytes are written back to the disk while
-//! the run goes: every [`WRITE_BACK`] bytes that reached the file, a helper thread (started
+//! the run goes: every 256 KiB that reached the file, a helper thread (started
 //! with the first of them) syncs its data, so that the commit's final sync waits for the
 //! last few hundred kilobytes and the file's metadata only, not for the whole history
 //! (overlapped with the run on another core; the rows' CPU work is not delayed).
