@@ -3,7 +3,9 @@
 //! and its file), so that the shortest round-trip formatting of every number (about 300
 //! instructions each: a third of the paper's damper run's instructions outside the steps)
 //! and the writes run on another core while the run steps on. The file's bytes are those
-//! the sink writes alone, row after row in order.
+//! the sink writes alone, row after row in order. When the rows are over, the thread ends
+//! the sink ([`RowSink::end`]: a streamed file flushed and its data synced in the
+//! background) while the caller makes its other outputs.
 //!
 //! Batches are recycled (a bounded number in flight: a sink slower than the run, a slow
 //! disk, holds the run back instead of filling the memory). An error of the sink (a full
@@ -85,6 +87,7 @@ impl<S: RowSink + Send + 'static> PipedRows<S> {
                     // Full or gone: the batch is dropped instead.
                     let _ = give_back.try_send(batch);
                 }
+                sink.end()?;
                 Ok(sink)
             });
         let worker = match spawned {
@@ -150,19 +153,24 @@ impl<S: RowSink + Send + 'static> PipedRows<S> {
     /// Sends the last rows and lets the thread finish them (while the caller does other
     /// work): no row may follow. An error is kept for [`PipedRows::into_inner`].
     pub fn close(&mut self) {
-        if let Err(e) = self.send() {
+        let ended = match &mut self.direct {
+            Some(sink) => sink.end(),
+            None => self.send(),
+        };
+        if let Err(e) = ended {
             self.failed = Some(e);
         }
         self.to_sink = None;
     }
 
-    /// The sink, every row written into it.
+    /// The sink, every row written into it ([`RowSink::end`] called when the rows went
+    /// through the thread or [`PipedRows::close`] was called).
     pub fn into_inner(mut self) -> Result<S, csv::Error> {
-        if let Some(sink) = self.direct.take() {
-            return Ok(sink);
-        }
         if let Some(e) = self.failed.take() {
             return Err(e);
+        }
+        if let Some(sink) = self.direct.take() {
+            return Ok(sink);
         }
         self.send()?;
         self.join()

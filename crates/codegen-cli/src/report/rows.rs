@@ -24,6 +24,11 @@ pub trait RowSink {
     fn write_row(&mut self, cells: &[f64]) -> Result<(), csv::Error>;
     /// Rows written so far.
     fn rows(&self) -> u64;
+    /// The rows are over (none follows): what the sink buffers goes out now, ahead of the
+    /// commit. Nothing by default.
+    fn end(&mut self) -> Result<(), csv::Error> {
+        Ok(())
+    }
 }
 
 /// CSV rows written into `W`: the header and rows of text through the `csv` crate (its
@@ -98,6 +103,12 @@ impl<W: Write> RowSink for CsvRows<W> {
 
     fn rows(&self) -> u64 {
         self.rows
+    }
+
+    /// Flushes the writer (a [`super::StreamFile`] then syncs its data in the background).
+    fn end(&mut self) -> Result<(), csv::Error> {
+        self.out.flush()?;
+        Ok(())
     }
 }
 

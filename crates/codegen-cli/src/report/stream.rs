@@ -17,7 +17,8 @@
 //! the run goes: every 256 KiB that reached the file, a helper thread (started
 //! with the first of them) syncs its data, so that the commit's final sync waits for the
 //! last few hundred kilobytes and the file's metadata only, not for the whole history
-//! (overlapped with the run on another core; the rows' CPU work is not delayed).
+//! (overlapped with the run on another core; the rows' CPU work is not delayed). A flush
+//! of the stream (its rows are over, [`super::rows::RowSink::end`]) asks for the rest.
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -60,10 +61,18 @@ impl WriteBack {
     /// Asks for a sync of `file`'s data when `in_file` bytes reached it and the last request
     /// was [`WRITE_BACK`] bytes ago.
     fn note(&mut self, in_file: u64, file: &File) {
-        if in_file < self.next || self.unavailable {
+        if in_file < self.next {
             return;
         }
         self.next = in_file + WRITE_BACK;
+        self.request(file);
+    }
+
+    /// Asks for a sync of `file`'s data now (the thread started if it is not yet).
+    fn request(&mut self, file: &File) {
+        if self.unavailable {
+            return;
+        }
         if self.worker.is_none() {
             let Ok(clone) = file.try_clone() else {
                 self.unavailable = true;
@@ -227,9 +236,20 @@ impl Write for StreamFile {
         }
     }
 
+    /// Writes the buffer into the file; a staged stream of at least [`BUFFER`] bytes also
+    /// asks for its data to be synced in the background (the last rows of a run, synced
+    /// while the run's other outputs are made).
     fn flush(&mut self) -> std::io::Result<()> {
         match &mut self.out {
-            Some(out) => out.flush(),
+            Some(out) => {
+                out.flush()?;
+                if let Some(w) = &mut self.write_back
+                    && self.written >= BUFFER as u64
+                {
+                    w.request(out.get_ref());
+                }
+                Ok(())
+            }
             None => Ok(()),
         }
     }
