@@ -10,10 +10,13 @@
 //! Batches are recycled (a bounded number in flight: a sink slower than the run, a slow
 //! disk, holds the run back instead of filling the memory). An error of the sink (a full
 //! disk) ends the thread; the run sees it at its next batch, or at [`PipedRows::into_inner`].
-//! Dropping a `PipedRows` waits for the thread to finish, so that the sink (a
-//! [`super::StreamFile`] removing its temporary file when dropped) is gone when it is.
+//! Dropping a `PipedRows` (a failed run) tells the thread to leave the rows still queued and
+//! waits for it, so that the sink (a [`super::StreamFile`] removing its temporary file when
+//! dropped) is gone when it is.
 //! Where no thread can be started (or a row has no cell), the rows go to the sink directly.
 
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::thread::JoinHandle;
 
@@ -41,6 +44,8 @@ pub struct PipedRows<S: RowSink + Send + 'static> {
     worker: Option<JoinHandle<Result<S, csv::Error>>>,
     /// The error met by [`PipedRows::close`], for [`PipedRows::into_inner`].
     failed: Option<csv::Error>,
+    /// Set when dropped: the thread leaves the rows still queued (and does not end the sink).
+    abandoned: Arc<AtomicBool>,
 }
 
 impl<S: RowSink + Send + 'static> PipedRows<S> {
@@ -60,6 +65,7 @@ impl<S: RowSink + Send + 'static> PipedRows<S> {
                     spare,
                     worker: None,
                     failed: None,
+                    abandoned: Arc::default(),
                 }
             }
         }
@@ -73,6 +79,8 @@ impl<S: RowSink + Send + 'static> PipedRows<S> {
         let (give_back, spare) = sync_channel::<Vec<f64>>(IN_FLIGHT + 2);
         // The sink moves to the thread only once it runs: a failed spawn gives it back.
         let (start, started) = sync_channel::<S>(1);
+        let abandoned = Arc::new(AtomicBool::new(false));
+        let dropped = Arc::clone(&abandoned);
         let spawned = std::thread::Builder::new()
             .name("rows".into())
             .spawn(move || {
@@ -80,6 +88,9 @@ impl<S: RowSink + Send + 'static> PipedRows<S> {
                     csv::Error::from(std::io::Error::other("the rows' thread got no sink"))
                 })?;
                 while let Ok(mut batch) = batches.recv() {
+                    if dropped.load(Ordering::SeqCst) {
+                        return Ok(sink);
+                    }
                     for row in batch.chunks_exact(columns) {
                         sink.write_row(row)?;
                     }
@@ -87,7 +98,9 @@ impl<S: RowSink + Send + 'static> PipedRows<S> {
                     // Full or gone: the batch is dropped instead.
                     let _ = give_back.try_send(batch);
                 }
-                sink.end()?;
+                if !dropped.load(Ordering::SeqCst) {
+                    sink.end()?;
+                }
                 Ok(sink)
             });
         let worker = match spawned {
@@ -108,6 +121,7 @@ impl<S: RowSink + Send + 'static> PipedRows<S> {
             spare,
             worker: Some(worker),
             failed: None,
+            abandoned,
         })
     }
 
@@ -197,9 +211,11 @@ impl<S: RowSink + Send + 'static> RowSink for PipedRows<S> {
 }
 
 impl<S: RowSink + Send + 'static> Drop for PipedRows<S> {
-    /// Waits for the thread, which drops the sink (see the module documentation).
+    /// Tells the thread to stop and waits for it, which drops the sink (see the module
+    /// documentation).
     fn drop(&mut self) {
         if self.worker.is_some() {
+            self.abandoned.store(true, Ordering::SeqCst);
             let _ = self.join();
         }
     }
@@ -302,10 +318,14 @@ mod tests {
         }
     }
 
-    /// Dropping the rows (a failed run) waits for the thread, which drops the sink.
+    /// Dropping the rows (a failed run) waits for the thread, which drops the sink without
+    /// ending it; closed rows end it.
     #[test]
     fn dropped_rows_drop_the_sink_before_returning() {
-        struct Flagged(Arc<AtomicBool>);
+        struct Flagged {
+            dropped: Arc<AtomicBool>,
+            ended: Arc<AtomicBool>,
+        }
         impl RowSink for Flagged {
             fn write_row(&mut self, _: &[f64]) -> Result<(), csv::Error> {
                 std::thread::sleep(std::time::Duration::from_micros(50));
@@ -314,19 +334,38 @@ mod tests {
             fn rows(&self) -> u64 {
                 0
             }
+            fn end(&mut self) -> Result<(), csv::Error> {
+                self.ended.store(true, Ordering::SeqCst);
+                Ok(())
+            }
         }
         impl Drop for Flagged {
             fn drop(&mut self) {
-                self.0.store(true, Ordering::SeqCst);
+                self.dropped.store(true, Ordering::SeqCst);
             }
         }
-        let dropped = Arc::new(AtomicBool::new(false));
-        let mut piped = PipedRows::new(Flagged(dropped.clone()), 1);
-        for r in 0..3 * BATCH_ROWS {
-            piped.write_row(&[r as f64]).unwrap();
+        for close in [false, true] {
+            let (dropped, ended) = (
+                Arc::new(AtomicBool::new(false)),
+                Arc::new(AtomicBool::new(false)),
+            );
+            let sink = Flagged {
+                dropped: dropped.clone(),
+                ended: ended.clone(),
+            };
+            let mut piped = PipedRows::new(sink, 1);
+            for r in 0..3 * BATCH_ROWS {
+                piped.write_row(&[r as f64]).unwrap();
+            }
+            if close {
+                piped.close();
+                drop(piped.into_inner().unwrap());
+            } else {
+                drop(piped);
+            }
+            assert!(dropped.load(Ordering::SeqCst));
+            assert_eq!(ended.load(Ordering::SeqCst), close);
         }
-        drop(piped);
-        assert!(dropped.load(Ordering::SeqCst));
     }
 
     /// Rows without a cell go to the sink directly (as `""` lines).
