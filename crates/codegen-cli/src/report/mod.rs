@@ -1,7 +1,8 @@
 //! Output files of a run: CSV time histories ([`mod@csv`], the `csv` crate) streamed row by
-//! row ([`stream`], formatted and written on a helper thread by [`pipe`]), typed JSON summaries ([`summary`]) and the SVG plot ([`plot`],
-//! plotters) of what the run kept in bounded memory ([`digest`]), all committed together by
-//! the one atomic writer ([`writer`]), in an output directory locked for the run ([`lock`]).
+//! row ([`stream`], formatted and written on a helper thread by [`pipe`]), typed JSON
+//! summaries ([`summary`]) and the SVG plot ([`plot`], plotters) of what the run kept in
+//! bounded memory ([`digest`]), all committed together by the one atomic writer
+//! ([`writer`]), in an output directory locked for the run ([`lock`]).
 
 pub mod csv;
 pub mod digest;

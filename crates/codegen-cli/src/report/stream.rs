@@ -236,7 +236,7 @@ impl Write for StreamFile {
         }
     }
 
-    /// Writes the buffer into the file; a staged stream of at least [`BUFFER`] bytes also
+    /// Writes the buffer into the file; a staged stream of at least 64 KiB also
     /// asks for its data to be synced in the background (the last rows of a run, synced
     /// while the run's other outputs are made).
     fn flush(&mut self) -> std::io::Result<()> {
