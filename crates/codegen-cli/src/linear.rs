@@ -325,8 +325,7 @@ fn modes_keeping(
         error,
     };
     let states = crate::random::states(lin);
-    let dense = matches!(method, EigenMethod::Dense)
-        || (matches!(method, EigenMethod::Auto) && states <= crate::random::DENSE_STATES);
+    let dense = method.is_dense(states);
     let found = match all {
         Some(all) if dense => {
             *all = modes(lin, states, EigenMethod::Dense).map_err(error)?;

@@ -278,7 +278,7 @@ pub fn simulate(
     let mut compared: Vec<Comparison> = vec![];
     let mut damping_series: Vec<(&str, Vec<(f64, f64)>)> = vec![];
     let mut comparison_lines: Vec<(String, Vec<(f64, f64)>)> = vec![];
-    let (run, sinks) = runs(
+    let (run, mut sinks) = runs(
         sc,
         &built,
         overrides,
@@ -304,7 +304,6 @@ pub fn simulate(
     });
     damping_series.insert(0, ("as described", cycles(&run.summary.decay)));
     // The rows' threads write their last rows while the summary and the plots are made.
-    let mut sinks = sinks;
     sinks.iter_mut().for_each(PipedRows::close);
     let summary = &run.summary;
     if let Some(w) = summary.random.as_ref().and_then(|r| r.warning.as_ref()) {

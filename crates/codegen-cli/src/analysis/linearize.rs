@@ -175,11 +175,7 @@ pub fn check_work(
     allow_long: bool,
 ) -> Result<(), Error> {
     let states = input.first_order_states();
-    let dense = match method {
-        EigenMethod::Auto => states <= 600,
-        EigenMethod::Dense => true,
-        EigenMethod::ShiftInvert => false,
-    };
+    let dense = method.is_dense(states);
     let (bytes, flops) = budget::eigen_work(states, modes, dense);
     budget::refuse_above(
         file,

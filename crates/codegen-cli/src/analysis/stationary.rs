@@ -16,6 +16,7 @@ use crate::budget::{self, Quantity};
 use crate::random::{DENSE_STATES, RandomMethod, RandomOptions, RandomReport, analyse};
 use crate::scenario::Loaded;
 use crate::setup::{Linearizable, tangents_for};
+use hybrid_core::hybrid::EigenMethod;
 
 /// What to compute: the stationary random response of a loaded scenario.
 #[derive(Clone, Debug)]
@@ -65,7 +66,8 @@ pub fn check_work(
         RandomMethod::Dense => true,
         _ => false,
     };
-    let (mut bytes, mut flops) = budget::eigen_work(states, modes, states <= 600);
+    let (mut bytes, mut flops) =
+        budget::eigen_work(states, modes, EigenMethod::Auto.is_dense(states));
     if dense {
         let n = states as f64;
         bytes += 10.0 * 16.0 * n * n;

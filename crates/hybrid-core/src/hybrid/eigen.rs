@@ -45,13 +45,28 @@ type C64 = Complex<f64>;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum EigenMethod {
-    /// Dense below 600 states, shift-invert Arnoldi above.
+    /// Dense up to [`DENSE_STATES`] states, shift-invert Arnoldi above.
     #[default]
     Auto,
     /// The dense operator and its real Schur form.
     Dense,
     /// Arnoldi on the shift-inverted operator.
     ShiftInvert,
+}
+
+/// The most first-order states [`EigenMethod::Auto`] solves densely.
+pub const DENSE_STATES: usize = 600;
+
+impl EigenMethod {
+    /// Whether the method computes every eigenvalue of the dense operator for a system of
+    /// `states` first-order states.
+    pub fn is_dense(self, states: usize) -> bool {
+        match self {
+            EigenMethod::Auto => states <= DENSE_STATES,
+            EigenMethod::Dense => true,
+            EigenMethod::ShiftInvert => false,
+        }
+    }
 }
 
 /// What a mode is.
@@ -218,11 +233,7 @@ impl<'a> Operator<'a> {
 /// in increasing `|lambda|`.
 pub fn modes(lin: &Linearization, k: usize, method: EigenMethod) -> Result<Vec<Mode>, LinearError> {
     let op = Operator::new(lin)?;
-    let dense = match method {
-        EigenMethod::Auto => op.states() <= 600,
-        EigenMethod::Dense => true,
-        EigenMethod::ShiftInvert => false,
-    };
+    let dense = method.is_dense(op.states());
     nearest_zero(&op, k, dense)
 }
 
@@ -231,12 +242,12 @@ pub fn modes(lin: &Linearization, k: usize, method: EigenMethod) -> Result<Vec<M
 /// the operator's dominant one, which a Krylov space of a few tens of solves resolves
 /// (`O(n)` each), where the dense operator costs a solve per state and a Schur form of
 /// `O(n^3)`; when a rigid-body mode moved the shift, the eigenvalue nearest the shift need
-/// not be the one nearest zero, and every eigenvalue is computed ([`EigenMethod::Dense`]
-/// up to 600 states, as [`EigenMethod::Auto`]). The same mode as
-/// `modes(lin, 1, EigenMethod::Auto)` (both refined by inverse iteration).
+/// not be the one nearest zero, and [`EigenMethod::Auto`] decides. The mode of
+/// `modes(lin, 1, EigenMethod::Auto)`, its eigenvalue equal to about 1e-12 (both refined by
+/// inverse iteration: the test `first_mode_is_the_dense_solvers_first_mode`).
 pub fn first_mode(lin: &Linearization) -> Result<Option<Mode>, LinearError> {
     let op = Operator::new(lin)?;
-    let dense = op.sigma() != 0.0 && op.states() <= 600;
+    let dense = op.sigma() != 0.0 && EigenMethod::Auto.is_dense(op.states());
     Ok(nearest_zero(&op, 1, dense)?.into_iter().next())
 }
 

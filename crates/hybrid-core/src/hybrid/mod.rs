@@ -101,7 +101,7 @@ mod structure;
 mod variants;
 
 pub use dense::DenseCholesky;
-pub use eigen::{EigenMethod, Mode, ModeKind, first_mode, modes};
+pub use eigen::{DENSE_STATES, EigenMethod, Mode, ModeKind, first_mode, modes};
 pub use error::HybridError;
 pub use integrator::{Account, HybridState, Integrator, MechanismState, Repartition, Stored};
 pub use linear::{
